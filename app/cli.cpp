@@ -1,0 +1,150 @@
+// Command-line parsing for the coneshadow CLI.
+#include "app/cli.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <sstream>
+
+namespace cs {
+
+std::string usageText() {
+  return R"(coneshadow — alias-free hard shadows from point lights, judged against an Embree reference
+
+usage:
+  coneshadow render [SCENE] [options]   render one frame with a shadow method, compare it with Embree
+  coneshadow info SCENE                 triangles (flattened over node instances), bounds, cameras, lights
+  coneshadow devices                    list the Vulkan devices
+  coneshadow help                       this text
+
+SCENE is a glTF 2.0 file (.gltf or .glb). Without SCENE, render uses the built-in scene (a lit room
+with clutter and a furball; views: wall, fur, room, ceiling), and `info builtin` describes it.
+
+render options:
+  --method M          shadow method: embree (the reference itself; more methods as they land)
+  --width W --height H   resolution of the camera pass (default 512x512)
+  --view NAME         camera by name (default: the scene's first camera; automatic when it has none)
+  --light X,Y,Z       point light position (default: the scene's first point light; automatic if none)
+  --out DIR           write shaded_<m>.png, mask_<m>.png, diff_<m>.png, results.json, results.csv (default out)
+  --dump DIR          also write position.pfm, normal.pfm, visibility_<m>.pfm, band.pfm, meta.json
+  --traversal-memory BYTES   cone path: bound on the traversal's pair buffers (e.g. 64M, 256K)
+  --frames N          timed frames after one warm-up; medians are reported (default 3)
+  --device D          Vulkan device by index or name substring (see `coneshadow devices`);
+                      default: a discrete GPU if there is one, else lavapipe
+  --validation        enable VK_LAYER_KHRONOS_validation (slow; for debugging)
+  --quiet             print only errors and the final summary line
+
+exit codes:
+  0  success
+  1  failure: a malformed scene, an unusable device, a write error (one line on stderr says which)
+  2  usage error: an unknown command or option, a bad value
+
+examples:
+  coneshadow render --view fur --width 1024 --height 1024
+  coneshadow render /usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb --out engine
+  coneshadow info /usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb
+)";
+}
+
+namespace {
+
+uint32_t parseUint(const std::string& flag, const std::string& v, uint32_t lo, uint32_t hi) {
+  errno = 0;
+  char* end = nullptr;
+  long long x = std::strtoll(v.c_str(), &end, 10);
+  if (v.empty() || *end != '\0' || errno || x < lo || x > hi)
+    throw UsageError(flag + " wants a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) +
+                     "], got '" + v + "'");
+  return uint32_t(x);
+}
+
+glm::vec3 parseVec3(const std::string& flag, const std::string& v) {
+  glm::vec3 out;
+  std::stringstream ss(v);
+  std::string part;
+  int i = 0;
+  while (std::getline(ss, part, ',')) {
+    char* end = nullptr;
+    errno = 0;
+    float x = std::strtof(part.c_str(), &end);
+    if (i >= 3 || part.empty() || *end != '\0' || errno || !std::isfinite(x))
+      throw UsageError(flag + " wants three finite numbers X,Y,Z, got '" + v + "'");
+    out[i++] = x;
+  }
+  if (i != 3) throw UsageError(flag + " wants three finite numbers X,Y,Z, got '" + v + "'");
+  return out;
+}
+
+// "64M", "4096", "1.5G", "512K": bytes, with an optional binary suffix.
+uint64_t parseBytes(const std::string& flag, const std::string& v) {
+  char* end = nullptr;
+  errno = 0;
+  double x = std::strtod(v.c_str(), &end);
+  double mult = 1;
+  std::string suffix = end ? std::string(end) : "";
+  if (suffix == "K" || suffix == "KiB" || suffix == "k") mult = 1024.0;
+  else if (suffix == "M" || suffix == "MiB") mult = 1024.0 * 1024;
+  else if (suffix == "G" || suffix == "GiB") mult = 1024.0 * 1024 * 1024;
+  else if (!suffix.empty()) x = -1;
+  if (v.empty() || errno || !(x > 0) || x * mult > 1e15)
+    throw UsageError(flag + " wants a positive size in bytes (e.g. 64M, 512K, 4096), got '" + v + "'");
+  return uint64_t(x * mult);
+}
+
+}  // namespace
+
+Options parseArgs(int argc, char** argv) {
+  Options o;
+  std::vector<std::string> args(argv + 1, argv + argc);
+  if (args.empty()) throw UsageError("no command given (try: coneshadow help)");
+  o.command = args[0];
+  if (o.command == "--help" || o.command == "-h") o.command = "help";
+  if (o.command != "render" && o.command != "info" && o.command != "devices" && o.command != "help")
+    throw UsageError("unknown command '" + o.command + "' (commands: render, info, devices, help)");
+  for (size_t i = 1; i < args.size(); ++i) {
+    std::string a = args[i];
+    auto value = [&](const std::string& flag) -> std::string {
+      if (i + 1 >= args.size()) throw UsageError(flag + " needs a value");
+      return args[++i];
+    };
+    if (a == "--help" || a == "-h") {
+      o.command = "help";
+    } else if (a == "--method") {
+      o.method = value(a);
+    } else if (a == "--width") {
+      o.width = parseUint(a, value(a), 1, 16384);
+    } else if (a == "--height") {
+      o.height = parseUint(a, value(a), 1, 16384);
+    } else if (a == "--view") {
+      o.view = value(a);
+    } else if (a == "--light") {
+      o.light = parseVec3(a, value(a));
+    } else if (a == "--out") {
+      o.out = value(a);
+    } else if (a == "--dump") {
+      o.dump = value(a);
+    } else if (a == "--frames") {
+      o.frames = parseUint(a, value(a), 1, 1000);
+    } else if (a == "--device") {
+      o.device = value(a);
+    } else if (a == "--traversal-memory") {
+      o.traversalMemory = parseBytes(a, value(a));
+    } else if (a == "--validation") {
+      o.validation = true;
+    } else if (a == "--quiet") {
+      o.quiet = true;
+    } else if (a.rfind("--", 0) == 0 && a.find('=') != std::string::npos) {
+      o.extra.push_back(a.substr(2));
+    } else if (a.rfind("-", 0) == 0) {
+      throw UsageError("unknown option '" + a + "' (try: coneshadow help)");
+    } else if (o.scene.empty()) {
+      o.scene = a;
+    } else {
+      throw UsageError("unexpected argument '" + a + "' (one SCENE at most)");
+    }
+  }
+  if (o.command == "info" && o.scene.empty()) throw UsageError("info needs a SCENE (a .gltf/.glb file, or builtin)");
+  return o;
+}
+
+}  // namespace cs

@@ -1,0 +1,40 @@
+// Command-line parsing for the coneshadow CLI: plain data in, a usage error (exit 2) out.
+#pragma once
+#include <cstdint>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+namespace cs {
+
+// Exit codes, documented in --help and the README.
+enum ExitCode : int { kExitOk = 0, kExitFailure = 1, kExitUsage = 2 };
+
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+struct Options {
+  std::string command;               // info | render | devices | help
+  std::string scene;                 // empty = built-in scene
+  std::string method = "embree";
+  uint32_t width = 512, height = 512;
+  std::string view;                  // camera name; empty = scene's first camera
+  std::optional<glm::vec3> light;    // overrides the scene's first point light
+  std::string out = "out";
+  std::string dump;                  // empty = no dump
+  std::string device;                // --device: index or name substring
+  uint32_t frames = 3;               // timed frames (after one warm-up); the median is reported
+  bool validation = false;           // --validation: VK_LAYER_KHRONOS_validation on
+  bool quiet = false;
+  uint64_t traversalMemory = 0;      // --traversal-memory BYTES (cone path); 0 = the method's default
+  std::vector<std::string> extra;    // method-specific --key=value settings, passed through
+};
+
+Options parseArgs(int argc, char** argv);  // throws UsageError
+std::string usageText();
+
+}  // namespace cs

@@ -1,0 +1,38 @@
+// One error type for setup failures and bad input: what went wrong, where, and what to do.
+// The CLI prints it as one line and exits non-zero; it is never compiled out.
+#pragma once
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+namespace cs {
+
+struct Error : std::runtime_error {
+  std::string where;  // file, stage or call that failed
+  std::string hint;   // what the user can do about it (may be empty)
+  Error(std::string what, std::string where_ = {}, std::string hint_ = {})
+      : std::runtime_error(format(what, where_, hint_)), where(std::move(where_)), hint(std::move(hint_)) {}
+
+  static std::string format(const std::string& what, const std::string& where, const std::string& hint) {
+    std::string s;
+    if (!where.empty()) s += where + ": ";
+    s += what;
+    if (!hint.empty()) s += " (" + hint + ")";
+    return s;
+  }
+};
+
+// CHECK-style helper that prints both values; stays in release builds.
+#define CS_CHECK(cond, msg)                                                                  \
+  do {                                                                                       \
+    if (!(cond)) {                                                                           \
+      std::ostringstream cs_check_os_;                                                       \
+      cs_check_os_ << msg;                                                                   \
+      throw ::cs::Error(cs_check_os_.str(), std::string(__FILE__) + ":" + std::to_string(__LINE__)); \
+    }                                                                                        \
+  } while (0)
+
+#define CS_CHECK_EQ(a, b)                                                                    \
+  CS_CHECK((a) == (b), "check failed: " #a " == " #b " (" << (a) << " vs " << (b) << ")")
+
+}  // namespace cs

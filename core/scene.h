@@ -1,0 +1,62 @@
+// The scene as every stage sees it: one flat, world-space triangle soup (node instances flattened),
+// plus the cameras and point lights it carries. Only what shadows need (DESIGN.md: model only what a
+// scene needs): no materials, no textures.
+#pragma once
+#include <cstdint>
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+namespace cs {
+
+struct Camera {
+  std::string name;
+  glm::vec3 eye{0, 0, 5};
+  glm::vec3 target{0, 0, 0};
+  glm::vec3 up{0, 1, 0};
+  float yfov = 0.8f;     // vertical field of view, radians
+  float znear = 0.01f;   // > 0
+  float zfar = 1000.0f;  // > znear
+};
+
+struct PointLight {
+  std::string name;
+  glm::vec3 position{0, 0, 0};
+  glm::vec3 color{1, 1, 1};
+  float intensity = 1.0f;
+};
+
+struct Scene {
+  std::string name;                 // file name or "builtin"
+  std::vector<glm::vec3> positions; // world space, one per vertex
+  std::vector<glm::vec3> normals;   // world space, unit length, one per vertex (flat when the file has none)
+  std::vector<uint32_t> indices;    // 3 per triangle, into positions/normals
+  std::vector<Camera> cameras;      // in file order (glTF: nodes that carry a camera, traversal order)
+  std::vector<PointLight> lights;   // point lights only, world-space positions
+  glm::vec3 boundsMin{0}, boundsMax{0};
+
+  size_t triangleCount() const { return indices.size() / 3; }
+  float diagonal() const { return glm::length(boundsMax - boundsMin); }
+  void computeBounds();             // from positions
+  const Camera* findCamera(const std::string& name) const;  // nullptr if absent
+};
+
+// Loads a .gltf/.glb file. Node hierarchy with transforms; triangle primitives (strips and fans
+// converted; points and lines skipped with one warning line on `warn`); indexed and non-indexed;
+// positions and normals; cameras; KHR_lights_punctual point lights.
+// Throws cs::Error naming the file and the problem on any malformed input.
+Scene loadGltf(const std::string& path, std::ostream& warn);
+
+// The built-in scene (needs no file): an enclosed room lit by a point light inside it, large wall and
+// floor triangles grazing the light, a clutter of small meshes and a furball of thin hair-like strips.
+// Named views: see builtinViewNames().
+Scene builtinScene();
+std::vector<std::string> builtinViewNames();
+
+// Automatic camera / light for scenes that carry none: framing the bounds.
+Camera automaticCamera(const Scene& scene);
+PointLight automaticLight(const Scene& scene);
+
+}  // namespace cs

@@ -1,0 +1,49 @@
+// The one deliberate virtual seam: every shadow path (embree, cone, rmsm, cubesm, ...) implements it.
+// Samples in (the shared raster output) -> visibility per sample + per-stage timings + bytes.
+#pragma once
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+#include <nlohmann/json.hpp>
+
+#include "core/scene.h"
+#include "raster/gbuffer.h"
+
+namespace cs {
+namespace vk { struct Context; }
+struct DeviceGBuffer;
+
+struct FrameInput {
+  const Scene* scene = nullptr;
+  const GBuffer* gbuffer = nullptr;          // host copy of the raster output
+  const DeviceGBuffer* device = nullptr;     // the same samples, resident on the GPU (GPU methods)
+  vk::Context* vk = nullptr;                 // null for CPU-only runs
+  glm::vec3 light{0};
+  float epsilon = 0;                         // along-ray epsilon of the shared policy (reference/epsilon.h)
+};
+
+struct StageTime {
+  std::string name;
+  double ms = 0;
+};
+
+struct MethodOutput {
+  std::vector<float> visibility;             // one per pixel, in [0,1], 1 = lit; 1 where the sample is not lit
+  std::vector<StageTime> stages;             // in execution order
+  double totalMs = 0;                        // shadow work only (raster excluded)
+  uint64_t bytesAllocated = 0;               // bytes this method allocated for the frame
+  uint64_t peakBytes = 0;                    // peak working set
+  nlohmann::json stats = nlohmann::json::object();  // method-specific counters (pairs, pages, ...)
+};
+
+class ShadowMethod {
+ public:
+  virtual ~ShadowMethod() = default;
+  virtual std::string name() const = 0;
+  virtual MethodOutput run(const FrameInput& frame) = 0;
+};
+
+}  // namespace cs

@@ -1,0 +1,323 @@
+// The camera pass: see raster.h.
+#include "raster/raster.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "raster/gbuffer.frag.h"
+#include "raster/gbuffer.vert.h"
+#include "raster/raster_layout.h"
+
+namespace cs {
+
+namespace {
+constexpr VkFormat kColorFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
+constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+
+uint32_t memoryType(const vk::Context& ctx, uint32_t bits, VkMemoryPropertyFlags want) {
+  for (uint32_t i = 0; i < ctx.memory.memoryTypeCount; ++i)
+    if ((bits & (1u << i)) && (ctx.memory.memoryTypes[i].propertyFlags & want) == want) return i;
+  for (uint32_t i = 0; i < ctx.memory.memoryTypeCount; ++i)
+    if (bits & (1u << i)) return i;
+  throw Error("no memory type for an image", ctx.deviceName());
+}
+}  // namespace
+
+uint32_t maxRasterPixels(const vk::Context& ctx) {
+  return uint32_t(std::min<VkDeviceSize>(ctx.maxStorageBufferRange() / sizeof(glm::vec4), UINT32_MAX));
+}
+
+glm::mat4 viewProjection(const Camera& camera, float aspect) {
+  glm::vec3 forward = camera.target - camera.eye;
+  glm::vec3 up = camera.up;
+  if (glm::length(glm::cross(forward, up)) < 1e-6f * glm::length(forward))  // looking along up
+    up = std::abs(forward.y) > 0.9f * glm::length(forward) ? glm::vec3(0, 0, 1) : glm::vec3(0, 1, 0);
+  glm::mat4 view = glm::lookAtRH(camera.eye, camera.target, up);
+  glm::mat4 proj = glm::perspectiveRH_ZO(camera.yfov, aspect, camera.znear, camera.zfar);
+  proj[1][1] *= -1.0f;  // Vulkan's framebuffer y points down: row 0 is the top of the image
+  return proj * view;
+}
+
+Raster::Raster(vk::Context& ctx, const Scene& scene) : ctx_(ctx) {
+  createPipeline();
+  setGeometry(scene);
+  timer_ = vk::createTimer(ctx, 8);
+}
+
+Raster::~Raster() {
+  destroyTargets();
+  VkDevice d = ctx_.device;
+  if (pipeline_) vkDestroyPipeline(d, pipeline_, nullptr);
+  if (layout_) vkDestroyPipelineLayout(d, layout_, nullptr);
+  if (renderPass_) vkDestroyRenderPass(d, renderPass_, nullptr);
+  if (vert_) vkDestroyShaderModule(d, vert_, nullptr);
+  if (frag_) vkDestroyShaderModule(d, frag_, nullptr);
+}
+
+void Raster::setGeometry(const Scene& scene) {
+  CS_CHECK(scene.indices.size() % 3 == 0, "index count " << scene.indices.size() << " is not a multiple of 3");
+  constexpr VkBufferUsageFlags vb = VK_BUFFER_USAGE_VERTEX_BUFFER_BIT;
+  size_t vbytes = scene.positions.size() * sizeof(glm::vec3);
+  if (!vertices_ || vertices_.size < vbytes) {
+    vertices_ = vk::createBuffer(ctx_, vbytes, vk::Memory::Device, vb);
+    normals_ = vk::createBuffer(ctx_, vbytes, vk::Memory::Device, vb);
+  }
+  size_t ibytes = scene.indices.size() * sizeof(uint32_t);
+  if (!indices_ || indices_.size < ibytes)
+    indices_ = vk::createBuffer(ctx_, ibytes, vk::Memory::Device, VK_BUFFER_USAGE_INDEX_BUFFER_BIT);
+  vk::upload(ctx_, vertices_, scene.positions.data(), vbytes);
+  vk::upload(ctx_, normals_, scene.normals.data(), vbytes);
+  vk::upload(ctx_, indices_, scene.indices.data(), ibytes);
+  indexCount_ = uint32_t(scene.indices.size());
+}
+
+uint64_t Raster::bytesAllocated() const {
+  return vertices_.size + normals_.size + indices_.size + targetBytes_;
+}
+
+void Raster::createPipeline() {
+  VkDevice d = ctx_.device;
+  VkAttachmentDescription att[3]{};
+  for (int i = 0; i < 3; ++i) {
+    att[i].format = i < 2 ? kColorFormat : kDepthFormat;
+    att[i].samples = VK_SAMPLE_COUNT_1_BIT;
+    att[i].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    att[i].storeOp = i < 2 ? VK_ATTACHMENT_STORE_OP_STORE : VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    att[i].stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+    att[i].stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    att[i].initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    att[i].finalLayout = i < 2 ? VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL : VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+  }
+  VkAttachmentReference colorRefs[2] = {{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL},
+                                        {1, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL}};
+  VkAttachmentReference depthRef{2, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL};
+  VkSubpassDescription sub{};
+  sub.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
+  sub.colorAttachmentCount = 2;
+  sub.pColorAttachments = colorRefs;
+  sub.pDepthStencilAttachment = &depthRef;
+  // Make the colour writes visible to the copy that follows the pass.
+  VkSubpassDependency dep{};
+  dep.srcSubpass = 0;
+  dep.dstSubpass = VK_SUBPASS_EXTERNAL;
+  dep.srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+  dep.dstStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT;
+  dep.srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+  dep.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+  VkRenderPassCreateInfo rp{VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO};
+  rp.attachmentCount = 3;
+  rp.pAttachments = att;
+  rp.subpassCount = 1;
+  rp.pSubpasses = &sub;
+  rp.dependencyCount = 1;
+  rp.pDependencies = &dep;
+  VK_CHECK(vkCreateRenderPass(d, &rp, nullptr, &renderPass_));
+
+  VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+  mi.codeSize = sizeof(spv_gbuffer_vert);
+  mi.pCode = spv_gbuffer_vert;
+  VK_CHECK(vkCreateShaderModule(d, &mi, nullptr, &vert_));
+  mi.codeSize = sizeof(spv_gbuffer_frag);
+  mi.pCode = spv_gbuffer_frag;
+  VK_CHECK(vkCreateShaderModule(d, &mi, nullptr, &frag_));
+
+  VkPushConstantRange range{VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(RasterPush)};
+  VkPipelineLayoutCreateInfo li{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+  li.pushConstantRangeCount = 1;
+  li.pPushConstantRanges = &range;
+  VK_CHECK(vkCreatePipelineLayout(d, &li, nullptr, &layout_));
+
+  VkPipelineShaderStageCreateInfo stages[2]{};
+  stages[0] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_VERTEX_BIT, vert_, "main", nullptr};
+  stages[1] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_FRAGMENT_BIT, frag_, "main", nullptr};
+  VkVertexInputBindingDescription bindings[2] = {{0, sizeof(glm::vec3), VK_VERTEX_INPUT_RATE_VERTEX},
+                                                 {1, sizeof(glm::vec3), VK_VERTEX_INPUT_RATE_VERTEX}};
+  VkVertexInputAttributeDescription attrs[2] = {{0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0},
+                                                {1, 1, VK_FORMAT_R32G32B32_SFLOAT, 0}};
+  VkPipelineVertexInputStateCreateInfo vi{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+  vi.vertexBindingDescriptionCount = 2;
+  vi.pVertexBindingDescriptions = bindings;
+  vi.vertexAttributeDescriptionCount = 2;
+  vi.pVertexAttributeDescriptions = attrs;
+  VkPipelineInputAssemblyStateCreateInfo ia{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
+  ia.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+  VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
+  vp.viewportCount = 1;
+  vp.scissorCount = 1;
+  VkPipelineRasterizationStateCreateInfo rs{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
+  rs.polygonMode = VK_POLYGON_MODE_FILL;
+  rs.cullMode = VK_CULL_MODE_NONE;  // two-sided: open meshes are seen from both sides
+  rs.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+  rs.lineWidth = 1.0f;
+  VkPipelineMultisampleStateCreateInfo ms{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
+  ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+  VkPipelineDepthStencilStateCreateInfo ds{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
+  ds.depthTestEnable = VK_TRUE;
+  ds.depthWriteEnable = VK_TRUE;
+  ds.depthCompareOp = VK_COMPARE_OP_LESS;
+  VkPipelineColorBlendAttachmentState blend[2]{};
+  blend[0].colorWriteMask = blend[1].colorWriteMask = 0xF;
+  VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
+  cb.attachmentCount = 2;
+  cb.pAttachments = blend;
+  VkDynamicState dyn[2] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+  VkPipelineDynamicStateCreateInfo dy{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
+  dy.dynamicStateCount = 2;
+  dy.pDynamicStates = dyn;
+  VkGraphicsPipelineCreateInfo pi{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
+  pi.stageCount = 2;
+  pi.pStages = stages;
+  pi.pVertexInputState = &vi;
+  pi.pInputAssemblyState = &ia;
+  pi.pViewportState = &vp;
+  pi.pRasterizationState = &rs;
+  pi.pMultisampleState = &ms;
+  pi.pDepthStencilState = &ds;
+  pi.pColorBlendState = &cb;
+  pi.pDynamicState = &dy;
+  pi.layout = layout_;
+  pi.renderPass = renderPass_;
+  VK_CHECK(vkCreateGraphicsPipelines(d, VK_NULL_HANDLE, 1, &pi, nullptr, &pipeline_));
+}
+
+void Raster::createTargets(uint32_t width, uint32_t height) {
+  destroyTargets();
+  VkDevice d = ctx_.device;
+  const auto& lim = ctx_.properties.limits;
+  if (width > lim.maxFramebufferWidth || height > lim.maxFramebufferHeight || width == 0 || height == 0)
+    throw Error("resolution " + std::to_string(width) + "x" + std::to_string(height) + " is not supported",
+                ctx_.deviceName(), "the device allows up to " + std::to_string(lim.maxFramebufferWidth) + "x" +
+                                       std::to_string(lim.maxFramebufferHeight));
+  if (uint64_t(width) * height > maxRasterPixels(ctx_))
+    throw Error("resolution " + std::to_string(width) + "x" + std::to_string(height) +
+                    " needs G-buffer arrays larger than one storage binding",
+                ctx_.deviceName(), "at most " + std::to_string(maxRasterPixels(ctx_)) + " pixels on this device");
+  targetBytes_ = 0;
+  auto make = [&](Target& t, VkFormat format, VkImageUsageFlags usage, VkImageAspectFlags aspect) {
+    VkImageCreateInfo ii{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+    ii.imageType = VK_IMAGE_TYPE_2D;
+    ii.format = format;
+    ii.extent = {width, height, 1};
+    ii.mipLevels = 1;
+    ii.arrayLayers = 1;
+    ii.samples = VK_SAMPLE_COUNT_1_BIT;
+    ii.tiling = VK_IMAGE_TILING_OPTIMAL;
+    ii.usage = usage;
+    ii.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    VK_CHECK(vkCreateImage(d, &ii, nullptr, &t.image));
+    VkMemoryRequirements req;
+    vkGetImageMemoryRequirements(d, t.image, &req);
+    VkMemoryAllocateInfo ai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+    ai.allocationSize = req.size;
+    ai.memoryTypeIndex = memoryType(ctx_, req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+    VK_CHECK(vkAllocateMemory(d, &ai, nullptr, &t.memory));
+    VK_CHECK(vkBindImageMemory(d, t.image, t.memory, 0));
+    targetBytes_ += req.size;
+    VkImageViewCreateInfo vi{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+    vi.image = t.image;
+    vi.viewType = VK_IMAGE_VIEW_TYPE_2D;
+    vi.format = format;
+    vi.subresourceRange = {aspect, 0, 1, 0, 1};
+    VK_CHECK(vkCreateImageView(d, &vi, nullptr, &t.view));
+  };
+  make(position_, kColorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+       VK_IMAGE_ASPECT_COLOR_BIT);
+  make(normal_, kColorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+       VK_IMAGE_ASPECT_COLOR_BIT);
+  make(depth_, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, VK_IMAGE_ASPECT_DEPTH_BIT);
+  VkImageView views[3] = {position_.view, normal_.view, depth_.view};
+  VkFramebufferCreateInfo fi{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
+  fi.renderPass = renderPass_;
+  fi.attachmentCount = 3;
+  fi.pAttachments = views;
+  fi.width = width;
+  fi.height = height;
+  fi.layers = 1;
+  VK_CHECK(vkCreateFramebuffer(d, &fi, nullptr, &framebuffer_));
+  width_ = width;
+  height_ = height;
+}
+
+void Raster::destroyTargets() {
+  VkDevice d = ctx_.device;
+  vkDeviceWaitIdle(d);
+  if (framebuffer_) vkDestroyFramebuffer(d, framebuffer_, nullptr);
+  framebuffer_ = VK_NULL_HANDLE;
+  for (Target* t : {&position_, &normal_, &depth_}) {
+    if (t->view) vkDestroyImageView(d, t->view, nullptr);
+    if (t->image) vkDestroyImage(d, t->image, nullptr);
+    if (t->memory) vkFreeMemory(d, t->memory, nullptr);
+    *t = Target{};
+  }
+  width_ = height_ = 0;
+}
+
+RasterTiming Raster::render(const Camera& camera, glm::vec3 light, uint32_t width, uint32_t height,
+                            DeviceGBuffer& out, GBuffer* host) {
+  if (width != width_ || height != height_) createTargets(width, height);
+  VkDeviceSize bytes = VkDeviceSize(width) * height * sizeof(glm::vec4);
+  if (out.width != width || out.height != height || !out.position) {
+    out.position = vk::createBuffer(ctx_, bytes);
+    out.normal = vk::createBuffer(ctx_, bytes);
+    out.width = width;
+    out.height = height;
+  }
+
+  RasterPush push{};
+  push.viewProj = viewProjection(camera, float(width) / float(height));
+  push.eye = glm::vec4(camera.eye, 1.0f);
+  push.light = glm::vec4(light, 1.0f);
+
+  timer_.restart();
+  vk::Commands cmd(ctx_, &timer_);
+  VkCommandBuffer cb = cmd.handle();
+  cmd.mark("start");
+  VkClearValue clears[3]{};
+  clears[2].depthStencil = {1.0f, 0};
+  VkRenderPassBeginInfo bi{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
+  bi.renderPass = renderPass_;
+  bi.framebuffer = framebuffer_;
+  bi.renderArea = {{0, 0}, {width, height}};
+  bi.clearValueCount = 3;
+  bi.pClearValues = clears;
+  vkCmdBeginRenderPass(cb, &bi, VK_SUBPASS_CONTENTS_INLINE);
+  vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
+  VkViewport viewport{0, 0, float(width), float(height), 0.0f, 1.0f};
+  VkRect2D scissor{{0, 0}, {width, height}};
+  vkCmdSetViewport(cb, 0, 1, &viewport);
+  vkCmdSetScissor(cb, 0, 1, &scissor);
+  vkCmdPushConstants(cb, layout_, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
+  VkBuffer vbs[2] = {vertices_.buffer, normals_.buffer};
+  VkDeviceSize offsets[2] = {0, 0};
+  vkCmdBindVertexBuffers(cb, 0, 2, vbs, offsets);
+  vkCmdBindIndexBuffer(cb, indices_.buffer, 0, VK_INDEX_TYPE_UINT32);
+  if (indexCount_) vkCmdDrawIndexed(cb, indexCount_, 1, 0, 0, 0);
+  vkCmdEndRenderPass(cb);
+  VkBufferImageCopy region{};
+  region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+  region.imageExtent = {width, height, 1};
+  vkCmdCopyImageToBuffer(cb, position_.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, out.position.buffer, 1, &region);
+  vkCmdCopyImageToBuffer(cb, normal_.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, out.normal.buffer, 1, &region);
+  cmd.barrier();  // the buffers are read by compute (and the host) afterwards
+  cmd.mark("raster");
+  cmd.submit();
+
+  RasterTiming timing;
+  for (auto& [name, ms] : timer_.intervals()) timing.gpuMs += ms;
+  if (host) {
+    auto t0 = std::chrono::steady_clock::now();
+    host->width = width;
+    host->height = height;
+    host->position.resize(size_t(width) * height);
+    host->normal.resize(size_t(width) * height);
+    vk::download(ctx_, out.position, host->position.data(), bytes);
+    vk::download(ctx_, out.normal, host->normal.data(), bytes);
+    timing.readbackMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  }
+  return timing;
+}
+
+}  // namespace cs

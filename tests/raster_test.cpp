@@ -1,0 +1,147 @@
+// The camera pass against an analytic case: a plane and a finely tessellated sphere, seen from a known
+// camera. At every pixel the G-buffer must hold the first hit of the pixel-centre ray, its normal and
+// the light term max(0, N·L̂).
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "raster/raster.h"
+#include "tests/test_context.h"
+
+namespace cs {
+namespace {
+
+constexpr float kPi = 3.14159265358979f;
+
+void addSphere(Scene& s, glm::vec3 c, float r, int slices, int stacks) {
+  uint32_t base = uint32_t(s.positions.size());
+  for (int i = 0; i <= stacks; ++i) {
+    float th = kPi * float(i) / float(stacks);
+    for (int j = 0; j <= slices; ++j) {
+      float ph = 2 * kPi * float(j) / float(slices);
+      glm::vec3 n(std::sin(th) * std::cos(ph), std::cos(th), std::sin(th) * std::sin(ph));
+      s.positions.push_back(c + r * n);
+      s.normals.push_back(n);
+    }
+  }
+  for (int i = 0; i < stacks; ++i)
+    for (int j = 0; j < slices; ++j) {
+      uint32_t a = base + uint32_t(i * (slices + 1) + j), b = a + uint32_t(slices + 1);
+      s.indices.insert(s.indices.end(), {a, b, a + 1, a + 1, b, b + 1});
+    }
+}
+
+Scene planeAndSphere() {
+  Scene s;
+  s.name = "plane+sphere";
+  float e = 10;
+  s.positions = {{-e, 0, -e}, {e, 0, -e}, {e, 0, e}, {-e, 0, e}};
+  s.normals.assign(4, glm::vec3(0, 1, 0));
+  s.indices = {0, 2, 1, 0, 3, 2};
+  addSphere(s, {0.5f, 1.0f, -0.3f}, 1.0f, 256, 128);
+  s.computeBounds();
+  return s;
+}
+
+// Nearest hit of a ray with the plane y=0 (|x|,|z| <= 10) and the sphere; t = inf when none.
+float analyticHit(glm::vec3 o, glm::vec3 d, glm::vec3* n) {
+  float best = INFINITY;
+  if (std::abs(d.y) > 1e-9f) {
+    float t = -o.y / d.y;
+    glm::vec3 p = o + t * d;
+    if (t > 0 && std::abs(p.x) <= 10 && std::abs(p.z) <= 10) best = t, *n = {0, 1, 0};
+  }
+  glm::vec3 c(0.5f, 1.0f, -0.3f);
+  glm::vec3 oc = o - c;
+  float b = glm::dot(oc, d), cc = glm::dot(oc, oc) - 1.0f, disc = b * b - cc;
+  if (disc >= 0) {
+    float t = -b - std::sqrt(disc);
+    if (t > 0 && t < best) best = t, *n = glm::normalize(o + t * d - c);
+  }
+  return best;
+}
+
+TEST(Raster, PositionsNormalsAndLightTermMatchTheAnalyticScene) {
+  auto& ctx = test::context();
+  Scene scene = planeAndSphere();
+  Camera cam;
+  cam.eye = {3.0f, 4.0f, 5.0f};
+  cam.target = {0.3f, 0.5f, -0.2f};
+  cam.yfov = 0.9f;
+  cam.znear = 0.05f;
+  cam.zfar = 100.0f;
+  glm::vec3 light(-1.0f, 4.0f, 2.0f);
+  const uint32_t w = 160, h = 120;  // not square, not a power of two
+
+  Raster raster(ctx, scene);
+  DeviceGBuffer dev;
+  GBuffer gb;
+  raster.render(cam, light, w, h, dev, &gb);
+  ASSERT_EQ(gb.size(), size_t(w) * h);
+
+  glm::mat4 inv = glm::inverse(viewProjection(cam, float(w) / float(h)));
+  int checked = 0, background = 0;
+  for (uint32_t y = 0; y < h; ++y)
+    for (uint32_t x = 0; x < w; ++x) {
+      size_t i = size_t(y) * w + x;
+      glm::vec4 ndc((x + 0.5f) / w * 2 - 1, (y + 0.5f) / h * 2 - 1, 0.5f, 1.0f);
+      glm::vec4 p = inv * ndc;
+      glm::vec3 dir = glm::normalize(glm::vec3(p) / p.w - cam.eye);
+      glm::vec3 n;
+      float t = analyticHit(cam.eye, dir, &n);
+      if (!std::isfinite(t)) {
+        EXPECT_FALSE(gb.hasGeometry(i)) << x << "," << y;
+        ++background;
+        continue;
+      }
+      ASSERT_TRUE(gb.hasGeometry(i)) << x << "," << y;
+      glm::vec3 got(gb.position[i]);
+      glm::vec3 want = cam.eye + t * dir;
+      // Tessellation of the sphere (1 - cos(pi/128)) ~ 3e-4, and silhouette pixels may see either surface.
+      bool silhouette = false;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          glm::vec4 q = inv * glm::vec4((x + 0.5f + dx) / w * 2 - 1, (y + 0.5f + dy) / h * 2 - 1, 0.5f, 1.0f);
+          glm::vec3 nn;
+          float tt = analyticHit(cam.eye, glm::normalize(glm::vec3(q) / q.w - cam.eye), &nn);
+          silhouette |= std::abs(tt - t) > 0.1f * t || !std::isfinite(tt);
+        }
+      if (silhouette) continue;
+      EXPECT_LT(glm::length(got - want), 2e-3f * t) << x << "," << y;
+      glm::vec3 gn(gb.normal[i]);
+      if (glm::dot(n, cam.eye - want) < 0) n = -n;
+      EXPECT_GT(glm::dot(gn, n), 0.9995f) << x << "," << y;
+      float direct = std::max(0.0f, glm::dot(n, glm::normalize(light - want)));
+      EXPECT_NEAR(gb.normal[i].w, direct, 5e-3f) << x << "," << y;
+      EXPECT_EQ(gb.isLit(i), gb.normal[i].w > 0);
+      ++checked;
+    }
+  EXPECT_GT(checked, int(w * h) / 2);
+  EXPECT_GT(background, 0);
+}
+
+TEST(Raster, RowZeroIsTheTopOfTheImage) {
+  auto& ctx = test::context();
+  Scene scene = planeAndSphere();
+  Camera cam;  // level camera: the floor fills the bottom half, the sky the top
+  cam.eye = {0, 1.0f, 9.5f};
+  cam.target = {0, 1.0f, 0};
+  Raster raster(ctx, scene);
+  DeviceGBuffer dev;
+  GBuffer gb;
+  raster.render(cam, {0, 5, 0}, 64, 64, dev, &gb);
+  EXPECT_FALSE(gb.hasGeometry(0 * 64 + 2));   // top-left corner: sky
+  EXPECT_TRUE(gb.hasGeometry(63 * 64 + 2));   // bottom-left corner: floor
+}
+
+TEST(Raster, RejectsResolutionsBeyondTheDevice) {
+  auto& ctx = test::context();
+  Scene scene = planeAndSphere();
+  Raster raster(ctx, scene);
+  DeviceGBuffer dev;
+  uint32_t side = ctx.properties.limits.maxFramebufferWidth + 1;
+  EXPECT_THROW(raster.render(Camera{}, {0, 5, 0}, side, 4, dev, nullptr), Error);
+}
+
+}  // namespace
+}  // namespace cs

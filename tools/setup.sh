@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Installs what is missing (Debian 12 packages), configures and builds coneshadow into build/.
+# Sourced by tools/run.sh and tools/test.sh; safe to run again (installs and rebuilds only what changed).
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+
+PACKAGES=(
+  build-essential cmake pkg-config
+  libvulkan-dev mesa-vulkan-drivers vulkan-tools vulkan-validationlayers
+  glslang-tools glslang-dev spirv-tools
+  libembree-dev libtbb-dev libglm-dev libtinygltf-dev libstb-dev nlohmann-json3-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+  assimp-testmodels
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing ${missing[*]}"
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then
+    command -v sudo >/dev/null || { echo "setup: need root (or sudo) to apt-get install: ${missing[*]}" >&2; exit 1; }
+    SUDO=sudo
+  fi
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+BUILD_TYPE=${CONESHADOW_BUILD_TYPE:-Release}
+cmake -S . -B build -DCMAKE_BUILD_TYPE="$BUILD_TYPE" ${CONESHADOW_CMAKE_ARGS:-} > build.log 2>&1 || {
+  cat build.log >&2; echo "setup: cmake configure failed (log above)" >&2; exit 1; }
+cmake --build build -j"$(nproc)" >> build.log 2>&1 || {
+  grep -E "error|Error|ERROR" build.log | head -40 >&2; echo "setup: build failed; full log in build.log" >&2; exit 1; }
+echo "setup: built build/app/coneshadow"

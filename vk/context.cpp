@@ -1,0 +1,629 @@
+// Headless Vulkan context: see context.h.
+#include "vk/context.h"
+
+#include <algorithm>
+#include <cstring>
+#include <iostream>
+
+namespace cs::vk {
+
+const char* resultName(VkResult r) {
+  switch (r) {
+#define CS_CASE(x) case x: return #x;
+    CS_CASE(VK_SUCCESS) CS_CASE(VK_NOT_READY) CS_CASE(VK_TIMEOUT) CS_CASE(VK_INCOMPLETE)
+    CS_CASE(VK_ERROR_OUT_OF_HOST_MEMORY) CS_CASE(VK_ERROR_OUT_OF_DEVICE_MEMORY)
+    CS_CASE(VK_ERROR_INITIALIZATION_FAILED) CS_CASE(VK_ERROR_DEVICE_LOST) CS_CASE(VK_ERROR_MEMORY_MAP_FAILED)
+    CS_CASE(VK_ERROR_LAYER_NOT_PRESENT) CS_CASE(VK_ERROR_EXTENSION_NOT_PRESENT)
+    CS_CASE(VK_ERROR_FEATURE_NOT_PRESENT) CS_CASE(VK_ERROR_INCOMPATIBLE_DRIVER)
+    CS_CASE(VK_ERROR_TOO_MANY_OBJECTS) CS_CASE(VK_ERROR_FORMAT_NOT_SUPPORTED)
+    CS_CASE(VK_ERROR_FRAGMENTED_POOL) CS_CASE(VK_ERROR_OUT_OF_POOL_MEMORY)
+    CS_CASE(VK_ERROR_INVALID_SHADER_NV) CS_CASE(VK_ERROR_UNKNOWN)
+#undef CS_CASE
+    default: return "VkResult(unknown)";
+  }
+}
+
+void fail(VkResult r, const char* call, const char* file, int line) {
+  std::string hint;
+  if (r == VK_ERROR_OUT_OF_DEVICE_MEMORY || r == VK_ERROR_OUT_OF_HOST_MEMORY)
+    hint = "lower the resolution or the memory bounds";
+  else if (r == VK_ERROR_INCOMPATIBLE_DRIVER || r == VK_ERROR_INITIALIZATION_FAILED)
+    hint = "is a Vulkan driver installed? apt-get install mesa-vulkan-drivers";
+  else if (r == VK_ERROR_DEVICE_LOST)
+    hint = "the GPU reset; try again or pick another device with --device";
+  throw Error(std::string(call) + " returned " + resultName(r),
+              std::string(file) + ":" + std::to_string(line), hint);
+}
+
+namespace {
+
+VKAPI_ATTR VkBool32 VKAPI_CALL debugCallback(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
+                                             VkDebugUtilsMessageTypeFlagsEXT,
+                                             const VkDebugUtilsMessengerCallbackDataEXT* data, void* user) {
+  auto* ctx = static_cast<Context*>(user);
+  if (severity < VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT) return VK_FALSE;
+  std::string msg = data && data->pMessage ? data->pMessage : "(no message)";
+  ctx->validationMessages++;
+  ctx->lastValidationMessage = msg;
+  if (ctx->onValidationMessage)
+    ctx->onValidationMessage(msg);
+  else
+    std::cerr << "coneshadow: Vulkan validation: " << msg << "\n";
+  return VK_FALSE;
+}
+
+bool hasLayer(const char* name) {
+  uint32_t n = 0;
+  VK_CHECK(vkEnumerateInstanceLayerProperties(&n, nullptr));
+  std::vector<VkLayerProperties> layers(n);
+  VK_CHECK(vkEnumerateInstanceLayerProperties(&n, layers.data()));
+  for (auto& l : layers)
+    if (std::strcmp(l.layerName, name) == 0) return true;
+  return false;
+}
+
+bool hasDeviceExtension(VkPhysicalDevice pd, const char* name) {
+  uint32_t n = 0;
+  VK_CHECK(vkEnumerateDeviceExtensionProperties(pd, nullptr, &n, nullptr));
+  std::vector<VkExtensionProperties> ext(n);
+  VK_CHECK(vkEnumerateDeviceExtensionProperties(pd, nullptr, &n, ext.data()));
+  for (auto& e : ext)
+    if (std::strcmp(e.extensionName, name) == 0) return true;
+  return false;
+}
+
+int typeRank(VkPhysicalDeviceType t) {
+  switch (t) {
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return 4;
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return 3;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return 2;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return 1;
+    default: return 0;
+  }
+}
+
+const char* typeName(VkPhysicalDeviceType t) {
+  switch (t) {
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return "discrete GPU";
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return "integrated GPU";
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return "virtual GPU";
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return "CPU";
+    default: return "other";
+  }
+}
+
+VkInstance createInstance(bool validation, bool debugUtils) {
+  VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
+  app.pApplicationName = "coneshadow";
+  app.apiVersion = VK_API_VERSION_1_2;
+  std::vector<const char*> layers, exts;
+  if (validation) layers.push_back("VK_LAYER_KHRONOS_validation");
+  if (debugUtils) exts.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+  VkInstanceCreateInfo ci{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
+  ci.pApplicationInfo = &app;
+  ci.enabledLayerCount = uint32_t(layers.size());
+  ci.ppEnabledLayerNames = layers.data();
+  ci.enabledExtensionCount = uint32_t(exts.size());
+  ci.ppEnabledExtensionNames = exts.data();
+  VkInstance instance = VK_NULL_HANDLE;
+  VK_CHECK(vkCreateInstance(&ci, nullptr, &instance));
+  return instance;
+}
+
+std::vector<VkPhysicalDevice> physicalDevices(VkInstance instance) {
+  uint32_t n = 0;
+  VK_CHECK(vkEnumeratePhysicalDevices(instance, &n, nullptr));
+  std::vector<VkPhysicalDevice> devs(n);
+  VK_CHECK(vkEnumeratePhysicalDevices(instance, &n, devs.data()));
+  return devs;
+}
+
+uint32_t findMemoryType(const Context& ctx, uint32_t bits, VkMemoryPropertyFlags want) {
+  for (uint32_t i = 0; i < ctx.memory.memoryTypeCount; ++i)
+    if ((bits & (1u << i)) && (ctx.memory.memoryTypes[i].propertyFlags & want) == want) return i;
+  return UINT32_MAX;
+}
+
+}  // namespace
+
+Context::~Context() {
+  if (device) {
+    vkDeviceWaitIdle(device);
+    if (fence) vkDestroyFence(device, fence, nullptr);
+    if (commandPool) vkDestroyCommandPool(device, commandPool, nullptr);
+    vkDestroyDevice(device, nullptr);
+  }
+  if (messenger) {
+    auto destroy = reinterpret_cast<PFN_vkDestroyDebugUtilsMessengerEXT>(
+        vkGetInstanceProcAddr(instance, "vkDestroyDebugUtilsMessengerEXT"));
+    if (destroy) destroy(instance, messenger, nullptr);
+  }
+  if (instance) vkDestroyInstance(instance, nullptr);
+}
+
+std::string Context::deviceTypeName() const { return typeName(properties.deviceType); }
+
+std::string Context::driverDescription() const {
+  VkPhysicalDeviceDriverProperties driver{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES};
+  VkPhysicalDeviceProperties2 p2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
+  p2.pNext = &driver;
+  vkGetPhysicalDeviceProperties2(physical, &p2);
+  uint32_t v = properties.apiVersion;
+  return std::string(properties.deviceName) + " (" + typeName(properties.deviceType) + "), driver " +
+         driver.driverName + " " + driver.driverInfo + ", Vulkan " + std::to_string(VK_API_VERSION_MAJOR(v)) +
+         "." + std::to_string(VK_API_VERSION_MINOR(v)) + "." + std::to_string(VK_API_VERSION_PATCH(v));
+}
+
+std::vector<std::string> listDevices() {
+  VkInstance instance = createInstance(false, false);
+  std::vector<std::string> out;
+  auto devs = physicalDevices(instance);
+  for (size_t i = 0; i < devs.size(); ++i) {
+    VkPhysicalDeviceProperties p;
+    vkGetPhysicalDeviceProperties(devs[i], &p);
+    out.push_back(std::to_string(i) + ": " + p.deviceName + " (" + typeName(p.deviceType) + ")");
+  }
+  vkDestroyInstance(instance, nullptr);
+  return out;
+}
+
+std::unique_ptr<Context> createContext(const ContextOptions& options) {
+  auto ctx = std::make_unique<Context>();
+  bool validation = options.validation;
+  if (validation && !hasLayer("VK_LAYER_KHRONOS_validation"))
+    throw Error("VK_LAYER_KHRONOS_validation is not installed", "Vulkan instance",
+                "apt-get install vulkan-validationlayers, or run without validation");
+  ctx->instance = createInstance(validation, validation);
+  if (validation) {
+    auto create = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
+        vkGetInstanceProcAddr(ctx->instance, "vkCreateDebugUtilsMessengerEXT"));
+    if (!create) throw Error("vkCreateDebugUtilsMessengerEXT is unavailable", "Vulkan instance");
+    VkDebugUtilsMessengerCreateInfoEXT mi{VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
+    mi.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+    mi.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+                     VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
+    mi.pfnUserCallback = debugCallback;
+    mi.pUserData = ctx.get();
+    VK_CHECK(create(ctx->instance, &mi, nullptr, &ctx->messenger));
+  }
+
+  // Pick: an explicit --device (index or name substring), else the best-ranked type that has a
+  // graphics+compute queue and the extensions we need.
+  auto devs = physicalDevices(ctx->instance);
+  if (devs.empty())
+    throw Error("no Vulkan device found", "Vulkan", "apt-get install mesa-vulkan-drivers (lavapipe)");
+  auto usable = [&](VkPhysicalDevice pd, uint32_t* family) {
+    if (!hasDeviceExtension(pd, VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME)) return false;
+    uint32_t n = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(pd, &n, nullptr);
+    std::vector<VkQueueFamilyProperties> q(n);
+    vkGetPhysicalDeviceQueueFamilyProperties(pd, &n, q.data());
+    for (uint32_t i = 0; i < n; ++i)
+      if ((q[i].queueFlags & VK_QUEUE_GRAPHICS_BIT) && (q[i].queueFlags & VK_QUEUE_COMPUTE_BIT) &&
+          q[i].timestampValidBits > 0) {
+        *family = i;
+        return true;
+      }
+    return false;
+  };
+  int best = -1, bestRank = -1;
+  uint32_t bestFamily = 0;
+  std::vector<std::string> names;
+  for (size_t i = 0; i < devs.size(); ++i) {
+    VkPhysicalDeviceProperties p;
+    vkGetPhysicalDeviceProperties(devs[i], &p);
+    names.push_back(std::to_string(i) + ": " + p.deviceName);
+    uint32_t family = 0;
+    if (!usable(devs[i], &family)) continue;
+    bool match;
+    if (options.device.empty()) {
+      match = true;
+    } else {
+      bool isIndex = std::all_of(options.device.begin(), options.device.end(), ::isdigit);
+      match = isIndex ? std::stoul(options.device) == i
+                      : std::string(p.deviceName).find(options.device) != std::string::npos;
+    }
+    if (!match) continue;
+    int rank = typeRank(p.deviceType);
+    if (rank > bestRank) best = int(i), bestRank = rank, bestFamily = family;
+  }
+  if (best < 0) {
+    std::string all;
+    for (auto& n : names) all += (all.empty() ? "" : "; ") + n;
+    throw Error("no usable Vulkan device matches '" + options.device + "'", "--device",
+                "devices: " + all + " (a device needs graphics+compute, timestamps and VK_KHR_push_descriptor)");
+  }
+  ctx->physical = devs[best];
+  ctx->queueFamily = bestFamily;
+  vkGetPhysicalDeviceProperties(ctx->physical, &ctx->properties);
+  vkGetPhysicalDeviceMemoryProperties(ctx->physical, &ctx->memory);
+  VkPhysicalDeviceSubgroupProperties sub{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES};
+  VkPhysicalDeviceProperties2 p2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
+  p2.pNext = &sub;
+  vkGetPhysicalDeviceProperties2(ctx->physical, &p2);
+  ctx->subgroupSize = sub.subgroupSize;
+  for (uint32_t i = 0; i < ctx->memory.memoryTypeCount; ++i) {
+    auto f = ctx->memory.memoryTypes[i].propertyFlags;
+    if ((f & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT) && (f & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT) &&
+        (f & VK_MEMORY_PROPERTY_HOST_COHERENT_BIT) &&
+        ctx->memory.memoryHeaps[ctx->memory.memoryTypes[i].heapIndex].size >= (VkDeviceSize(1) << 30) &&
+        ctx->properties.deviceType != VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU)
+      ctx->hostVisibleDeviceLocal = true;
+  }
+
+  // Features we rely on; each is checked so a device without it fails with a clear line.
+  VkPhysicalDeviceVulkan12Features have12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
+  VkPhysicalDeviceFeatures2 have{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+  have.pNext = &have12;
+  vkGetPhysicalDeviceFeatures2(ctx->physical, &have);
+  if (!have12.hostQueryReset || !have.features.shaderInt64 || !have12.shaderBufferInt64Atomics)
+    throw Error("the device lacks hostQueryReset, shaderInt64 or 64-bit buffer atomics", ctx->deviceName());
+
+  VkPhysicalDeviceVulkan12Features want12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
+  want12.hostQueryReset = VK_TRUE;
+  want12.shaderBufferInt64Atomics = VK_TRUE;
+  want12.storageBuffer8BitAccess = have12.storageBuffer8BitAccess;
+  want12.shaderFloat16 = VK_FALSE;
+  VkPhysicalDeviceFeatures2 want{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+  want.pNext = &want12;
+  want.features.shaderInt64 = VK_TRUE;
+  want.features.fragmentStoresAndAtomics = have.features.fragmentStoresAndAtomics;
+  want.features.vertexPipelineStoresAndAtomics = have.features.vertexPipelineStoresAndAtomics;
+
+  float priority = 1.0f;
+  VkDeviceQueueCreateInfo qi{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
+  qi.queueFamilyIndex = ctx->queueFamily;
+  qi.queueCount = 1;
+  qi.pQueuePriorities = &priority;
+  const char* exts[] = {VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME};
+  VkDeviceCreateInfo di{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
+  di.pNext = &want;
+  di.queueCreateInfoCount = 1;
+  di.pQueueCreateInfos = &qi;
+  di.enabledExtensionCount = 1;
+  di.ppEnabledExtensionNames = exts;
+  VK_CHECK(vkCreateDevice(ctx->physical, &di, nullptr, &ctx->device));
+  vkGetDeviceQueue(ctx->device, ctx->queueFamily, 0, &ctx->queue);
+  ctx->cmdPushDescriptorSet = reinterpret_cast<PFN_vkCmdPushDescriptorSetKHR>(
+      vkGetDeviceProcAddr(ctx->device, "vkCmdPushDescriptorSetKHR"));
+  if (!ctx->cmdPushDescriptorSet) throw Error("vkCmdPushDescriptorSetKHR is unavailable", ctx->deviceName());
+
+  VkCommandPoolCreateInfo pi{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+  pi.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+  pi.queueFamilyIndex = ctx->queueFamily;
+  VK_CHECK(vkCreateCommandPool(ctx->device, &pi, nullptr, &ctx->commandPool));
+  VkFenceCreateInfo fi{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+  VK_CHECK(vkCreateFence(ctx->device, &fi, nullptr, &ctx->fence));
+
+  if (!options.quiet) std::cout << "device: " << ctx->driverDescription() << "\n";
+  return ctx;
+}
+
+// ---- buffers ------------------------------------------------------------------------------------
+
+Buffer& Buffer::operator=(Buffer&& o) noexcept {
+  if (this != &o) {
+    reset();
+    ctx = o.ctx, buffer = o.buffer, memory = o.memory, size = o.size, mapped = o.mapped;
+    o.buffer = VK_NULL_HANDLE, o.memory = VK_NULL_HANDLE, o.mapped = nullptr, o.size = 0;
+  }
+  return *this;
+}
+
+void Buffer::reset() {
+  if (ctx && buffer) {
+    if (mapped) vkUnmapMemory(ctx->device, memory);
+    vkDestroyBuffer(ctx->device, buffer, nullptr);
+    vkFreeMemory(ctx->device, memory, nullptr);
+  }
+  buffer = VK_NULL_HANDLE, memory = VK_NULL_HANDLE, mapped = nullptr, size = 0;
+}
+
+Buffer createBuffer(Context& ctx, VkDeviceSize size, Memory memory, VkBufferUsageFlags extraUsage) {
+  Buffer b;
+  b.ctx = &ctx;
+  b.size = std::max<VkDeviceSize>(16, (size + 15) & ~VkDeviceSize(15));
+  VkBufferCreateInfo bi{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+  bi.size = b.size;
+  bi.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT |
+             VK_BUFFER_USAGE_TRANSFER_DST_BIT | extraUsage;
+  VK_CHECK(vkCreateBuffer(ctx.device, &bi, nullptr, &b.buffer));
+  VkMemoryRequirements req;
+  vkGetBufferMemoryRequirements(ctx.device, b.buffer, &req);
+  uint32_t type = UINT32_MAX;
+  // Unified memory: everything host visible (lavapipe). Otherwise device local, or host visible
+  // (cached if possible) for staging/readback.
+  if (memory == Memory::Device && !ctx.hostVisibleDeviceLocal) {
+    type = findMemoryType(ctx, req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+  } else {
+    VkMemoryPropertyFlags hv = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+    type = findMemoryType(ctx, req.memoryTypeBits, hv | VK_MEMORY_PROPERTY_HOST_CACHED_BIT);
+    if (type == UINT32_MAX) type = findMemoryType(ctx, req.memoryTypeBits, hv);
+  }
+  if (type == UINT32_MAX) {
+    vkDestroyBuffer(ctx.device, b.buffer, nullptr);
+    b.buffer = VK_NULL_HANDLE;
+    throw Error("no memory type fits a buffer of " + std::to_string(size) + " bytes", ctx.deviceName());
+  }
+  VkMemoryAllocateInfo ai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+  ai.allocationSize = req.size;
+  ai.memoryTypeIndex = type;
+  VkResult r = vkAllocateMemory(ctx.device, &ai, nullptr, &b.memory);
+  if (r != VK_SUCCESS) {
+    vkDestroyBuffer(ctx.device, b.buffer, nullptr);
+    b.buffer = VK_NULL_HANDLE;
+    throw Error("cannot allocate " + std::to_string(size >> 20) + " MiB (" + resultName(r) + ")",
+                ctx.deviceName(), "lower the resolution or the memory bounds");
+  }
+  VK_CHECK(vkBindBufferMemory(ctx.device, b.buffer, b.memory, 0));
+  if (ctx.memory.memoryTypes[type].propertyFlags & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT)
+    VK_CHECK(vkMapMemory(ctx.device, b.memory, 0, VK_WHOLE_SIZE, 0, &b.mapped));
+  return b;
+}
+
+void upload(Context& ctx, Buffer& dst, const void* data, VkDeviceSize bytes, VkDeviceSize offset) {
+  CS_CHECK(offset + bytes <= dst.size, "upload of " << bytes << " bytes at " << offset << " past buffer of " << dst.size);
+  if (bytes == 0) return;
+  if (dst.mapped) {
+    std::memcpy(static_cast<char*>(dst.mapped) + offset, data, bytes);
+    return;
+  }
+  Buffer staging = createBuffer(ctx, bytes, Memory::HostVisible);
+  std::memcpy(staging.mapped, data, bytes);
+  Commands cmd(ctx);
+  cmd.copy(staging, dst, bytes, 0, offset);
+  cmd.submit();
+}
+
+void download(Context& ctx, const Buffer& src, void* data, VkDeviceSize bytes, VkDeviceSize offset) {
+  CS_CHECK(offset + bytes <= src.size, "download of " << bytes << " bytes at " << offset << " past buffer of " << src.size);
+  if (bytes == 0) return;
+  if (src.mapped) {
+    std::memcpy(data, static_cast<const char*>(src.mapped) + offset, bytes);
+    return;
+  }
+  Buffer staging = createBuffer(ctx, bytes, Memory::HostVisible);
+  Commands cmd(ctx);
+  cmd.copy(src, staging, bytes, offset, 0);
+  cmd.submit();
+  std::memcpy(data, staging.mapped, bytes);
+}
+
+// ---- kernels ------------------------------------------------------------------------------------
+
+Kernel& Kernel::operator=(Kernel&& o) noexcept {
+  if (this != &o) {
+    reset();
+    ctx = o.ctx, name = std::move(o.name), module = o.module, setLayout = o.setLayout, layout = o.layout;
+    pipeline = o.pipeline, bindings = o.bindings, pushBytes = o.pushBytes;
+    o.module = VK_NULL_HANDLE, o.setLayout = VK_NULL_HANDLE, o.layout = VK_NULL_HANDLE, o.pipeline = VK_NULL_HANDLE;
+  }
+  return *this;
+}
+
+void Kernel::reset() {
+  if (!ctx) return;
+  if (pipeline) vkDestroyPipeline(ctx->device, pipeline, nullptr);
+  if (layout) vkDestroyPipelineLayout(ctx->device, layout, nullptr);
+  if (setLayout) vkDestroyDescriptorSetLayout(ctx->device, setLayout, nullptr);
+  if (module) vkDestroyShaderModule(ctx->device, module, nullptr);
+  pipeline = VK_NULL_HANDLE, layout = VK_NULL_HANDLE, setLayout = VK_NULL_HANDLE, module = VK_NULL_HANDLE;
+}
+
+Kernel createKernel(Context& ctx, const char* name, const uint32_t* spirv, size_t spirvBytes, uint32_t bindings,
+                    uint32_t pushBytes, std::initializer_list<SpecConstant> spec) {
+  Kernel k;
+  k.ctx = &ctx;
+  k.name = name;
+  k.bindings = bindings;
+  k.pushBytes = pushBytes;
+  CS_CHECK(pushBytes <= ctx.properties.limits.maxPushConstantsSize,
+           name << ": push constants of " << pushBytes << " bytes exceed the device's "
+                << ctx.properties.limits.maxPushConstantsSize);
+  VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+  mi.codeSize = spirvBytes;
+  mi.pCode = spirv;
+  VK_CHECK(vkCreateShaderModule(ctx.device, &mi, nullptr, &k.module));
+
+  std::vector<VkDescriptorSetLayoutBinding> b(bindings);
+  for (uint32_t i = 0; i < bindings; ++i)
+    b[i] = {i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+  VkDescriptorSetLayoutCreateInfo li{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+  li.flags = VK_DESCRIPTOR_SET_LAYOUT_CREATE_PUSH_DESCRIPTOR_BIT_KHR;
+  li.bindingCount = bindings;
+  li.pBindings = b.data();
+  VK_CHECK(vkCreateDescriptorSetLayout(ctx.device, &li, nullptr, &k.setLayout));
+
+  VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, pushBytes};
+  VkPipelineLayoutCreateInfo pli{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+  pli.setLayoutCount = 1;
+  pli.pSetLayouts = &k.setLayout;
+  pli.pushConstantRangeCount = pushBytes ? 1 : 0;
+  pli.pPushConstantRanges = &range;
+  VK_CHECK(vkCreatePipelineLayout(ctx.device, &pli, nullptr, &k.layout));
+
+  std::vector<VkSpecializationMapEntry> entries;
+  std::vector<uint32_t> values;
+  for (auto& s : spec) {
+    entries.push_back({s.id, uint32_t(values.size() * 4), 4});
+    values.push_back(s.value);
+  }
+  VkSpecializationInfo si{uint32_t(entries.size()), entries.data(), values.size() * 4, values.data()};
+  VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+  ci.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+  ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+  ci.stage.module = k.module;
+  ci.stage.pName = "main";
+  ci.stage.pSpecializationInfo = entries.empty() ? nullptr : &si;
+  ci.layout = k.layout;
+  VK_CHECK(vkCreateComputePipelines(ctx.device, VK_NULL_HANDLE, 1, &ci, nullptr, &k.pipeline));
+  return k;
+}
+
+// ---- timestamps ---------------------------------------------------------------------------------
+
+Timer& Timer::operator=(Timer&& o) noexcept {
+  if (this != &o) {
+    reset();
+    ctx = o.ctx, pool = o.pool, capacity = o.capacity, names = std::move(o.names);
+    o.pool = VK_NULL_HANDLE;
+  }
+  return *this;
+}
+
+void Timer::reset() {
+  if (ctx && pool) vkDestroyQueryPool(ctx->device, pool, nullptr);
+  pool = VK_NULL_HANDLE;
+  names.clear();
+}
+
+void Timer::restart() {
+  if (ctx && pool) vkResetQueryPool(ctx->device, pool, 0, capacity);
+  names.clear();
+}
+
+Timer createTimer(Context& ctx, uint32_t capacity) {
+  Timer t;
+  t.ctx = &ctx;
+  t.capacity = capacity;
+  VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+  qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
+  qi.queryCount = capacity;
+  VK_CHECK(vkCreateQueryPool(ctx.device, &qi, nullptr, &t.pool));
+  vkResetQueryPool(ctx.device, t.pool, 0, capacity);
+  return t;
+}
+
+std::vector<std::pair<std::string, double>> Timer::intervals() const {
+  std::vector<std::pair<std::string, double>> out;
+  if (names.size() < 2) return out;
+  std::vector<uint64_t> ticks(names.size());
+  VK_CHECK(vkGetQueryPoolResults(ctx->device, pool, 0, uint32_t(names.size()), ticks.size() * 8, ticks.data(), 8,
+                                 VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+  double period = ctx->timestampPeriodNs();
+  for (size_t i = 1; i < names.size(); ++i)
+    out.push_back({names[i], double(ticks[i] - ticks[i - 1]) * period * 1e-6});
+  return out;
+}
+
+// ---- commands -----------------------------------------------------------------------------------
+
+Commands::Commands(Context& ctx, Timer* timer) : ctx_(ctx), timer_(timer) {
+  VkCommandBufferAllocateInfo ai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+  ai.commandPool = ctx.commandPool;
+  ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  ai.commandBufferCount = 1;
+  VK_CHECK(vkAllocateCommandBuffers(ctx.device, &ai, &cb_));
+  begin();
+}
+
+Commands::~Commands() {
+  if (recording_) vkEndCommandBuffer(cb_);
+  vkFreeCommandBuffers(ctx_.device, ctx_.commandPool, 1, &cb_);
+}
+
+void Commands::begin() {
+  VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+  bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+  VK_CHECK(vkBeginCommandBuffer(cb_, &bi));
+  recording_ = true;
+}
+
+static void pushBuffers(Context& ctx, VkCommandBuffer cb, const Kernel& kernel,
+                        std::initializer_list<BufferRange> buffers) {
+  CS_CHECK(buffers.size() == kernel.bindings,
+           kernel.name << ": " << buffers.size() << " buffers given, kernel has " << kernel.bindings << " bindings");
+  VkDescriptorBufferInfo infos[16];
+  VkWriteDescriptorSet writes[16];
+  CS_CHECK(buffers.size() <= 16, kernel.name << ": too many bindings");
+  uint32_t i = 0;
+  for (auto& b : buffers) {
+    CS_CHECK(b.buffer != VK_NULL_HANDLE, kernel.name << ": binding " << i << " is a null buffer");
+    infos[i] = {b.buffer, b.offset, b.range};
+    writes[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+    writes[i].dstBinding = i;
+    writes[i].descriptorCount = 1;
+    writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    writes[i].pBufferInfo = &infos[i];
+    ++i;
+  }
+  vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, kernel.pipeline);
+  if (i) ctx.cmdPushDescriptorSet(cb, VK_PIPELINE_BIND_POINT_COMPUTE, kernel.layout, 0, i, writes);
+}
+
+void Commands::dispatch(const Kernel& kernel, std::initializer_list<BufferRange> buffers, const void* push,
+                        uint32_t pushBytes, uint32_t gx, uint32_t gy, uint32_t gz) {
+  CS_CHECK(pushBytes == kernel.pushBytes,
+           kernel.name << ": push constants of " << pushBytes << " bytes, kernel expects " << kernel.pushBytes);
+  const auto& lim = ctx_.properties.limits.maxComputeWorkGroupCount;
+  CS_CHECK(gx <= lim[0] && gy <= lim[1] && gz <= lim[2],
+           kernel.name << ": dispatch " << gx << "x" << gy << "x" << gz << " exceeds the device limit");
+  if (gx == 0 || gy == 0 || gz == 0) return;
+  pushBuffers(ctx_, cb_, kernel, buffers);
+  if (pushBytes) vkCmdPushConstants(cb_, kernel.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, pushBytes, push);
+  vkCmdDispatch(cb_, gx, gy, gz);
+}
+
+void Commands::dispatchIndirect(const Kernel& kernel, std::initializer_list<BufferRange> buffers, const void* push,
+                                uint32_t pushBytes, const Buffer& args, VkDeviceSize offset) {
+  CS_CHECK(pushBytes == kernel.pushBytes,
+           kernel.name << ": push constants of " << pushBytes << " bytes, kernel expects " << kernel.pushBytes);
+  pushBuffers(ctx_, cb_, kernel, buffers);
+  if (pushBytes) vkCmdPushConstants(cb_, kernel.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, pushBytes, push);
+  vkCmdDispatchIndirect(cb_, args.buffer, offset);
+}
+
+void Commands::fill(const Buffer& b, uint32_t value, VkDeviceSize offset, VkDeviceSize size) {
+  vkCmdFillBuffer(cb_, b.buffer, offset, size, value);
+}
+
+void Commands::copy(const Buffer& src, const Buffer& dst, VkDeviceSize bytes, VkDeviceSize srcOffset,
+                    VkDeviceSize dstOffset) {
+  if (bytes == 0) return;
+  VkBufferCopy region{srcOffset, dstOffset, bytes};
+  vkCmdCopyBuffer(cb_, src.buffer, dst.buffer, 1, &region);
+}
+
+void Commands::barrier() {
+  VkMemoryBarrier mb{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+  mb.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
+  mb.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_READ_BIT |
+                     VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_HOST_READ_BIT;
+  vkCmdPipelineBarrier(cb_, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                       VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT |
+                           VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT | VK_PIPELINE_STAGE_HOST_BIT,
+                       0, 1, &mb, 0, nullptr, 0, nullptr);
+}
+
+void Commands::mark(const std::string& name) {
+  if (!timer_) return;
+  CS_CHECK(timer_->names.size() < timer_->capacity, "timer full: " << timer_->capacity << " marks");
+  vkCmdWriteTimestamp(cb_, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timer_->pool, uint32_t(timer_->names.size()));
+  timer_->names.push_back(name);
+}
+
+void Commands::submit() {
+  VK_CHECK(vkEndCommandBuffer(cb_));
+  recording_ = false;
+  VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+  si.commandBufferCount = 1;
+  si.pCommandBuffers = &cb_;
+  VK_CHECK(vkResetFences(ctx_.device, 1, &ctx_.fence));
+  VK_CHECK(vkQueueSubmit(ctx_.queue, 1, &si, ctx_.fence));
+  VK_CHECK(vkWaitForFences(ctx_.device, 1, &ctx_.fence, VK_TRUE, UINT64_MAX));
+  VK_CHECK(vkResetCommandBuffer(cb_, 0));
+  begin();
+}
+
+Grid gridFor(uint64_t count, uint32_t groupSize, uint32_t maxPerDim) {
+  uint64_t groups = (count + groupSize - 1) / groupSize;
+  Grid g;
+  if (groups == 0) return {0, 1};
+  if (groups <= maxPerDim) return {uint32_t(groups), 1};
+  g.y = uint32_t((groups + maxPerDim - 1) / maxPerDim);
+  g.x = uint32_t((groups + g.y - 1) / g.y);
+  CS_CHECK(g.y <= maxPerDim, "dispatch of " << count << " items is too large");
+  return g;
+}
+
+}  // namespace cs::vk

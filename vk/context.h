@@ -1,0 +1,216 @@
+// Headless Vulkan: instance/device selection (discrete GPU preferred, lavapipe as fallback), buffers,
+// compute kernels with push descriptors, command recording, named timestamp queries.
+// Every VkResult goes through VK_CHECK and becomes a cs::Error naming the call; never compiled out.
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <initializer_list>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <vulkan/vulkan.h>
+
+#include "core/error.h"
+
+namespace cs::vk {
+
+const char* resultName(VkResult r);
+[[noreturn]] void fail(VkResult r, const char* call, const char* file, int line);
+
+#define VK_CHECK(call)                                                    \
+  do {                                                                    \
+    VkResult vk_check_r_ = (call);                                        \
+    if (vk_check_r_ != VK_SUCCESS) ::cs::vk::fail(vk_check_r_, #call, __FILE__, __LINE__); \
+  } while (0)
+
+struct ContextOptions {
+  std::string device;         // "" = automatic (discrete > integrated > virtual > cpu); else index or name substring
+  bool validation = false;    // enable VK_LAYER_KHRONOS_validation and count its messages
+  bool quiet = false;         // do not print the chosen device
+};
+
+struct Context {
+  VkInstance instance = VK_NULL_HANDLE;
+  VkDebugUtilsMessengerEXT messenger = VK_NULL_HANDLE;
+  VkPhysicalDevice physical = VK_NULL_HANDLE;
+  VkDevice device = VK_NULL_HANDLE;
+  VkQueue queue = VK_NULL_HANDLE;
+  uint32_t queueFamily = 0;
+  VkCommandPool commandPool = VK_NULL_HANDLE;
+  VkFence fence = VK_NULL_HANDLE;
+  VkPhysicalDeviceProperties properties{};
+  VkPhysicalDeviceMemoryProperties memory{};
+  uint32_t subgroupSize = 0;
+  bool hostVisibleDeviceLocal = false;   // unified memory (lavapipe, some iGPUs): no staging needed
+  PFN_vkCmdPushDescriptorSetKHR cmdPushDescriptorSet = nullptr;
+
+  // validation messages (warnings and errors) seen so far; tests fail when this grows
+  uint64_t validationMessages = 0;
+  std::string lastValidationMessage;
+  std::function<void(const std::string&)> onValidationMessage;  // tests turn messages into failures
+
+  Context() = default;
+  Context(const Context&) = delete;
+  Context& operator=(const Context&) = delete;
+  ~Context();
+
+  std::string deviceName() const { return properties.deviceName; }
+  std::string deviceTypeName() const;
+  std::string driverDescription() const;  // "llvmpipe (LLVM ...) / Mesa ... / Vulkan 1.3.230"
+  VkDeviceSize maxStorageBufferRange() const { return properties.limits.maxStorageBufferRange; }
+  uint32_t maxWorkgroups() const { return properties.limits.maxComputeWorkGroupCount[0]; }
+  double timestampPeriodNs() const { return properties.limits.timestampPeriod; }
+};
+
+std::unique_ptr<Context> createContext(const ContextOptions& options);
+// One line per physical device, for --device listing.
+std::vector<std::string> listDevices();
+
+enum class Memory { Device, HostVisible };
+
+// A buffer with its own memory. Move-only; destroyed with its context still alive.
+struct Buffer {
+  Context* ctx = nullptr;
+  VkBuffer buffer = VK_NULL_HANDLE;
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+  VkDeviceSize size = 0;
+  void* mapped = nullptr;  // non-null when host visible
+
+  Buffer() = default;
+  Buffer(Buffer&& o) noexcept { *this = std::move(o); }
+  Buffer& operator=(Buffer&& o) noexcept;
+  Buffer(const Buffer&) = delete;
+  Buffer& operator=(const Buffer&) = delete;
+  ~Buffer() { reset(); }
+  void reset();
+  explicit operator bool() const { return buffer != VK_NULL_HANDLE; }
+};
+
+// Storage + transfer usage are always added. Size 0 is rounded up to 16 bytes.
+// Throws cs::Error if size exceeds what the device can allocate.
+Buffer createBuffer(Context& ctx, VkDeviceSize size, Memory memory = Memory::Device,
+                    VkBufferUsageFlags extraUsage = 0);
+// Host <-> buffer copies; through a staging buffer when the buffer is not host visible.
+void upload(Context& ctx, Buffer& dst, const void* data, VkDeviceSize bytes, VkDeviceSize offset = 0);
+void download(Context& ctx, const Buffer& src, void* data, VkDeviceSize bytes, VkDeviceSize offset = 0);
+template <class T>
+std::vector<T> download(Context& ctx, const Buffer& src, size_t count, size_t first = 0) {
+  std::vector<T> v(count);
+  if (count) download(ctx, src, v.data(), count * sizeof(T), first * sizeof(T));
+  return v;
+}
+
+// A range of a buffer bound to one storage-buffer binding. Range VK_WHOLE_SIZE = rest of the buffer.
+struct BufferRange {
+  VkBuffer buffer = VK_NULL_HANDLE;
+  VkDeviceSize offset = 0;
+  VkDeviceSize range = VK_WHOLE_SIZE;
+  BufferRange() = default;
+  BufferRange(const Buffer& b) : buffer(b.buffer) {}  // NOLINT: implicit on purpose
+  BufferRange(const Buffer& b, VkDeviceSize off, VkDeviceSize len) : buffer(b.buffer), offset(off), range(len) {}
+};
+
+// A compute pipeline whose set 0 holds `bindings` storage buffers (bindings 0..n-1), pushed with
+// push descriptors, plus `pushBytes` of push constants.
+struct Kernel {
+  Context* ctx = nullptr;
+  std::string name;
+  VkShaderModule module = VK_NULL_HANDLE;
+  VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+  VkPipeline pipeline = VK_NULL_HANDLE;
+  uint32_t bindings = 0;
+  uint32_t pushBytes = 0;
+
+  Kernel() = default;
+  Kernel(Kernel&& o) noexcept { *this = std::move(o); }
+  Kernel& operator=(Kernel&& o) noexcept;
+  Kernel(const Kernel&) = delete;
+  Kernel& operator=(const Kernel&) = delete;
+  ~Kernel() { reset(); }
+  void reset();
+};
+
+struct SpecConstant {
+  uint32_t id;
+  uint32_t value;
+};
+
+Kernel createKernel(Context& ctx, const char* name, const uint32_t* spirv, size_t spirvBytes,
+                    uint32_t bindings, uint32_t pushBytes, std::initializer_list<SpecConstant> spec = {});
+// Convenience for arrays generated by glslangValidator --vn.
+template <size_t N>
+Kernel createKernel(Context& ctx, const char* name, const uint32_t (&spirv)[N], uint32_t bindings,
+                    uint32_t pushBytes, std::initializer_list<SpecConstant> spec = {}) {
+  return createKernel(ctx, name, spirv, sizeof(spirv), bindings, pushBytes, spec);
+}
+
+// Named GPU timestamps. Mark at stage boundaries inside a command buffer; read after the submit.
+struct Timer {
+  Context* ctx = nullptr;
+  VkQueryPool pool = VK_NULL_HANDLE;
+  uint32_t capacity = 0;
+  std::vector<std::string> names;  // one per written query
+  Timer() = default;
+  Timer(Timer&& o) noexcept { *this = std::move(o); }
+  Timer& operator=(Timer&& o) noexcept;
+  Timer(const Timer&) = delete;
+  Timer& operator=(const Timer&) = delete;
+  ~Timer() { reset(); }
+  void reset();
+  void restart();  // forget the marks so the timer can record another frame
+  // (name, ms) for each interval between consecutive marks, named by the later mark's name.
+  std::vector<std::pair<std::string, double>> intervals() const;
+};
+Timer createTimer(Context& ctx, uint32_t capacity = 256);
+
+// A one-shot command buffer: record, then submit() waits for completion.
+class Commands {
+ public:
+  explicit Commands(Context& ctx, Timer* timer = nullptr);
+  ~Commands();
+  Commands(const Commands&) = delete;
+  Commands& operator=(const Commands&) = delete;
+
+  VkCommandBuffer handle() const { return cb_; }
+  // Dispatch `kernel` with its buffers (exactly kernel.bindings of them) and push constants.
+  void dispatch(const Kernel& kernel, std::initializer_list<BufferRange> buffers, const void* push,
+                uint32_t pushBytes, uint32_t gx, uint32_t gy = 1, uint32_t gz = 1);
+  template <class P>
+  void dispatch(const Kernel& kernel, std::initializer_list<BufferRange> buffers, const P& push,
+                uint32_t gx, uint32_t gy = 1, uint32_t gz = 1) {
+    dispatch(kernel, buffers, &push, sizeof(P), gx, gy, gz);
+  }
+  // Dispatch with the workgroup count read from `args` (3 x uint32 at `offset`) on the GPU.
+  void dispatchIndirect(const Kernel& kernel, std::initializer_list<BufferRange> buffers, const void* push,
+                        uint32_t pushBytes, const Buffer& args, VkDeviceSize offset = 0);
+  void fill(const Buffer& b, uint32_t value, VkDeviceSize offset = 0, VkDeviceSize size = VK_WHOLE_SIZE);
+  void copy(const Buffer& src, const Buffer& dst, VkDeviceSize bytes, VkDeviceSize srcOffset = 0,
+            VkDeviceSize dstOffset = 0);
+  // Full memory barrier between compute/transfer/indirect work (all writes visible to all later reads).
+  void barrier();
+  // Record a named timestamp (no-op without a timer).
+  void mark(const std::string& name);
+  // Submit and wait. The command buffer can be reused afterwards (begin() is called again).
+  void submit();
+
+ private:
+  void begin();
+  Context& ctx_;
+  Timer* timer_;
+  VkCommandBuffer cb_ = VK_NULL_HANDLE;
+  bool recording_ = false;
+};
+
+// 1-D dispatch maths: workgroups for `count` items of `groupSize`, split into (x, y) so neither exceeds
+// the device's per-dimension limit. Kernels compute the flat id as (gl_WorkGroupID.y * gl_NumWorkGroups.x
+// + gl_WorkGroupID.x) * groupSize + local id.
+struct Grid {
+  uint32_t x = 1, y = 1;
+  uint64_t groups() const { return uint64_t(x) * y; }
+};
+Grid gridFor(uint64_t count, uint32_t groupSize, uint32_t maxPerDim);
+
+}  // namespace cs::vk
