@@ -1,0 +1,121 @@
+// The coneshadow CLI as a newcomer runs it: exit codes, one-line errors, files written (and not written).
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <sys/wait.h>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct CliRun {
+  int code = -1;
+  std::string out;  // stdout and stderr together
+};
+
+CliRun cli(const std::string& args) {
+  std::string cmd = std::string(CONESHADOW_CLI) + " " + args + " 2>&1";
+  CliRun r;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
+  int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+fs::path tempDir(const std::string& name) {
+  fs::path d = fs::temp_directory_path() / ("coneshadow_cli_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  return d;
+}
+
+const std::string kModels = CONESHADOW_ASSIMP_MODELS;
+
+TEST(Cli, HelpDocumentsCommandsAndExitCodes) {
+  CliRun r = cli("help");
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.out.find("coneshadow render"), std::string::npos);
+  EXPECT_NE(r.out.find("exit codes"), std::string::npos);
+  EXPECT_EQ(cli("render --help").code, 0);
+}
+
+TEST(Cli, UsageErrorsExitWithTwo) {
+  for (const char* args : {"", "frobnicate", "render --width", "render --width 0", "render --width x",
+                           "render --light 1,2", "render --light 1,2,nan", "render --bogus",
+                           "render --method no-such-method", "render --frames 0", "info",
+                           "render --traversal-memory -5"}) {
+    CliRun r = cli(args);
+    EXPECT_EQ(r.code, 2) << "args: " << args << "\n" << r.out;
+    EXPECT_NE(r.out.find("coneshadow: "), std::string::npos) << args;
+  }
+}
+
+TEST(Cli, MalformedSceneIsOneLineNamingTheFileAndLeavesNoOutput) {
+  fs::path out = tempDir("malformed");
+  std::string file = kModels + "/IndexOutOfRange/IndexOutOfRange.gltf";
+  if (!fs::exists(file)) {
+    for (auto& e : fs::directory_iterator(kModels + "/IndexOutOfRange")) file = e.path().string();
+  }
+  CliRun r = cli("render " + file + " --out " + out.string() + " --frames 1");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find(fs::path(file).filename().string()), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("coneshadow: error: "), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(out)) << "no output folder for a scene that did not load";
+  CliRun missing = cli("render /no/such/scene.glb --out " + out.string());
+  EXPECT_EQ(missing.code, 1);
+  EXPECT_NE(missing.out.find("/no/such/scene.glb"), std::string::npos) << missing.out;
+}
+
+TEST(Cli, InfoPrintsTheFlattenedTriangleCountAndBoundsOf2CylinderEngine) {
+  CliRun r = cli("info " + kModels + "/2CylinderEngine-glTF-Binary/2CylinderEngine.glb");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("triangles: 121496"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("bounds: min"), std::string::npos) << r.out;
+}
+
+TEST(Cli, RenderWritesImagesResultsAndDump) {
+  fs::path out = tempDir("render"), dump = tempDir("dump");
+  CliRun r = cli("render --view fur --width 64 --height 48 --frames 1 --quiet --out " + out.string() + " --dump " +
+              dump.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("result: embree"), std::string::npos) << r.out;
+  for (const char* f : {"embree_shaded.png", "embree_mask.png", "embree_diff.png", "results.json", "results.csv"})
+    EXPECT_GT(fs::file_size(out / f), 0u) << f;
+  for (const char* f : {"position.pfm", "normal.pfm", "visibility_embree.pfm", "band.pfm", "meta.json"})
+    EXPECT_GT(fs::file_size(dump / f), 0u) << f;
+  std::ifstream js(out / "results.json");
+  auto j = nlohmann::json::parse(js);
+  ASSERT_TRUE(j.is_array());
+  EXPECT_EQ(j[0]["method"], "embree");
+  EXPECT_EQ(j[0]["width"], 64);
+  EXPECT_EQ(j[0]["view"], "fur");
+  std::ifstream ms(dump / "meta.json");
+  auto meta = nlohmann::json::parse(ms);
+  EXPECT_TRUE(meta.contains("light"));
+  EXPECT_TRUE(meta.contains("camera"));
+  for (auto& e : fs::directory_iterator(out))
+    EXPECT_EQ(e.path().filename().string().rfind(".staging", 0), std::string::npos) << "staging left behind";
+  fs::remove_all(out);
+  fs::remove_all(dump);
+}
+
+TEST(Cli, UnknownViewListsTheViews) {
+  CliRun r = cli("render --view nowhere --frames 1 --out " + tempDir("view").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("wall"), std::string::npos) << r.out;
+}
+
+TEST(Cli, UnwritableOutputIsAClearFailure) {
+  CliRun r = cli("render --width 16 --height 16 --frames 1 --out /proc/coneshadow-cannot-write-here");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("/proc/coneshadow-cannot-write-here"), std::string::npos) << r.out;
+}
+
+}  // namespace
