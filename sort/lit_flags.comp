@@ -1,0 +1,29 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// The lit samples of the G-buffer (geometry present and direct-light term > 0, as GBuffer::isLit) as
+// compaction flags over an enumeration of the pixels: row-major, or the tiled Morton screen order of
+// the unsorted variant, which also records the pixel each position stands for.
+// bindings: 0 = position (vec4[] per pixel), 1 = normal (vec4[] per pixel), 2 = flags (uint[] per
+//           domain position), 3 = pixelOf (uint[] per domain position; Morton order only)
+#include "sort/sort_layout.h"
+#include "sort/hilbert.h"
+layout(local_size_x = PIXEL_THREADS) in;
+layout(std430, binding = 0) readonly buffer Position { vec4 position[]; };
+layout(std430, binding = 1) readonly buffer Normal { vec4 normal[]; };
+layout(std430, binding = 2) writeonly buffer Flags { uint flags[]; };
+layout(std430, binding = 3) writeonly buffer PixelOf { uint pixelOf[]; };
+layout(push_constant) uniform Push { LitPush pc; };
+
+void main() {
+  uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * PIXEL_THREADS + gl_LocalInvocationIndex;
+  if (i >= pc.domain) return;
+  uint pixel = i;
+  bool inside = true;
+  if (pc.order != 0u) {
+    uvec2 p = screenOrderPixel(i, pc.tilesX);
+    inside = p.x < pc.width && p.y < pc.height;
+    pixel = inside ? p.y * pc.width + p.x : 0u;
+    pixelOf[i] = pixel;
+  }
+  flags[i] = inside && position[pixel].w > 0.5 && normal[pixel].w > 0.0 ? 1u : 0u;
+}

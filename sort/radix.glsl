@@ -1,0 +1,18 @@
+// LSD radix sort, one pass = count -> scan -> scatter over tiles of SORT_TILE keys (002 §3.5 sorts the ray
+// keys "using a fast radix sort"). Invocation t of a tile owns its SORT_ITEMS consecutive keys, so a
+// tile's keys in (invocation, item) order are its keys in input order: ranking them by (digit,
+// invocation, item) is stable without any subgroup operation, for any subgroup size. Keys are read four
+// at a time (uvec4): on lavapipe a vector access costs about what a scalar one does.
+// Expects `pc` (RadixPush) and the key binding `keys4` (uvec4[]).
+
+uint digitOf(uint key) { return (key >> pc.shift) & pc.digitMask; }
+
+// Keys 4v .. 4v+3 (those below n; the rest are never used by callers). Component loads at the tail, so
+// nothing past key n - 1 is read.
+uvec4 loadKeys(uint v, uint n) {
+  if (4u * v + 3u < n) return keys4[v];
+  uvec4 r = uvec4(0u);
+  for (uint c = 0u; c < 3u; ++c)
+    if (4u * v + c < n) r[c] = keys4[v][c];
+  return r;
+}

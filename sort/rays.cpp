@@ -1,0 +1,128 @@
+// Lit samples in ray order: see rays.h.
+#include "sort/rays.h"
+
+#include <algorithm>
+#include <numeric>
+
+#include "sort/hilbert.h"
+#include "sort/lit_flags.comp.h"
+#include "sort/ray_keys.comp.h"
+
+namespace cs::sort {
+
+const char* rayOrderName(RayOrder order) {
+  switch (order) {
+    case RayOrder::Hilbert: return "hilbert";
+    case RayOrder::ScreenMorton: return "screen-morton";
+    case RayOrder::ScreenRows: return "screen-rows";
+  }
+  return "?";
+}
+
+ScreenDomain screenDomain(uint32_t width, uint32_t height, RayOrder order) {
+  ScreenDomain d;
+  if (order != RayOrder::ScreenMorton) {
+    d.size = uint64_t(width) * height;
+    return d;
+  }
+  const uint32_t tile = 1u << MORTON_TILE_BITS;
+  d.tilesX = ceilDiv(width, tile);
+  d.tilesY = ceilDiv(height, tile);
+  d.size = uint64_t(d.tilesX) * d.tilesY * tile * tile;
+  return d;
+}
+
+namespace {
+uint32_t checkedPixels(const vk::Context& ctx, uint32_t width, uint32_t height) {
+  uint64_t domain = std::max(screenDomain(width, height, RayOrder::ScreenMorton).size, uint64_t(width) * height);
+  checkBinding(ctx, domain, 4, "lit samples");
+  return uint32_t(uint64_t(width) * height);
+}
+}  // namespace
+
+LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
+    : ctx_(ctx),
+      maxPixels_(checkedPixels(ctx, width, height)),
+      maxDomain_(std::max(screenDomain(width, height, RayOrder::ScreenMorton).size, uint64_t(maxPixels_))),
+      compact_(ctx, uint32_t(maxDomain_)),
+      sort_(ctx, maxPixels_) {
+  flags_ = vk::createKernel(ctx, "lit_flags", spv_lit_flags_comp, 4, sizeof(LitPush));
+  rayKeys_ = vk::createKernel(ctx, "ray_keys", spv_ray_keys_comp, 4, sizeof(KeysPush));
+  flagBuffer_ = vk::createBuffer(ctx, maxDomain_ * 4);
+  pixelOf_ = vk::createBuffer(ctx, maxDomain_ * 4);
+  samples_ = vk::createBuffer(ctx, uint64_t(maxPixels_) * 4);
+  keys_ = vk::createBuffer(ctx, uint64_t(maxPixels_) * 4);
+  count_ = vk::createBuffer(ctx, 16);
+}
+
+uint64_t LitRays::bytesAllocated() const {
+  return compact_.bytesAllocated() + sort_.bytesAllocated() + flagBuffer_.size + pixelOf_.size + samples_.size +
+         keys_.size + count_.size;
+}
+
+void LitRays::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, RayOrder order) {
+  const uint64_t pixels = uint64_t(g.width) * g.height;
+  const ScreenDomain d = screenDomain(g.width, g.height, order);
+  CS_CHECK(pixels <= maxPixels_ && d.size <= maxDomain_,
+           "G-buffer of " << g.width << "x" << g.height << " exceeds the " << maxPixels_ << " pixels LitRays was made for");
+  const bool morton = order == RayOrder::ScreenMorton;
+  LitPush push{g.width, g.height, morton ? 1u : 0u, d.tilesX, uint32_t(d.size), 0, 0, 0};
+  vk::Grid grid = workgroupGrid(ctx_, ceilDiv(d.size, PIXEL_THREADS));
+  cmd.dispatch(flags_, {g.position, g.normal, flagBuffer_, pixelOf_}, push, grid.x, grid.y);
+  cmd.barrier();
+  // Row-major positions are pixel indices already; Morton positions carry theirs in pixelOf_.
+  compact_.record(cmd, flagBuffer_, uint32_t(d.size), samples_, GpuWord(count_, 0),
+                  morton ? vk::BufferRange(pixelOf_) : vk::BufferRange());
+}
+
+void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, Count count) {
+  CS_CHECK(count.max <= maxPixels_, "ray keys for " << count.max << " samples, capacity " << maxPixels_);
+  KeysPush push{glm::vec4(light, 1.0f), count.max, count.word.index,
+                count.onDevice() ? FLAG_COUNT_FROM_BUFFER : 0u, 0};
+  vk::BufferRange countBinding = count.onDevice() ? vk::BufferRange() : vk::BufferRange(count_);
+  if (count.onDevice()) {
+    countBinding.buffer = count.word.buffer;
+    countBinding.offset = 0;
+    countBinding.range = (VkDeviceSize(count.word.index) + 1) * 4;
+  }
+  vk::Grid grid = workgroupGrid(ctx_, ceilDiv(count.max, PIXEL_THREADS));
+  cmd.dispatch(rayKeys_, {g.position, samples_, keys_, countBinding}, push, grid.x, grid.y);
+  cmd.barrier();
+}
+
+void LitRays::recordSort(vk::Commands& cmd, Count count) { sort_.record(cmd, keys_, samples_, count, kRayKeyBits); }
+
+void LitRays::record(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, RayOrder order) {
+  recordCompaction(cmd, g, order);
+  cmd.mark("lit compaction");
+  if (order != RayOrder::Hilbert) return;
+  const Count lit = Count::device(GpuWord(count_, 0), g.width * g.height);
+  recordKeys(cmd, g, light, lit);
+  cmd.mark("ray keys");
+  recordSort(cmd, lit);
+  cmd.mark("ray sort");
+}
+
+uint32_t LitRays::readCount() const { return vk::download<uint32_t>(ctx_, count_, 1)[0]; }
+
+std::vector<uint32_t> referenceRayOrder(const GBuffer& g, glm::vec3 light, RayOrder order) {
+  std::vector<uint32_t> samples;
+  if (order == RayOrder::ScreenMorton) {
+    const ScreenDomain d = screenDomain(g.width, g.height, order);
+    for (uint64_t i = 0; i < d.size; ++i) {
+      glm::uvec2 p = screenOrderPixel(uint32_t(i), d.tilesX);
+      if (p.x < g.width && p.y < g.height && g.isLit(size_t(p.y) * g.width + p.x)) samples.push_back(p.y * g.width + p.x);
+    }
+    return samples;
+  }
+  for (uint32_t i = 0; i < g.size(); ++i)
+    if (g.isLit(i)) samples.push_back(i);
+  if (order == RayOrder::Hilbert) {
+    std::vector<uint32_t> keys(g.size());
+    for (uint32_t s : samples) keys[s] = rayKey(glm::vec3(g.position[s]) - light);
+    std::stable_sort(samples.begin(), samples.end(), [&](uint32_t a, uint32_t b) { return keys[a] < keys[b]; });
+  }
+  return samples;
+}
+
+}  // namespace cs::sort

@@ -1,0 +1,72 @@
+// Step one of the cone path (002 §3.5): the lit samples of the G-buffer as pixel indices in ray order.
+// Rays go from the light to each lit sample (geometry present and N·L > 0, as GBuffer::isLit). Either
+// sorted by the Hilbert ray key of sort/hilbert.h (face of the direction + Hilbert index on that face),
+// so that neighbours in the array have close directions, or — the paper's unsorted variant — left in
+// screen order: tiled Morton order, where four consecutive samples come from one 2x2 pixel block (before
+// compaction drops the unlit ones), as a mip-map over the 2-D grid would group them.
+//
+// What the cone tree builder reads: samples() (uint32 pixel index y * width + x per ray, in order) and the
+// count (countBuffer()[0] on the GPU, or readCount() on the host: one 4-byte readback). Nothing else per
+// ray. Equal keys keep row-major order (the sort is stable), so the order is deterministic.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "raster/gbuffer.h"
+#include "raster/raster.h"
+#include "sort/sort.h"
+
+namespace cs::sort {
+
+enum class RayOrder {
+  Hilbert,       // sorted by Hilbert ray key (002 §3.5)
+  ScreenMorton,  // unsorted: screen order, Morton inside 64x64 tiles, tiles row-major
+  ScreenRows,    // unsorted: plain row-major screen order
+};
+const char* rayOrderName(RayOrder order);
+
+// The positions the lit-flag pass enumerates: row-major pixels, or whole Morton tiles covering the image
+// (positions outside it are never lit).
+struct ScreenDomain {
+  uint32_t tilesX = 0, tilesY = 0;  // Morton tiles per row / column (0 for row-major)
+  uint64_t size = 0;                // positions enumerated
+};
+ScreenDomain screenDomain(uint32_t width, uint32_t height, RayOrder order);
+
+class LitRays {
+ public:
+  // Scratch for G-buffers of up to width x height pixels in any order.
+  LitRays(vk::Context& ctx, uint32_t width, uint32_t height);
+
+  // Everything, with no host round trip: lit flags -> compaction -> (Hilbert) ray keys -> stable radix sort
+  // of (key, pixel). Marks "lit compaction", then for Hilbert "ray keys" and "ray sort", on cmd's timer.
+  void record(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, RayOrder order);
+
+  // The steps, for callers that want to time them or read the count in between.
+  void recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, RayOrder order);  // -> samples(), count
+  void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, Count count);  // -> keys()
+  void recordSort(vk::Commands& cmd, Count count);  // sorts (keys(), samples()) by key
+
+  const vk::Buffer& samples() const { return samples_; }
+  const vk::Buffer& keys() const { return keys_; }
+  const vk::Buffer& countBuffer() const { return count_; }
+  Count count() const { return Count::device(GpuWord(count_, 0), maxPixels_); }  // the lit count, on the GPU
+  uint32_t readCount() const;  // the lit count on the host; after the recording was submitted
+  uint64_t bytesAllocated() const;
+
+ private:
+  vk::Context& ctx_;
+  uint32_t maxPixels_;
+  uint64_t maxDomain_;
+  Compact compact_;
+  RadixSort sort_;
+  vk::Kernel flags_, rayKeys_;
+  vk::Buffer flagBuffer_, pixelOf_, samples_, keys_, count_;
+};
+
+// CPU reference of the whole step (tests, debugging): lit samples of `g` in the given order.
+std::vector<uint32_t> referenceRayOrder(const GBuffer& g, glm::vec3 light, RayOrder order);
+
+}  // namespace cs::sort

@@ -1,0 +1,258 @@
+// GPU scan, compaction and radix sort: see sort.h. The host loop of each reads like the algorithm.
+#include "sort/sort.h"
+
+#include <algorithm>
+#include <string>
+#include <utility>
+
+#include "sort/compact_scatter.comp.h"
+#include "sort/radix_count.comp.h"
+#include "sort/radix_scatter.comp.h"
+#include "sort/scan_block.comp.h"
+#include "sort/scan_reduce.comp.h"
+
+namespace cs::sort {
+
+// ---- sizing -------------------------------------------------------------------------------------
+
+uint32_t ceilDiv(uint64_t a, uint32_t b) { return uint32_t((a + b - 1) / b); }
+
+std::vector<uint32_t> scanLevelCounts(uint32_t n, size_t minLevels) {
+  std::vector<uint32_t> levels{n};
+  while (levels.back() > SCAN_BLOCK || levels.size() < minLevels) levels.push_back(ceilDiv(levels.back(), SCAN_BLOCK));
+  return levels;
+}
+
+uint64_t scanScratchElements(uint32_t capacity) {
+  auto levels = scanLevelCounts(capacity, 2);
+  uint64_t total = 0;
+  for (size_t l = 1; l < levels.size(); ++l) total += 2 * uint64_t(std::max(levels[l], 1u));
+  return total;
+}
+
+uint32_t radixPasses(uint32_t keyBits) { return ceilDiv(keyBits, RADIX_BITS); }
+uint32_t sortTiles(uint32_t count) { return ceilDiv(count, SORT_TILE); }
+uint64_t histogramEntries(uint32_t count) { return uint64_t(RADIX_BINS) * sortTiles(count); }
+
+uint32_t radixScatterSharedBytes() {
+  const uint32_t words = RADIX_WORDS * SORT_THREADS;
+  return 4 * (words + words / 32 + RADIX_BINS + SORT_THREADS + SORT_THREADS / SORT_RAKE + 1);
+}
+
+void checkBinding(const vk::Context& ctx, uint64_t elements, uint32_t bytesPerElement, const char* what) {
+  uint64_t bytes = elements * bytesPerElement, limit = ctx.maxStorageBufferRange();
+  if (bytes > limit)
+    throw Error(std::string(what) + ": " + std::to_string(elements) + " elements of " +
+                    std::to_string(bytesPerElement) + " bytes need " + std::to_string(bytes) +
+                    " bytes in one storage binding, above the device's limit of " + std::to_string(limit) +
+                    " bytes (maxStorageBufferRange, " + std::to_string(limit / bytesPerElement) + " elements)",
+                "sort on " + ctx.deviceName(), "lower the resolution or the element bound");
+}
+
+namespace {
+uint32_t gridLimitForTesting = 0;
+}  // namespace
+
+vk::Grid workgroupGrid(const vk::Context& ctx, uint64_t workgroups) {
+  uint32_t limit = std::min(ctx.properties.limits.maxComputeWorkGroupCount[0], ctx.properties.limits.maxComputeWorkGroupCount[1]);
+  if (gridLimitForTesting) limit = std::min(limit, gridLimitForTesting);
+  return vk::gridFor(workgroups, 1, limit);
+}
+
+void setGridLimitForTesting(uint32_t maxPerDimension) { gridLimitForTesting = maxPerDimension; }
+
+namespace {
+
+VkDeviceSize alignUp(VkDeviceSize v, VkDeviceSize a) { return (v + a - 1) / a * a; }
+
+vk::BufferRange range(const vk::Buffer& b, VkDeviceSize offset, VkDeviceSize bytes) {
+  return vk::BufferRange(b, offset, std::max<VkDeviceSize>(bytes, 4));
+}
+
+// A GpuWord bound as words [0, index] of its buffer (offset 0 needs no alignment), else the dummy.
+vk::BufferRange bindWord(GpuWord w, const vk::Buffer& dummy) {
+  if (!w.valid()) return dummy;
+  vk::BufferRange r;
+  r.buffer = w.buffer;
+  r.offset = 0;
+  r.range = (VkDeviceSize(w.index) + 1) * 4;
+  return r;
+}
+
+uint32_t countFlags(const Count& c) { return c.onDevice() ? FLAG_COUNT_FROM_BUFFER : 0u; }
+
+vk::Grid groups(const vk::Context& ctx, uint64_t workgroups) { return workgroupGrid(ctx, workgroups); }
+
+// Kernels read and write four elements at a time: an array must start on a 16-byte boundary.
+void checkRange(const vk::BufferRange& r, const char* what) {
+  CS_CHECK(r.offset % 16 == 0, what << ": a range must start at a multiple of 16 bytes, not at " << r.offset);
+}
+
+vk::Buffer dummyBuffer(vk::Context& ctx) { return vk::createBuffer(ctx, 16); }
+
+}  // namespace
+
+// ---- scan ---------------------------------------------------------------------------------------
+
+Scan::Scan(vk::Context& ctx, uint32_t capacity) : ctx_(ctx), capacity_(capacity) {
+  checkBinding(ctx, capacity, 4, "scan");
+  levels_ = scanLevelCounts(capacity, 2);
+  VkDeviceSize align = std::max<VkDeviceSize>(ctx.properties.limits.minStorageBufferOffsetAlignment, 16);
+  sumsOffset_.assign(levels_.size(), 0);
+  scannedOffset_.assign(levels_.size(), 0);
+  VkDeviceSize bytes = 0;
+  for (size_t l = 1; l < levels_.size(); ++l) {
+    sumsOffset_[l] = bytes;
+    bytes = alignUp(bytes + VkDeviceSize(std::max(levels_[l], 1u)) * 4, align);
+    scannedOffset_[l] = bytes;
+    bytes = alignUp(bytes + VkDeviceSize(std::max(levels_[l], 1u)) * 4, align);
+  }
+  scratch_ = vk::createBuffer(ctx, bytes);
+  dummy_ = dummyBuffer(ctx);
+  reduce_ = vk::createKernel(ctx, "scan_reduce", spv_scan_reduce_comp, 3, sizeof(ScanPush));
+  block_ = vk::createKernel(ctx, "scan_block", spv_scan_block_comp, 5, sizeof(ScanPush));
+}
+
+vk::BufferRange Scan::sums(uint32_t level) const {
+  return range(scratch_, sumsOffset_.at(level), VkDeviceSize(levels_.at(level)) * 4);
+}
+vk::BufferRange Scan::scanned(uint32_t level) const {
+  return range(scratch_, scannedOffset_.at(level), VkDeviceSize(levels_.at(level)) * 4);
+}
+vk::BufferRange Scan::countBinding(const Count& count) const { return bindWord(count.word, dummy_); }
+vk::BufferRange Scan::wordBinding(GpuWord w) const { return bindWord(w, dummy_); }
+
+void Scan::record(vk::Commands& cmd, const vk::BufferRange& in, const vk::BufferRange& out, Count count,
+                  GpuWord total) {
+  CS_CHECK(count.max <= capacity_, "scan of " << count.max << " elements, capacity " << capacity_);
+  checkRange(in, "scan input");
+  checkRange(out, "scan output");
+  bool inPlace = in.buffer == out.buffer && in.offset == out.offset;
+  if (in.buffer == out.buffer && !inPlace) {
+    VkDeviceSize gap = in.offset > out.offset ? in.offset - out.offset : out.offset - in.offset;
+    CS_CHECK(gap >= VkDeviceSize(count.max) * 4, "scan: input and output ranges partly overlap");
+  }
+  recordLevel(cmd, in, out, count, 0, total, inPlace);
+  cmd.barrier();
+}
+
+void Scan::recordLevel(vk::Commands& cmd, const vk::BufferRange& in, const vk::BufferRange& out,
+                       const Count& count, uint32_t level, GpuWord total, bool inPlace) {
+  const std::vector<uint32_t> counts = scanLevelCounts(count.max, level + 1);  // host bounds per level
+  ScanPush push{count.max, count.word.index, countFlags(count), level, total.index, 0, 0, 0};
+  if (inPlace) push.flags |= FLAG_IN_PLACE;
+  if (level + 1 == counts.size()) {  // fits one block: scan it, no offsets, and report the total
+    if (total.valid()) push.flags |= FLAG_WRITE_TOTAL;
+    cmd.dispatch(block_, {in, out, dummy_, countBinding(count), wordBinding(total)}, push, 1);
+    return;
+  }
+  // Block sums -> scan them one level up -> scan each block from its offset.
+  vk::Grid g = groups(ctx_, counts[level + 1]);
+  cmd.dispatch(reduce_, {in, sums(level + 1), countBinding(count)}, push, g.x, g.y);
+  cmd.barrier();
+  recordLevel(cmd, sums(level + 1), scanned(level + 1), count, level + 1, total, false);
+  cmd.barrier();
+  push.flags |= FLAG_ADD_OFFSETS;
+  cmd.dispatch(block_, {in, out, scanned(level + 1), countBinding(count), dummy_}, push, g.x, g.y);
+}
+
+// ---- compaction ---------------------------------------------------------------------------------
+
+Compact::Compact(vk::Context& ctx, uint32_t capacity) : scan_(ctx, capacity) {
+  scatter_ = vk::createKernel(ctx, "compact_scatter", spv_compact_scatter_comp, 5, sizeof(ScanPush));
+}
+
+void Compact::record(vk::Commands& cmd, const vk::BufferRange& flags, Count count, const vk::BufferRange& out,
+                     GpuWord kept, const vk::BufferRange& values) {
+  CS_CHECK(count.max <= scan_.capacity_, "compaction of " << count.max << " elements, capacity " << scan_.capacity_);
+  checkRange(flags, "compaction flags");
+  const uint32_t blocks = scanLevelCounts(count.max, 2)[1];
+  vk::Grid g = groups(scan_.ctx_, blocks);
+  ScanPush push{count.max, count.word.index, countFlags(count) | FLAG_NONZERO_AS_ONE, 0, 0, 0, 0, 0};
+  // Kept per block -> their exclusive scan (its total is the kept count) -> scatter from the offsets.
+  cmd.dispatch(scan_.reduce_, {flags, scan_.sums(1), scan_.countBinding(count)}, push, g.x, g.y);
+  cmd.barrier();
+  scan_.recordLevel(cmd, scan_.sums(1), scan_.scanned(1), count, 1, kept, false);
+  cmd.barrier();
+  push.flags = countFlags(count) | (values.buffer ? FLAG_HAS_VALUES : 0u);
+  const vk::BufferRange valuesOrDummy = values.buffer ? values : vk::BufferRange(scan_.dummy_);
+  cmd.dispatch(scatter_, {flags, valuesOrDummy, out, scan_.scanned(1), scan_.countBinding(count)}, push, g.x, g.y);
+  cmd.barrier();
+}
+
+// ---- radix sort ---------------------------------------------------------------------------------
+
+namespace {
+// The histogram table's size, after checking that the pairs and the table fit one binding each.
+uint32_t checkedHistogram(const vk::Context& ctx, uint32_t capacity) {
+  checkBinding(ctx, capacity, 4, "radix sort");
+  checkBinding(ctx, histogramEntries(capacity), 4, "radix sort histogram");
+  const uint32_t shared = ctx.properties.limits.maxComputeSharedMemorySize;
+  if (radixScatterSharedBytes() > shared)
+    throw Error("radix sort needs " + std::to_string(radixScatterSharedBytes()) +
+                    " bytes of workgroup shared memory, the device offers " + std::to_string(shared),
+                "sort on " + ctx.deviceName(), "lower SORT_THREADS or RADIX_BITS in sort/sort_layout.h");
+  return uint32_t(histogramEntries(capacity));
+}
+}  // namespace
+
+RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity)
+    : ctx_(ctx), capacity_(capacity), scan_(ctx, checkedHistogram(ctx, capacity)) {
+  altKeys_ = vk::createBuffer(ctx, VkDeviceSize(capacity) * 4);
+  altValues_ = vk::createBuffer(ctx, VkDeviceSize(capacity) * 4);
+  hist_ = vk::createBuffer(ctx, histogramEntries(capacity) * 4);
+  dummy_ = dummyBuffer(ctx);
+  count_ = vk::createKernel(ctx, "radix_count", spv_radix_count_comp, 3, sizeof(RadixPush));
+  scatter_ = vk::createKernel(ctx, "radix_scatter", spv_radix_scatter_comp, 6, sizeof(RadixPush));
+}
+
+uint64_t RadixSort::bytesAllocated() const {
+  return altKeys_.size + altValues_.size + hist_.size + dummy_.size + scan_.bytesAllocated();
+}
+
+void RadixSort::record(vk::Commands& cmd, const vk::BufferRange& keys, const vk::BufferRange& values, Count count,
+                       uint32_t keyBits) {
+  CS_CHECK(count.max <= capacity_, "radix sort of " << count.max << " pairs, capacity " << capacity_);
+  CS_CHECK(keyBits <= 32, "radix sort: " << keyBits << " key bits");
+  checkRange(keys, "radix sort keys");
+  checkRange(values, "radix sort values");
+  const uint32_t passes = radixPasses(keyBits), tiles = sortTiles(count.max);
+  if (passes == 0 || tiles == 0) return;
+  const bool hasValues = values.buffer != VK_NULL_HANDLE;
+  const VkDeviceSize bytes = VkDeviceSize(count.max) * 4;
+  struct Pairs {
+    vk::BufferRange keys, values;
+  };
+  Pairs user{keys, hasValues ? values : vk::BufferRange(dummy_)};
+  Pairs alt{range(altKeys_, 0, bytes), hasValues ? range(altValues_, 0, bytes) : vk::BufferRange(dummy_)};
+  Pairs src = user, dst = alt;
+  if (passes % 2 == 1) {  // an odd number of passes starts from a copy, so the last one lands in `keys`
+    VkBufferCopy k{keys.offset, 0, bytes}, v{values.offset, 0, bytes};
+    vkCmdCopyBuffer(cmd.handle(), keys.buffer, altKeys_.buffer, 1, &k);
+    if (hasValues) vkCmdCopyBuffer(cmd.handle(), values.buffer, altValues_.buffer, 1, &v);
+    cmd.barrier();
+    std::swap(src, dst);
+  }
+  const vk::BufferRange countBinding = bindWord(count.word, dummy_);
+  const vk::Grid g = groups(ctx_, tiles);
+  for (uint32_t p = 0; p < passes; ++p) {
+    const uint32_t shift = p * RADIX_BITS, bits = std::min<uint32_t>(RADIX_BITS, keyBits - shift);
+    RadixPush push{count.max, count.word.index, countFlags(count) | (hasValues ? FLAG_HAS_VALUES : 0u), shift,
+                   (1u << bits) - 1u, tiles, 0, 0};
+    const uint32_t entries = (1u << bits) * tiles;
+    // Count: digit histogram per tile, digit-major.
+    cmd.dispatch(count_, {src.keys, range(hist_, 0, VkDeviceSize(entries) * 4), countBinding}, push, g.x, g.y);
+    cmd.barrier();
+    // Scan: every (digit, tile) learns where its keys start.
+    scan_.record(cmd, range(hist_, 0, VkDeviceSize(entries) * 4), range(hist_, 0, VkDeviceSize(entries) * 4), entries);
+    // Scatter: stable rank inside the tile, written from that start.
+    cmd.dispatch(scatter_, {src.keys, src.values, dst.keys, dst.values, range(hist_, 0, VkDeviceSize(entries) * 4),
+                            countBinding},
+                 push, g.x, g.y);
+    cmd.barrier();
+    // Swap.
+    std::swap(src, dst);
+  }
+}
+
+}  // namespace cs::sort

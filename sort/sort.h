@@ -1,0 +1,154 @@
+// sort/: general-purpose GPU primitives on uint32 arrays — exclusive scan, stream compaction and a stable
+// LSD radix sort of (key, value) pairs — used by the cone path (002 §3.5: compact the lit samples, sort
+// their rays by Hilbert key; sort/rays.h), by traversal's pair compaction and by RMSM's page requests.
+// Knows no cones and no pages.
+//
+// Contract shared by all three:
+//  - record*() only records into the caller's vk::Commands (no submit, no host round trip between
+//    passes); it ends with a barrier, so later commands see the results. Scratch is owned by the object,
+//    sized at construction for `capacity` elements by the pure functions below; a count above the
+//    capacity is a cs::Error. One object serves one recording at a time: record, submit, then reuse.
+//  - Counts come from the host (Count{n}) or from the GPU (Count::device(word, bound)): a uint32 that an
+//    earlier command wrote, read by every kernel and clamped to the host bound, which sizes the dispatch.
+//    Traversal and RMSM can chain compaction -> sort without reading a count back.
+//  - Arrays are vk::BufferRange of uint32: a whole buffer, or an offset that is a multiple of 16 bytes
+//    (kernels move four elements at a time) and of minStorageBufferOffsetAlignment. Every array must fit
+//    one storage binding: capacity * 4 bytes <= maxStorageBufferRange (128 MiB = 32M elements on
+//    lavapipe), otherwise construction throws a cs::Error naming the count and the limit. No chunking:
+//    one binding per array keeps kernels simple, and the G-buffer itself is bound the same way (so it
+//    hits the same limit first). Counts must stay below 2^30.
+//  - Wide dispatches use 2-D grids (workgroupGrid), so counts beyond 65,535 workgroups are fine.
+//  - No subgroup operations anywhere: workgroup scans go through shared memory (workgroup_scan.glsl), so
+//    the same SPIR-V is correct for subgroups of 8 (lavapipe), 32 or 64. Results are bit-identical across
+//    runs and devices (integer sums; the sort is stable).
+//
+// Algorithms (sizes in sort_layout.h, with the measurements behind them). Scan: reduce-then-scan over
+// blocks of SCAN_BLOCK = 2048 (64 invocations x 32 consecutive elements, moved as uvec4), recursing on
+// the block sums, so n elements cost two reads and one write plus ~n/2048 extra; the array and two levels
+// of sums cover any 32-bit count. Compaction: the same reduce (counting nonzero flags), a scan of the
+// block counts, and a scatter that re-derives each element's rank inside its block. Radix sort: per pass
+// (RADIX_BITS = 8, so ceil(keyBits / 8) passes), each tile of SORT_TILE = 8192 keys builds its digit
+// histogram, one scan of the digit-major histogram table gives every (digit, tile) its output offset, and
+// a scatter ranks keys stably inside the tile with per-invocation 16-bit counters in shared memory
+// (radix_scatter.comp). Passes ping-pong between the caller's arrays and the object's; an odd pass count
+// starts with a copy so the result always lands in the caller's arrays.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "sort/sort_layout.h"
+#include "vk/context.h"
+
+namespace cs::sort {
+
+// A uint32 living on the GPU: element `index` of `buffer` (counts read by kernels, totals they write).
+struct GpuWord {
+  VkBuffer buffer = VK_NULL_HANDLE;
+  uint32_t index = 0;
+  GpuWord() = default;
+  GpuWord(const vk::Buffer& b, uint32_t i = 0) : buffer(b.buffer), index(i) {}  // NOLINT: implicit on purpose
+  bool valid() const { return buffer != VK_NULL_HANDLE; }
+};
+
+// How many elements a primitive works on.
+struct Count {
+  uint32_t max = 0;  // host count; with `word` set, an upper bound on the device count
+  GpuWord word;      // when valid, kernels read the count from here (clamped to max)
+  Count(uint32_t n = 0) : max(n) {}  // NOLINT: a host count converts implicitly
+  static Count device(GpuWord w, uint32_t upperBound) {
+    Count c(upperBound);
+    c.word = w;
+    return c;
+  }
+  bool onDevice() const { return word.valid(); }
+};
+
+// ---- sizing and dispatch maths (pure, unit-tested) ----------------------------------------------
+uint32_t ceilDiv(uint64_t a, uint32_t b);
+// Element counts of the scan's levels: {n, ceil(n/B), ceil(n/B^2), ...} down to the first that fits one
+// block (B = SCAN_BLOCK), and at least `minLevels` entries.
+std::vector<uint32_t> scanLevelCounts(uint32_t n, size_t minLevels = 1);
+// uint32 elements of scratch a Scan of `capacity` needs (block sums and their scans, every level >= 1).
+uint64_t scanScratchElements(uint32_t capacity);
+uint32_t radixPasses(uint32_t keyBits);     // ceil(keyBits / RADIX_BITS)
+uint32_t sortTiles(uint32_t count);         // ceil(count / SORT_TILE)
+uint64_t histogramEntries(uint32_t count);  // RADIX_BINS * sortTiles(count)
+// Shared memory radix_scatter.comp declares (counters + padding, per-digit offsets, workgroup scan):
+// ~18 KiB, above Vulkan's guaranteed 16 KiB; desktop GPUs and lavapipe have 32 KiB or more.
+uint32_t radixScatterSharedBytes();
+// Throws a cs::Error naming `what`, the element count and the binding limit when `elements` of
+// `bytesPerElement` do not fit one storage-buffer binding of this device.
+void checkBinding(const vk::Context& ctx, uint64_t elements, uint32_t bytesPerElement, const char* what);
+// The 2-D grid (vk::gridFor) for `workgroups` workgroups within the device's per-dimension limit.
+vk::Grid workgroupGrid(const vk::Context& ctx, uint64_t workgroups);
+// Tests only: cap the workgroups per grid dimension (0 = the device's limit), so small inputs exercise
+// the 2-D grids that only counts beyond 65,535 workgroups need otherwise.
+void setGridLimitForTesting(uint32_t maxPerDimension);
+
+// ---- exclusive scan -----------------------------------------------------------------------------
+class Scan {
+ public:
+  Scan(vk::Context& ctx, uint32_t capacity);
+  // out[i] = in[0] + ... + in[i-1] (mod 2^32) for i < count; `total`, when valid, gets the sum of all.
+  // `in` and `out` may be the very same range (in-place); partly overlapping ranges are an error.
+  void record(vk::Commands& cmd, const vk::BufferRange& in, const vk::BufferRange& out, Count count,
+              GpuWord total = {});
+  uint32_t capacity() const { return capacity_; }
+  uint64_t bytesAllocated() const { return scratch_.size + dummy_.size; }
+
+ private:
+  friend class Compact;
+  // Scans level `level` of a base count: reads `in` (the caller's array at level 0, the block sums
+  // above), writes `out`. Levels above it use the scratch arrays.
+  void recordLevel(vk::Commands& cmd, const vk::BufferRange& in, const vk::BufferRange& out, const Count& count,
+                   uint32_t level, GpuWord total, bool inPlace);
+  vk::BufferRange sums(uint32_t level) const;     // block sums of level - 1, one per block
+  vk::BufferRange scanned(uint32_t level) const;  // their exclusive scan
+  vk::BufferRange countBinding(const Count& count) const;
+  vk::BufferRange wordBinding(GpuWord w) const;
+
+  vk::Context& ctx_;
+  uint32_t capacity_;
+  std::vector<uint32_t> levels_;                       // scanLevelCounts(capacity, 2)
+  std::vector<VkDeviceSize> sumsOffset_, scannedOffset_;  // bytes into scratch_, per level (0 unused)
+  vk::Kernel reduce_, block_;
+  vk::Buffer scratch_, dummy_;
+};
+
+// ---- stream compaction --------------------------------------------------------------------------
+class Compact {
+ public:
+  Compact(vk::Context& ctx, uint32_t capacity);
+  // For every i < count with flags[i] != 0, in order of i: out[k++] = i, or values[i] when `values` is
+  // given (buffer != VK_NULL_HANDLE). k, the number kept, goes to `kept` on the GPU.
+  void record(vk::Commands& cmd, const vk::BufferRange& flags, Count count, const vk::BufferRange& out,
+              GpuWord kept, const vk::BufferRange& values = {});
+  uint32_t capacity() const { return scan_.capacity(); }
+  uint64_t bytesAllocated() const { return scan_.bytesAllocated(); }
+
+ private:
+  Scan scan_;
+  vk::Kernel scatter_;
+};
+
+// ---- radix sort ---------------------------------------------------------------------------------
+class RadixSort {
+ public:
+  RadixSort(vk::Context& ctx, uint32_t capacity);
+  // Sorts the first `count` (key, value) pairs by the low `keyBits` bits of the key (higher bits are
+  // ignored and travel with the key), stably, in place: the results are back in `keys` and `values`.
+  // `values` may be empty (buffer == VK_NULL_HANDLE) to sort keys alone. ceil(keyBits / 8) passes.
+  void record(vk::Commands& cmd, const vk::BufferRange& keys, const vk::BufferRange& values, Count count,
+              uint32_t keyBits = 32);
+  uint32_t capacity() const { return capacity_; }
+  uint64_t bytesAllocated() const;
+
+ private:
+  vk::Context& ctx_;
+  uint32_t capacity_;
+  Scan scan_;  // of the histogram table
+  vk::Kernel count_, scatter_;
+  vk::Buffer altKeys_, altValues_, hist_, dummy_;
+};
+
+}  // namespace cs::sort

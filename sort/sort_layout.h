@@ -1,0 +1,114 @@
+// sort/: workgroup shapes, flags and push constants, shared by the GLSL kernels and sort.cpp
+// (one layout, two languages). The sizing maths in sort.h reads the same numbers.
+#ifndef CONESHADOW_SORT_LAYOUT_H
+#define CONESHADOW_SORT_LAYOUT_H
+
+// ---- workgroup shapes ---------------------------------------------------------------------------
+// Chosen for lavapipe, where the primitives run in CI and in the benchmark, and kept legal and correct
+// everywhere. Measured there (2 threads): a barrier costs one coroutine switch per 8-wide subgroup, so
+// few invocations per workgroup with many elements each beat wide workgroups (a 4M scan: 64x32 ~2x
+// faster than 256x8); a uvec4 buffer access costs about what a scalar one does, so kernels read and
+// write four consecutive elements at a time; and indexed shared-memory access is the dominant cost of
+// the sort's ranking, so tiles are long (fewer counters to clear and scan per key). A discrete GPU
+// would prefer wider workgroups and shorter tiles; the numbers are all here.
+//
+// Scan and compaction: a block of SCAN_THREADS x SCAN_ITEMS elements per workgroup, each invocation
+// owning SCAN_ITEMS consecutive ones ("blocked" arrangement), so a level of the multi-level scan
+// shrinks the problem 2048-fold: the array and two levels of block sums cover any 32-bit count.
+#define SCAN_THREADS 64
+#define SCAN_ITEMS 32  // a multiple of 4 (uvec4 access) and at most 32 (one bit each in a uint mask)
+#define SCAN_BLOCK (SCAN_THREADS * SCAN_ITEMS)
+#define SCAN_RAKE 8  // the workgroup-wide scan rakes SCAN_THREADS/SCAN_RAKE segments of SCAN_RAKE values
+
+// Radix sort: RADIX_BITS per pass, a tile of SORT_THREADS x SORT_ITEMS keys per workgroup. Ranking
+// keeps one 16-bit counter per (digit, invocation) in shared memory, two digits packed per uint
+// (digit d in the low half of word d, digit d + RADIX_BINS/2 in the high half): that is
+// RADIX_BINS/2 * SORT_THREADS words = 16 KiB here, half of lavapipe's 32 KiB. A tile must stay below
+// 65536 keys so the packed halves never carry into each other.
+#define RADIX_BITS 8
+#define RADIX_BINS (1 << RADIX_BITS)
+#define RADIX_WORDS (RADIX_BINS / 2)
+#define SORT_THREADS 32
+#define SORT_ITEMS 256  // a multiple of 4 (uvec4 access)
+#define SORT_TILE (SORT_THREADS * SORT_ITEMS)
+#define SORT_RAKE 8  // workgroup scan segments of the ranking step (SORT_THREADS / SORT_RAKE of them)
+
+// Per-pixel kernels (lit flags, ray keys, test kernels).
+#define PIXEL_THREADS 256
+
+// Unsorted ("screen") order: square tiles of 2^MORTON_TILE_BITS pixels a side, row-major, Morton
+// (Z) order inside a tile. Four consecutive samples are a 2x2 block, 16 a 4x4 block, ... up to the
+// 64x64 tile; tiles follow each other along rows.
+#define MORTON_TILE_BITS 6
+
+// ---- flags (ScanPush.flags, CompactPush.flags, RadixPush.flags, KeysPush.flags) ------------------
+#define FLAG_COUNT_FROM_BUFFER 1u  // the element count is min(countBuffer[countIndex], push.count)
+#define FLAG_NONZERO_AS_ONE 2u     // reduce: count nonzero elements instead of summing them
+#define FLAG_ADD_OFFSETS 4u        // scan: add the scanned block sums of the next level
+#define FLAG_WRITE_TOTAL 8u        // scan: the single-block top level writes the grand total
+#define FLAG_IN_PLACE 16u          // scan: read the input through the output binding (in == out)
+#define FLAG_HAS_VALUES 32u        // compaction / sort: a value array travels with the keys
+
+// ---- push constants -----------------------------------------------------------------------------
+#ifdef __cplusplus
+#include <cstddef>
+#include <cstdint>
+
+#include <glm/glm.hpp>
+namespace cs::sort {
+using uint = uint32_t;
+using vec4 = glm::vec4;
+#endif
+
+// scan_reduce.comp, scan_block.comp, compact_scatter.comp. The count a kernel works on is the base
+// count (push or buffer) divided, rounded up, by SCAN_BLOCK `level` times (see levelCount()).
+struct ScanPush {
+  uint count;       // base element count, or its upper bound when FLAG_COUNT_FROM_BUFFER is set
+  uint countIndex;  // element of the count binding that holds the device count
+  uint flags;
+  uint level;       // 0 = the caller's array, 1 = its block sums, ...
+  uint totalIndex;  // element of the total binding that receives the grand total
+  uint pad0, pad1, pad2;
+};
+
+// radix_count.comp, radix_scatter.comp
+struct RadixPush {
+  uint count;       // element count, or its upper bound when FLAG_COUNT_FROM_BUFFER is set
+  uint countIndex;
+  uint flags;
+  uint shift;       // lowest key bit of this pass's digit
+  uint digitMask;   // (1 << bits of this pass) - 1
+  uint tiles;       // tiles the histogram table is laid out for (its row stride)
+  uint pad0, pad1;
+};
+
+// lit_flags.comp
+struct LitPush {
+  uint width, height;
+  uint order;       // 0: row-major (domain index = pixel index), 1: tiled Morton (see MORTON_TILE_BITS)
+  uint tilesX;      // Morton tiles per row
+  uint domain;      // elements enumerated: width * height, or tilesX * tilesY * tile area
+  uint pad0, pad1, pad2;
+};
+
+// ray_keys.comp
+struct KeysPush {
+  vec4 light;       // xyz: the point light
+  uint count;       // rays, or their upper bound when FLAG_COUNT_FROM_BUFFER is set
+  uint countIndex;
+  uint flags;
+  uint pad0;
+};
+
+#ifdef __cplusplus
+static_assert(sizeof(ScanPush) == 32 && offsetof(ScanPush, totalIndex) == 16, "ScanPush layout");
+static_assert(sizeof(RadixPush) == 32 && offsetof(RadixPush, tiles) == 20, "RadixPush layout");
+static_assert(sizeof(LitPush) == 32 && offsetof(LitPush, domain) == 16, "LitPush layout");
+static_assert(sizeof(KeysPush) == 32 && offsetof(KeysPush, count) == 16, "KeysPush layout");
+static_assert(SORT_TILE < 65536, "packed 16-bit rank counters would carry");
+static_assert(SORT_THREADS % SORT_RAKE == 0 && SCAN_THREADS % SCAN_RAKE == 0, "rake segments");
+static_assert(RADIX_BITS >= 1 && RADIX_BITS <= 8, "radix digit width");
+static_assert(SCAN_ITEMS % 4 == 0 && SCAN_ITEMS <= 32 && SORT_ITEMS % 4 == 0, "uvec4 access, kept-bit masks");
+}  // namespace cs::sort
+#endif
+#endif

@@ -1,0 +1,659 @@
+// sort/: scan, compaction and radix sort against CPU references over lengths that straddle the block and
+// tile sizes; the Hilbert index and ray keys of sort/hilbert.h on both sides of the GLSL/C++ contract;
+// the lit samples of a rastered scene in ray order, and how much closer sorted neighbours are.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numeric>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "core/scene.h"
+#include "raster/raster.h"
+#include "sort/hilbert.h"
+#include "sort/hilbert_grid.comp.h"
+#include "sort/rays.h"
+#include "sort/sort.h"
+#include "tests/test_context.h"
+
+namespace cs {
+namespace {
+
+using sort::Count;
+using sort::GpuWord;
+
+// Lengths around one element, one scan block (2048) and one sort tile (8192) and their multiples, and one
+// past a million; most of them not multiples of 4 (kernels move four elements at a time).
+const std::vector<uint32_t> kLengths = {1, 7, 1023, 1025, SCAN_BLOCK - 1, SCAN_BLOCK, SCAN_BLOCK + 1, 2 * SCAN_BLOCK + 1,
+                                        SORT_TILE - 1, SORT_TILE, SORT_TILE + 1, 100003, (1u << 20) + 3};
+
+std::vector<uint32_t> randomWords(size_t n, uint32_t seed, uint32_t bound = 0) {
+  std::mt19937 rng(seed);
+  std::vector<uint32_t> v(n);
+  for (auto& x : v) x = bound ? rng() % bound : rng();
+  return v;
+}
+
+vk::Buffer gpuArray(vk::Context& ctx, const std::vector<uint32_t>& data, size_t minElements = 0) {
+  vk::Buffer b = vk::createBuffer(ctx, std::max(data.size(), minElements) * 4);
+  vk::upload(ctx, b, data.data(), data.size() * 4);
+  return b;
+}
+
+std::vector<uint32_t> exclusiveSum(const std::vector<uint32_t>& v) {
+  std::vector<uint32_t> out(v.size());
+  uint32_t sum = 0;
+  for (size_t i = 0; i < v.size(); ++i) out[i] = sum, sum += v[i];
+  return out;
+}
+
+// First index where two arrays differ, or -1: keeps failure output to one line on million-element arrays.
+long firstMismatch(const std::vector<uint32_t>& a, const std::vector<uint32_t>& b) {
+  if (a.size() != b.size()) return 0;
+  for (size_t i = 0; i < a.size(); ++i)
+    if (a[i] != b[i]) return long(i);
+  return -1;
+}
+
+#define EXPECT_SAME_ARRAY(got, want, what)                                                                   \
+  do {                                                                                                       \
+    const std::vector<uint32_t>& got_ = (got);                                                               \
+    const std::vector<uint32_t>& want_ = (want);                                                             \
+    long at_ = firstMismatch(got_, want_);                                                                   \
+    EXPECT_EQ(at_, -1) << what << ": first difference at " << at_ << " of " << want_.size() << " (got "      \
+                       << (at_ >= 0 && size_t(at_) < got_.size() ? got_[at_] : 0) << ", want "               \
+                       << (at_ >= 0 && size_t(at_) < want_.size() ? want_[at_] : 0) << ")";                  \
+  } while (0)
+
+// ---- sizing ---------------------------------------------------------------------------------------
+
+TEST(SortSizing, ScanLevelsShrinkByOneBlockUntilOneBlockRemains) {
+  EXPECT_EQ(sort::scanLevelCounts(0), std::vector<uint32_t>{0});
+  EXPECT_EQ(sort::scanLevelCounts(SCAN_BLOCK), std::vector<uint32_t>{SCAN_BLOCK});
+  EXPECT_EQ(sort::scanLevelCounts(SCAN_BLOCK + 1), (std::vector<uint32_t>{SCAN_BLOCK + 1, 2}));
+  EXPECT_EQ(sort::scanLevelCounts(7, 2), (std::vector<uint32_t>{7, 1}));
+  EXPECT_EQ(sort::scanLevelCounts(SCAN_BLOCK * SCAN_BLOCK + 1), (std::vector<uint32_t>{SCAN_BLOCK * SCAN_BLOCK + 1, SCAN_BLOCK + 1, 2}));
+  EXPECT_EQ(sort::scanLevelCounts(UINT32_MAX).size(), 3u) << "two levels of block sums cover any 32-bit count";
+  EXPECT_EQ(sort::scanScratchElements(100), 2u) << "one sum and its scan";
+}
+
+TEST(SortSizing, RadixPassesAndTilesCoverTheKeysAndTheCount) {
+  EXPECT_EQ(sort::radixPasses(0), 0u);
+  EXPECT_EQ(sort::radixPasses(1), 1u);
+  EXPECT_EQ(sort::radixPasses(8), 1u);
+  EXPECT_EQ(sort::radixPasses(9), 2u);
+  EXPECT_EQ(sort::radixPasses(sort::kRayKeyBits), 4u);
+  EXPECT_EQ(sort::radixPasses(32), 4u);
+  EXPECT_EQ(sort::sortTiles(0), 0u);
+  EXPECT_EQ(sort::sortTiles(SORT_TILE), 1u);
+  EXPECT_EQ(sort::sortTiles(SORT_TILE + 1), 2u);
+  EXPECT_EQ(sort::histogramEntries(SORT_TILE + 1), 2u * RADIX_BINS);
+  EXPECT_LE(sort::radixScatterSharedBytes(), 32u * 1024) << "fits lavapipe's and every desktop GPU's shared memory";
+  EXPECT_LE(sort::radixScatterSharedBytes(), test::context().properties.limits.maxComputeSharedMemorySize);
+}
+
+TEST(SortSizing, CountsBeyondOneStorageBindingAreAClearError) {
+  auto& ctx = test::context();
+  const uint64_t limit = ctx.maxStorageBufferRange();
+  if (limit / 4 >= UINT32_MAX) GTEST_SKIP() << "this device binds 2^32 uint32 at once";
+  const uint32_t tooMany = uint32_t(limit / 4 + 1);
+  try {
+    sort::RadixSort sorter(ctx, tooMany);
+    FAIL() << "expected cs::Error";
+  } catch (const Error& e) {
+    std::string what = e.what();
+    EXPECT_NE(what.find(std::to_string(tooMany)), std::string::npos) << what;
+    EXPECT_NE(what.find(std::to_string(limit)), std::string::npos) << what;
+  }
+  EXPECT_THROW(sort::Scan(ctx, tooMany), Error);
+  EXPECT_THROW(sort::Compact(ctx, tooMany), Error);
+  EXPECT_NO_THROW(sort::checkBinding(ctx, limit / 4, 4, "exactly the limit"));
+}
+
+TEST(SortSizing, ScreenDomainCoversTheImageWithWholeMortonTiles) {
+  const uint32_t tile = 1u << MORTON_TILE_BITS;
+  EXPECT_EQ(sort::screenDomain(1024, 1024, sort::RayOrder::ScreenMorton).size, 1024u * 1024u);
+  sort::ScreenDomain d = sort::screenDomain(1920, 1080, sort::RayOrder::ScreenMorton);
+  EXPECT_EQ(d.tilesX, 30u);
+  EXPECT_EQ(d.tilesY, 17u);
+  EXPECT_EQ(d.size, uint64_t(30) * 17 * tile * tile);
+  EXPECT_EQ(sort::screenDomain(1920, 1080, sort::RayOrder::Hilbert).size, 1920u * 1080u);
+  // Every pixel of an odd-sized image appears exactly once in the Morton enumeration.
+  const uint32_t w = 100, h = 70;
+  d = sort::screenDomain(w, h, sort::RayOrder::ScreenMorton);
+  std::vector<int> seen(w * h, 0);
+  for (uint32_t i = 0; i < d.size; ++i) {
+    glm::uvec2 p = sort::screenOrderPixel(i, d.tilesX);
+    if (p.x < w && p.y < h) seen[p.y * w + p.x]++;
+  }
+  EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), long(w * h));
+  // Four consecutive positions form a 2x2 block.
+  for (uint32_t i = 0; i < 64; i += 4) {
+    glm::uvec2 a = sort::screenOrderPixel(i, 2), b = sort::screenOrderPixel(i + 3, 2);
+    EXPECT_EQ(b - a, glm::uvec2(1, 1)) << i;
+    EXPECT_EQ(a % 2u, glm::uvec2(0, 0)) << i;
+  }
+}
+
+// ---- scan ---------------------------------------------------------------------------------------
+
+TEST(Scan, MatchesCpuOnEveryLengthForRandomZeroAndOneInputs) {
+  auto& ctx = test::context();
+  sort::Scan scan(ctx, kLengths.back());
+  vk::Buffer total = vk::createBuffer(ctx, 16);
+  for (uint32_t n : kLengths) {
+    for (int pattern = 0; pattern < 3; ++pattern) {
+      std::vector<uint32_t> in = pattern == 0 ? randomWords(n, n) : std::vector<uint32_t>(n, pattern == 1 ? 0u : 1u);
+      vk::Buffer a = gpuArray(ctx, in), b = vk::createBuffer(ctx, n * 4);
+      vk::Commands cmd(ctx);
+      scan.record(cmd, a, b, n, GpuWord(total, 1));
+      cmd.submit();
+      std::vector<uint32_t> want = exclusiveSum(in);
+      EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, b, n), want, "scan of " << n << ", pattern " << pattern);
+      EXPECT_EQ(vk::download<uint32_t>(ctx, total, 1, 1)[0], want.back() + in.back()) << n;
+    }
+  }
+}
+
+TEST(Scan, CrossesThreeLevelsInPlace) {
+  auto& ctx = test::context();
+  const uint32_t n = SCAN_BLOCK * SCAN_BLOCK + 5;  // block sums of block sums
+  ASSERT_EQ(sort::scanLevelCounts(n).size(), 3u);
+  std::vector<uint32_t> in = randomWords(n, 3, 1000);
+  vk::Buffer a = gpuArray(ctx, in), total = vk::createBuffer(ctx, 16);
+  sort::Scan scan(ctx, n);
+  vk::Commands cmd(ctx);
+  scan.record(cmd, a, a, n, GpuWord(total, 0));
+  cmd.submit();
+  std::vector<uint32_t> want = exclusiveSum(in);
+  EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, a, n), want, "in-place scan");
+  EXPECT_EQ(vk::download<uint32_t>(ctx, total, 1)[0], want.back() + in.back());
+}
+
+TEST(Scan, ReadsItsCountFromTheGpuAndLeavesTheRestAlone) {
+  auto& ctx = test::context();
+  const uint32_t bound = 50000;
+  std::vector<uint32_t> in = randomWords(bound, 9, 100);
+  sort::Scan scan(ctx, bound);
+  for (uint32_t n : {0u, 1u, 2048u, 2049u, 33333u, bound}) {
+    vk::Buffer a = gpuArray(ctx, in), b = gpuArray(ctx, std::vector<uint32_t>(bound, 0xABCDu));
+    vk::Buffer words = gpuArray(ctx, {0, 0, n, 0});  // the count at element 2, the total at 3
+    vk::Commands cmd(ctx);
+    scan.record(cmd, a, b, Count::device(GpuWord(words, 2), bound), GpuWord(words, 3));
+    cmd.submit();
+    std::vector<uint32_t> want = exclusiveSum(std::vector<uint32_t>(in.begin(), in.begin() + n));
+    want.resize(bound, 0xABCDu);
+    EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, b, bound), want, "device count " << n);
+    EXPECT_EQ(vk::download<uint32_t>(ctx, words, 1, 3)[0], std::accumulate(in.begin(), in.begin() + n, 0u));
+  }
+}
+
+TEST(Scan, WorksOnRangesInsideABufferAndRejectsMisalignedOnes) {
+  auto& ctx = test::context();
+  const uint32_t n = 5001, first = 64;  // the array starts 256 bytes into the buffer
+  std::vector<uint32_t> data = randomWords(first + n + 8, 4, 50);
+  vk::Buffer buf = gpuArray(ctx, data), out = vk::createBuffer(ctx, (n + 32) * 4);
+  sort::Scan scan(ctx, n);
+  vk::Commands cmd(ctx);
+  scan.record(cmd, vk::BufferRange(buf, first * 4, n * 4), vk::BufferRange(out, 64, n * 4), n);
+  cmd.submit();
+  std::vector<uint32_t> want = exclusiveSum(std::vector<uint32_t>(data.begin() + first, data.begin() + first + n));
+  EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, out, n, 16), want, "scan of a sub-range");
+  EXPECT_EQ(vk::download<uint32_t>(ctx, buf, data.size()), data) << "the input is untouched";
+  EXPECT_THROW(scan.record(cmd, vk::BufferRange(buf, 4, n * 4), out, n), Error);
+  EXPECT_THROW(scan.record(cmd, buf, vk::BufferRange(buf, 8, n * 4), n), Error) << "partly overlapping";
+}
+
+// ---- compaction ---------------------------------------------------------------------------------
+
+TEST(Compact, MatchesCpuOnEveryLengthForRandomZeroAndOneFlags) {
+  auto& ctx = test::context();
+  sort::Compact compact(ctx, kLengths.back());
+  vk::Buffer kept = vk::createBuffer(ctx, 16);
+  for (uint32_t n : kLengths) {
+    for (int pattern = 0; pattern < 3; ++pattern) {
+      std::vector<uint32_t> flags = pattern == 0 ? randomWords(n, n + 1, 3) : std::vector<uint32_t>(n, pattern == 1 ? 0u : 7u);
+      std::vector<uint32_t> want;
+      for (uint32_t i = 0; i < n; ++i)
+        if (flags[i]) want.push_back(i);
+      vk::Buffer f = gpuArray(ctx, flags), out = vk::createBuffer(ctx, n * 4);
+      vk::Commands cmd(ctx);
+      compact.record(cmd, f, n, out, GpuWord(kept, 0));
+      cmd.submit();
+      uint32_t count = vk::download<uint32_t>(ctx, kept, 1)[0];
+      ASSERT_EQ(count, want.size()) << "kept of " << n << ", pattern " << pattern;
+      EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, out, count), want, "compaction of " << n << ", pattern " << pattern);
+    }
+  }
+}
+
+TEST(Compact, CarriesValuesAndReadsItsCountFromTheGpu) {
+  auto& ctx = test::context();
+  const uint32_t bound = 70001;
+  std::vector<uint32_t> flags = randomWords(bound, 5, 2), values = randomWords(bound, 6);
+  sort::Compact compact(ctx, bound);
+  vk::Buffer f = gpuArray(ctx, flags), v = gpuArray(ctx, values), out = vk::createBuffer(ctx, bound * 4);
+  for (uint32_t n : {0u, 5u, 4096u, 65537u}) {
+    vk::Buffer words = gpuArray(ctx, {n, 0xFFFFFFFFu});
+    vk::Commands cmd(ctx);
+    compact.record(cmd, f, Count::device(GpuWord(words, 0), bound), out, GpuWord(words, 1), v);
+    cmd.submit();
+    std::vector<uint32_t> want;
+    for (uint32_t i = 0; i < n; ++i)
+      if (flags[i]) want.push_back(values[i]);
+    uint32_t count = vk::download<uint32_t>(ctx, words, 1, 1)[0];
+    ASSERT_EQ(count, want.size()) << n;
+    EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, out, count), want, "values kept of " << n);
+  }
+}
+
+// ---- radix sort ---------------------------------------------------------------------------------
+
+struct Pairs {
+  std::vector<uint32_t> keys, values;
+};
+
+// The reference: std::stable_sort by the low `keyBits` bits of the key.
+Pairs stableSorted(const Pairs& in, uint32_t keyBits = 32) {
+  const uint32_t mask = keyBits >= 32 ? ~0u : (1u << keyBits) - 1u;
+  std::vector<uint32_t> order(in.keys.size());
+  std::iota(order.begin(), order.end(), 0u);
+  std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return (in.keys[a] & mask) < (in.keys[b] & mask); });
+  Pairs out;
+  for (uint32_t i : order) out.keys.push_back(in.keys[i]), out.values.push_back(in.values[i]);
+  return out;
+}
+
+Pairs gpuSorted(sort::RadixSort& sorter, const Pairs& in, uint32_t keyBits = 32) {
+  auto& ctx = test::context();
+  const uint32_t n = uint32_t(in.keys.size());
+  vk::Buffer k = gpuArray(ctx, in.keys), v = gpuArray(ctx, in.values);
+  vk::Commands cmd(ctx);
+  sorter.record(cmd, k, v, n, keyBits);
+  cmd.submit();
+  return {vk::download<uint32_t>(ctx, k, n), vk::download<uint32_t>(ctx, v, n)};
+}
+
+// Values are the input positions, so equal keys must come out with increasing values.
+Pairs withPositions(std::vector<uint32_t> keys) {
+  Pairs p{std::move(keys), {}};
+  p.values.resize(p.keys.size());
+  std::iota(p.values.begin(), p.values.end(), 0u);
+  return p;
+}
+
+TEST(RadixSort, MatchesStableSortOnRandomKeysOfEveryLength) {
+  auto& ctx = test::context();
+  sort::RadixSort sorter(ctx, kLengths.back());
+  for (uint32_t n : kLengths) {
+    Pairs in = withPositions(randomWords(n, 100 + n));
+    Pairs want = stableSorted(in), got = gpuSorted(sorter, in);
+    EXPECT_SAME_ARRAY(got.keys, want.keys, "keys of " << n);
+    EXPECT_SAME_ARRAY(got.values, want.values, "values of " << n);
+  }
+}
+
+TEST(RadixSort, MatchesStableSortOnSortedReversedAndAllEqualKeys) {
+  auto& ctx = test::context();
+  const uint32_t n = 300007;
+  sort::RadixSort sorter(ctx, n);
+  std::vector<uint32_t> sorted = randomWords(n, 11);
+  std::sort(sorted.begin(), sorted.end());
+  std::vector<uint32_t> reversed(sorted.rbegin(), sorted.rend());
+  for (auto* keys : {&sorted, &reversed}) {
+    Pairs in = withPositions(*keys);
+    Pairs want = stableSorted(in), got = gpuSorted(sorter, in);
+    EXPECT_SAME_ARRAY(got.keys, want.keys, (keys == &sorted ? "sorted" : "reversed") << " keys");
+    EXPECT_SAME_ARRAY(got.values, want.values, (keys == &sorted ? "sorted" : "reversed") << " values");
+  }
+  for (uint32_t key : {0u, 0x80000001u, 0xFFFFFFFFu}) {
+    Pairs in = withPositions(std::vector<uint32_t>(n, key));
+    Pairs got = gpuSorted(sorter, in);
+    EXPECT_SAME_ARRAY(got.keys, in.keys, "all-equal keys " << key);
+    EXPECT_SAME_ARRAY(got.values, in.values, "all-equal keys keep their order, key " << key);
+  }
+}
+
+TEST(RadixSort, IsStableOnFewDistinctKeys) {
+  auto& ctx = test::context();
+  const uint32_t n = (1u << 20) + 3;
+  sort::RadixSort sorter(ctx, n);
+  for (uint32_t distinct : {2u, 3u, 17u}) {
+    std::vector<uint32_t> keys = randomWords(n, distinct, distinct);
+    for (auto& k : keys) k *= 0x01010101u;  // the same digit in every byte: every pass moves them
+    Pairs in = withPositions(keys);
+    Pairs want = stableSorted(in), got = gpuSorted(sorter, in);
+    EXPECT_SAME_ARRAY(got.keys, want.keys, distinct << " distinct keys");
+    EXPECT_SAME_ARRAY(got.values, want.values, "equal keys keep their input order, " << distinct << " distinct");
+  }
+}
+
+TEST(RadixSort, SortsOnlyTheRequestedKeyBitsInOddAndEvenPassCounts) {
+  auto& ctx = test::context();
+  const uint32_t n = 123457;
+  sort::RadixSort sorter(ctx, n);
+  Pairs in = withPositions(randomWords(n, 77));
+  for (uint32_t bits : {1u, 7u, 8u, 12u, 24u, 31u}) {
+    Pairs want = stableSorted(in, bits), got = gpuSorted(sorter, in, bits);
+    EXPECT_SAME_ARRAY(got.keys, want.keys, bits << " key bits (" << sort::radixPasses(bits) << " passes)");
+    EXPECT_SAME_ARRAY(got.values, want.values, bits << " key bits");
+  }
+}
+
+TEST(RadixSort, SortsKeysAloneUpToACountReadFromTheGpu) {
+  auto& ctx = test::context();
+  const uint32_t bound = 90000;
+  std::vector<uint32_t> keys = randomWords(bound, 8);
+  sort::RadixSort sorter(ctx, bound);
+  for (uint32_t n : {0u, 1u, 2049u, 77777u}) {
+    vk::Buffer k = gpuArray(ctx, keys), words = gpuArray(ctx, {0, n});
+    vk::Commands cmd(ctx);
+    sorter.record(cmd, k, vk::BufferRange(), Count::device(GpuWord(words, 1), bound));
+    cmd.submit();
+    std::vector<uint32_t> want = keys;
+    std::sort(want.begin(), want.begin() + n);
+    EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, k, bound), want, "device count " << n);
+  }
+}
+
+// ---- Hilbert index and ray keys -----------------------------------------------------------------
+
+// The GPU's hilbertIndex over every cell of a 2^order grid, and its rayKey of each direction.
+std::vector<uint32_t> gpuHilbert(uint32_t order, const std::vector<glm::vec4>& dirs, std::vector<uint32_t>* rayKeys) {
+  auto& ctx = test::context();
+  const uint32_t cells = 1u << (2 * order);
+  vk::Kernel k = vk::createKernel(ctx, "hilbert_grid", spv_hilbert_grid_comp, 3, 8);
+  vk::Buffer out = vk::createBuffer(ctx, cells * 4), d = vk::createBuffer(ctx, std::max<size_t>(dirs.size(), 1) * 16);
+  vk::Buffer keys = vk::createBuffer(ctx, std::max<size_t>(dirs.size(), 1) * 4);
+  vk::upload(ctx, d, dirs.data(), dirs.size() * 16);
+  struct { uint32_t order, directions; } push{order, uint32_t(dirs.size())};
+  vk::Grid g = vk::gridFor(std::max<size_t>(cells, dirs.size()), PIXEL_THREADS, ctx.maxWorkgroups());
+  vk::Commands cmd(ctx);
+  cmd.dispatch(k, {out, d, keys}, push, g.x, g.y);
+  cmd.barrier();
+  cmd.submit();
+  if (rayKeys) *rayKeys = vk::download<uint32_t>(ctx, keys, dirs.size());
+  return vk::download<uint32_t>(ctx, out, cells);
+}
+
+// An independent CPU reference: the textbook xy2d (quadrant rotation over the full grid side n).
+uint32_t referenceHilbert(uint32_t n, uint32_t x, uint32_t y) {
+  uint32_t d = 0;
+  for (uint32_t s = n / 2; s > 0; s /= 2) {
+    uint32_t rx = (x & s) > 0, ry = (y & s) > 0;
+    d += s * s * ((3 * rx) ^ ry);
+    if (ry == 0) {
+      if (rx == 1) x = n - 1 - x, y = n - 1 - y;
+      std::swap(x, y);
+    }
+  }
+  return d;
+}
+
+TEST(Hilbert, GpuAndCpuMatchAnIndependentReferenceOnEveryCellOfSmallGrids) {
+  for (uint32_t order = 1; order <= 8; ++order) {
+    std::vector<uint32_t> gpu = gpuHilbert(order, {}, nullptr), cpu, want;
+    const uint32_t side = 1u << order;
+    for (uint32_t i = 0; i < side * side; ++i) {
+      cpu.push_back(sort::hilbertIndex(i % side, i / side, order));
+      want.push_back(referenceHilbert(side, i % side, i / side));
+    }
+    EXPECT_SAME_ARRAY(gpu, want, "GPU, order " << order);
+    EXPECT_SAME_ARRAY(cpu, want, "CPU, order " << order);
+  }
+  // The ray key's own order on a sample of cells.
+  std::mt19937 rng(5);
+  const uint32_t order = sort::kRayKeyHilbertOrder, side = 1u << order;
+  for (int i = 0; i < 100000; ++i) {
+    uint32_t x = rng() % side, y = rng() % side;
+    ASSERT_EQ(sort::hilbertIndex(x, y, order), referenceHilbert(side, x, y)) << x << "," << y;
+  }
+}
+
+TEST(Hilbert, ConsecutiveIndicesAreNeighbouringCells) {
+  for (uint32_t order = 1; order <= 10; ++order) {
+    const uint32_t side = 1u << order;
+    std::vector<glm::ivec2> cellOf(side * side, glm::ivec2(-1));
+    for (uint32_t y = 0; y < side; ++y)
+      for (uint32_t x = 0; x < side; ++x) {
+        uint32_t d = sort::hilbertIndex(x, y, order);
+        ASSERT_LT(d, side * side);
+        ASSERT_EQ(cellOf[d], glm::ivec2(-1)) << "index " << d << " used twice at order " << order;
+        cellOf[d] = glm::ivec2(x, y);
+      }
+    EXPECT_EQ(cellOf.front(), glm::ivec2(0, 0)) << "the curve starts at the origin";
+    EXPECT_EQ(cellOf.back(), glm::ivec2(side - 1, 0)) << "and ends at the last column";
+    for (uint32_t d = 1; d < side * side; ++d) {
+      glm::ivec2 step = glm::abs(cellOf[d] - cellOf[d - 1]);
+      ASSERT_EQ(step.x + step.y, 1) << "order " << order << ": index " << d - 1 << " -> " << d;
+    }
+  }
+}
+
+TEST(RayKeys, FaceIsTheMajorAxisWithTiesGoingToTheLowestAxis) {
+  using glm::vec3;
+  EXPECT_EQ(sort::rayFace(vec3(2, 1, -1)), 0u);
+  EXPECT_EQ(sort::rayFace(vec3(-2, 1, 1)), 1u);
+  EXPECT_EQ(sort::rayFace(vec3(0.5f, 3, 1)), 2u);
+  EXPECT_EQ(sort::rayFace(vec3(0.5f, -3, 1)), 3u);
+  EXPECT_EQ(sort::rayFace(vec3(0, 0, 1e-30f)), 4u);
+  EXPECT_EQ(sort::rayFace(vec3(0, 0, -5)), 5u);
+  EXPECT_EQ(sort::rayFace(vec3(1, 1, 0)), 0u) << "x == y: x";
+  EXPECT_EQ(sort::rayFace(vec3(-1, 1, 1)), 1u) << "x == y == z: x, negative";
+  EXPECT_EQ(sort::rayFace(vec3(0, -2, 2)), 3u) << "y == z: y";
+  EXPECT_EQ(sort::rayFace(vec3(-0.0f, -0.0f, 0)), 7u) << "zero length";
+  // Face corners and edges land on the grid's corners and edges; the centre on the middle cells.
+  const uint32_t last = (1u << sort::kRayKeyHilbertOrder) - 1, mid = 1u << (sort::kRayKeyHilbertOrder - 1);
+  EXPECT_EQ(sort::rayCell(vec3(1, -1, -1), 0, sort::kRayKeyHilbertOrder), glm::uvec2(0, 0));
+  EXPECT_EQ(sort::rayCell(vec3(1, 1, 1), 0, sort::kRayKeyHilbertOrder), glm::uvec2(last, last));
+  EXPECT_EQ(sort::rayCell(vec3(1, 0, 0), 0, sort::kRayKeyHilbertOrder), glm::uvec2(mid, mid));
+  EXPECT_EQ(sort::rayCell(vec3(-4, 4, -4), 1, sort::kRayKeyHilbertOrder), glm::uvec2(last, 0)) << "-x face: (y, z) / 4";
+  EXPECT_EQ(sort::rayKey(vec3(1, -1, -1)) >> RAY_KEY_FACE_SHIFT, 0u);
+  EXPECT_EQ(sort::rayKey(vec3(0, 0, -1)) >> RAY_KEY_FACE_SHIFT, 5u);
+  // Scaling a direction does not move it.
+  EXPECT_EQ(sort::rayKey(vec3(0.3f, -0.2f, 0.9f)), sort::rayKey(vec3(3, -2, 9) * 0.25f * 0.4f));
+}
+
+TEST(RayKeys, ZeroLengthAndNonFiniteRaysGetTheDegenerateKeyOnBothSides) {
+  const float inf = std::numeric_limits<float>::infinity(), nan = std::numeric_limits<float>::quiet_NaN();
+  std::vector<glm::vec4> dirs = {{0, 0, 0, 0}, {-0.0f, 0, -0.0f, 0}, {inf, 0, 0, 0}, {1, -inf, 0, 0}, {nan, 1, 1, 0}, {1, 1, nan, 0}};
+  std::vector<uint32_t> gpu;
+  gpuHilbert(1, dirs, &gpu);
+  for (size_t i = 0; i < dirs.size(); ++i) {
+    EXPECT_EQ(sort::rayKey(glm::vec3(dirs[i])), sort::kRayKeyDegenerate) << "direction " << i;
+    EXPECT_EQ(gpu[i], sort::kRayKeyDegenerate) << "direction " << i;
+  }
+  // Greater than every real direction's key: degenerate rays sort last.
+  EXPECT_GT(sort::kRayKeyDegenerate, sort::rayKey(glm::vec3(0, 0, -1)) | ((1u << RAY_KEY_FACE_SHIFT) - 1));
+}
+
+TEST(RayKeys, GpuMatchesCpuOnRandomAndFaceBoundaryDirections) {
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<float> u(-1, 1);
+  std::vector<glm::vec4> dirs;
+  for (int i = 0; i < 200000; ++i) dirs.push_back({u(rng), u(rng), u(rng), 0});
+  for (float a : {1.0f, -1.0f})  // exact ties between axes and exact cell edges
+    for (float b : {1.0f, -1.0f, 0.5f, 0.0f, -0.25f})
+      for (float c : {1.0f, -1.0f, 0.0f, 0.125f}) {
+        dirs.push_back({a, b, c, 0});
+        dirs.push_back({b, a, c, 0});
+        dirs.push_back({c, b, a, 0});
+      }
+  std::vector<uint32_t> gpu;
+  gpuHilbert(1, dirs, &gpu);
+  size_t differ = 0;
+  for (size_t i = 0; i < dirs.size(); ++i) {
+    uint32_t want = sort::rayKey(glm::vec3(dirs[i]));
+    ASSERT_EQ(gpu[i] >> RAY_KEY_FACE_SHIFT, want >> RAY_KEY_FACE_SHIFT) << "face of direction " << i;
+    differ += gpu[i] != want;
+  }
+  // Vulkan lets a division be 2.5 ulp off: a GPU may move a direction within ~1e-7 of a cell edge to the
+  // next cell. Lavapipe divides exactly, so there the keys are identical.
+  EXPECT_LE(differ, dirs.size() / 10000) << differ << " keys differ";
+  if (test::context().properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU) {
+    EXPECT_EQ(differ, 0u);
+  }
+}
+
+// ---- lit samples in ray order -------------------------------------------------------------------
+
+struct Frame {
+  uint32_t width, height;
+  GBuffer host;
+  DeviceGBuffer device;
+  glm::vec3 light;
+};
+
+Frame renderBuiltin(const std::string& view, uint32_t width, uint32_t height) {
+  auto& ctx = test::context();
+  static const Scene scene = builtinScene();
+  const Camera* camera = scene.findCamera(view);
+  EXPECT_NE(camera, nullptr) << view;
+  Frame f{width, height, {}, {}, scene.lights.at(0).position};
+  Raster raster(ctx, scene);
+  raster.render(camera ? *camera : scene.cameras.at(0), f.light, width, height, f.device, &f.host);
+  return f;
+}
+
+TEST(LitRays, MatchTheCpuReferenceInEveryOrder) {
+  auto& ctx = test::context();
+  Frame f = renderBuiltin("fur", 200, 130);  // not a multiple of the 64-pixel Morton tile
+  sort::LitRays rays(ctx, f.width, f.height);
+  for (auto order : {sort::RayOrder::Hilbert, sort::RayOrder::ScreenMorton, sort::RayOrder::ScreenRows}) {
+    vk::Commands cmd(ctx);
+    rays.record(cmd, f.device, f.light, order);
+    cmd.submit();
+    std::vector<uint32_t> want = sort::referenceRayOrder(f.host, f.light, order);
+    ASSERT_EQ(rays.readCount(), f.host.litCount()) << sort::rayOrderName(order);
+    ASSERT_GT(want.size(), 1000u);
+    EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), want.size()), want, sort::rayOrderName(order));
+  }
+}
+
+TEST(LitRays, SampleAtTheLightSortsLastAndEqualKeysKeepRowOrder) {
+  auto& ctx = test::context();
+  const glm::vec3 light(0.5f, 2.0f, -1.0f);
+  // A 4x3 G-buffer written by hand: (offset from the light, lit?) per pixel, row-major.
+  const std::vector<std::pair<glm::vec3, bool>> pixels = {
+      {{0, 0, 0}, true},   {{1, 1, 0}, true},    {{0, -3, 0}, true},   {{2, 2, 0}, true},  // at the light; x == y tie
+      {{0, 0, 5}, false},  {{-1, 1, 1}, true},   {{0, 0, -2}, true},   {{0, 0, 0}, true},  // unlit; tie -> x; at light
+      {{1, 0, 0}, true},   {{0, 0, 0}, false},   {{4, 0, 0}, true},    {{0, 1e-3f, 0}, true}};
+  DeviceGBuffer g;
+  g.width = 4, g.height = 3;
+  std::vector<glm::vec4> pos, nrm;
+  for (auto& [offset, lit] : pixels) {
+    pos.push_back(glm::vec4(light + offset, 1.0f));
+    nrm.push_back(glm::vec4(0, 1, 0, lit ? 0.5f : 0.0f));
+  }
+  g.position = vk::createBuffer(ctx, pos.size() * 16), g.normal = vk::createBuffer(ctx, nrm.size() * 16);
+  vk::upload(ctx, g.position, pos.data(), pos.size() * 16);
+  vk::upload(ctx, g.normal, nrm.data(), nrm.size() * 16);
+  GBuffer host{g.width, g.height, pos, nrm};
+
+  sort::LitRays rays(ctx, g.width, g.height);
+  vk::Commands cmd(ctx);
+  rays.record(cmd, g, light, sort::RayOrder::Hilbert);
+  cmd.submit();
+  const uint32_t n = rays.readCount();
+  ASSERT_EQ(n, 10u);
+  std::vector<uint32_t> samples = vk::download<uint32_t>(ctx, rays.samples(), n), keys = vk::download<uint32_t>(ctx, rays.keys(), n);
+  EXPECT_SAME_ARRAY(samples, sort::referenceRayOrder(host, light, sort::RayOrder::Hilbert), "hand-made G-buffer");
+  // Both samples at the light come last, in row order; so do the two +x rays of equal key (pixels 8, 10).
+  EXPECT_EQ(samples[n - 2], 0u);
+  EXPECT_EQ(samples[n - 1], 7u);
+  EXPECT_EQ(keys[n - 1], sort::kRayKeyDegenerate);
+  EXPECT_EQ(keys[n - 2], sort::kRayKeyDegenerate);
+  auto at = [&](uint32_t pixel) { return std::find(samples.begin(), samples.end(), pixel) - samples.begin(); };
+  EXPECT_EQ(at(10), at(8) + 1) << "equal keys keep row-major order";
+  EXPECT_EQ(keys[at(1)] >> RAY_KEY_FACE_SHIFT, 0u) << "x == y goes to +x";
+  EXPECT_EQ(keys[at(5)] >> RAY_KEY_FACE_SHIFT, 1u) << "|x| == |y| == |z| goes to -x";
+}
+
+TEST(LitRays, StepsWithAHostCountMatchTheFusedRecording) {
+  auto& ctx = test::context();
+  Frame f = renderBuiltin("room", 160, 120);
+  sort::LitRays rays(ctx, f.width, f.height);
+  vk::Commands cmd(ctx);
+  rays.recordCompaction(cmd, f.device, sort::RayOrder::ScreenRows);
+  cmd.submit();
+  const uint32_t n = rays.readCount();  // the cone path's one readback per frame
+  rays.recordKeys(cmd, f.device, f.light, n);
+  rays.recordSort(cmd, n);
+  cmd.submit();
+  EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), n),
+                    sort::referenceRayOrder(f.host, f.light, sort::RayOrder::Hilbert), "host-count steps");
+  std::vector<uint32_t> keys = vk::download<uint32_t>(ctx, rays.keys(), n);
+  EXPECT_TRUE(std::is_sorted(keys.begin(), keys.end()));
+}
+
+// Mean angle (radians) between the rays of consecutive samples.
+double meanNeighbourAngle(const GBuffer& g, glm::vec3 light, const std::vector<uint32_t>& samples) {
+  double sum = 0;
+  for (size_t i = 1; i < samples.size(); ++i) {
+    glm::dvec3 a = glm::normalize(glm::dvec3(glm::vec3(g.position[samples[i - 1]]) - light));
+    glm::dvec3 b = glm::normalize(glm::dvec3(glm::vec3(g.position[samples[i]]) - light));
+    sum += std::atan2(glm::length(glm::cross(a, b)), glm::dot(a, b));
+  }
+  return samples.size() > 1 ? sum / double(samples.size() - 1) : 0.0;
+}
+
+TEST(RayKeys, SortedNeighboursAreCloserThanScreenOrder) {
+  auto& ctx = test::context();
+  double sortedSum = 0, screenSum = 0;
+  for (const std::string& view : builtinViewNames()) {
+    Frame f = renderBuiltin(view, 256, 192);
+    sort::LitRays rays(ctx, f.width, f.height);
+    double mean[2];
+    for (int s = 0; s < 2; ++s) {
+      vk::Commands cmd(ctx);
+      rays.record(cmd, f.device, f.light, s == 0 ? sort::RayOrder::Hilbert : sort::RayOrder::ScreenMorton);
+      cmd.submit();
+      mean[s] = meanNeighbourAngle(f.host, f.light, vk::download<uint32_t>(ctx, rays.samples(), rays.readCount()));
+    }
+    std::printf("    view %-8s mean angle between neighbouring rays: sorted %.5f rad, screen order %.5f rad (%.1fx)\n",
+                view.c_str(), mean[0], mean[1], mean[1] / mean[0]);
+    EXPECT_LT(mean[0], mean[1]) << view;
+    sortedSum += mean[0], screenSum += mean[1];
+  }
+  EXPECT_LT(sortedSum, 0.5 * screenSum) << "over all views, sorting at least halves the neighbour angle";
+}
+
+TEST(SortGrid, EveryKernelIsCorrectOnTwoDimensionalGrids) {
+  auto& ctx = test::context();
+  // 10 workgroups per dimension: the scans (98 blocks), compaction and sort (25 tiles) below need rows of them.
+  sort::setGridLimitForTesting(10);
+  struct Reset {
+    ~Reset() { sort::setGridLimitForTesting(0); }
+  } reset;
+  const uint32_t n = 200003;
+  std::vector<uint32_t> in = randomWords(n, 21);
+  vk::Buffer a = gpuArray(ctx, in), b = vk::createBuffer(ctx, n * 4), word = vk::createBuffer(ctx, 16);
+  sort::Scan scan(ctx, n);
+  sort::Compact compact(ctx, n);
+  sort::RadixSort sorter(ctx, n);
+  vk::Commands cmd(ctx);
+  scan.record(cmd, a, b, n);
+  cmd.submit();
+  EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, b, n), exclusiveSum(in), "scan");
+  compact.record(cmd, a, n, b, GpuWord(word, 0));
+  cmd.submit();
+  EXPECT_EQ(vk::download<uint32_t>(ctx, word, 1)[0], uint32_t(n - std::count(in.begin(), in.end(), 0u)));
+  Pairs pairs = withPositions(in);
+  Pairs got = gpuSorted(sorter, pairs), want = stableSorted(pairs);
+  EXPECT_SAME_ARRAY(got.keys, want.keys, "sorted keys");
+  EXPECT_SAME_ARRAY(got.values, want.values, "sorted values");
+  Frame f = renderBuiltin("fur", 300, 200);
+  sort::setGridLimitForTesting(20);  // 235 workgroups of pixels, 320 of Morton positions
+  sort::LitRays rays(ctx, f.width, f.height);
+  for (auto order : {sort::RayOrder::Hilbert, sort::RayOrder::ScreenMorton}) {
+    rays.record(cmd, f.device, f.light, order);
+    cmd.submit();
+    std::vector<uint32_t> ref = sort::referenceRayOrder(f.host, f.light, order);
+    EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), ref.size()), ref, sort::rayOrderName(order));
+  }
+}
+
+}  // namespace
+}  // namespace cs
