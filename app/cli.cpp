@@ -21,13 +21,14 @@ SCENE is a glTF 2.0 file (.gltf or .glb). Without SCENE, render uses the built-i
 with clutter and a furball; views: wall, fur, room, ceiling), and `info builtin` describes it.
 
 render options:
-  --method M          shadow method: embree (the reference itself; more methods as they land)
+  --method M          shadow method: embree (the reference), cone (the cone hierarchy), cubesm, rmsm
   --width W --height H   resolution of the camera pass (default 512x512)
   --view NAME         camera by name (default: the scene's first camera; automatic when it has none)
   --light X,Y,Z       point light position (default: the scene's first point light; automatic if none)
   --out DIR           write shaded_<m>.png, mask_<m>.png, diff_<m>.png, results.json, results.csv (default out)
   --dump DIR          also write position.pfm, normal.pfm, visibility_<m>.pfm, band.pfm, meta.json
   --traversal-memory BYTES   cone path: bound on the traversal's pair buffers (e.g. 64M, 256K)
+  --ray-order O       cone path: hilbert (sorted rays, default) or screen (2x2 Morton screen order)
   --frames N          timed frames after one warm-up; medians are reported (default 3)
   --device D          Vulkan device by index or name substring (see `coneshadow devices`);
                       default: a discrete GPU if there is one, else lavapipe
@@ -129,6 +130,10 @@ Options parseArgs(int argc, char** argv) {
       o.device = value(a);
     } else if (a == "--traversal-memory") {
       o.traversalMemory = parseBytes(a, value(a));
+    } else if (a == "--ray-order") {
+      std::string v = value(a);
+      if (v != "hilbert" && v != "screen") throw UsageError("--ray-order wants hilbert or screen, got '" + v + "'");
+      o.unsorted = v == "screen";
     } else if (a == "--validation") {
       o.validation = true;
     } else if (a == "--quiet") {

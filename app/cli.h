@@ -30,6 +30,7 @@ struct Options {
   uint32_t frames = 3;               // timed frames (after one warm-up); the median is reported
   bool validation = false;           // --validation: VK_LAYER_KHRONOS_validation on
   bool quiet = false;
+  bool unsorted = false;             // --ray-order screen: cone tree over screen order (paper 002's unsorted variants)
   uint64_t traversalMemory = 0;      // --traversal-memory BYTES (cone path); 0 = the method's default
   std::vector<std::string> extra;    // method-specific --key=value settings, passed through
 };

@@ -25,6 +25,7 @@ std::unique_ptr<ShadowMethod> makeMethod(const std::string& name, vk::Context* c
     CS_CHECK(ctx, "the cone method needs a Vulkan device");
     ConeOptions cone;
     if (options.traversalMemory) cone.traversalMemoryBytes = options.traversalMemory;
+    cone.sorted = !options.unsorted;
     return makeConeMethod(*ctx, cone);
   }
 #endif
