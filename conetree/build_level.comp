@@ -1,0 +1,33 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// One depth of the cone tree (002 §3.1, §3.5): node j of this depth encloses its (up to) four children,
+// four consecutive elements of the depth below -- sorted rays when fromLeaves, else nodes.
+// bindings: 0 = positions (vec4 per pixel, the G-buffer), 1 = samples (uint pixel index per sorted ray),
+//           2 = nodes (ConeNode, the whole tree; this depth written, the one below read)
+#include "conetree/cone_math.h"
+
+layout(local_size_x = CONE_BUILD_THREADS) in;
+layout(std430, binding = 0) readonly buffer Positions { vec4 positions[]; };
+layout(std430, binding = 1) readonly buffer Samples { uint samples[]; };
+layout(std430, binding = 2) buffer Nodes { ConeNode nodes[]; };
+layout(push_constant) uniform Push { BuildPush p; };
+
+ConeNode child(uint c) {
+  if (p.fromLeaves != 0u) {
+    vec4 ray = leafRay(positions[samples[c]].xyz, p.light.xyz);
+    return leafRayUsable(ray, p.minLength) ? rayCone(ray) : emptyCone();
+  }
+  return nodes[p.childOffset + c];
+}
+
+void main() {
+  uint j = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * CONE_BUILD_THREADS + gl_LocalInvocationID.x;
+  if (j >= p.count) return;
+  uvec2 r = childRange(j, p.childCount);
+  uint n = r.y - r.x;
+  ConeNode c0 = child(r.x);
+  ConeNode c1 = n > 1u ? child(r.x + 1u) : emptyCone();
+  ConeNode c2 = n > 2u ? child(r.x + 2u) : emptyCone();
+  ConeNode c3 = n > 3u ? child(r.x + 3u) : emptyCone();
+  nodes[p.nodeOffset + j] = coneParent(c0, c1, c2, c3, n);
+}

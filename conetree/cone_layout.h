@@ -1,0 +1,112 @@
+// conetree/: the cone node and the build kernels' push constants, shared by GLSL and C++ (one layout,
+// two languages), plus the implicit 4-way tree's index maths as plain functions both compile.
+//
+// The tree (002 §3.1, §3.5, §4.3). The N sorted rays are the leaves. Parents are formed bottom-up from
+// four consecutive elements of the level below, so the tree is implicit and left-balanced: every node
+// is full except the last one of each level. Levels are counted by depth from the root:
+//   D = treeDepth(N) >= 1             depth of the leaves (interior depths are 0 .. D-1)
+//   levelCount(N, D, d) = ceil(N / 4^(D-d))   nodes at depth d (depth D: the N leaves themselves)
+//   levelOffset(N, D, d)              first slot of depth d in the node array (root at 0, then depth 1...)
+//   children of node j at depth d     j*4 .. min(j*4+3, levelCount(d+1)-1) at depth d+1
+//   leaves under node j at depth d    [j * 4^(D-d), min((j+1) * 4^(D-d), N))   computed, never stored
+// Only interior nodes are stored (levelOffset(N, D, D) of them); a leaf is a sorted sample index, and
+// its ray is rebuilt from the light and the sample's position (conetree/cone_math.h: leafRay).
+//
+// A node is a cone with its apex at the light: unit axis, half-angle alpha in [0, pi] kept as the pair
+// (cos alpha, sin alpha) -- exact on both sides of pi/2, no tangent that blows up -- plus Lmin/Lmax,
+// the shortest and longest ray under it. An empty node (every ray under it degenerate) has Lmax < 0.
+#ifndef CONESHADOW_CONETREE_CONE_LAYOUT_H
+#define CONESHADOW_CONETREE_CONE_LAYOUT_H
+
+#define CONE_BUILD_THREADS 64
+
+#ifdef __cplusplus
+#include <cstddef>
+#include <cstdint>
+
+#include <glm/glm.hpp>
+namespace cs::cone {
+namespace glsl {  // the code below is GLSL; these names let C++ read it as written
+using uint = uint32_t;
+using glm::min;
+using glm::uvec2;
+using glm::vec4;
+#define CONE_FN inline
+#else
+#define CONE_FN
+#endif
+
+struct ConeNode {
+  vec4 axisCos;  // xyz: unit axis (light -> samples); w: cos(half-angle)
+  vec4 sinLen;   // x: sin(half-angle) >= 0; y: Lmin; z: Lmax (< 0: empty node); w: half-angle in radians
+                 //    (approximate: it steers the next merge's axis, never a cull decision)
+};
+
+// Push constants of conetree/build_level.comp: one dispatch builds one depth of the tree.
+struct BuildPush {
+  vec4 light;         // xyz: the point light
+  uint count;         // nodes at this depth
+  uint nodeOffset;    // levelOffset of this depth in the node array
+  uint childCount;    // elements at depth + 1 (sorted rays when fromLeaves)
+  uint childOffset;   // levelOffset of depth + 1 (unused when fromLeaves)
+  uint fromLeaves;    // 1: the children are the sorted rays, else interior nodes
+  float minLength;    // rays not longer than this are degenerate (2 * eps: an empty interval), skipped
+  uint pad0, pad1;
+};
+
+// ---- implicit indexing (pure; unit-tested on the CPU in tests/conetree_test.cpp) -----------------
+
+// Elements at `height` levels above the leaves: ceil(n / 4^height), written without overflow.
+CONE_FN uint countAtHeight(uint n, uint height) {
+  if (n == 0u) return 0u;
+  if (height >= 16u) return 1u;  // a shift by 32 would be undefined
+  return ((n - 1u) >> (2u * height)) + 1u;
+}
+
+// Depth of the leaves: the smallest D >= 1 with 4^D >= n (a single ray still gets a root above it).
+CONE_FN uint treeDepth(uint n) {
+  uint d = 1u;
+  while (countAtHeight(n, d) > 1u) d++;
+  return d;
+}
+
+// Nodes at depth d (0 = root) of a tree with `depth` levels above its n leaves.
+CONE_FN uint levelCount(uint n, uint depth, uint d) { return countAtHeight(n, depth - d); }
+
+// First slot of depth d in the node array; levelOffset(n, depth, depth) = interior node count.
+CONE_FN uint levelOffset(uint n, uint depth, uint d) {
+  uint offset = 0u;
+  for (uint i = 0u; i < d; i++) offset += levelCount(n, depth, i);
+  return offset;
+}
+
+// Children of node j whose own level has `childLevelCount` elements: [first, end).
+CONE_FN uvec2 childRange(uint j, uint childLevelCount) {
+  return uvec2(4u * j, min(4u * j + 4u, childLevelCount));
+}
+
+// Leaves under node j at depth d of a tree with `depth` levels over n leaves: [first, end).
+CONE_FN uvec2 leafRange(uint j, uint n, uint depth, uint d) {
+  uint shift = 2u * (depth - d);
+  return uvec2(j << shift, min((j + 1u) << shift, n));
+}
+
+#ifdef __cplusplus
+}  // namespace glsl
+using glsl::BuildPush;
+using glsl::ConeNode;
+using glsl::childRange;
+using glsl::countAtHeight;
+using glsl::leafRange;
+using glsl::levelCount;
+using glsl::levelOffset;
+using glsl::treeDepth;
+static_assert(sizeof(ConeNode) == 32 && offsetof(ConeNode, sinLen) == 16, "ConeNode layout");
+static_assert(sizeof(BuildPush) == 48 && offsetof(BuildPush, count) == 16 && offsetof(BuildPush, minLength) == 36,
+              "BuildPush layout");
+// Leaf ranges are 32-bit: 4^D must fit, i.e. D <= 15 (n <= 2^30 rays).
+constexpr uint32_t kMaxLeaves = 1u << 30;
+}  // namespace cs::cone
+#endif
+#undef CONE_FN
+#endif

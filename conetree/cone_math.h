@@ -1,0 +1,210 @@
+// conetree/: the cone maths of the tree build -- a leaf's ray rebuilt from the light and its sample, and
+// the enclosing cone of up to four child cones -- as plain functions glslang and C++ both compile: the
+// build kernel runs them, and the tests run the very same source on the CPU.
+//
+// Conservative in fp32 without trusting any transcendental function (Vulkan allows sin/cos 2^-11 of
+// absolute error and atan 4096 ulp):
+//   * The axis of a parent may come from anywhere: it is chosen by merging the children pairwise with
+//     approximate angles (atan/cos/sin), and only steers how tight the cone is.
+//   * The half-angle is then computed for that axis with +, *, sqrt only: for every child,
+//     angle(axis, child axis) + child half-angle as a (cos, sin) pair by the addition formulas, the
+//     largest picked with the well-conditioned sin(a1 - a2) comparison, then widened by
+//     CONE_PAD = atan(2^-16) ~ 1.5e-5 rad: hundreds of times the rounding of those few operations
+//     (~16 ulp = 1e-6 rad), so the stored cone contains every child's stored cone and, by induction,
+//     every leaf ray as the leaf kernel computes it. A sum past pi gives the whole sphere (pi).
+// A leaf ray with length <= minLength (the sample at the light, or within 2 eps of it: an empty
+// interval) or a non-finite one is degenerate: no cone contains it and the leaf test skips it.
+#ifndef CONESHADOW_CONETREE_CONE_MATH_H
+#define CONESHADOW_CONETREE_CONE_MATH_H
+
+#include "conetree/cone_layout.h"
+
+#define CONE_PI 3.14159265358979f
+#define CONE_PAD 1.52587890625e-05f  // 2^-16: the (1, CONE_PAD) rotation widens a half-angle by atan(2^-16)
+#define CONE_FLT_MAX 3.402823466e+38f
+
+#ifdef __cplusplus
+#include <cmath>
+namespace cs::cone {
+namespace glsl {
+using glm::abs;
+using glm::atan;
+using glm::cos;
+using glm::cross;
+using glm::dot;
+using glm::length;
+using glm::max;
+using glm::normalize;
+using glm::sin;
+using glm::sqrt;
+using glm::vec2;
+using glm::vec3;
+#define CONE_FN inline
+#define CONE_PRECISE
+#else
+#define CONE_FN
+#define CONE_PRECISE precise
+#endif
+
+// The leaf ray of a sample: xyz = w = sample - light (light -> sample, exactly as every kernel computes
+// it), w = its length L. Every kernel that needs a leaf ray calls this, so all agree bit for bit.
+CONE_FN vec4 leafRay(vec3 samplePosition, vec3 light) {
+  CONE_PRECISE vec3 w = samplePosition - light;
+  CONE_PRECISE float L = length(w);
+  return vec4(w, L);
+}
+
+// A ray is degenerate (never tested, in no cone) unless its length is finite and above minLength.
+CONE_FN bool leafRayUsable(vec4 ray, float minLength) { return ray.w > minLength && ray.w <= CONE_FLT_MAX; }
+
+CONE_FN ConeNode emptyCone() {
+  ConeNode c;
+  c.axisCos = vec4(0.0f, 0.0f, 1.0f, 1.0f);
+  c.sinLen = vec4(0.0f, CONE_FLT_MAX, -1.0f, 0.0f);
+  return c;
+}
+
+CONE_FN bool coneIsEmpty(ConeNode c) { return !(c.sinLen.z >= 0.0f); }
+
+// The cone of one usable leaf ray: half-angle 0 (the parent's padding absorbs the normalisation).
+CONE_FN ConeNode rayCone(vec4 ray) {
+  ConeNode c;
+  c.axisCos = vec4(vec3(ray) / ray.w, 1.0f);
+  c.sinLen = vec4(0.0f, ray.w, ray.w, 0.0f);
+  return c;
+}
+
+// Some unit vector perpendicular to unit a.
+CONE_FN vec3 anyPerpendicular(vec3 a) {
+  vec3 t = abs(a.x) < 0.57f ? vec3(1.0f, 0.0f, 0.0f) : vec3(0.0f, 1.0f, 0.0f);
+  return normalize(cross(a, t));
+}
+
+// Approximate minimal cone around two cones (axis and the approximate angle in sinLen.w only; the
+// exact pair is computed by coneEnclose). Either may be empty.
+CONE_FN ConeNode coneMergeApprox(ConeNode A, ConeNode B) {
+  if (coneIsEmpty(A)) return B;
+  if (coneIsEmpty(B)) return A;
+  vec3 a1 = vec3(A.axisCos);
+  vec3 a2 = vec3(B.axisCos);
+  float al1 = A.sinLen.w;
+  float al2 = B.sinLen.w;
+  float cosT = dot(a1, a2);
+  vec3 perp = a2 - cosT * a1;
+  float sinT = length(cross(a1, a2));
+  float theta = atan(sinT, cosT);
+  ConeNode r = A;
+  r.sinLen.y = min(A.sinLen.y, B.sinLen.y);
+  r.sinLen.z = max(A.sinLen.z, B.sinLen.z);
+  if (theta + al2 <= al1) return r;  // B inside A
+  if (theta + al1 <= al2) {          // A inside B
+    r.axisCos = B.axisCos;
+    r.sinLen.x = B.sinLen.x;
+    r.sinLen.w = al2;
+    return r;
+  }
+  float alpha = 0.5f * (theta + al1 + al2);
+  if (alpha >= CONE_PI) {
+    r.sinLen.w = CONE_PI;
+    return r;
+  }
+  float beta = alpha - al1;  // rotate a1 towards a2 by beta
+  float pl = length(perp);
+  vec3 dir = pl > 1e-12f ? perp / pl : anyPerpendicular(a1);
+  vec3 axis = cos(beta) * a1 + sin(beta) * dir;
+  float al = length(axis);
+  r.axisCos = vec4(al > 0.5f ? axis / al : a1, 1.0f);
+  r.sinLen.w = alpha;
+  return r;
+}
+
+// (cos, sin) of angle(axis, child axis) + child half-angle, both factors from dot/cross (scale-free).
+// y < 0 when the sum reaches pi: the addition formulas wrap at 2 pi, so sums past pi are caught first by
+// theta + alpha >= pi <=> cos(alpha) <= -cos(theta) (either rounding way is safe: y < 0 near pi anyway).
+CONE_FN vec2 coneReach(vec3 axis, ConeNode child) {
+  vec3 a = vec3(child.axisCos);
+  float ct = dot(axis, a);
+  float st = length(cross(axis, a));
+  float c = child.axisCos.w;
+  float s = child.sinLen.x;
+  if (c + ct <= 0.0f) return vec2(-1.0f, -1.0f);
+  return vec2(ct * c - st * s, st * c + ct * s);
+}
+
+// True when the angle of pair p exceeds that of pair q (both in [0, pi]): sin(p - q) > 0, well
+// conditioned everywhere; it is 0 only for equal angles or for exactly 0 against pi, where cos decides.
+CONE_FN bool angleGreater(vec2 p, vec2 q) {
+  float s = p.y * q.x - p.x * q.y;
+  return s != 0.0f ? s > 0.0f : p.x < q.x;
+}
+
+// Sets the exact (cos, sin) of `node` (whose axis is chosen) so that it contains each child cone,
+// widened by CONE_PAD; the whole sphere when a reach passes pi or anything is not finite.
+CONE_FN ConeNode coneEnclose(ConeNode node, ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, uint n) {
+  vec3 axis = vec3(node.axisCos);
+  vec2 best = vec2(1.0f, 0.0f);
+  bool whole = false;
+  for (uint i = 0u; i < 4u; i++) {
+    if (i >= n) break;
+    ConeNode c = i == 0u ? c0 : (i == 1u ? c1 : (i == 2u ? c2 : c3));
+    if (coneIsEmpty(c)) continue;
+    vec2 p = coneReach(axis, c);
+    if (!(p.y >= 0.0f) || !(abs(p.x) <= CONE_FLT_MAX)) whole = true;  // past pi, or NaN/inf
+    if (angleGreater(p, best)) best = p;
+  }
+  // Widen: rotate by (1, CONE_PAD), i.e. by atan(2^-16).
+  vec2 w = vec2(best.x - CONE_PAD * best.y, best.y + CONE_PAD * best.x);
+  float len = length(w);
+  if (whole || !(w.y >= 0.0f) || !(len > 0.0f) || !(len <= CONE_FLT_MAX)) {
+    node.axisCos.w = -1.0f;
+    node.sinLen.x = 0.0f;
+    node.sinLen.w = CONE_PI;
+    return node;
+  }
+  w = w / len;
+  node.axisCos.w = w.x;
+  node.sinLen.x = w.y;
+  node.sinLen.w = atan(w.y, w.x);
+  return node;
+}
+
+// The parent of up to four children (n = 1..4; entries past n are ignored; empty children skipped).
+CONE_FN ConeNode coneParent(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, uint n) {
+  ConeNode left = c0;
+  if (n > 1u) left = coneMergeApprox(c0, c1);
+  ConeNode right = emptyCone();
+  if (n > 2u) right = c2;
+  if (n > 3u) right = coneMergeApprox(c2, c3);
+  ConeNode merged = coneMergeApprox(left, right);
+  if (coneIsEmpty(merged)) return emptyCone();
+  // Lmin/Lmax over the children (exact: min and max do not round).
+  float lmin = CONE_FLT_MAX, lmax = -1.0f;
+  for (uint i = 0u; i < 4u; i++) {
+    if (i >= n) break;
+    ConeNode c = i == 0u ? c0 : (i == 1u ? c1 : (i == 2u ? c2 : c3));
+    if (coneIsEmpty(c)) continue;
+    lmin = min(lmin, c.sinLen.y);
+    lmax = max(lmax, c.sinLen.z);
+  }
+  merged.sinLen.y = lmin;
+  merged.sinLen.z = lmax;
+  return coneEnclose(merged, c0, c1, c2, c3, n);
+}
+
+#ifdef __cplusplus
+}  // namespace glsl
+using glsl::angleGreater;
+using glsl::coneEnclose;
+using glsl::coneIsEmpty;
+using glsl::coneMergeApprox;
+using glsl::coneParent;
+using glsl::coneReach;
+using glsl::emptyCone;
+using glsl::leafRay;
+using glsl::leafRayUsable;
+using glsl::rayCone;
+}  // namespace cs::cone
+#endif
+#undef CONE_FN
+#undef CONE_PRECISE
+#endif

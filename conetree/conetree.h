@@ -1,0 +1,55 @@
+// conetree/: the cone hierarchy over the shadow rays of one frame (002 §3.1, §3.5, §4.3). The leaves are
+// the sorted rays -- a pixel index each, nothing more: a leaf's ray is rebuilt from the light and the
+// sample's position (leafRay in cone_math.h). Interior nodes are cones with their apex at the light
+// (ConeNode in cone_layout.h), built bottom-up four consecutive elements at a time, one dispatch per depth,
+// into an implicit left-balanced 4-way tree whose index maths (levels, children, leaf ranges) is in
+// cone_layout.h. Knows nothing about who walks the tree.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "conetree/cone_layout.h"
+#include "vk/context.h"
+
+namespace cs::cone {
+
+// The shape of the implicit tree over `leaves` rays (pure; leaves >= 1).
+struct TreeShape {
+  uint32_t leaves = 0;
+  uint32_t depth = 0;                 // depth of the leaves (treeDepth); interior depths 0 .. depth-1
+  std::vector<uint32_t> counts;       // counts[d] = elements at depth d, d = 0 .. depth (counts[depth] = leaves)
+  std::vector<uint32_t> offsets;      // offsets[d] = first slot of depth d in the node array, d = 0 .. depth
+  uint32_t nodes() const { return offsets.empty() ? 0 : offsets.back(); }  // interior nodes stored
+};
+TreeShape treeShape(uint32_t leaves);
+
+class ConeTree {
+ public:
+  explicit ConeTree(vk::Context& ctx);
+
+  // Records the build over the first `count` entries of `samples` (pixel indices in ray order) whose
+  // positions are in `positions` (vec4 per pixel): one dispatch per depth, bottom-up, a barrier after each.
+  // Rays not longer than minLength (2 eps: an empty hit interval) or not finite are in no cone.
+  // Grows the node buffer when needed; count must be >= 1 and <= kMaxLeaves.
+  void record(vk::Commands& cmd, const vk::BufferRange& positions, const vk::BufferRange& samples, uint32_t count,
+              glm::vec3 light, float minLength);
+
+  const TreeShape& shape() const { return shape_; }
+  const vk::Buffer& nodes() const { return nodes_; }
+  uint64_t bytesAllocated() const { return nodes_.size; }
+
+ private:
+  vk::Context& ctx_;
+  vk::Kernel build_;
+  vk::Buffer nodes_;
+  TreeShape shape_;
+};
+
+// CPU reference of the same build (tests): the whole node array for rays from `light` to
+// positions[samples[i]], computed by the same source as the kernel (cone_math.h).
+std::vector<ConeNode> buildTreeOnHost(const std::vector<glm::vec4>& positions, const std::vector<uint32_t>& samples,
+                                      glm::vec3 light, float minLength);
+
+}  // namespace cs::cone

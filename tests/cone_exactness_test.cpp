@@ -1,0 +1,348 @@
+// The cone path's claim (issue 4): on every lit sample outside the ambiguity band, its mask equals the
+// Embree reference's. Small renders of the built-in scene from every named view, of glTF models on a
+// ground plane, and of the hard cases, each from a few lights; no NaN or inf ever reaches the mask.
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "eval/metrics.h"
+#include "raster/raster.h"
+#include "reference/embree_reference.h"
+#include "reference/epsilon.h"
+#include "tests/test_context.h"
+#include "traversal/cone_method.h"
+
+namespace cs {
+namespace {
+
+using glm::vec3;
+
+struct CaseResult {
+  ErrorStats error;
+  uint64_t shadowed = 0;  // samples the cone method shadowed
+  nlohmann::json stats;
+};
+
+// One shared Embree device and cone method for the whole file: frames of different scenes in a row, as
+// an application would send them.
+struct Harness {
+  std::shared_ptr<EmbreeDevice> device = std::make_shared<EmbreeDevice>();
+  EmbreeReference embree{device};
+  std::unique_ptr<ShadowMethod> cone;
+
+  static Harness& get() {
+    static vk::Context& ctx = test::context();  // constructed first, so destroyed after the harness
+    (void)ctx;
+    static Harness h;
+    if (!h.cone) h.cone = makeConeMethod(test::context());
+    return h;
+  }
+
+  // coneScene: what the cone method gets, when not `scene` (raster and reference always get `scene`).
+  CaseResult run(const Scene& scene, const Camera& camera, vec3 light, uint32_t w, uint32_t h,
+                 const std::string& what, const Scene* coneScene = nullptr) {
+    auto& ctx = test::context();
+    Raster raster(ctx, scene);
+    DeviceGBuffer dev;
+    GBuffer host;
+    raster.render(camera, light, w, h, dev, &host);
+    const EpsilonPolicy policy = EpsilonPolicy::forScene(scene);
+    FrameInput frame;
+    frame.scene = &scene;
+    frame.gbuffer = &host;
+    frame.device = &dev;
+    frame.vk = &ctx;
+    frame.light = light;
+    frame.epsilon = policy.eps;
+    MethodOutput ref = embree.run(frame);
+    if (coneScene) frame.scene = coneScene;
+    MethodOutput mine = cone->run(frame);
+    std::vector<uint8_t> band = embree.ambiguityBand(scene, host, light, policy);
+    CaseResult r;
+    r.stats = mine.stats;
+    EXPECT_EQ(mine.visibility.size(), host.size()) << what;
+    for (size_t i = 0; i < mine.visibility.size(); ++i) {
+      const float v = mine.visibility[i];
+      if (!(v == 0.0f || v == 1.0f)) {
+        ADD_FAILURE() << what << ": visibility " << v << " at pixel " << i << " (only 0 and 1 may appear)";
+        break;
+      }
+      if (!host.isLit(i)) {
+        EXPECT_EQ(v, 1.0f) << what << ": a sample that is not lit must stay 1, pixel " << i;
+      }
+      r.shadowed += host.isLit(i) && v == 0.0f;
+    }
+    r.error = compareVisibility(host, mine.visibility, ref.visibility, band);
+    std::ostringstream detail;
+    int shown = 0;
+    for (size_t i = 0; i < host.size() && shown < 5; ++i) {
+      if (!host.isLit(i) || band[i] || (mine.visibility[i] >= 0.5f) == (ref.visibility[i] >= 0.5f)) continue;
+      glm::vec4 p = host.position[i];
+      detail << "\n  pixel (" << i % w << ", " << i / w << ") at (" << p.x << ", " << p.y << ", " << p.z
+             << "): cone " << mine.visibility[i] << ", embree " << ref.visibility[i];
+      shown++;
+    }
+    EXPECT_EQ(r.error.misclassifiedOutsideBand, 0u)
+        << what << ": " << r.error.falseShadowOutsideBand << " false shadow, " << r.error.falseLightOutsideBand
+        << " false light outside the band (of " << r.error.litSamples << " lit, " << r.error.bandSamples
+        << " in the band)" << detail.str();
+    std::printf("  %-58s lit %6llu shadowed %6llu band %5llu | in band: %llu fs %llu fl | pairs %llu leaf tests %llu\n",
+                what.c_str(), (unsigned long long)r.error.litSamples, (unsigned long long)r.shadowed,
+                (unsigned long long)r.error.bandSamples, (unsigned long long)r.error.falseShadow,
+                (unsigned long long)r.error.falseLight, (unsigned long long)mine.stats["pairs_tested"].get<uint64_t>(),
+                (unsigned long long)mine.stats["leaf_tests"].get<uint64_t>());
+    return r;
+  }
+};
+
+Camera lookAt(vec3 eye, vec3 target, float yfov = 0.9f) {
+  Camera c;
+  c.eye = eye;
+  c.target = target;
+  c.yfov = yfov;
+  c.znear = 0.01f;
+  c.zfar = 1e4f;
+  return c;
+}
+
+// ---- the built-in scene -------------------------------------------------------------------------------
+
+TEST(ConeExactness, BuiltinSceneFromEveryViewAndTwoLights) {
+  Scene scene = builtinScene();
+  ASSERT_FALSE(scene.lights.empty());
+  const vec3 lights[] = {
+      scene.lights[0].position,
+      vec3(-6.0f, 0.02f, 3.5f),  // 2 cm above the floor, under the table's side: grazing, wide cones
+  };
+  for (const std::string& view : builtinViewNames()) {
+    const Camera* cam = scene.findCamera(view);
+    ASSERT_NE(cam, nullptr) << view;
+    for (vec3 light : lights) {
+      std::string what = "builtin/" + view + " light (" + std::to_string(light.x) + ", " + std::to_string(light.y) +
+                         ", " + std::to_string(light.z) + ")";
+      CaseResult r = Harness::get().run(scene, *cam, light, 128, 128, what);
+      EXPECT_GT(r.error.litSamples, 1000u) << what;
+    }
+  }
+}
+
+// ---- glTF models ----------------------------------------------------------------------------------------
+
+// The model on a ground plane a little below its bounds, so it casts shadows on something.
+Scene onGround(Scene s) {
+  s.computeBounds();
+  const vec3 lo = s.boundsMin, hi = s.boundsMax, c = 0.5f * (lo + hi);
+  const float r = 2.0f * glm::length(hi - lo);
+  const float y = lo.y - 0.01f * (hi.y - lo.y);
+  const uint32_t b = uint32_t(s.positions.size());
+  s.positions.insert(s.positions.end(), {{c.x - r, y, c.z - r}, {c.x + r, y, c.z - r}, {c.x + r, y, c.z + r}, {c.x - r, y, c.z + r}});
+  s.normals.insert(s.normals.end(), 4, vec3(0, 1, 0));
+  s.indices.insert(s.indices.end(), {b, b + 2, b + 1, b, b + 3, b + 2});
+  s.computeBounds();
+  return s;
+}
+
+struct ModelCase {
+  const char* file;
+  uint32_t size;
+};
+
+TEST(ConeExactness, GltfModelsOnAGroundPlaneFromTwoLightsOneCloseToASurface) {
+  const ModelCase models[] = {
+      {"2CylinderEngine-glTF-Binary/2CylinderEngine.glb", 128},
+      {"ClearCoat-glTF/ClearCoatTest.gltf", 128},
+      {"textureTransform/TextureTransformTest.gltf", 96},
+      {"glTF-Sample-Models/AnimatedMorphCube-glTF/AnimatedMorphCube.gltf", 96},
+  };
+  for (const ModelCase& m : models) {
+    std::ostringstream warn;
+    Scene model = loadGltf(std::string(CONESHADOW_ASSIMP_MODELS) + "/" + m.file, warn);
+    model.computeBounds();
+    const vec3 lo = model.boundsMin, hi = model.boundsMax, c = 0.5f * (lo + hi), ext = hi - lo;
+    Scene scene = onGround(model);
+    const float diag = glm::length(ext);
+    Camera cam = lookAt(c + vec3(0.55f, 0.45f, 0.7f) * diag, c, 0.8f);
+    // Above the model; and just above the ground plane, beside the model (1e-3 of the diagonal).
+    const vec3 lights[] = {c + vec3(0.2f * ext.x, 0.9f * diag, 0.3f * ext.z),
+                           vec3(c.x + 0.3f * ext.x, lo.y + 1e-3f * diag, c.z + 0.45f * ext.z)};
+    for (vec3 light : lights) {
+      std::string what = std::string(m.file) + " light y=" + std::to_string(light.y);
+      CaseResult r = Harness::get().run(scene, cam, light, m.size, m.size, what);
+      EXPECT_GT(r.error.litSamples, 500u) << what;
+    }
+  }
+}
+
+// ---- hard cases -----------------------------------------------------------------------------------------
+
+Scene soup(const std::vector<vec3>& positions, const char* name) {
+  Scene s;
+  s.name = name;
+  s.positions = positions;
+  for (uint32_t i = 0; i < positions.size(); ++i) s.indices.push_back(i);
+  // Flat normals (every triangle has its own three vertices); degenerate triangles get +y.
+  s.normals.assign(positions.size(), vec3(0, 1, 0));
+  for (size_t t = 0; t + 2 < positions.size(); t += 3) {
+    vec3 n = glm::cross(positions[t + 1] - positions[t], positions[t + 2] - positions[t]);
+    float l = glm::length(n);
+    if (l > 0 && std::isfinite(l)) s.normals[t] = s.normals[t + 1] = s.normals[t + 2] = n / l;
+  }
+  s.computeBounds();
+  return s;
+}
+
+void addQuad(std::vector<vec3>& p, vec3 o, vec3 u, vec3 v) {
+  p.insert(p.end(), {o, o + u, o + u + v, o, o + u + v, o + v});
+}
+
+// A floor with a few casters above it: boxes, a pyramid, a sloped card.
+std::vector<vec3> floorAndCasters(float size = 10) {
+  std::vector<vec3> p;
+  addQuad(p, {-size, 0, -size}, {2 * size, 0, 0}, {0, 0, 2 * size});
+  auto box = [&](vec3 lo, vec3 hi) {
+    vec3 d = hi - lo;
+    addQuad(p, lo, {d.x, 0, 0}, {0, d.y, 0});
+    addQuad(p, lo + vec3(0, 0, d.z), {d.x, 0, 0}, {0, d.y, 0});
+    addQuad(p, lo, {0, 0, d.z}, {0, d.y, 0});
+    addQuad(p, lo + vec3(d.x, 0, 0), {0, 0, d.z}, {0, d.y, 0});
+    addQuad(p, lo + vec3(0, d.y, 0), {d.x, 0, 0}, {0, 0, d.z});
+    addQuad(p, lo, {d.x, 0, 0}, {0, 0, d.z});
+  };
+  box({-3, 0.5f, -2}, {-1, 1.5f, 0});
+  box({1, 0, 1}, {2.5f, 3, 2});
+  addQuad(p, {0, 1, -3}, {2, 0.5f, 0}, {0, 1.5f, 1});
+  return p;
+}
+
+TEST(ConeHardCases, LightAHairAwayFromALargeWall) {
+  // Light 1e-4 from a huge wall (z = 0), the camera looking at the wall and the floor: the cones of the
+  // wall's own samples are nearly hemispheres (past pi/2 - eps: the complementary-cone path).
+  std::vector<vec3> p = floorAndCasters();
+  addQuad(p, {-10, 0, -4}, {20, 0, 0}, {0, 8, 0});  // the wall z = -4
+  Scene scene = soup(p, "hair-wall");
+  const vec3 light(0.4f, 2.0f, -4.0f + 1e-4f);
+  for (vec3 eye : {vec3(0.5f, 3, 6), vec3(6, 1, -2)}) Harness::get().run(scene, lookAt(eye, {0, 1.5f, -4}), light, 128, 128, "hair-wall");
+}
+
+TEST(ConeHardCases, LightExactlyInATrianglesPlane) {
+  // The light at y = 1 exactly, in the plane of a horizontal card at y = 1 and of the floor's extension;
+  // the card's own samples see rays that lie in its plane.
+  std::vector<vec3> p = floorAndCasters();
+  addQuad(p, {-4, 1, 2}, {3, 0, 0}, {0, 0, 2});      // horizontal card at y = 1
+  addQuad(p, {2, 0, -6}, {0, 5, 0}, {3, 0, 0});      // vertical card in the plane x = 2 ...
+  Scene scene = soup(p, "light-in-plane");
+  for (vec3 light : {vec3(0.3f, 1.0f, 2.7f), vec3(2.0f, 2.2f, -1.0f)})  // ... whose plane holds the second light
+    Harness::get().run(scene, lookAt({5, 6, 8}, {0, 0.5f, 0}), light, 128, 128, "light-in-plane");
+}
+
+TEST(ConeHardCases, SampleAtTheLight) {
+  // The light sits exactly on the floor (y = 0) and on a box corner: samples at (or within eps of) the
+  // light have empty rays and must stay lit, with no NaN anywhere.
+  std::vector<vec3> p = floorAndCasters();
+  Scene scene = soup(p, "sample-at-light");
+  // On the floor (the camera sees the box faces turned to the light), and on a box corner.
+  const vec3 onFloor(0.25f, 0.0f, 0.25f), onCorner(-1.0f, 1.5f, 0.0f);
+  for (auto [light, eye] : {std::pair{onFloor, vec3(-3, 2.5f, -5)}, std::pair{onCorner, vec3(0.3f, 3, 3)},
+                            std::pair{onCorner, vec3(-0.5f, 2.5f, 1.5f)}}) {
+    CaseResult r = Harness::get().run(scene, lookAt(eye, light), light, 128, 128, "sample-at-light");
+    EXPECT_GT(r.error.litSamples, 300u);
+  }
+}
+
+TEST(ConeHardCases, SliversAndZeroAreaTriangles) {
+  std::vector<vec3> p = floorAndCasters();
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-1, 1);
+  for (int i = 0; i < 400; ++i) {
+    vec3 a(u(rng) * 4, 1.5f + u(rng), u(rng) * 4), d(u(rng), u(rng) * 0.2f, u(rng));
+    switch (i % 4) {
+      case 0: p.insert(p.end(), {a, a + d, a + d * 0.5f}); break;                           // collinear
+      case 1: p.insert(p.end(), {a, a, a + d}); break;                                       // repeated vertex
+      case 2: p.insert(p.end(), {a, a, a}); break;                                           // a point
+      default: p.insert(p.end(), {a, a + d, a + 0.5f * d + vec3(0, 1e-4f, 0)}); break;     // sliver
+    }
+  }
+  Scene scene = soup(p, "slivers");
+  Harness::get().run(scene, lookAt({5, 6, 8}, {0, 0.5f, 0}), vec3(0.3f, 4.0f, 0.5f), 128, 128, "slivers");
+}
+
+TEST(ConeHardCases, SceneTranslatedFarFromTheOrigin) {
+  const vec3 offset(1e5f, -1e5f, 1e5f);
+  std::vector<vec3> p = floorAndCasters();
+  for (vec3& v : p) v += offset;
+  Scene scene = soup(p, "translated");
+  Camera cam = lookAt(offset + vec3(5, 6, 8), offset + vec3(0, 0.5f, 0));
+  Harness::get().run(scene, cam, offset + vec3(0.3f, 4.0f, 0.5f), 128, 128, "translated 1e5");
+}
+
+TEST(ConeHardCases, CoplanarAndTouchingOccluders) {
+  std::vector<vec3> p = floorAndCasters();
+  // Two coplanar cards sharing an edge, a third overlapping them in the same plane, and a box resting
+  // on the floor (touching it along its bottom face).
+  addQuad(p, {-2, 2, -1}, {2, 0, 0}, {0, 0, 2});
+  addQuad(p, {0, 2, -1}, {2, 0, 0}, {0, 0, 2});
+  addQuad(p, {-1, 2, 0}, {2, 0, 0}, {0, 0, 2});
+  addQuad(p, {-4, 0, 3}, {1, 0, 0}, {0, 1, 0});
+  addQuad(p, {-4, 0, 3}, {0, 0, 1}, {0, 1, 0});
+  Scene scene = soup(p, "coplanar");
+  Harness::get().run(scene, lookAt({5, 6, 8}, {0, 0.5f, 0}), vec3(0.1f, 4.0f, 0.2f), 128, 128, "coplanar");
+}
+
+TEST(ConeHardCases, LightInsideAClosedMesh) {
+  // A closed box around the light, the camera inside it too: every sample is shadowed by nothing but
+  // itself, except that the casters inside the box shadow the walls.
+  std::vector<vec3> p;
+  auto box = [&](vec3 lo, vec3 hi) {
+    vec3 d = hi - lo;
+    addQuad(p, lo, {d.x, 0, 0}, {0, d.y, 0});
+    addQuad(p, lo + vec3(0, 0, d.z), {d.x, 0, 0}, {0, d.y, 0});
+    addQuad(p, lo, {0, 0, d.z}, {0, d.y, 0});
+    addQuad(p, lo + vec3(d.x, 0, 0), {0, 0, d.z}, {0, d.y, 0});
+    addQuad(p, lo + vec3(0, d.y, 0), {d.x, 0, 0}, {0, 0, d.z});
+    addQuad(p, lo, {d.x, 0, 0}, {0, 0, d.z});
+  };
+  box({-5, 0, -5}, {5, 5, 5});
+  box({1, 1, 1}, {2, 2, 2});
+  box({-2, 3, -1}, {-1, 3.5f, 1});
+  Scene scene = soup(p, "closed");
+  Harness::get().run(scene, lookAt({-4, 4, 4}, {0, 1.5f, 0}, 1.3f), vec3(0.2f, 2.5f, 0.3f), 128, 128, "light inside");
+  // And the light inside a closed box seen from outside: everything outside is shadowed.
+  Harness::get().run(scene, lookAt({3, 3.8f, 3}, {0, 0, 0}, 1.3f), vec3(1.5f, 1.5f, 1.5f), 96, 96, "light in the small box");
+}
+
+TEST(ConeHardCases, OneHugeTriangleCoveringTheView) {
+  // One triangle (z = 0) far larger than the view, a second one between it and the light, far enough
+  // from both that the epsilon (1e-4 of the 5.6e3 diagonal) does not swallow it.
+  std::vector<vec3> p = {{-2e3f, -2e3f, 0}, {2e3f, -2e3f, 0}, {0, 2e3f, 0}, {-20, -15, 40}, {25, -10, 40}, {0, 20, 40}};
+  Scene scene = soup(p, "huge");
+  const Camera cam = lookAt({10, 5, 300}, {0, 0, 0});
+  CaseResult r = Harness::get().run(scene, cam, vec3(3, 2, 80), 128, 128, "huge");
+  EXPECT_GT(r.shadowed, 200u);  // the occluder's shadow: ~3 % of the view
+  // Only the huge triangle: nothing can shadow it; and a light a hair above it.
+  Scene alone = soup({p[0], p[1], p[2]}, "huge alone");
+  r = Harness::get().run(alone, cam, vec3(3, 2, 80), 64, 64, "huge alone");
+  EXPECT_EQ(r.shadowed, 0u);
+  Harness::get().run(scene, cam, vec3(3, 2, 1e-2f), 128, 128, "huge, light a hair above");
+}
+
+TEST(ConeHardCases, NonFiniteTrianglesAreDroppedAsEmbreeDropsThem) {
+  // The loader refuses non-finite files; a scene built in code may still carry such triangles. The cone
+  // method drops them (Embree's builder skips them too); raster and reference see the finite scene.
+  std::vector<vec3> p = floorAndCasters();
+  Scene scene = soup(p, "finite");
+  p.insert(p.end(), {{NAN, 1, 1}, {1, 2, 1}, {1, 1, 2}, {INFINITY, 1, 1}, {1, 2, 1}, {1, 1, 2}});
+  Scene withNonFinite = soup(p, "non-finite");
+  CaseResult r = Harness::get().run(scene, lookAt({5, 6, 8}, {0, 0.5f, 0}), vec3(0.3f, 4.0f, 0.5f), 96, 96,
+                                    "non-finite", &withNonFinite);
+  EXPECT_EQ(r.stats["triangles_dropped"].get<uint64_t>(), 2u);
+}
+
+}  // namespace
+}  // namespace cs

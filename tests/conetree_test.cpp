@@ -1,0 +1,228 @@
+// conetree/: the implicit tree's index maths against an explicitly built tree, the enclosing-cone maths
+// on random and degenerate cones, and the GPU build: every leaf ray lies inside every ancestor cone and
+// within its [Lmin, Lmax].
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "conetree/cone_math.h"
+#include "conetree/conetree.h"
+#include "tests/test_context.h"
+
+namespace cs {
+namespace {
+
+using cone::ConeNode;
+
+// Angle between two fp32 vectors, in double (scale-free).
+double angleBetween(glm::vec3 a, glm::vec3 b) {
+  glm::dvec3 x(a), y(b);
+  return std::atan2(glm::length(glm::cross(x, y)), glm::dot(x, y));
+}
+// The half-angle a stored cone stands for: atan2 of its fp32 (sin, cos) pair, in double.
+double halfAngle(const ConeNode& c) { return std::atan2(double(c.sinLen.x), double(c.axisCos.w)); }
+
+TEST(ConeTree, ImplicitIndexingMatchesAnExplicitlyGroupedTree) {
+  std::vector<uint32_t> sizes = {1, 2, 3, 4, 5, 15, 16, 17, 63, 64, 65, 255, 256, 257, 1000, 4095, 4096, 4097, 65537};
+  for (uint32_t n : sizes) {
+    const uint32_t D = cone::treeDepth(n);
+    ASSERT_GE(D, 1u);
+    // 4^D >= n > 4^(D-1) (except n <= 4, where D = 1)
+    EXPECT_GE(uint64_t(1) << (2 * D), n);
+    if (n > 4) {
+      EXPECT_LT(uint64_t(1) << (2 * (D - 1)), n);
+    }
+    // Group explicitly, four consecutive elements at a time, recording each node's leaf range.
+    std::vector<std::vector<std::pair<uint32_t, uint32_t>>> ranges(D + 1);
+    for (uint32_t i = 0; i < n; ++i) ranges[D].push_back({i, i + 1});
+    for (uint32_t d = D; d-- > 0;) {
+      auto& below = ranges[d + 1];
+      for (size_t j = 0; j < below.size(); j += 4)
+        ranges[d].push_back({below[j].first, below[std::min(j + 4, below.size()) - 1].second});
+    }
+    ASSERT_EQ(ranges[0].size(), 1u) << n;
+    EXPECT_EQ(ranges[0][0], std::make_pair(0u, n));
+    const cone::TreeShape s = cone::treeShape(n);
+    uint32_t offset = 0;
+    for (uint32_t d = 0; d <= D; ++d) {
+      ASSERT_EQ(cone::levelCount(n, D, d), ranges[d].size()) << "n=" << n << " d=" << d;
+      EXPECT_EQ(s.counts[d], ranges[d].size());
+      EXPECT_EQ(cone::levelOffset(n, D, d), offset);
+      EXPECT_EQ(s.offsets[d], offset);
+      offset += uint32_t(ranges[d].size());
+      for (uint32_t j = 0; j < ranges[d].size(); ++j) {
+        glm::uvec2 r = cone::leafRange(j, n, D, d);
+        EXPECT_EQ(r.x, ranges[d][j].first) << "n=" << n << " d=" << d << " j=" << j;
+        EXPECT_EQ(r.y, ranges[d][j].second) << "n=" << n << " d=" << d << " j=" << j;
+        if (d < D) {  // children: consecutive, and their leaf ranges tile the parent's
+          glm::uvec2 c = cone::childRange(j, uint32_t(ranges[d + 1].size()));
+          ASSERT_LT(c.x, c.y);
+          EXPECT_EQ(ranges[d + 1][c.x].first, r.x);
+          EXPECT_EQ(ranges[d + 1][c.y - 1].second, r.y);
+        }
+      }
+    }
+    EXPECT_EQ(s.nodes(), offset - n) << "interior nodes = all elements but the leaves";
+  }
+}
+
+TEST(ConeTree, ShapeOfTheLargestTreesDoesNotOverflow) {
+  for (uint32_t n : {(1u << 24) + 1, 1u << 28, (1u << 30) - 1, 1u << 30}) {
+    const cone::TreeShape s = cone::treeShape(n);
+    EXPECT_EQ(s.counts[0], 1u);
+    EXPECT_EQ(s.counts[s.depth], n);
+    glm::uvec2 last = cone::leafRange(s.counts[1] - 1, n, s.depth, 1);
+    EXPECT_EQ(last.y, n);
+    EXPECT_LT(last.x, last.y);
+  }
+  EXPECT_THROW(cone::treeShape(0), Error);
+  EXPECT_THROW(cone::treeShape((1u << 30) + 1), Error);
+}
+
+// A cone (axis, half-angle) as the tree stores it.
+ConeNode makeCone(glm::dvec3 axis, double alpha, float lmin, float lmax) {
+  ConeNode c;
+  glm::dvec3 a = glm::normalize(axis);
+  c.axisCos = glm::vec4(glm::vec3(a), float(std::cos(alpha)));
+  c.sinLen = glm::vec4(float(std::sin(alpha)), lmin, lmax, float(alpha));
+  if (alpha >= M_PI) c.axisCos.w = -1.0f, c.sinLen.x = 0.0f;
+  return c;
+}
+
+TEST(ConeMath, ParentEnclosesEveryChildConeIncludingWideAndOpposite) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1), u01(0, 1);
+  auto dir = [&] {
+    for (;;) {
+      glm::dvec3 p(u(rng), u(rng), u(rng));
+      if (glm::length(p) > 0.1 && glm::length(p) <= 1) return glm::normalize(p);
+    }
+  };
+  const double angles[] = {0, 1e-7, 1e-4, 0.01, 0.5, M_PI / 2 - 1e-4, M_PI / 2, 2.0, M_PI - 1e-3, M_PI};
+  int wholeSpheres = 0;
+  for (int iter = 0; iter < 20000; ++iter) {
+    ConeNode c[4];
+    uint32_t n = 1 + iter % 4;
+    glm::dvec3 base = dir();
+    for (uint32_t i = 0; i < 4; ++i) {
+      glm::dvec3 a = iter % 5 == 0 ? dir() : glm::normalize(base + dir() * std::pow(10.0, -6 * u01(rng)));
+      if (iter % 7 == 0 && i == 1) a = -glm::dvec3(glm::vec3(c[0].axisCos));  // exactly opposite
+      double alpha = iter % 3 == 0 ? angles[rng() % 10] : u01(rng) * u01(rng) * 0.1;
+      c[i] = makeCone(a, alpha, float(1 + i), float(2 + i));
+      if (iter % 11 == 0 && i == 2) c[i] = cone::emptyCone();
+    }
+    ConeNode p = cone::coneParent(c[0], c[1], c[2], c[3], n);
+    double pa = halfAngle(p);
+    EXPECT_NEAR(glm::length(glm::vec3(p.axisCos)), 1.0, 1e-6);
+    EXPECT_NEAR(double(p.axisCos.w) * p.axisCos.w + double(p.sinLen.x) * p.sinLen.x, 1.0, 1e-6);
+    wholeSpheres += pa >= M_PI;
+    for (uint32_t i = 0; i < n; ++i) {
+      if (cone::coneIsEmpty(c[i])) continue;
+      double reach = angleBetween(glm::vec3(p.axisCos), glm::vec3(c[i].axisCos)) + halfAngle(c[i]);
+      ASSERT_LE(std::min(reach, M_PI), pa)
+          << "iter " << iter << " child " << i << " of " << n << ": theta "
+          << angleBetween(glm::vec3(p.axisCos), glm::vec3(c[i].axisCos)) << " child angle " << halfAngle(c[i])
+          << " (cos " << c[i].axisCos.w << ", sin " << c[i].sinLen.x << ")";
+      EXPECT_LE(p.sinLen.y, c[i].sinLen.y);
+      EXPECT_GE(p.sinLen.z, c[i].sinLen.z);
+    }
+  }
+  EXPECT_GT(wholeSpheres, 0) << "opposite children must give the whole sphere";
+  // All children empty -> an empty parent.
+  ConeNode e = cone::emptyCone();
+  EXPECT_TRUE(cone::coneIsEmpty(cone::coneParent(e, e, e, e, 4)));
+}
+
+// Sample positions for a tree test: coherent patches (a wall seen from a camera), scattered points,
+// and degenerate samples at (or within 2 eps of) the light, with NaN among them.
+std::vector<glm::vec4> samplePositions(uint32_t n, glm::vec3 light, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-1, 1);
+  std::vector<glm::vec4> p(n);
+  for (uint32_t i = 0; i < n; ++i) {
+    switch (i % 9) {
+      case 0: p[i] = glm::vec4(u(rng) * 50, u(rng) * 50, u(rng) * 50, 1); break;        // scattered
+      case 1: p[i] = glm::vec4(light + glm::vec3(u(rng), u(rng), u(rng)) * 1e-3f, 1); break;  // near the light
+      case 2: p[i] = glm::vec4(light, 1); break;                                           // at the light
+      default: p[i] = glm::vec4(float(i % 97) * 0.01f, float(i / 97) * 0.01f, 3.0f, 1); break;  // a wall
+    }
+  }
+  if (n > 20) p[17] = glm::vec4(NAN, 0, 0, 1);
+  return p;
+}
+
+TEST(ConeTree, EveryLeafRayInsideEveryAncestorOnTheGpu) {
+  auto& ctx = test::context();
+  const glm::vec3 light(0.3f, -0.2f, 0.1f);
+  const float minLength = 2e-4f;
+  cone::ConeTree tree(ctx);
+  for (uint32_t n : {1u, 3u, 4u, 5u, 16u, 17u, 1000u, 4096u, 4097u, 30001u}) {
+    std::vector<glm::vec4> pos = samplePositions(n, light, n);
+    std::vector<uint32_t> order(n);
+    for (uint32_t i = 0; i < n; ++i) order[i] = uint32_t(uint64_t(i) * 7919u % n);  // a permutation (n < 7919 or coprime)
+    vk::Buffer positions = vk::createBuffer(ctx, pos.size() * sizeof(glm::vec4));
+    vk::Buffer samples = vk::createBuffer(ctx, order.size() * 4);
+    vk::upload(ctx, positions, pos.data(), pos.size() * sizeof(glm::vec4));
+    vk::upload(ctx, samples, order.data(), order.size() * 4);
+    {
+      vk::Commands cmd(ctx);
+      tree.record(cmd, positions, samples, n, light, minLength);
+      cmd.submit();
+    }
+    const cone::TreeShape& s = tree.shape();
+    std::vector<ConeNode> gpu = vk::download<ConeNode>(ctx, tree.nodes(), s.nodes());
+    std::vector<ConeNode> cpu = cone::buildTreeOnHost(pos, order, light, minLength);
+    ASSERT_EQ(cpu.size(), gpu.size());
+    for (const auto* nodes : {&gpu, &cpu}) {
+      uint64_t checked = 0;
+      for (uint32_t leaf = 0; leaf < n; ++leaf) {
+        glm::vec4 ray = cone::leafRay(glm::vec3(pos[order[leaf]]), light);
+        if (!cone::leafRayUsable(ray, minLength)) continue;
+        uint32_t j = leaf;
+        for (uint32_t d = s.depth; d-- > 0;) {
+          j /= 4;  // the ancestor at depth d
+          const ConeNode& c = (*nodes)[s.offsets[d] + j];
+          ASSERT_FALSE(cone::coneIsEmpty(c)) << "n=" << n << " leaf " << leaf << " depth " << d;
+          ASSERT_LE(angleBetween(glm::vec3(ray), glm::vec3(c.axisCos)), halfAngle(c))
+              << (nodes == &gpu ? "gpu" : "cpu") << " n=" << n << " leaf " << leaf << " depth " << d;
+          ASSERT_LE(c.sinLen.y, ray.w);
+          ASSERT_GE(c.sinLen.z, ray.w);
+          checked++;
+        }
+      }
+      if (n > 3) {
+        EXPECT_GT(checked, 0u);
+      }
+    }
+    // Nodes whose every ray is degenerate are empty, on both sides.
+    for (uint32_t k = 0; k < s.nodes(); ++k) EXPECT_EQ(cone::coneIsEmpty(gpu[k]), cone::coneIsEmpty(cpu[k])) << k;
+  }
+}
+
+TEST(ConeTree, CoherentRaysGiveTightCones) {
+  // 64 x 64 samples on a wall 3 units from the light: neighbouring rays ~ 0.01 / 3 rad apart, so a node
+  // over 4^k of them (a 2^k x 2^k patch in Morton order) spans ~ 2^k * 0.0033 rad.
+  std::vector<glm::vec4> pos;
+  std::vector<uint32_t> order;
+  for (uint32_t i = 0; i < 4096; ++i) {
+    uint32_t x = 0, y = 0;
+    for (uint32_t b = 0; b < 6; ++b) x |= ((i >> (2 * b)) & 1u) << b, y |= ((i >> (2 * b + 1)) & 1u) << b;
+    pos.push_back(glm::vec4(float(x) * 0.01f, float(y) * 0.01f, 3.0f, 1));
+    order.push_back(i);
+  }
+  std::vector<ConeNode> nodes = cone::buildTreeOnHost(pos, order, glm::vec3(0), 1e-4f);
+  const cone::TreeShape s = cone::treeShape(4096);
+  for (uint32_t d = 0; d < s.depth; ++d) {
+    double size = std::ldexp(1.0, int(s.depth - d));  // samples per side under a node
+    double expect = 0.5 * size * 0.01 * std::sqrt(2.0) / 3.0;
+    for (uint32_t j = 0; j < s.counts[d]; ++j) {
+      double a = halfAngle(nodes[s.offsets[d] + j]);
+      EXPECT_LE(a, expect * 1.6 + 1e-4) << "depth " << d;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace cs

@@ -1,0 +1,518 @@
+// traversal/: the precise cone/triangle test is conservative (random and degenerate pairs against a
+// brute-force search, on the CPU twin and on the GPU), the leaf test is watertight and counts hits in
+// (eps, L - eps), the arena sizing stays within its budget, and the mask is bit-identical at any arena size.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "raster/raster.h"
+#include "reference/epsilon.h"
+#include "tests/test_context.h"
+#include "traversal/cone_method.h"
+#include "traversal/precise_probe.comp.h"
+#include "traversal/precise_test.h"
+#include "traversal/traversal.h"
+#include "conetree/cone_layout.h"
+
+namespace cs {
+namespace {
+
+using cone::ConeNode;
+using glm::dvec3;
+using glm::vec3;
+using glm::vec4;
+
+// ---- random (cone, triangle) pairs ------------------------------------------------------------------
+
+struct Pair {
+  ConeNode cone;
+  vec3 v[3];  // relative to the apex
+  int kind;
+};
+constexpr int kKinds = 14;
+const char* kindName(int k) {
+  static const char* names[kKinds] = {"random",          "near the boundary", "touching the boundary",
+                                      "vertex at apex",  "apex in plane",     "apex on an edge line",
+                                      "repeated vertex", "collinear",         "a point",
+                                      "sliver",          "in the complement", "around Lmax",
+                                      "huge",            "edge just outside"};
+  return names[k];
+}
+
+struct PairGenerator {
+  std::mt19937_64 rng;
+  explicit PairGenerator(uint64_t seed) : rng(seed) {}
+  double uni(double a = 0, double b = 1) { return std::uniform_real_distribution<double>(a, b)(rng); }
+  double logUni(double lo, double hi) { return std::exp(uni(std::log(lo), std::log(hi))); }
+  dvec3 unit() {
+    for (;;) {
+      dvec3 p(uni(-1, 1), uni(-1, 1), uni(-1, 1));
+      double l = glm::length(p);
+      if (l > 1e-3 && l <= 1) return p / l;
+    }
+  }
+  // Half-angles that matter: zero, tiny, around pi/2 (both sides of the pi/2 - eps switch), past it, pi.
+  double angle() {
+    static const double table[] = {0,        1e-7,   1e-6,          1e-5,           1e-4,           1e-3,
+                                   0.01,     0.1,    0.3,           0.7,            1.2,            1.5,
+                                   M_PI / 2 - 2e-3, M_PI / 2 - 9e-4, M_PI / 2 - 1e-5, M_PI / 2, M_PI / 2 + 1e-5,
+                                   M_PI / 2 + 1e-3, 2.0,  2.5,  3.0,  M_PI - 1e-3,  M_PI - 1e-6,  M_PI};
+    size_t k = rng() % 30;
+    return k < std::size(table) ? table[k] : uni(0, M_PI);
+  }
+  dvec3 at(dvec3 a, double theta) {  // a direction at angle theta from unit a
+    dvec3 t = std::abs(a.x) < 0.5 ? dvec3(1, 0, 0) : dvec3(0, 1, 0);
+    dvec3 u = glm::normalize(glm::cross(a, t)), v = glm::cross(a, u);
+    double phi = uni(0, 2 * M_PI);
+    return std::cos(theta) * a + std::sin(theta) * (std::cos(phi) * u + std::sin(phi) * v);
+  }
+  static ConeNode cone(dvec3 a, double alpha, double lmax) {
+    ConeNode c;
+    c.axisCos = vec4(vec3(a), float(std::cos(alpha)));
+    c.sinLen = vec4(float(std::sin(alpha)), float(lmax * 0.5), float(lmax), float(alpha));
+    if (alpha >= M_PI) c.axisCos.w = -1, c.sinLen.x = 0;
+    return c;
+  }
+  Pair make() {
+    Pair p;
+    dvec3 a = unit();
+    double alpha = angle();
+    double lmax = logUni(1e-2, 1e3);
+    p.cone = cone(a, alpha, lmax);
+    p.kind = int(rng() % kKinds);
+    double sc = logUni(1e-3, 1e3);
+    auto rnd = [&] { return unit() * sc * uni(0, 1.5); };
+    dvec3 v[3];
+    switch (p.kind) {
+      case 0: for (auto& x : v) x = rnd(); break;
+      case 1: {
+        double d = (rng() % 2 ? 1 : -1) * logUni(1e-9, 1e-1);
+        dvec3 x = at(a, std::min(std::max(alpha + d, 0.0), M_PI)) * lmax * uni(0.2, 1.5);
+        double r = logUni(1e-6, 1) * lmax;
+        v[0] = x, v[1] = x + unit() * r, v[2] = x + unit() * r;
+        break;
+      }
+      case 2: {
+        dvec3 x = at(a, alpha) * lmax * uni(0.1, 1.2), e1 = unit() * sc, e2 = unit() * sc;
+        v[0] = x - uni(0, 0.5) * e1 - uni(0, 0.5) * e2, v[1] = v[0] + e1, v[2] = v[0] + e2;
+        break;
+      }
+      case 3: v[0] = dvec3(0), v[1] = rnd(), v[2] = rnd(); break;
+      case 4: v[0] = rnd(), v[1] = rnd(), v[2] = uni(-2, 2) * v[0] + uni(-2, 2) * v[1]; break;
+      case 5: v[0] = rnd(), v[1] = -v[0] * uni(0.1, 3), v[2] = rnd(); break;
+      case 6: v[0] = rnd(), v[1] = v[0], v[2] = rnd(); break;
+      case 7: {
+        v[0] = rnd();
+        dvec3 d = unit();
+        v[1] = v[0] + d * uni(0, sc), v[2] = v[0] + d * uni(-sc, sc);
+        break;
+      }
+      case 8: v[0] = v[1] = v[2] = rnd(); break;
+      case 9: v[0] = rnd(), v[1] = rnd(), v[2] = v[1] + (v[1] - v[0]) * 1e-6 + unit() * sc * 1e-7; break;
+      case 10: for (auto& x : v) x = at(-a, uni(0, std::max(0.0, M_PI - alpha))) * sc; break;
+      case 11: {
+        dvec3 x = a * lmax * uni(0.9, 1.1);
+        for (auto& y : v) y = x + unit() * lmax * uni(0, 3);
+        break;
+      }
+      case 12: {
+        dvec3 c = a * uni(-1, 1) * sc;
+        for (auto& y : v) y = c + unit() * sc * 100.0;
+        break;
+      }
+      default: {
+        dvec3 x = at(a, alpha + logUni(1e-7, 1e-2)) * lmax * uni(0.1, 1);
+        dvec3 t = glm::normalize(glm::cross(x, unit()));
+        v[0] = x, v[1] = x + t * sc, v[2] = x + t * sc * uni(-1, 1) + x * uni(0, 1e-3);
+        break;
+      }
+    }
+    for (int i = 0; i < 3; ++i) p.v[i] = vec3(v[i]);
+    return p;
+  }
+};
+
+// Brute force: does some ray of the (fp32-stored) cone, up to Lmax, meet the (fp32) triangle? Searched
+// three ways: points of the triangle inside the cone (exact, double), rays of the cone against the
+// triangle (double Moller-Trumbore), and fp32 leaf rays of the cone through the very leaf test the
+// traversal runs. Returns the ray found (xyz, length) in `ray` for the GPU check.
+struct BruteForce {
+  std::mt19937_64 rng{7};
+  double uni(double a = 0, double b = 1) { return std::uniform_real_distribution<double>(a, b)(rng); }
+  static bool inCone(dvec3 x, dvec3 a, double alpha, double lmax) {
+    double l = glm::length(x);
+    if (!(l > 0) || l > lmax) return false;
+    return std::atan2(glm::length(glm::cross(x, a)), glm::dot(x, a)) <= alpha;
+  }
+  bool hit(const Pair& p, vec4* leafHit = nullptr) {
+    dvec3 a = glm::normalize(dvec3(vec3(p.cone.axisCos)));
+    double alpha = std::atan2(double(p.cone.sinLen.x), double(p.cone.axisCos.w));
+    double lmax = p.cone.sinLen.z;
+    dvec3 v0(p.v[0]), v1(p.v[1]), v2(p.v[2]);
+    const int G = 20;
+    for (int i = 0; i <= G; ++i)
+      for (int j = 0; i + j <= G; ++j)
+        if (inCone(v0 + (double(i) / G) * (v1 - v0) + (double(j) / G) * (v2 - v0), a, alpha, lmax)) return true;
+    for (int k = 0; k < 300; ++k) {
+      double b1 = uni(), b2 = uni();
+      if (b1 + b2 > 1) b1 = 1 - b1, b2 = 1 - b2;
+      if (k < 100) b2 = 0;
+      else if (k < 150) b1 = 1 - b2;
+      else if (k < 200) b1 = 0;
+      if (inCone(v0 + b1 * (v1 - v0) + b2 * (v2 - v0), a, alpha, lmax)) return true;
+    }
+    dvec3 t = std::abs(a.x) < 0.5 ? dvec3(1, 0, 0) : dvec3(0, 1, 0);
+    dvec3 u = glm::normalize(glm::cross(a, t)), w = glm::cross(a, u);
+    for (int k = 0; k < 400; ++k) {
+      double th = k == 1 ? 0.0 : (k % 3 == 0 ? alpha : uni(0, alpha)), phi = uni(0, 2 * M_PI);
+      dvec3 r = std::cos(th) * a + std::sin(th) * (std::cos(phi) * u + std::sin(phi) * w);
+      dvec3 e1 = v1 - v0, e2 = v2 - v0, pv = glm::cross(r, e2);
+      double det = glm::dot(e1, pv);
+      if (det != 0) {
+        dvec3 tv = -v0, qv = glm::cross(tv, e1);
+        double bu = glm::dot(tv, pv) / det, bv = glm::dot(r, qv) / det, tt = glm::dot(e2, qv) / det;
+        if (bu >= 0 && bv >= 0 && bu + bv <= 1 && tt > 0 && tt <= lmax) return true;
+      }
+      vec3 wf = vec3(r * (lmax * (k % 5 == 0 ? 1.0 : uni(0.01, 1))));
+      vec4 ray = cone::leafRay(wf, vec3(0));
+      if (ray.w <= lmax && std::atan2(glm::length(glm::cross(dvec3(wf), a)), glm::dot(dvec3(wf), a)) <= alpha &&
+          cone::leafRayHitsTriangle(ray, 0.0f, p.v[0], p.v[1], p.v[2])) {
+        if (leafHit) *leafHit = ray;
+        return true;
+      }
+    }
+    return false;
+  }
+};
+
+TEST(PreciseConeTriangle, NeverRejectsAPairThatABruteForceSearchFindsIntersecting) {
+  PairGenerator gen(20240611);
+  BruteForce brute;
+  const int n = 12000;
+  int hits = 0, misses = 0, rejected = 0;
+  int missesByKind[kKinds] = {}, rejectedByKind[kKinds] = {};
+  for (int i = 0; i < n; ++i) {
+    Pair p = gen.make();
+    bool keep = cone::preciseConeTriangle(p.cone, p.v[0], p.v[1], p.v[2]);
+    if (brute.hit(p)) {
+      hits++;
+      ASSERT_TRUE(keep) << "pair " << i << " (" << kindName(p.kind) << ") intersects but was rejected: alpha "
+                        << p.cone.sinLen.w << " Lmax " << p.cone.sinLen.z;
+    } else {
+      misses++, missesByKind[p.kind]++;
+      if (!keep) rejected++, rejectedByKind[p.kind]++;
+    }
+  }
+  // Conservative but not trivially so: most pairs without an intersection are rejected.
+  EXPECT_GT(hits, n / 4);
+  EXPECT_GT(rejected, misses / 2) << rejected << " of " << misses;
+  for (int k : {0, 3, 7, 8, 10, 12}) EXPECT_GT(rejectedByKind[k], missesByKind[k] / 2) << kindName(k);
+}
+
+TEST(PreciseConeTriangle, RejectsTheClearCasesOfEachTest) {
+  auto cone = [](dvec3 a, double alpha, double lmax) { return PairGenerator::cone(glm::normalize(a), alpha, lmax); };
+  const ConeNode narrow = cone({0, 0, 1}, 0.1, 10);
+  // Beside the cone: an edge plane separates.
+  EXPECT_FALSE(cone::preciseConeTriangle(narrow, {2, -1, 5}, {3, -1, 5}, {2, 1, 5}));
+  // Straddling the axis: kept.
+  EXPECT_TRUE(cone::preciseConeTriangle(narrow, {-1, -1, 5}, {1, -1, 5}, {0, 1, 5}));
+  // Beyond Lmax (the near-point test): rejected; nearer than Lmax: kept.
+  EXPECT_FALSE(cone::preciseConeTriangle(narrow, {-1, -1, 12}, {1, -1, 12}, {0, 1, 12}));
+  EXPECT_TRUE(cone::preciseConeTriangle(narrow, {-1, -1, 9.9f}, {1, -1, 9.9f}, {0, 1, 9.9f}));
+  // Behind the apex: rejected (complementary cone of the cone rounded up to pi/2).
+  EXPECT_FALSE(cone::preciseConeTriangle(narrow, {-1, -1, -1}, {1, -1, -1}, {0, 1, -1}));
+  // The triangle shadow (002 Fig. 4): a corner region where no single edge separates the projected
+  // triangle from the unit circle, but the tangent plane towards the vertex does.
+  const ConeNode c2 = cone({0, 0, 1}, 0.2, 100);
+  EXPECT_FALSE(cone::preciseConeTriangle(c2, {0.25f, 0.25f, 1}, {5, 0.3f, 1}, {0.3f, 5, 1}));
+  // A wide cone (past pi/2): only the complementary cone can reject.
+  const ConeNode wide = cone({0, 0, 1}, 2.0, 10);
+  EXPECT_FALSE(cone::preciseConeTriangle(wide, {0.1f, 0, -1}, {-0.1f, 0.1f, -1}, {0, -0.1f, -1}));
+  EXPECT_FALSE(cone::preciseConeTriangle(wide, {1, 0, -1}, {-1, 1, -1}, {0, -1, -1}));  // 45 deg from -z: all outside
+  EXPECT_TRUE(cone::preciseConeTriangle(wide, {3, 0, -1}, {-1, 1, -1}, {0, -1, -1}));   // 71.6 deg: one inside
+  // The whole sphere keeps everything within Lmax, rejects what is beyond.
+  const ConeNode all = cone({0, 1, 0}, M_PI, 10);
+  EXPECT_TRUE(cone::preciseConeTriangle(all, {1, 1, 1}, {2, 1, 1}, {1, 2, 1}));
+  EXPECT_FALSE(cone::preciseConeTriangle(all, {20, 1, 1}, {20, 2, 1}, {20, 1, 2}));  // its plane is beyond Lmax
+  // (A triangle far away in a plane that passes near the apex is kept: the test bounds the plane.)
+  EXPECT_TRUE(cone::preciseConeTriangle(all, {20, 1, 1}, {21, 1, 1}, {20, 2, 1}));
+  // Empty cones reject everything; NaN vertices are kept (never rejected on garbage).
+  EXPECT_FALSE(cone::preciseConeTriangle(cone::emptyCone(), {-1, -1, 5}, {1, -1, 5}, {0, 1, 5}));
+  EXPECT_TRUE(cone::preciseConeTriangle(narrow, {NAN, -1, 5}, {1, -1, 5}, {0, 1, 5}));
+}
+
+// The same pairs through the GPU kernel: the GPU's precise test keeps every pair the brute force finds
+// intersecting, and its leaf test agrees with the CPU twin on the rays the brute force found.
+TEST(PreciseConeTriangle, GpuKernelIsConservativeToo) {
+  auto& ctx = test::context();
+  PairGenerator gen(777);
+  BruteForce brute;
+  const uint32_t n = 6000;
+  std::vector<ConeNode> cones(n);
+  std::vector<vec4> verts(3 * n), rays(n, vec4(0, 0, 1, 1));
+  std::vector<uint8_t> found(n), leafFound(n);
+  for (uint32_t i = 0; i < n; ++i) {
+    Pair p = gen.make();
+    cones[i] = p.cone;
+    for (int k = 0; k < 3; ++k) verts[3 * i + k] = vec4(p.v[k], 0);
+    vec4 ray(0);
+    found[i] = brute.hit(p, &ray);
+    if (ray.w > 0) rays[i] = ray, leafFound[i] = 1;
+  }
+  vk::Buffer bc = vk::createBuffer(ctx, n * sizeof(ConeNode)), bv = vk::createBuffer(ctx, verts.size() * 16),
+             br = vk::createBuffer(ctx, n * 16), out = vk::createBuffer(ctx, n * 4);
+  vk::upload(ctx, bc, cones.data(), n * sizeof(ConeNode));
+  vk::upload(ctx, bv, verts.data(), verts.size() * 16);
+  vk::upload(ctx, br, rays.data(), n * 16);
+  vk::Kernel probe = vk::createKernel(ctx, "precise probe", spv_precise_probe_comp, 4, sizeof(traversal::TraversePush));
+  traversal::TraversePush push{};
+  push.count = n;
+  push.eps = 0.0f;
+  {
+    vk::Commands cmd(ctx);
+    vk::Grid g = vk::gridFor(n, TRAVERSE_THREADS, ctx.maxWorkgroups());
+    cmd.dispatch(probe, {bc, bv, br, out}, push, g.x, g.y);
+    cmd.submit();
+  }
+  std::vector<uint32_t> r = vk::download<uint32_t>(ctx, out, n);
+  uint32_t agree = 0, leafChecked = 0, leafAgree = 0;
+  for (uint32_t i = 0; i < n; ++i) {
+    bool cpuKeep = cone::preciseConeTriangle(cones[i], vec3(verts[3 * i]), vec3(verts[3 * i + 1]), vec3(verts[3 * i + 2]));
+    if (found[i]) {
+      ASSERT_TRUE(r[i] & 1u) << "GPU rejected intersecting pair " << i;
+    }
+    agree += bool(r[i] & 1u) == cpuKeep;
+    if (leafFound[i]) {
+      leafChecked++;
+      leafAgree += (r[i] & 2u) != 0;
+    }
+  }
+  EXPECT_GE(agree, n - n / 100) << "GPU and CPU twins should agree on almost every pair";
+  EXPECT_GE(leafAgree, leafChecked - leafChecked / 100 - 1);
+}
+
+TEST(LeafRayHitsTriangle, CountsHitsOnlyStrictlyBetweenEpsAndLMinusEps) {
+  // Triangle in the plane z = 5 around the z axis; rays from the light at the origin along +z.
+  const vec3 a(-1, -1, 5), b(1, -1, 5), c(0, 1, 5);
+  const float eps = 0.01f;
+  auto hit = [&](float L) { return cone::leafRayHitsTriangle(vec4(0, 0, L, L), eps, a, b, c); };
+  EXPECT_TRUE(hit(10));        // the triangle halfway
+  EXPECT_TRUE(hit(5.02f));     // 0.02 beyond the sample side of the triangle: inside (eps, L - eps)
+  EXPECT_FALSE(hit(5.005f));   // the sample within eps of the triangle: its own surface, not counted
+  EXPECT_FALSE(hit(4.9f));     // the triangle beyond the sample
+  // Near the light: the triangle at distance 0.005 < eps from the light does not count.
+  const vec3 a2(-1, -1, 0.005f), b2(1, -1, 0.005f), c2(0, 1, 0.005f);
+  EXPECT_FALSE(cone::leafRayHitsTriangle(vec4(0, 0, 10, 10), eps, a2, b2, c2));
+  // A ray lying in the triangle's plane, and one from a light in that plane: never a hit.
+  EXPECT_FALSE(cone::leafRayHitsTriangle(vec4(10, 0, 0, 10), eps, vec3(-1, -1, 0), vec3(5, -1, 0), vec3(0, 1, 0)));
+  // A degenerate (zero-area) triangle and a sample at the light: never a hit, never NaN trouble.
+  EXPECT_FALSE(cone::leafRayHitsTriangle(vec4(0, 0, 10, 10), eps, a, a, c));
+  EXPECT_FALSE(cone::leafRayHitsTriangle(vec4(0, 0, 0, 0), eps, a, b, c));
+}
+
+TEST(LeafRayHitsTriangle, IsWatertightAcrossSharedEdgesAndVertices) {
+  // A fan of triangles around a vertex on the z = 3 plane, and rays aimed exactly at the shared edges
+  // and at the shared vertex from a light off-axis: every ray hits at least one triangle of the fan.
+  const vec3 centre(0.3f, -0.2f, 3.0f);
+  const int k = 7;
+  std::vector<vec3> rim;
+  for (int i = 0; i < k; ++i) {
+    float t = 2.0f * float(M_PI) * float(i) / float(k);
+    rim.push_back(centre + vec3(std::cos(t), std::sin(t), 0.1f * std::sin(3.0f * t)));
+  }
+  const vec3 light(0.11f, 0.07f, -0.5f);
+  int rays = 0;
+  for (int i = 0; i < k; ++i) {
+    for (float f : {0.0f, 0.125f, 0.37f, 0.5f, 0.999f}) {
+      vec3 target = centre + f * (rim[i] - centre);  // on the shared edge (centre, rim[i])
+      vec4 ray = cone::leafRay(light + 2.0f * (target - light), light);
+      bool any = false;
+      for (int j = 0; j < k; ++j)
+        any = any || cone::leafRayHitsTriangle(ray, 1e-4f, centre - light, rim[j] - light, rim[(j + 1) % k] - light);
+      EXPECT_TRUE(any) << "edge " << i << " at " << f;
+      rays++;
+    }
+  }
+  EXPECT_EQ(rays, 5 * k);
+}
+
+TEST(TraversalArena, PlanStaysWithinTheBudgetAndTheBinding) {
+  for (uint64_t bytes : {uint64_t(8) << 10, uint64_t(64) << 10, uint64_t(1) << 20, uint64_t(64) << 20,
+                         uint64_t(1) << 30, uint64_t(8) << 30}) {
+    traversal::ArenaPlan p = traversal::planArena(bytes, uint64_t(128) << 20);
+    EXPECT_LE(p.bytes, bytes);
+    EXPECT_LE(p.pairCapacity * 8, uint64_t(128) << 20);
+    EXPECT_LE(uint64_t(p.chunkCapacity) * 4, uint64_t(128) << 20);
+    EXPECT_GE(p.pairCapacity, traversal::kMinPairs);
+    EXPECT_GE(p.chunkCapacity, 1u);
+    if (bytes <= (uint64_t(64) << 20)) {
+      EXPECT_GE(p.bytes, bytes / 2) << "most of a small budget is used";
+    }
+  }
+  EXPECT_THROW(traversal::planArena(64, uint64_t(128) << 20), Error);
+  EXPECT_EQ(traversal::minimumPairs(1), 1u);
+  EXPECT_EQ(traversal::minimumPairs(8), 29u);
+  EXPECT_EQ(traversal::reserveBelow(8, 7), 0u);  // depth 7 feeds the leaves: nothing below it in the arena
+  EXPECT_EQ(traversal::reserveBelow(8, 6), 4u);  // room for one node's children at depth 7
+  EXPECT_EQ(traversal::reserveBelow(8, 5), 8u);
+}
+
+// A small scene with a lot of traversal work: a grid floor, a wall and floating slivers.
+Scene busyScene() {
+  Scene s;
+  s.name = "busy";
+  auto quad = [&](vec3 o, vec3 u, vec3 v, int nu, int nv) {
+    for (int i = 0; i < nu; ++i)
+      for (int j = 0; j < nv; ++j) {
+        uint32_t b = uint32_t(s.positions.size());
+        vec3 p = o + u * (float(i) / nu) + v * (float(j) / nv);
+        s.positions.insert(s.positions.end(), {p, p + u / float(nu), p + u / float(nu) + v / float(nv), p + v / float(nv)});
+        s.indices.insert(s.indices.end(), {b, b + 1, b + 2, b, b + 2, b + 3});
+      }
+  };
+  quad({-4, 0, -4}, {8, 0, 0}, {0, 0, 8}, 12, 12);
+  quad({-4, 0, -2}, {8, 0, 0}, {0, 3, 0}, 6, 4);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-1, 1);
+  for (int i = 0; i < 40; ++i) {  // floating cards
+    vec3 c(u(rng) * 3, 1.5f + u(rng) * 0.8f, u(rng) * 3);
+    quad(c, vec3(u(rng), u(rng), u(rng)) * 0.5f, vec3(u(rng), u(rng), u(rng)) * 0.5f, 2, 2);
+  }
+  for (int i = 0; i < 300; ++i) {
+    vec3 c(u(rng) * 3, 1.0f + u(rng) * 0.8f, u(rng) * 3);
+    uint32_t b = uint32_t(s.positions.size());
+    s.positions.insert(s.positions.end(), {c, c + vec3(u(rng), u(rng), u(rng)) * 0.3f, c + vec3(u(rng), u(rng), u(rng)) * 0.02f});
+    s.indices.insert(s.indices.end(), {b, b + 1, b + 2});
+  }
+  s.normals.assign(s.positions.size(), vec3(0, 1, 0));
+  s.computeBounds();
+  return s;
+}
+
+TEST(ConeMethod, MaskIsBitIdenticalAtAnyTraversalMemoryAndPeakStaysUnderTheBound) {
+  auto& ctx = test::context();
+  Scene scene = busyScene();
+  Camera cam;
+  cam.eye = {5, 6, 7};
+  cam.target = {0, 0.5f, 0};
+  cam.yfov = 0.9f;
+  const vec3 light(0.5f, 4.0f, 1.0f);
+  Raster raster(ctx, scene);
+  DeviceGBuffer dev;
+  GBuffer host;
+  raster.render(cam, light, 96, 80, dev, &host);
+  FrameInput frame;
+  frame.scene = &scene;
+  frame.gbuffer = &host;
+  frame.device = &dev;
+  frame.vk = &ctx;
+  frame.light = light;
+  frame.epsilon = EpsilonPolicy::forScene(scene).eps;
+
+  // The default bound, 1000x smaller, a few KiB, and the very least an arena can be: one node's children
+  // per depth (traversal::minimumPairs) with chunks of a single pair.
+  const uint32_t depth = cone::treeDepth(uint32_t(host.litCount()));
+  std::vector<ConeOptions> configs(4);
+  configs[0].traversalMemoryBytes = traversal::kDefaultMemoryBytes;
+  configs[1].traversalMemoryBytes = traversal::kDefaultMemoryBytes / 1000;
+  configs[2].traversalMemoryBytes = 9000;
+  configs[3].arena = {traversal::minimumPairs(depth), 1, traversal::minimumPairs(depth) * 8 + traversal::chunkScratchBytes(1)};
+  configs[3].traversalMemoryBytes = configs[3].arena.bytes;
+  std::vector<float> first;
+  uint64_t firstTested = 0;
+  for (const ConeOptions& o : configs) {
+    const uint64_t bytes = o.traversalMemoryBytes;
+    auto method = makeConeMethod(ctx, o);
+    MethodOutput out = method->run(frame);
+    const nlohmann::json& t = out.stats["traversal"];
+    std::printf("  arena %llu pairs, chunks of %u: %llu submits, peak %llu of %llu bytes, %.0f ms\n",
+                (unsigned long long)out.stats["pair_capacity"].get<uint64_t>(), out.stats["chunk_capacity"].get<uint32_t>(),
+                (unsigned long long)t["submits"].get<uint64_t>(), (unsigned long long)t["peak_bytes"].get<uint64_t>(),
+                (unsigned long long)bytes, out.totalMs);
+    EXPECT_LE(t["peak_bytes"].get<uint64_t>(), bytes);
+    EXPECT_LE(out.stats["traversal_peak_bytes"].get<uint64_t>(), bytes);
+    if (first.empty()) {
+      first = out.visibility;
+      firstTested = out.stats["pairs_tested"];
+      EXPECT_GT(out.stats["leaf_tests"].get<uint64_t>(), 0u);
+      size_t shadowed = std::count(first.begin(), first.end(), 0.0f);
+      EXPECT_GT(shadowed, 100u) << "the scene must cast shadows for this test to mean anything";
+      continue;
+    }
+    EXPECT_GT(t["submits"].get<uint64_t>(), 20u) << "a small arena must split the work (" << bytes << " bytes)";
+    ASSERT_EQ(out.visibility.size(), first.size());
+    EXPECT_EQ(std::memcmp(out.visibility.data(), first.data(), first.size() * sizeof(float)), 0)
+        << "mask differs at " << bytes << " bytes";
+    EXPECT_EQ(out.stats["pairs_tested"].get<uint64_t>(), firstTested) << "the same pairs, only in another order";
+  }
+}
+
+// The whole traversal is conservative end to end: the mask equals the leaf test run on every (triangle,
+// lit sample) pair by brute force on the CPU (the same source), for any ray order, down to frames of a
+// single ray (a tree of depth 1). On lavapipe the GPU's arithmetic is the CPU's, so equality is exact;
+// a GPU may round a division or square root differently and flip a ray grazing an edge.
+TEST(ConeMethod, MaskEqualsTheLeafTestOnEveryPairSortedOrNot) {
+  auto& ctx = test::context();
+  const bool exactDevice = ctx.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
+  struct Case {
+    Scene scene;
+    Camera cam;
+    vec3 light;
+    uint32_t w, h;
+  };
+  std::vector<Case> cases;
+  Camera cam;
+  cam.eye = {5, 6, 7};
+  cam.target = {0, 0.5f, 0};
+  cam.yfov = 0.9f;
+  for (auto [w, h] : {std::pair{64u, 48u}, std::pair{1u, 1u}, std::pair{2u, 2u}, std::pair{3u, 5u}})
+    cases.push_back({busyScene(), cam, vec3(0.5f, 4.0f, 1.0f), w, h});
+  Scene builtin = builtinScene();
+  cases.push_back({builtin, *builtin.findCamera("fur"), builtin.lights[0].position, 40, 40});
+  cases.push_back({builtin, *builtin.findCamera("room"), vec3(-6.0f, 0.02f, 3.5f), 40, 40});
+
+  for (const Case& c : cases) {
+    Raster raster(ctx, c.scene);
+    DeviceGBuffer dev;
+    GBuffer host;
+    raster.render(c.cam, c.light, c.w, c.h, dev, &host);
+    const float eps = EpsilonPolicy::forScene(c.scene).eps;
+    // Brute force: every lit sample against every triangle.
+    std::vector<float> brute(host.size(), 1.0f);
+    for (size_t i = 0; i < host.size(); ++i) {
+      if (!host.isLit(i)) continue;
+      vec4 ray = cone::leafRay(vec3(host.position[i]), c.light);
+      if (!cone::leafRayUsable(ray, 2.0f * eps)) continue;
+      for (size_t t = 0; t + 2 < c.scene.indices.size() && brute[i] != 0.0f; t += 3) {
+        vec3 v0 = c.scene.positions[c.scene.indices[t]] - c.light;
+        vec3 v1 = c.scene.positions[c.scene.indices[t + 1]] - c.light;
+        vec3 v2 = c.scene.positions[c.scene.indices[t + 2]] - c.light;
+        if (cone::leafRayHitsTriangle(ray, eps, v0, v1, v2)) brute[i] = 0.0f;
+      }
+    }
+    FrameInput frame;
+    frame.scene = &c.scene;
+    frame.gbuffer = &host;
+    frame.device = &dev;
+    frame.vk = &ctx;
+    frame.light = c.light;
+    frame.epsilon = eps;
+    for (bool sorted : {true, false}) {
+      ConeOptions o;
+      o.sorted = sorted;
+      MethodOutput out = makeConeMethod(ctx, o)->run(frame);
+      size_t differ = 0;
+      for (size_t i = 0; i < host.size(); ++i) differ += out.visibility[i] != brute[i];
+      size_t allowed = exactDevice ? 0 : host.size() / 1000;
+      EXPECT_LE(differ, allowed) << c.scene.name << " " << c.w << "x" << c.h << (sorted ? " sorted" : " screen order");
+    }
+  }
+}
+
+}  // namespace
+}  // namespace cs

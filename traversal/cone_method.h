@@ -1,0 +1,43 @@
+// The cone path as a shadow method (eval/method.h): lit samples -> Hilbert ray keys -> radix sort (sort/)
+// -> cone tree (conetree/) -> bounded breadth-first traversal with the precise test -> exact leaves
+// (traversal/). CLI name "cone". See traversal/traversal.h for the traversal and its memory bound.
+#pragma once
+#include <cstdint>
+#include <memory>
+
+#include "eval/method.h"
+#include "traversal/traversal.h"
+
+namespace cs {
+namespace vk { struct Context; }
+
+struct ConeOptions {
+  // Bound on the traversal's pair arena + chunk scratch (002 §4.2; --traversal-memory). Past it the
+  // traversal goes depth-first over subsets: slower, never different.
+  uint64_t traversalMemoryBytes = traversal::kDefaultMemoryBytes;
+  // 002 §3.5: sort the rays by Hilbert key of their direction before building the tree. Off: screen
+  // order (Morton inside 64x64 tiles: four consecutive leaves are a 2x2 pixel block), as without sorting.
+  bool sorted = true;
+  // Tests only: when arena.pairCapacity > 0, this exact arena (down to traversal::minimumPairs pairs and
+  // chunks of one pair) instead of one planned from traversalMemoryBytes.
+  traversal::ArenaPlan arena;
+};
+
+// name() = "cone". MethodOutput:
+//   visibility  0/1 per pixel (1 where the sample is not lit); exactly 0.0f or 1.0f, never NaN.
+//   stages      "compact", "keys", "sort", "build", "traversal", "leaves" (and "upload" on frames whose
+//               triangles changed): each the host's wall clock around its own submit(s), waits included.
+//               Not timestamps: on lavapipe a timestamp written after a barrier can take the time of the
+//               dispatch *after* it (measured: a 30 ms leaf dispatch reported as 0.05 ms, its time showing
+//               up in the interval before it), so per-stage timestamps are misattributed there. The
+//               timestamp intervals are still reported, in stats.timestamp_ms, for GPUs where they hold.
+//   totalMs     wall clock of the frame's shadow work up to the mask on the GPU; the readback of the mask
+//               to the host is stats.readback_ms.
+//   stats       lit_samples, triangles, tree_depth, tree_nodes, pairs_tested, pairs_survived, leaf_tests,
+//               traversal (per pass: inputs, pairs tested, survivors, chunks; leaf pairs/tests/hits;
+//               submits; peak_bytes), traversal_memory_bytes, pair_capacity, chunk_capacity, epsilon.
+//   bytesAllocated / peakBytes: every buffer the method holds for the frame / the same with the
+//               traversal's share at its measured peak (<= traversalMemoryBytes).
+std::unique_ptr<ShadowMethod> makeConeMethod(vk::Context& ctx, const ConeOptions& options = {});
+
+}  // namespace cs

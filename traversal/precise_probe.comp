@@ -1,0 +1,26 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// Test kernel (tests/traversal_test.cpp): the GPU side of precise_test.h on arrays of cases, so the
+// property tests check the very code the traversal runs. Case i: cone = cones[i], triangle relative to the
+// apex = verts[3i..3i+2], leaf ray = rays[i]; result bit 0 = preciseConeTriangle, bit 1 = leafRayHitsTriangle.
+// bindings: 0 = cones (ConeNode), 1 = verts (vec4), 2 = rays (vec4: w, L), 3 = results (uint)
+#include "traversal/precise_test.h"
+#include "traversal/traverse.glsl"
+
+layout(local_size_x = TRAVERSE_THREADS) in;
+layout(std430, binding = 0) readonly buffer Cones { ConeNode cones[]; };
+layout(std430, binding = 1) readonly buffer Verts { vec4 verts[]; };
+layout(std430, binding = 2) readonly buffer Rays { vec4 rays[]; };
+layout(std430, binding = 3) writeonly buffer Results { uint results[]; };
+layout(push_constant) uniform Push { TraversePush p; };
+
+void main() {
+  uint i = flatIndex();
+  if (i >= p.count) return;
+  vec3 v0 = verts[3u * i].xyz;
+  vec3 v1 = verts[3u * i + 1u].xyz;
+  vec3 v2 = verts[3u * i + 2u].xyz;
+  uint r = preciseConeTriangle(cones[i], v0, v1, v2) ? 1u : 0u;
+  if (leafRayHitsTriangle(rays[i], p.eps, v0, v1, v2)) r |= 2u;
+  results[i] = r;
+}

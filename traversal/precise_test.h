@@ -1,0 +1,250 @@
+// traversal/: the two geometric tests of the traversal, as plain functions that glslang and C++ both
+// compile -- the kernels run them, and the conservativeness property test runs the very same source.
+//
+// preciseConeTriangle (002 §3.2). The paper projects the triangle with the cone's perspective
+// projection and works in clip space; we run the same tests directly on directions from the apex,
+// which is the same geometry without a projection that degenerates near pi/2 and without vertices
+// behind the apex needing clipping (a vertex behind the light is just a direction). All triangle
+// vertices are relative to the light (P - light), the cone's apex.
+//   1. Complementary cone: the cone rounded up to at least pi/2 has a convex complement; if all three
+//      vertices lie strictly inside that complement, so does the triangle (for narrow cones this is
+//      "all vertices behind the apex plane"). For cones at or past pi/2 - eps (cos < CONE_WIDE_COS)
+//      this is the only angular test, as in the paper.
+//   2. Near point vs Lmax: the nearest point of the triangle's plane inside the cone is farther than
+//      Lmax (the paper's Z_near > 1 test). Done on the slab [min, max] of N.v_i that provably holds the
+//      triangle, so slivers with an inaccurate normal stay conservative.
+//   3. Homogeneous edge equations: the plane through the apex and edge (v_j, v_k), oriented towards v_i,
+//      has the whole triangle on its positive side; reject when the cone is strictly on the negative
+//      side, i.e. when the angle between the plane normal and the axis exceeds pi/2 + alpha. In the
+//      paper's clip space this is "the normalised distance from the origin to the edge line exceeds
+//      1"; here it is evaluated as cos(phi - alpha) < 0, well conditioned for every alpha.
+//   4. Triangle-shadow separating planes: for each vertex, the plane through the apex tangent to the
+//      cone on that vertex's side; reject when all three vertices are strictly beyond it.
+// What depends on the triangle alone (lengths, plane slab, oriented edge planes) is computed once per
+// (triangle, node) pair by preciseTriangle() and reused for the node's four children.
+// Conservative in fp32 (reject only when the exact geometry of the fp32 inputs is provably disjoint):
+// every rejection threshold is padded by CONE_TEST_MARGIN = 2^-16 relative (256 ulp) of the magnitudes
+// that bound the rounding of the quantity compared, plus explicit error bounds where a direction is
+// ill-conditioned (edge normals of edges seen end-on, vertices near the axis). Orientation of an edge
+// plane is used only when |det| clears its error bound (light in or near the triangle's plane: edge
+// tests skipped). NaN or inf anywhere makes every rejection condition false: the pair is kept.
+// The margins also cover the leaf test's own rounding: whenever the fp32 leaf test below reports a hit
+// for some ray of the cone, the pair is kept (tests/traversal_test.cpp checks both claims).
+//
+// leafRayHitsTriangle: the exact ray/triangle test at the leaves, watertight (Woop, Benthin, Wald 2013:
+// shear to the ray's major axis, 2-D edge functions; an edge value of exactly 0 counts as inside, so a
+// ray through a shared edge or vertex hits at least one of the triangles and never slips between).
+// A ray lying (within rounding) in the triangle's plane is a miss: there the edge signs are noise, and
+// a plain det != 0 test reports hits behind the light or far outside the triangle. "Within rounding"
+// is a bound on det's error; the exact hits it drops are on triangles whose projection along the ray is
+// a sliver only a few ulp of their coordinates wide, which a sideways nudge of the light (the ambiguity
+// band) moves the ray off.
+// The ray runs from the light to the sample, hits count at distances tau from the light in
+// (eps, L - eps): by symmetry the reference's interval (eps, L - eps) measured from the sample.
+#ifndef CONESHADOW_TRAVERSAL_PRECISE_TEST_H
+#define CONESHADOW_TRAVERSAL_PRECISE_TEST_H
+
+#include "conetree/cone_math.h"
+
+#define CONE_TEST_MARGIN 1.52587890625e-05f  // 2^-16, relative
+#define CONE_WIDE_COS 9.765625e-04f          // cones with cos(alpha) below this (alpha > pi/2 - ~2^-10) are "wide"
+#define CONE_ULP16 9.5367431640625e-07f      // 16 ulp = 2^-20: error growth of a nearly parallel projection
+#define CONE_ULP8 4.76837158203125e-07f      // 8 ulp = 2^-21
+#define CONE_ULP2 1.1920928955078125e-07f   // 2 ulp = 2^-23
+
+#ifdef __cplusplus
+namespace cs::cone {
+namespace glsl {
+#define CONE_FN inline
+#define CONE_PRECISE
+#else
+#define CONE_FN
+#define CONE_PRECISE precise
+#endif
+
+// Vertex v (length lv) strictly outside the cone (axis a, pair cs) by the margin:
+// |v| sin(theta_v - alpha) >= margin |v|. A vertex at the apex itself (v = 0) passes: a triangle may
+// touch the apex, which no ray counts (hits need tau > eps > 0), and be rejected all the same.
+CONE_FN bool coneOutside(vec3 v, float lv, vec3 a, vec2 cs) {
+  return length(cross(v, a)) * cs.x - dot(v, a) * cs.y >= CONE_TEST_MARGIN * lv;
+}
+
+// What the precise test needs of a triangle, whatever the cone: computed once per (triangle, node) pair
+// and used for all four children.
+struct PreciseTriangle {
+  vec3 v0, v1, v2;  // relative to the apex (the light)
+  vec3 len;         // |v0|, |v1|, |v2|
+  vec4 plane;       // xyz: N = (v1 - v0) x (v2 - v0); w: |N|
+  vec2 slab;        // [lo, hi] holding N.x for every point x of the triangle, rounding included
+  vec4 edge0;       // edge planes through the apex: xyz = normal oriented towards the opposite vertex
+  vec4 edge1;       //   (zero when that orientation is not reliable: light in or near the plane),
+  vec4 edge2;       //   w = the margin a separation must clear (normal's own error + rounding)
+};
+
+// Edge plane through the apex and (vj, vk), oriented towards vi; zero when |det| does not clear its error.
+CONE_FN vec4 edgePlane(vec3 vi, vec3 vj, vec3 vk, float li, float lj, float lk) {
+  vec3 n = cross(vj, vk);
+  float o = dot(n, vi);                             // = det, the same for all three edges when exact
+  if (!(abs(o) > CONE_TEST_MARGIN * li * lj * lk)) return vec4(0.0f);
+  if (o < 0.0f) n = -n;
+  // The edge normal's own error is ~ulp * lj * lk, an angle of that over |n|.
+  return vec4(n, CONE_TEST_MARGIN * (lj * lk + length(n)));
+}
+
+CONE_FN PreciseTriangle preciseTriangle(vec3 v0, vec3 v1, vec3 v2) {
+  PreciseTriangle t;
+  t.v0 = v0;
+  t.v1 = v1;
+  t.v2 = v2;
+  t.len = vec3(length(v0), length(v1), length(v2));
+  vec3 N = cross(v1 - v0, v2 - v0);
+  float nl = length(N);
+  t.plane = vec4(N, nl);
+  float h0 = dot(N, v0);
+  float h1 = dot(N, v1);
+  float h2 = dot(N, v2);
+  float herr = CONE_TEST_MARGIN * nl * max(t.len.x, max(t.len.y, t.len.z));
+  t.slab = vec2(min(h0, min(h1, h2)) - herr, max(h0, max(h1, h2)) + herr);
+  t.edge0 = edgePlane(v0, v1, v2, t.len.x, t.len.y, t.len.z);
+  t.edge1 = edgePlane(v1, v2, v0, t.len.y, t.len.z, t.len.x);
+  t.edge2 = edgePlane(v2, v0, v1, t.len.z, t.len.x, t.len.y);
+  return t;
+}
+
+// The cone lies strictly on the far side of the (oriented) edge plane e, beyond its margin: the angle
+// phi between its normal and the axis exceeds pi/2 + alpha, evaluated as |n| cos(phi - alpha) < -margin.
+CONE_FN bool edgeSeparates(vec4 e, vec3 a, float c, float s) {
+  vec3 n = vec3(e);
+  return dot(n, a) * c + length(cross(n, a)) * s < -e.w;
+}
+
+// Separating plane tangent to the cone on vertex vi's side: true when all three vertices are
+// strictly beyond it.
+CONE_FN bool tangentSeparates(vec3 vi, float li, PreciseTriangle t, vec3 a, float c, float s) {
+  float z = dot(vi, a);
+  vec3 p = vi - z * a;
+  float pl = length(p);
+  if (!(pl * 4096.0f > li)) return false;           // vertex (nearly) on the axis
+  // Widen the cone by gamma >= the tilt of b = p / |p| off the plane normal to a (~10 ulp |v| / |p|).
+  float gamma = CONE_TEST_MARGIN + CONE_ULP16 * li / pl;
+  float c2 = c - gamma * s;
+  float s2 = s + gamma * c;
+  if (!(c2 > 0.0f)) return false;                   // widened past pi/2: no tangent plane
+  vec3 n = (c2 / pl) * p - s2 * a;                  // angle(n, a) >= pi/2 + alpha: cone on n.r <= 0
+  float m = CONE_TEST_MARGIN * length(n);  // >=: a vertex at the apex (l = 0) may touch the plane, as in coneOutside
+  return dot(n, t.v0) >= m * t.len.x && dot(n, t.v1) >= m * t.len.y && dot(n, t.v2) >= m * t.len.z;
+}
+
+// False only when no ray of the cone -- directions within its half-angle of its axis, lengths up to
+// Lmax -- can meet the triangle (given relative to the cone's apex, the light).
+CONE_FN bool preciseConeTriangle(ConeNode cone, PreciseTriangle t) {
+  if (coneIsEmpty(cone)) return false;
+  vec3 a = vec3(cone.axisCos);
+  float c = cone.axisCos.w;
+  float s = cone.sinLen.x;
+  float lmax = cone.sinLen.z;
+
+  // 1. Complementary cone of the cone rounded up to pi/2 (the apex plane for narrow cones).
+  vec2 wide = c > 0.0f ? vec2(0.0f, 1.0f) : vec2(c, s);
+  if (coneOutside(t.v0, t.len.x, a, wide) && coneOutside(t.v1, t.len.y, a, wide) &&
+      coneOutside(t.v2, t.len.z, a, wide))
+    return false;
+
+  // 2. Nearest point of the triangle's plane (slab) inside the cone, against Lmax.
+  float nl = t.plane.w;
+  if (nl > 0.0f && (t.slab.x > 0.0f || t.slab.y < 0.0f)) {
+    vec3 m = t.slab.x > 0.0f ? vec3(t.plane) : -vec3(t.plane);
+    float dist = t.slab.x > 0.0f ? t.slab.x : -t.slab.y;  // the slab's near side, in units of |N|
+    float mu = dot(m, a);
+    float nu = length(cross(m, a));
+    // |N| * max over the cone's unit directions r of m.r, rounded up: 1 when m is inside the cone,
+    // else cos(theta_m - alpha).
+    float reach = nu * c - mu * s <= CONE_TEST_MARGIN * nl ? nl : mu * c + nu * s + CONE_TEST_MARGIN * nl;
+    if (reach * (lmax * (1.0f + CONE_TEST_MARGIN)) < dist) return false;
+  }
+
+  if (!(c > CONE_WIDE_COS)) return true;            // wide cone: only the tests above apply
+
+  // 3. Homogeneous edge equations.
+  if (edgeSeparates(t.edge0, a, c, s) || edgeSeparates(t.edge1, a, c, s) || edgeSeparates(t.edge2, a, c, s))
+    return false;
+
+  // 4. Triangle-shadow separating planes.
+  if (tangentSeparates(t.v0, t.len.x, t, a, c, s) || tangentSeparates(t.v1, t.len.y, t, a, c, s) ||
+      tangentSeparates(t.v2, t.len.z, t, a, c, s))
+    return false;
+  return true;
+}
+
+CONE_FN bool preciseConeTriangle(ConeNode cone, vec3 v0, vec3 v1, vec3 v2) {
+  return preciseConeTriangle(cone, preciseTriangle(v0, v1, v2));
+}
+
+// v with the ray's major axis kz moved last, cyclically (kx = kz + 1, ky = kz + 2), and x, y swapped when
+// the major component is negative (keeps the winding). Selects, not dynamic indexing: GPUs (and
+// lavapipe) index vector components by a variable through memory.
+CONE_FN vec3 shearOrder(vec3 v, int kz, bool flip) {
+  vec3 r = kz == 0 ? vec3(v.y, v.z, v.x) : (kz == 1 ? vec3(v.z, v.x, v.y) : v);
+  return flip ? vec3(r.y, r.x, r.z) : r;
+}
+
+// The leaf test: ray = leafRay(sample, light) (xyz = w = sample - light, w = L), triangle relative to the
+// light. True when it meets the triangle at a distance tau from the light with eps < tau < L - eps.
+CONE_FN bool leafRayHitsTriangle(vec4 ray, float eps, vec3 v0, vec3 v1, vec3 v2) {
+  vec3 w = vec3(ray);
+  float L = ray.w;
+  vec3 aw = abs(w);
+  int kz = aw.x >= aw.y ? (aw.x >= aw.z ? 0 : 2) : (aw.y >= aw.z ? 1 : 2);
+  float wz = kz == 0 ? w.x : (kz == 1 ? w.y : w.z);
+  bool flip = wz < 0.0f;
+  vec3 d = shearOrder(w, kz, flip);
+  vec3 A = shearOrder(v0, kz, flip);
+  vec3 B = shearOrder(v1, kz, flip);
+  vec3 C = shearOrder(v2, kz, flip);
+  CONE_PRECISE float Sx = d.x / d.z;
+  CONE_PRECISE float Sy = d.y / d.z;
+  CONE_PRECISE float Sz = 1.0f / d.z;
+  CONE_PRECISE float Ax = A.x - Sx * A.z;
+  CONE_PRECISE float Ay = A.y - Sy * A.z;
+  CONE_PRECISE float Bx = B.x - Sx * B.z;
+  CONE_PRECISE float By = B.y - Sy * B.z;
+  CONE_PRECISE float Cx = C.x - Sx * C.z;
+  CONE_PRECISE float Cy = C.y - Sy * C.z;
+  CONE_PRECISE float U = Cx * By - Cy * Bx;
+  CONE_PRECISE float V = Ax * Cy - Ay * Cx;
+  CONE_PRECISE float W = Bx * Ay - By * Ax;
+  if ((U < 0.0f || V < 0.0f || W < 0.0f) && (U > 0.0f || V > 0.0f || W > 0.0f)) return false;
+  CONE_PRECISE float det = U + V + W;
+  // The ray (nearly) in the triangle's plane, or a projection degenerate within rounding: the signs of
+  // U, V, W are noise there (all three can agree by chance, and T / det is then anything). Require det
+  // to clear twice a bound on its rounding: sheared coordinates are off by <= 8 ulp of the vertex's
+  // largest component (e), products and sums by an ulp each.
+  vec3 aA = abs(A);
+  vec3 aB = abs(B);
+  vec3 aC = abs(C);
+  float eA = CONE_ULP8 * max(aA.x, max(aA.y, aA.z));
+  float eB = CONE_ULP8 * max(aB.x, max(aB.y, aB.z));
+  float eC = CONE_ULP8 * max(aC.x, max(aC.y, aC.z));
+  float bA = abs(Ax) + abs(Ay);
+  float bB = abs(Bx) + abs(By);
+  float bC = abs(Cx) + abs(Cy);
+  float errDet = eC * bB + eB * bC + 2.0f * eB * eC + CONE_ULP2 * (bB * bC + abs(U)) +
+                 eA * bC + eC * bA + 2.0f * eA * eC + CONE_ULP2 * (bA * bC + abs(V)) +
+                 eB * bA + eA * bB + 2.0f * eA * eB + CONE_ULP2 * (bA * bB + abs(W));
+  if (!(abs(det) > 2.0f * errDet)) return false;
+  CONE_PRECISE float T = U * (Sz * A.z) + V * (Sz * B.z) + W * (Sz * C.z);
+  float tau = (T / det) * L;  // T / det: the hit as a fraction of w
+  return tau > eps && tau < L - eps;
+}
+
+#ifdef __cplusplus
+}  // namespace glsl
+using glsl::leafRayHitsTriangle;
+using glsl::preciseConeTriangle;
+using glsl::preciseTriangle;
+using glsl::PreciseTriangle;
+}  // namespace cs::cone
+#endif
+#undef CONE_FN
+#undef CONE_PRECISE
+#endif

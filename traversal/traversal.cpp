@@ -1,0 +1,294 @@
+// traversal/: the bounded breadth-first traversal (see traversal.h for the scheme).
+#include "traversal/traversal.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include "core/error.h"
+#include "traversal/traverse_leaves.comp.h"
+#include "traversal/traverse_scatter.comp.h"
+#include "traversal/traverse_test.comp.h"
+
+namespace cs::traversal {
+
+// ---- sizing ------------------------------------------------------------------------------------------
+
+namespace {
+constexpr uint64_t kPairBytes = 8;          // uvec2
+constexpr uint64_t kStatsBytes = STAT_WORDS * 4;
+constexpr uint64_t kScanSlack = 2 * 4 * 256 + 16;  // scan scratch alignment (<= 256 B per array) + its dummy
+}  // namespace
+
+uint64_t chunkScratchBytes(uint32_t chunkCapacity) {
+  const uint64_t levels = sort::scanLevelCounts(std::max(chunkCapacity, 1u), 2).size();
+  // chunk copy (uvec2) + mask + count per input, the scan's block sums, the counters
+  return 16 * uint64_t(chunkCapacity) + 4 * sort::scanScratchElements(std::max(chunkCapacity, 1u)) +
+         levels * kScanSlack + kStatsBytes;
+}
+
+uint64_t reserveBelow(uint32_t treeDepth, uint32_t d) { return d + 1 >= treeDepth ? 0 : 4 * uint64_t(treeDepth - 1 - d); }
+
+uint64_t minimumPairs(uint32_t treeDepth) { return reserveBelow(treeDepth, 0) + 1; }
+
+ArenaPlan planArena(uint64_t memoryBytes, uint64_t maxBinding) {
+  ArenaPlan p;
+  // Arena 2/3, chunks of a quarter of the arena (a full chunk expands into at most the whole arena).
+  uint64_t pairs = std::min<uint64_t>(memoryBytes / 12, maxBinding / kPairBytes);
+  for (;;) {
+    uint64_t chunk = std::max<uint64_t>(1, std::min<uint64_t>(pairs / 4, maxBinding / 4));
+    chunk = std::min<uint64_t>(chunk, uint64_t(1) << 30);
+    uint64_t bytes = pairs * kPairBytes + chunkScratchBytes(uint32_t(chunk));
+    if (bytes <= memoryBytes && pairs >= kMinPairs) {
+      p.pairCapacity = pairs;
+      p.chunkCapacity = uint32_t(chunk);
+      p.bytes = bytes;
+      return p;
+    }
+    CS_CHECK(pairs > kMinPairs, "traversal memory of " << memoryBytes << " bytes is too small: it must hold at least "
+                                                       << kMinPairs << " pairs and one chunk's scratch ("
+                                                       << kMinPairs * kPairBytes + chunkScratchBytes(1) << " bytes)");
+    pairs = std::max<uint64_t>(kMinPairs, pairs - std::max<uint64_t>(1, pairs / 16));
+  }
+}
+
+// ---- statistics ----------------------------------------------------------------------------------------
+
+uint64_t TraversalStats::pairsTested() const {
+  uint64_t n = 0;
+  for (auto& p : passes) n += p.tested;
+  return n;
+}
+
+uint64_t TraversalStats::pairsSurvived() const {
+  uint64_t n = 0;
+  for (auto& p : passes) n += p.survived;
+  return n;
+}
+
+nlohmann::json TraversalStats::toJson() const {
+  nlohmann::json levels = nlohmann::json::array();
+  for (size_t d = 0; d < passes.size(); ++d)
+    levels.push_back({{"depth", d},
+                      {"inputs", passes[d].inputs},
+                      {"pairs_tested", passes[d].tested},
+                      {"pairs_survived", passes[d].survived},
+                      {"chunks", passes[d].chunks},
+                      {"overflows", passes[d].overflows}});
+  return {{"passes", levels},
+          {"pairs_tested", pairsTested()},
+          {"pairs_survived", pairsSurvived()},
+          {"leaf_pairs", leafPairs},
+          {"leaf_tests", leafTests},
+          {"submits", submits},
+          {"peak_pairs", peakPairs},
+          {"peak_chunk", peakChunk},
+          {"peak_bytes", peakBytes},
+          {"traversal_ms", traversalMs},
+          {"leaves_ms", leavesMs},
+          {"traversal_timestamp_ms", traversalGpuMs},
+          {"leaves_timestamp_ms", leavesGpuMs}};
+}
+
+// ---- the traversal -------------------------------------------------------------------------------------
+
+struct Traversal::Frame {
+  const TraversalInput* in = nullptr;
+  vk::Timer* timer = nullptr;
+  const cone::TreeShape* shape = nullptr;
+  uint32_t depth = 0;
+  std::vector<uint64_t> base, end;  // arena range of each depth's pairs
+  std::vector<double> ratio;        // survivors per input of the last chunk out of each depth
+  TraversalStats stats;
+  uint32_t words[STAT_WORDS] = {};  // the counters of the last submit
+};
+
+Traversal::Traversal(vk::Context& ctx, uint64_t memoryBytes)
+    : Traversal(ctx, planArena(memoryBytes, ctx.maxStorageBufferRange())) {
+  CS_CHECK(bytesAllocated() <= memoryBytes, "traversal buffers take " << bytesAllocated() << " bytes, over the bound of "
+                                                                      << memoryBytes);
+}
+
+Traversal::Traversal(vk::Context& ctx, const ArenaPlan& plan) : ctx_(ctx), plan_(plan) {
+  CS_CHECK(plan_.pairCapacity >= kMinPairs && plan_.chunkCapacity >= 1, "traversal arena plan too small");
+  test_ = vk::createKernel(ctx, "traverse test", spv_traverse_test_comp, 6, sizeof(TraversePush));
+  scatter_ = vk::createKernel(ctx, "traverse scatter", spv_traverse_scatter_comp, 5, sizeof(TraversePush));
+  leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 6, sizeof(TraversePush));
+  arena_ = vk::createBuffer(ctx, plan_.pairCapacity * kPairBytes);
+  chunk_ = vk::createBuffer(ctx, uint64_t(plan_.chunkCapacity) * kPairBytes);
+  masks_ = vk::createBuffer(ctx, uint64_t(plan_.chunkCapacity) * 4);
+  counts_ = vk::createBuffer(ctx, uint64_t(plan_.chunkCapacity) * 4);
+  stats_ = vk::createBuffer(ctx, kStatsBytes, vk::Memory::HostVisible);
+  scan_ = std::make_unique<sort::Scan>(ctx, plan_.chunkCapacity);
+}
+
+Traversal::~Traversal() = default;
+
+uint64_t Traversal::bytesAllocated() const {
+  return arena_.size + chunk_.size + masks_.size + counts_.size + stats_.size + (scan_ ? scan_->bytesAllocated() : 0);
+}
+
+// Submits and waits; the wall time of the submit goes to `wallMs`, the timestamp intervals to the stats.
+void Traversal::submit(Frame& f, vk::Commands& cmd, double& wallMs) {
+  auto t0 = std::chrono::steady_clock::now();
+  cmd.submit();
+  wallMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  f.stats.submits++;
+  vk::download(ctx_, stats_, f.words, sizeof(f.words));
+  if (f.timer) {
+    for (auto& [name, ms] : f.timer->intervals()) {
+      if (name == "traversal") f.stats.traversalGpuMs += ms;
+      if (name == "leaves") f.stats.leavesGpuMs += ms;
+    }
+  }
+}
+
+// Expands `count` inputs into depth `child`: the arena pairs [first, first + count) of depth child - 1,
+// or (child == 0 with fromTriangles) the triangles first .. first + count - 1 against the root. The
+// inputs are copied to the chunk buffer first, so the survivors may overwrite them: they are written from
+// arena slot `first` on (`outFirst`), all of them or -- when they would pass slot `limit` -- none.
+// Returns whether they were written; f.words[STAT_TOTAL] holds their count either way.
+bool Traversal::expandChunk(Frame& f, uint32_t child, bool fromTriangles, uint64_t first, uint32_t count,
+                            uint64_t outFirst, uint64_t limit) {
+  TraversePush p{};
+  p.light = glm::vec4(f.in->light, 0.0f);
+  p.first = fromTriangles ? uint32_t(first) : 0u;
+  p.count = count;
+  p.fromTriangles = fromTriangles ? 1u : 0u;
+  p.childOffset = f.shape->offsets[child];
+  p.childCount = f.shape->counts[child];
+  p.outFirst = uint32_t(outFirst);
+  p.outLimit = uint32_t(limit);
+  p.eps = f.in->eps;
+  p.minLength = 2.0f * f.in->eps;
+
+  if (f.timer) f.timer->restart();
+  vk::Commands cmd(ctx_, f.timer);
+  cmd.fill(stats_, 0);
+  if (!fromTriangles) cmd.copy(arena_, chunk_, uint64_t(count) * kPairBytes, first * kPairBytes, 0);
+  cmd.barrier();
+  cmd.mark("start");
+  vk::Grid g = vk::gridFor(count, TRAVERSE_THREADS, ctx_.maxWorkgroups());
+  cmd.dispatch(test_, {*f.in->triangles, f.in->tree->nodes(), chunk_, masks_, counts_, stats_}, p, g.x, g.y);
+  cmd.barrier();
+  scan_->record(cmd, counts_, counts_, sort::Count(count), sort::GpuWord(stats_, STAT_TOTAL));
+  cmd.dispatch(scatter_, {arena_, chunk_, masks_, counts_, stats_}, p, g.x, g.y);
+  cmd.barrier();
+  cmd.mark("traversal");
+  submit(f, cmd, f.stats.traversalMs);
+
+  const uint32_t survived = f.words[STAT_TOTAL];
+  PassStats& s = f.stats.passes[child];
+  f.stats.peakChunk = std::max(f.stats.peakChunk, count);
+  if (outFirst + survived > limit) {
+    s.overflows++;
+    return false;
+  }
+  s.inputs += count;
+  s.tested += uint64_t(count) * (fromTriangles ? 1 : 4) - f.words[STAT_MISSING];
+  s.survived += survived;
+  s.chunks++;
+  f.stats.peakPairs = std::max(f.stats.peakPairs, outFirst + survived);
+  return true;
+}
+
+// Chunk size for expanding the tail of a depth whose pairs end at `end` into the next depth, whose pairs
+// may reach `limit`: the inputs' slots are reused, so m inputs with r survivors each need
+// end - m + r m <= limit; sized with a 25 % margin on the r seen so far.
+uint64_t Traversal::chunkSize(uint64_t available, uint64_t end, uint64_t limit, double ratio) const {
+  const double r = 1.25 * ratio;
+  const double room = double(limit - std::min(limit, end));
+  uint64_t m = r <= 1.0 ? available : uint64_t(room / (r - 1.0));
+  return std::max<uint64_t>(1, std::min<uint64_t>({m, available, plan_.chunkCapacity}));
+}
+
+void Traversal::leaves(Frame& f, uint32_t d) {
+  const uint64_t pairs = f.end[d] - f.base[d];
+  TraversePush p{};
+  p.light = glm::vec4(f.in->light, 0.0f);
+  p.first = uint32_t(f.base[d]);
+  p.count = uint32_t(pairs);
+  p.childCount = f.shape->leaves;
+  p.eps = f.in->eps;
+  p.minLength = 2.0f * f.in->eps;
+  if (f.timer) f.timer->restart();
+  vk::Commands cmd(ctx_, f.timer);
+  cmd.fill(stats_, 0);
+  cmd.barrier();
+  cmd.mark("start");
+  vk::Grid g = vk::gridFor(4 * pairs, TRAVERSE_THREADS, ctx_.maxWorkgroups());
+  cmd.dispatch(leaves_, {*f.in->triangles, arena_, f.in->samples, f.in->positions, *f.in->visibility, stats_}, p,
+               g.x, g.y);
+  cmd.barrier();
+  cmd.mark("leaves");
+  submit(f, cmd, f.stats.leavesMs);
+  f.stats.leafPairs += pairs;
+  f.stats.leafTests += 4 * pairs - f.words[STAT_MISSING];
+}
+
+// Finishes every pair of depth d, [base[d], end[d]), then leaves it empty. Chunks are taken from the
+// tail, expanded into depth d+1 in the slots they free, and depth d+1 is finished before the next
+// chunk: breadth-first when the whole depth fits as one chunk, depth-first over chunks when it does not.
+void Traversal::processDepth(Frame& f, uint32_t d) {
+  if (f.end[d] == f.base[d]) return;
+  if (d + 1 == f.depth) {
+    leaves(f, d);
+    f.end[d] = f.base[d];
+    return;
+  }
+  const uint32_t next = d + 1;
+  const uint64_t limit = plan_.pairCapacity - reserveBelow(f.depth, next);
+  double& ratio = f.ratio[d];
+  while (f.end[d] > f.base[d]) {
+    const uint64_t m = chunkSize(f.end[d] - f.base[d], f.end[d], limit, ratio);
+    const uint64_t first = f.end[d] - m;
+    const bool fits = expandChunk(f, next, false, first, uint32_t(m), first, limit);
+    const double seen = double(f.words[STAT_TOTAL]) / double(m);
+    if (!fits) {  // a smaller chunk next time; one pair always fits (<= 4 survivors, reserve of 4)
+      CS_CHECK(m > 1, "traversal arena cannot make progress at depth " << d);
+      ratio = std::min(4.0, std::max(2.0 * ratio, seen));
+      continue;
+    }
+    ratio = std::clamp(seen, 0.05, 4.0);
+    f.end[d] = first;
+    f.base[next] = first;
+    f.end[next] = first + f.words[STAT_TOTAL];
+    processDepth(f, next);
+  }
+}
+
+TraversalStats Traversal::run(const TraversalInput& in, vk::Timer* timer) {
+  CS_CHECK(in.triangles && in.tree && in.visibility, "traversal input incomplete");
+  Frame f;
+  f.in = &in;
+  f.timer = timer;
+  f.shape = &in.tree->shape();
+  f.depth = f.shape->depth;
+  CS_CHECK(plan_.pairCapacity >= minimumPairs(f.depth),
+           "traversal memory too small for this view: a tree of depth " << f.depth << " needs at least "
+               << minimumPairs(f.depth) << " pairs (" << minimumPairs(f.depth) * kPairBytes
+               << " bytes of arena), the bound gives " << plan_.pairCapacity);
+  f.base.assign(f.depth, 0);
+  f.end.assign(f.depth, 0);
+  f.ratio.assign(f.depth, 1.0);
+  f.stats.passes.resize(f.depth);
+
+  // Pass 0: every triangle against the root, as many at a time as depth 0 can hold beside the reserve of
+  // the deeper depths (each triangle gives at most one pair), each batch finished before the next.
+  const uint64_t limit = plan_.pairCapacity - reserveBelow(f.depth, 0);
+  uint64_t pos = 0;
+  while (pos < in.triangleCount) {
+    const uint64_t m = std::min<uint64_t>({in.triangleCount - pos, plan_.chunkCapacity, limit});
+    CS_CHECK(expandChunk(f, 0, true, pos, uint32_t(m), 0, limit), "pass 0 cannot overflow");
+    f.base[0] = 0;
+    f.end[0] = f.words[STAT_TOTAL];
+    processDepth(f, 0);
+    pos += m;
+  }
+  // The scratch in use at the largest chunk (the estimate's alignment slack capped by what is allocated).
+  const uint64_t scratch = bytesAllocated() - arena_.size;
+  f.stats.peakBytes = f.stats.peakPairs * kPairBytes +
+                      (f.stats.peakChunk ? std::min(chunkScratchBytes(f.stats.peakChunk), scratch) : 0);
+  return f.stats;
+}
+
+}  // namespace cs::traversal

@@ -1,0 +1,144 @@
+// traversal/: every triangle pushed through the cone tree, breadth-first with bounded memory (002 §3.1,
+// §3.2, §4.2), down to an exact ray/triangle test per leaf that shadows the sample.
+//
+// ---- How it works ---------------------------------------------------------------------------------
+// Pairs. A pair is (triangle, node index within its depth). Pass 0 tests every triangle against the root
+// (depth 0); pass k takes the pairs of depth k-1 and tests each against its node's (up to) four children
+// at depth k with the precise cone/triangle test (precise_test.h). The survivors are compacted: the test
+// kernel writes a 4-bit child mask and its popcount per input pair, sort/'s exclusive Scan turns the
+// counts into offsets, and traverse_scatter.comp writes the surviving pairs, in input order. The pairs of
+// depth D-1 (parents of leaves) go to traverse_leaves.comp: four invocations per pair, one per ray under
+// the node; each rebuilds its ray from the light and the sample's position (conetree/cone_math.h) and
+// runs the watertight ray/triangle test with hits counted at distances in (eps, L - eps) from the light
+// (the reference's interval, measured from the other end). A hit ANDs the sample's visibility word with
+// 0: idempotent, so the mask does not depend on order, races or how the work was split.
+//
+// Bounded memory (002 §4.2). All pairs live in one fixed arena of `pairCapacity` pairs, used as a stack of
+// depths: depth d+1's pairs sit right after what is left of depth d's. Depth d is processed from its tail:
+// a chunk of its last m pairs is copied to the chunk buffer, tested, and its survivors written into depth
+// d+1 starting at the chunk's own first slot (the slots it frees); depth d+1 is then finished,
+// recursively, before the next chunk of depth d. Depth d+1 may reach the arena's end minus a reserve of 4
+// slots for each deeper depth (reserveBelow), so one pair (at most 4 survivors) always fits and the
+// traversal needs no more than 4 (D - 1) + 1 pairs (one node's children per depth) to make progress. The
+// chunk is sized from the survivors per input seen so far at that depth; a chunk whose survivors would
+// pass the limit writes none of them (the scatter checks the scanned total) and is retried smaller. So
+// the traversal is breadth-first, a whole depth per pass, while the arena holds two consecutive depths,
+// and degrades smoothly to depth-first over chunks when it does not; the mask is bit-identical at every
+// arena size (tests/traversal_test.cpp): visibility only ever goes from 1 to 0, and every (triangle,
+// leaf) pair that survives is tested exactly once whatever the chunking.
+// Scratch per chunk: the copied inputs, a mask and a count per input, the scan's block sums, sized for
+// `chunkCapacity` inputs. The host reads back one word per chunk (the survivor count) to place the next
+// chunk; each chunk is one submit, and so is each batch of leaf tests.
+//
+// Memory budget. `memoryBytes` (ConeOptions::traversalMemoryBytes, --traversal-memory) bounds the arena
+// plus the chunk scratch: planArena() splits it (arena 2/3, chunk capacity = arena / 4), caps each array
+// at one storage binding (maxStorageBufferRange) and reports what it allocates. peakBytes in the stats is
+// the high-water mark of the arena slots in use plus the scratch of the largest chunk: always <= the bound.
+//
+// Stats per frame: for each pass (depth), the (triangle, node) pairs tested, the survivors and the chunks;
+// the leaf tests; the submits; the time of the passes ("traversal") and of the leaf tests
+// ("leaves"), as the wall time of their submits (host waits included) and from timestamps.
+#pragma once
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <glm/glm.hpp>
+#include <nlohmann/json.hpp>
+
+#include "conetree/conetree.h"
+#include "sort/sort.h"
+#include "traversal/traversal_layout.h"
+#include "vk/context.h"
+
+namespace cs::traversal {
+
+// ---- sizing (pure, unit-tested) ---------------------------------------------------------------------
+struct ArenaPlan {
+  uint64_t pairCapacity = 0;   // pairs the arena holds
+  uint32_t chunkCapacity = 0;  // input pairs one chunk may have (masks/counts/scan sized for it)
+  uint64_t bytes = 0;          // arena + chunk scratch, <= the budget
+};
+// Bytes the chunk scratch of `chunkCapacity` inputs takes: masks + counts + the scan's block sums.
+uint64_t chunkScratchBytes(uint32_t chunkCapacity);
+// Splits `memoryBytes` into the arena and the chunk scratch; each array stays within `maxBinding` bytes.
+// Throws a cs::Error when the budget cannot hold even a minimal arena (kMinPairs pairs + one chunk).
+ArenaPlan planArena(uint64_t memoryBytes, uint64_t maxBinding);
+// Arena slots reserved beyond depth d's pairs for the deeper depths (4 per interior depth below d).
+uint64_t reserveBelow(uint32_t treeDepth, uint32_t d);
+// The smallest arena that can traverse a tree of this depth: one node's children per depth.
+uint64_t minimumPairs(uint32_t treeDepth);
+constexpr uint64_t kMinPairs = 4;
+constexpr uint64_t kDefaultMemoryBytes = uint64_t(64) << 20;
+
+// ---- per-frame statistics -----------------------------------------------------------------------------
+struct PassStats {
+  uint64_t inputs = 0;    // pairs (or triangles, pass 0) fed to the pass
+  uint64_t tested = 0;    // (triangle, node) tests: inputs x children
+  uint64_t survived = 0;  // pairs written for the next depth
+  uint64_t chunks = 0;    // chunks the pass was split into
+  uint64_t overflows = 0; // chunks tested but dropped because their survivors did not fit (retried)
+};
+struct TraversalStats {
+  std::vector<PassStats> passes;  // passes[d]: the tests against the nodes of depth d (0 = root)
+  uint64_t leafPairs = 0;         // pairs of depth D-1 sent to the leaves
+  uint64_t leafTests = 0;         // (pair, ray) combinations at the leaves: 4 per pair but under a last node
+  uint64_t submits = 0;
+  uint64_t peakPairs = 0;         // arena high-water mark, in pairs
+  uint32_t peakChunk = 0;         // largest chunk, in input pairs
+  uint64_t peakBytes = 0;         // peakPairs * 8 + the scratch of the largest chunk (<= what is allocated)
+  double traversalMs = 0;         // wall time of the passes' submits (test + scan + scatter), waits included
+  double leavesMs = 0;            // wall time of the leaf tests' submits
+  double traversalGpuMs = 0;      // the same from timestamps (see cone_method.h on lavapipe's timestamps)
+  double leavesGpuMs = 0;
+  uint64_t pairsTested() const;
+  uint64_t pairsSurvived() const;
+  nlohmann::json toJson() const;
+};
+
+// What one traversal reads. Buffers stay owned by the caller.
+struct TraversalInput {
+  const vk::Buffer* triangles = nullptr;  // vec4 x 3 per triangle, world space (w ignored)
+  uint32_t triangleCount = 0;
+  const cone::ConeTree* tree = nullptr;   // built over the rays below
+  vk::BufferRange samples;                // pixel index per sorted ray (tree->shape().leaves of them)
+  vk::BufferRange positions;              // vec4 per pixel (the G-buffer)
+  const vk::Buffer* visibility = nullptr; // uint per pixel: float bits, 1.0f lit; hits write 0
+  glm::vec3 light{0};
+  float eps = 0;                          // hits count in (eps, L - eps)
+};
+
+class Traversal {
+ public:
+  // Allocates the arena and the chunk scratch for `memoryBytes` (see planArena) once.
+  Traversal(vk::Context& ctx, uint64_t memoryBytes);
+  // With an explicit plan (tests: down to minimumPairs(depth) pairs and chunks of one pair).
+  Traversal(vk::Context& ctx, const ArenaPlan& plan);
+  ~Traversal();
+  Traversal(const Traversal&) = delete;
+  Traversal& operator=(const Traversal&) = delete;
+
+  // Runs every pass and the leaves (several submits; waits for the last). `timer`, when given, is
+  // restarted per submit and its "traversal" / "leaves" timestamp intervals summed into the stats.
+  TraversalStats run(const TraversalInput& in, vk::Timer* timer = nullptr);
+
+  const ArenaPlan& plan() const { return plan_; }
+  uint64_t bytesAllocated() const;
+
+ private:
+  struct Frame;
+  void processDepth(Frame& f, uint32_t d);
+  bool expandChunk(Frame& f, uint32_t child, bool fromTriangles, uint64_t first, uint32_t count, uint64_t outFirst,
+                   uint64_t limit);
+  uint64_t chunkSize(uint64_t available, uint64_t end, uint64_t limit, double ratio) const;
+  void leaves(Frame& f, uint32_t d);
+  void submit(Frame& f, vk::Commands& cmd, double& wallMs);
+
+  vk::Context& ctx_;
+  ArenaPlan plan_;
+  vk::Kernel test_, scatter_, leaves_;
+  vk::Buffer arena_, chunk_, masks_, counts_, stats_;
+  std::unique_ptr<sort::Scan> scan_;
+};
+
+}  // namespace cs::traversal

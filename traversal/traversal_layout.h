@@ -1,0 +1,45 @@
+// traversal/: push constants, workgroup shapes and counter slots of the traversal kernels, shared by
+// GLSL and C++ (one layout, two languages).
+#ifndef CONESHADOW_TRAVERSAL_LAYOUT_H
+#define CONESHADOW_TRAVERSAL_LAYOUT_H
+
+#define TRAVERSE_THREADS 64
+
+// Counters the kernels add to (uint each, per submit; the host reads and clears them).
+#define STAT_MISSING 0     // tests short of 4 per input (1 per triangle): children or rays past a level's end
+#define STAT_TOTAL 1       // the scan's total: survivors of the chunk (written by sort/'s Scan)
+#define STAT_WORDS 4
+
+#ifdef __cplusplus
+#include <cstddef>
+#include <cstdint>
+
+#include <glm/glm.hpp>
+namespace cs::traversal {
+using uint = uint32_t;
+using vec4 = glm::vec4;
+#endif
+
+// traverse_test.comp, traverse_scatter.comp, traverse_leaves.comp. A pair is uvec2(triangle, node index
+// within its depth); the arena holds the pairs of every depth on a stack (traversal.h).
+struct TraversePush {
+  vec4 light;         // xyz: the point light (the cones' apex)
+  uint first;         // first input pair in the arena, or first triangle when fromTriangles
+  uint count;         // input elements of this dispatch
+  uint fromTriangles; // 1: input i is triangle first + i, tested against the root (pass 0)
+  uint childOffset;   // node-array offset of the child depth (test); unused by the leaves
+  uint childCount;    // elements at the child depth (nodes, or the rays at the leaves)
+  uint outFirst;      // scatter: arena slot of the first output pair
+  float eps;          // leaves: hits count at distances in (eps, L - eps) from the light
+  float minLength;    // leaves: rays not longer than this are degenerate (2 eps), never tested
+  uint outLimit;      // scatter: no pair is written at or past this slot (the chunk overflowed)
+  uint pad0, pad1, pad2;
+};
+
+#ifdef __cplusplus
+static_assert(sizeof(TraversePush) == 64 && offsetof(TraversePush, first) == 16 &&
+                  offsetof(TraversePush, minLength) == 44 && offsetof(TraversePush, outLimit) == 48,
+              "TraversePush layout");
+}  // namespace cs::traversal
+#endif
+#endif

@@ -1,0 +1,11 @@
+// traversal/: what the traversal kernels share -- bindings they agree on and small helpers.
+#ifndef CONESHADOW_TRAVERSAL_TRAVERSE_GLSL
+#define CONESHADOW_TRAVERSAL_TRAVERSE_GLSL
+
+#include "traversal/traversal_layout.h"
+
+uint flatIndex() {
+  return (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * TRAVERSE_THREADS + gl_LocalInvocationID.x;
+}
+
+#endif

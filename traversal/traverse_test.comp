@@ -1,0 +1,41 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// One breadth-first pass (002 §3.1, §4.2): every input (triangle, node) pair is tested against the node's
+// children with the precise cone/triangle test (002 §3.2) -- or, in pass 0, every triangle against the
+// root. Writes the surviving children as a 4-bit mask and their count per input; sort/'s scan turns the
+// counts into output offsets and traverse_scatter.comp writes the pairs.
+// Tests counted by the host (4 per input pair, 1 per triangle) less STAT_MISSING, which the pairs of a
+// level's last node (fewer than four children) add to.
+// bindings: 0 = triangles (vec4 x 3 per triangle, world space), 1 = nodes (ConeNode), 2 = chunk (uvec2
+//           input pairs), 3 = masks (uint per input), 4 = counts (uint per input), 5 = stats (uint[STAT_WORDS])
+#include "traversal/precise_test.h"
+#include "traversal/traverse.glsl"
+
+layout(local_size_x = TRAVERSE_THREADS) in;
+layout(std430, binding = 0) readonly buffer Triangles { vec4 tris[]; };
+layout(std430, binding = 1) readonly buffer Nodes { ConeNode nodes[]; };
+layout(std430, binding = 2) readonly buffer Chunk { uvec2 pairs[]; };
+layout(std430, binding = 3) writeonly buffer Masks { uint masks[]; };
+layout(std430, binding = 4) writeonly buffer Counts { uint counts[]; };
+layout(std430, binding = 5) buffer Stats { uint stats[]; };
+layout(push_constant) uniform Push { TraversePush p; };
+
+void main() {
+  uint i = flatIndex();
+  if (i >= p.count) return;
+  uvec2 pair = p.fromTriangles != 0u ? uvec2(p.first + i, 0u) : pairs[p.first + i];
+  vec3 light = p.light.xyz;
+  // Relative to the light, exactly as the leaf test computes them.
+  precise vec3 v0 = tris[3u * pair.x].xyz - light;
+  precise vec3 v1 = tris[3u * pair.x + 1u].xyz - light;
+  precise vec3 v2 = tris[3u * pair.x + 2u].xyz - light;
+  uvec2 r = p.fromTriangles != 0u ? uvec2(0u, 1u) : childRange(pair.y, p.childCount);
+  PreciseTriangle t = preciseTriangle(v0, v1, v2);  // once for the (up to) four children
+  uint mask = 0u;
+  for (uint c = r.x; c < r.y; c++)
+    if (preciseConeTriangle(nodes[p.childOffset + c], t)) mask |= 1u << (c - r.x);
+  masks[i] = mask;
+  counts[i] = bitCount(mask);
+  uint expected = p.fromTriangles != 0u ? 1u : 4u;
+  if (r.y - r.x < expected) atomicAdd(stats[STAT_MISSING], expected - (r.y - r.x));  // the last node only
+}
