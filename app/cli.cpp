@@ -29,6 +29,13 @@ render options:
   --dump DIR          also write position.pfm, normal.pfm, visibility_<m>.pfm, band.pfm, meta.json
   --traversal-memory BYTES   cone path: bound on the traversal's pair buffers (e.g. 64M, 256K)
   --ray-order O       cone path: hilbert (sorted rays, default) or screen (2x2 Morton screen order)
+  --sm-resolution N   cubesm: texels per cube face side (default 2048)
+  --sm-no-pcf         cubesm: one depth tap instead of 2x2 PCF
+  --plane-bias        cubesm, rmsm: receiver-plane depth bias instead of slope-scaled
+  --rmsm-pool BYTES   rmsm: physical page pool (default 16M; too small -> coarser finest LOD, reported)
+  --rmsm-page N       rmsm: page side in texels (default 32)
+  --rmsm-max-res N    rmsm: finest effective resolution per face side (default 32768)
+  --rmsm-cached       rmsm: keep pages across frames (static scenes)
   --frames N          timed frames after one warm-up; medians are reported (default 3)
   --device D          Vulkan device by index or name substring (see `coneshadow devices`);
                       default: a discrete GPU if there is one, else lavapipe
@@ -134,6 +141,20 @@ Options parseArgs(int argc, char** argv) {
       std::string v = value(a);
       if (v != "hilbert" && v != "screen") throw UsageError("--ray-order wants hilbert or screen, got '" + v + "'");
       o.unsorted = v == "screen";
+    } else if (a == "--sm-resolution") {
+      o.smResolution = parseUint(a, value(a), 16, 16384);
+    } else if (a == "--sm-no-pcf") {
+      o.smNoPcf = true;
+    } else if (a == "--plane-bias") {
+      o.smPlaneBias = true;
+    } else if (a == "--rmsm-pool") {
+      o.rmsmPool = parseBytes(a, value(a));
+    } else if (a == "--rmsm-page") {
+      o.rmsmPage = parseUint(a, value(a), 4, 4096);
+    } else if (a == "--rmsm-max-res") {
+      o.rmsmMaxRes = parseUint(a, value(a), 64, 1u << 20);
+    } else if (a == "--rmsm-cached") {
+      o.rmsmCached = true;
     } else if (a == "--validation") {
       o.validation = true;
     } else if (a == "--quiet") {

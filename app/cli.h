@@ -31,7 +31,15 @@ struct Options {
   bool validation = false;           // --validation: VK_LAYER_KHRONOS_validation on
   bool quiet = false;
   bool unsorted = false;             // --ray-order screen: cone tree over screen order (paper 002's unsorted variants)
-  uint64_t traversalMemory = 0;      // --traversal-memory BYTES (cone path); 0 = the method's default
+  uint64_t traversalMemory = 0;
+  // shadow maps (0 / false = the method's default)
+  uint32_t smResolution = 0;         // --sm-resolution: cube SM texels per face side
+  bool smNoPcf = false;              // --sm-no-pcf: cube SM single tap
+  bool smPlaneBias = false;          // --plane-bias: receiver-plane bias instead of slope-scaled (cubesm, rmsm)
+  uint64_t rmsmPool = 0;             // --rmsm-pool BYTES
+  uint32_t rmsmPage = 0;             // --rmsm-page N
+  uint32_t rmsmMaxRes = 0;           // --rmsm-max-res N
+  bool rmsmCached = false;           // --rmsm-cached      // --traversal-memory BYTES (cone path); 0 = the method's default
   std::vector<std::string> extra;    // method-specific --key=value settings, passed through
 };
 

@@ -106,6 +106,26 @@ TEST(Cli, RenderWritesImagesResultsAndDump) {
   fs::remove_all(dump);
 }
 
+TEST(Cli, EveryMethodRendersTheBuiltinSceneAndTheConePathIsExact) {
+  for (const char* method : {"cone", "cubesm", "rmsm"}) {
+    fs::path out = tempDir(std::string("method_") + method);
+    CliRun r = cli(std::string("render --method ") + method +
+                   " --view room --width 48 --height 40 --frames 1 --sm-resolution 256 --out " + out.string());
+    ASSERT_EQ(r.code, 0) << method << "\n" << r.out;
+    for (auto f : {"_shaded.png", "_mask.png", "_diff.png"})
+      EXPECT_TRUE(fs::exists(out / (std::string(method) + f))) << method << f;
+    std::ifstream js(out / "results.json");
+    auto j = nlohmann::json::parse(js);
+    ASSERT_EQ(j.size(), 2u) << "embree row + the method's row";
+    EXPECT_EQ(j[1]["method"], method);
+    EXPECT_TRUE(j[1]["stats"]["deterministic"].get<bool>()) << method;
+    if (std::string(method) == "cone") {
+      EXPECT_EQ(j[1]["error"]["misclassified_outside_band"], 0) << r.out;
+    }
+    fs::remove_all(out);
+  }
+}
+
 TEST(Cli, UnknownViewListsTheViews) {
   CliRun r = cli("render --view nowhere --frames 1 --out " + tempDir("view").string());
   EXPECT_EQ(r.code, 2) << r.out;

@@ -1,0 +1,73 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// Cube shadow map lookup, one invocation per pixel: face and (s, t) of the sample's direction from the
+// light, then the nearest texel or the bilinear 2x2 percentage-closer filter against the sample's
+// distance minus the slope-scaled bias, or per tap the receiver-plane distance (sm_shared.h). Unlit
+// samples get 1.
+// bindings: 0 = position (vec4 per pixel), 1 = normal (vec4 per pixel, w = N·L̂), 2..7 = faces 0..5
+//           (float per texel, row-major, R x R), 8 = visibility (float per pixel)
+#include "shadowmaps/sm_shared.h"
+layout(local_size_x = SM_PIXEL_THREADS) in;
+layout(std430, binding = 0) readonly buffer Position { vec4 position[]; };
+layout(std430, binding = 1) readonly buffer Normal { vec4 normal[]; };
+layout(std430, binding = 2) readonly buffer Face0 { float face0[]; };
+layout(std430, binding = 3) readonly buffer Face1 { float face1[]; };
+layout(std430, binding = 4) readonly buffer Face2 { float face2[]; };
+layout(std430, binding = 5) readonly buffer Face3 { float face3[]; };
+layout(std430, binding = 6) readonly buffer Face4 { float face4[]; };
+layout(std430, binding = 7) readonly buffer Face5 { float face5[]; };
+layout(std430, binding = 8) writeonly buffer Visibility { float visibility[]; };
+layout(push_constant) uniform Push { CubeLookupPush pc; };
+
+float texel(uint face, uint index) {
+  switch (face) {
+    case 0u: return face0[index];
+    case 1u: return face1[index];
+    case 2u: return face2[index];
+    case 3u: return face3[index];
+    case 4u: return face4[index];
+    default: return face5[index];
+  }
+}
+
+void main() {
+  uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * SM_PIXEL_THREADS + gl_LocalInvocationIndex;
+  if (i >= pc.width * pc.height) return;
+  vec4 p = position[i];
+  float cosTheta = normal[i].w;
+  vec3 d = p.xyz - pc.light.xyz;
+  float dist = length(d);
+  if (!(p.w > 0.5 && cosTheta > 0.0) || dist <= pc.minDistance) {
+    visibility[i] = 1.0;
+    return;
+  }
+  uint face = cubeFace(d);
+  vec3 dF = faceSpace(face, d);
+  vec3 nF = faceSpace(face, normal[i].xyz);
+  vec2 st = faceST(dF);
+  float res = float(pc.resolution);
+  float reach = dist - slopeScaledBias(dist, cosTheta, 2.0f / res, pc.constantBias, pc.slopeBias, pc.maxSlope);
+  float slack = 0.25 * dist * 2.0f / res;
+  float vis;
+  if (pc.pcf != 0u) {
+    vec2 x = footprintCoord(st, res);
+    // No apron on a cube face: clamp the footprint to the face (its last texel stands for the edge).
+    vec2 b = clamp(floor(x), vec2(0.0), vec2(res - 2.0));
+    vec2 f = clamp(x - b, vec2(0.0), vec2(1.0));
+    uint base = uint(b.y) * pc.resolution + uint(b.x);
+    float l[4];
+    for (uint k = 0u; k < 4u; ++k) {
+      vec2 tap = b + vec2(float(k & 1u), float(k >> 1u));
+      float r = pc.planeBias != 0u ? planeReach(dF, nF, 2.0 * (tap + 0.5) / res - 1.0, reach, pc.constantBias, slack)
+                                   : reach;
+      l[k] = texel(face, base + (k >> 1u) * pc.resolution + (k & 1u)) >= r ? 1.0 : 0.0;
+    }
+    vis = mix(mix(l[0], l[1], f.x), mix(l[2], l[3], f.x), f.y);
+  } else {
+    vec2 b = clamp(floor(st * res), vec2(0.0), vec2(res - 1.0));
+    float r = pc.planeBias != 0u ? planeReach(dF, nF, 2.0 * (b + 0.5) / res - 1.0, reach, pc.constantBias, slack)
+                                 : reach;
+    vis = texel(face, uint(b.y) * pc.resolution + uint(b.x)) >= r ? 1.0 : 0.0;
+  }
+  visibility[i] = vis;
+}

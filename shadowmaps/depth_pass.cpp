@@ -1,0 +1,355 @@
+// The light's geometry pass: see depth_pass.h.
+#include "shadowmaps/depth_pass.h"
+
+#include <chrono>
+#include <cmath>
+
+#include "shadowmaps/depth.frag.h"
+#include "shadowmaps/depth.vert.h"
+#include "shadowmaps/sm_shared.h"
+
+namespace cs::sm {
+
+namespace {
+constexpr VkFormat kColorFormat = VK_FORMAT_R32_SFLOAT;
+constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+
+uint32_t memoryType(const vk::Context& ctx, uint32_t bits, VkMemoryPropertyFlags want) {
+  for (uint32_t i = 0; i < ctx.memory.memoryTypeCount; ++i)
+    if ((bits & (1u << i)) && (ctx.memory.memoryTypes[i].propertyFlags & want) == want) return i;
+  for (uint32_t i = 0; i < ctx.memory.memoryTypeCount; ++i)
+    if (bits & (1u << i)) return i;
+  throw Error("no memory type for a shadow-map image", ctx.deviceName());
+}
+}  // namespace
+
+glm::mat4 windowClip(uint32_t face, double res, double x0, double y0, double w, double h, float nearPlane) {
+  const uint32_t axis = face >> 1;
+  const double sgn = (face & 1) ? -1.0 : 1.0;
+  // Rows of face space: x_f = d[axis+1], y_f = d[axis+2], z_f = sgn * d[axis] (sm_shared.h).
+  glm::dvec3 rx(0), ry(0), rz(0);
+  rx[(axis + 1) % 3] = 1;
+  ry[(axis + 2) % 3] = 1;
+  rz[axis] = sgn;
+  // Column x0 + i of the face (s·res = x0 + i) goes to NDC 2i/w - 1: x' = (res/w)·x_f + ((res - 2x0)/w - 1)·z_f.
+  const double ax = res / w, bx = (res - 2 * x0) / w - 1;
+  const double ay = res / h, by = (res - 2 * y0) / h - 1;
+  glm::dvec4 row0(ax * rx + bx * rz, 0), row1(ay * ry + by * rz, 0), row2(0, 0, 0, nearPlane), row3(rz, 0);
+  glm::dmat4 m = glm::transpose(glm::dmat4(row0, row1, row2, row3));
+  return glm::mat4(m);
+}
+
+DepthPass::DepthPass(vk::Context& ctx, bool culling) : ctx_(ctx), culling_(culling) { createPipeline(); }
+
+DepthPass::~DepthPass() {
+  destroyTargets();
+  VkDevice d = ctx_.device;
+  if (pipeline_) vkDestroyPipeline(d, pipeline_, nullptr);
+  if (layout_) vkDestroyPipelineLayout(d, layout_, nullptr);
+  if (renderPass_) vkDestroyRenderPass(d, renderPass_, nullptr);
+  if (vert_) vkDestroyShaderModule(d, vert_, nullptr);
+  if (frag_) vkDestroyShaderModule(d, frag_, nullptr);
+}
+
+double DepthPass::setGeometry(const Scene& scene) {
+  if (vertices_ && cachedPositions_ == scene.positions && cachedIndices_ == scene.indices) return 0.0;
+  auto t0 = std::chrono::steady_clock::now();
+  CS_CHECK(scene.indices.size() % 3 == 0, "scene '" << scene.name << "': index count is not a multiple of 3");
+  for (size_t i = 0; i < scene.indices.size(); ++i)
+    CS_CHECK(scene.indices[i] < scene.positions.size(), "scene '" << scene.name << "': index " << i << " = "
+                                                                   << scene.indices[i] << " is past the "
+                                                                   << scene.positions.size() << " vertices");
+  const uint64_t vbytes = scene.positions.size() * sizeof(glm::vec3);
+  const uint64_t ibytes = scene.indices.size() * sizeof(uint32_t);
+  if (!vertices_ || vertices_.size < vbytes)
+    vertices_ = vk::createBuffer(ctx_, vbytes, vk::Memory::Device, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
+  if (!indices_ || indices_.size < ibytes)
+    indices_ = vk::createBuffer(ctx_, ibytes, vk::Memory::Device, VK_BUFFER_USAGE_INDEX_BUFFER_BIT);
+  vk::upload(ctx_, vertices_, scene.positions.data(), vbytes);
+  vk::upload(ctx_, indices_, scene.indices.data(), ibytes);
+  indexCount_ = uint32_t(scene.indices.size());
+  clusters_.clear();
+  for (uint32_t first = 0; first < indexCount_; first += 3 * kClusterTriangles) {
+    Cluster c;
+    c.firstIndex = first;
+    c.indexCount = std::min(indexCount_ - first, 3 * kClusterTriangles);
+    glm::vec3 lo(INFINITY), hi(-INFINITY);
+    for (uint32_t i = first; i < first + c.indexCount; ++i) {
+      lo = glm::min(lo, scene.positions[scene.indices[i]]);
+      hi = glm::max(hi, scene.positions[scene.indices[i]]);
+    }
+    c.center = 0.5f * (lo + hi);
+    for (uint32_t i = first; i < first + c.indexCount; ++i)
+      c.radius = std::max(c.radius, glm::length(scene.positions[scene.indices[i]] - c.center));
+    c.radius = c.radius * 1.0001f + 1e-6f * glm::length(c.center);  // rounding of the sums above
+    if (!std::isfinite(c.radius)) c.radius = INFINITY;  // non-finite vertices: never culled (as before)
+    clusters_.push_back(c);
+  }
+  cachedPositions_ = scene.positions;
+  cachedIndices_ = scene.indices;
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void DepthPass::createPipeline() {
+  VkDevice d = ctx_.device;
+  VkAttachmentDescription att[2]{};
+  att[0].format = kColorFormat;
+  att[0].samples = VK_SAMPLE_COUNT_1_BIT;
+  att[0].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  att[0].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  att[0].stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+  att[0].stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  att[0].initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  att[0].finalLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+  att[1] = att[0];
+  att[1].format = kDepthFormat;
+  att[1].storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  att[1].finalLayout = VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+  VkAttachmentReference colorRef{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
+  VkAttachmentReference depthRef{1, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL};
+  VkSubpassDescription sub{};
+  sub.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
+  sub.colorAttachmentCount = 1;
+  sub.pColorAttachments = &colorRef;
+  sub.pDepthStencilAttachment = &depthRef;
+  // Passes follow each other on one target: the previous pass's copy (transfer read) and depth writes
+  // must finish before this pass clears; this pass's colour must be written before the copy reads it.
+  VkSubpassDependency deps[2]{};
+  deps[0].srcSubpass = VK_SUBPASS_EXTERNAL;
+  deps[0].dstSubpass = 0;
+  deps[0].srcStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT;
+  deps[0].dstStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_EARLY_FRAGMENT_TESTS_BIT |
+                         VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT;
+  deps[0].srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+  deps[0].dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
+                          VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+  deps[1].srcSubpass = 0;
+  deps[1].dstSubpass = VK_SUBPASS_EXTERNAL;
+  deps[1].srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+  deps[1].dstStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT;
+  deps[1].srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+  deps[1].dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+  VkRenderPassCreateInfo rp{VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO};
+  rp.attachmentCount = 2;
+  rp.pAttachments = att;
+  rp.subpassCount = 1;
+  rp.pSubpasses = &sub;
+  rp.dependencyCount = 2;
+  rp.pDependencies = deps;
+  VK_CHECK(vkCreateRenderPass(d, &rp, nullptr, &renderPass_));
+
+  VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+  mi.codeSize = sizeof(spv_depth_vert);
+  mi.pCode = spv_depth_vert;
+  VK_CHECK(vkCreateShaderModule(d, &mi, nullptr, &vert_));
+  mi.codeSize = sizeof(spv_depth_frag);
+  mi.pCode = spv_depth_frag;
+  VK_CHECK(vkCreateShaderModule(d, &mi, nullptr, &frag_));
+
+  VkPushConstantRange range{VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(DepthPush)};
+  VkPipelineLayoutCreateInfo li{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+  li.pushConstantRangeCount = 1;
+  li.pPushConstantRanges = &range;
+  VK_CHECK(vkCreatePipelineLayout(d, &li, nullptr, &layout_));
+
+  VkPipelineShaderStageCreateInfo stages[2]{};
+  stages[0] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_VERTEX_BIT, vert_, "main", nullptr};
+  stages[1] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_FRAGMENT_BIT, frag_, "main", nullptr};
+  VkVertexInputBindingDescription binding{0, sizeof(glm::vec3), VK_VERTEX_INPUT_RATE_VERTEX};
+  VkVertexInputAttributeDescription attr{0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0};
+  VkPipelineVertexInputStateCreateInfo vi{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+  vi.vertexBindingDescriptionCount = 1;
+  vi.pVertexBindingDescriptions = &binding;
+  vi.vertexAttributeDescriptionCount = 1;
+  vi.pVertexAttributeDescriptions = &attr;
+  VkPipelineInputAssemblyStateCreateInfo ia{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
+  ia.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+  VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
+  vp.viewportCount = 1;
+  vp.scissorCount = 1;
+  VkPipelineRasterizationStateCreateInfo rs{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
+  rs.polygonMode = VK_POLYGON_MODE_FILL;
+  rs.cullMode = VK_CULL_MODE_NONE;  // every triangle casts, whichever side faces the light
+  rs.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+  rs.lineWidth = 1.0f;
+  VkPipelineMultisampleStateCreateInfo ms{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
+  ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+  VkPipelineDepthStencilStateCreateInfo ds{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
+  ds.depthTestEnable = VK_TRUE;
+  ds.depthWriteEnable = VK_TRUE;
+  ds.depthCompareOp = VK_COMPARE_OP_GREATER;  // reversed Z: depth = near / z_f, larger is nearer
+  VkPipelineColorBlendAttachmentState blend{};
+  blend.colorWriteMask = VK_COLOR_COMPONENT_R_BIT;
+  VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
+  cb.attachmentCount = 1;
+  cb.pAttachments = &blend;
+  VkDynamicState dyn[2] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+  VkPipelineDynamicStateCreateInfo dy{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
+  dy.dynamicStateCount = 2;
+  dy.pDynamicStates = dyn;
+  VkGraphicsPipelineCreateInfo pi{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
+  pi.stageCount = 2;
+  pi.pStages = stages;
+  pi.pVertexInputState = &vi;
+  pi.pInputAssemblyState = &ia;
+  pi.pViewportState = &vp;
+  pi.pRasterizationState = &rs;
+  pi.pMultisampleState = &ms;
+  pi.pDepthStencilState = &ds;
+  pi.pColorBlendState = &cb;
+  pi.pDynamicState = &dy;
+  pi.layout = layout_;
+  pi.renderPass = renderPass_;
+  VK_CHECK(vkCreateGraphicsPipelines(d, VK_NULL_HANDLE, 1, &pi, nullptr, &pipeline_));
+}
+
+void DepthPass::ensureTargets(uint32_t largest, uint32_t smallest) {
+  std::vector<uint32_t> sizes;
+  for (uint32_t size = largest; sizes.empty() || (size >= smallest && size < sizes.back()); size = (size - 1) / 2 + 1)
+    sizes.insert(sizes.begin(), size);
+  bool same = sizes.size() == targets_.size();
+  for (size_t i = 0; same && i < sizes.size(); ++i) same = targets_[i].size == sizes[i];
+  if (same) return;
+  const auto& lim = ctx_.properties.limits;
+  if (largest > lim.maxFramebufferWidth || largest > lim.maxFramebufferHeight || largest > lim.maxImageDimension2D)
+    throw Error("shadow-map target of " + std::to_string(largest) + "² texels is not supported", ctx_.deviceName(),
+                "the device allows up to " + std::to_string(std::min(lim.maxFramebufferWidth, lim.maxImageDimension2D)) +
+                    " a side: lower --sm-resolution or the superpage size");
+  destroyTargets();
+  VkDevice d = ctx_.device;
+  auto make = [&](Image& t, uint32_t size, VkFormat format, VkImageUsageFlags usage, VkImageAspectFlags aspect) {
+    VkImageCreateInfo ii{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+    ii.imageType = VK_IMAGE_TYPE_2D;
+    ii.format = format;
+    ii.extent = {size, size, 1};
+    ii.mipLevels = 1;
+    ii.arrayLayers = 1;
+    ii.samples = VK_SAMPLE_COUNT_1_BIT;
+    ii.tiling = VK_IMAGE_TILING_OPTIMAL;
+    ii.usage = usage;
+    ii.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    VK_CHECK(vkCreateImage(d, &ii, nullptr, &t.image));
+    VkMemoryRequirements req;
+    vkGetImageMemoryRequirements(d, t.image, &req);
+    VkMemoryAllocateInfo ai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+    ai.allocationSize = req.size;
+    ai.memoryTypeIndex = memoryType(ctx_, req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+    VkResult r = vkAllocateMemory(d, &ai, nullptr, &t.memory);
+    if (r != VK_SUCCESS)
+      throw Error("cannot allocate a shadow-map target of " + std::to_string(size) + "² (" + vk::resultName(r) + ")",
+                  ctx_.deviceName(), "lower --sm-resolution or the superpage size");
+    VK_CHECK(vkBindImageMemory(d, t.image, t.memory, 0));
+    targetBytes_ += req.size;
+    VkImageViewCreateInfo vi{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+    vi.image = t.image;
+    vi.viewType = VK_IMAGE_VIEW_TYPE_2D;
+    vi.format = format;
+    vi.subresourceRange = {aspect, 0, 1, 0, 1};
+    VK_CHECK(vkCreateImageView(d, &vi, nullptr, &t.view));
+  };
+  for (uint32_t size : sizes) {
+    targets_.emplace_back();
+    Target& t = targets_.back();
+    t.size = size;
+    make(t.color, size, kColorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+         VK_IMAGE_ASPECT_COLOR_BIT);
+    make(t.depth, size, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, VK_IMAGE_ASPECT_DEPTH_BIT);
+    VkImageView views[2] = {t.color.view, t.depth.view};
+    VkFramebufferCreateInfo fi{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
+    fi.renderPass = renderPass_;
+    fi.attachmentCount = 2;
+    fi.pAttachments = views;
+    fi.width = size;
+    fi.height = size;
+    fi.layers = 1;
+    VK_CHECK(vkCreateFramebuffer(d, &fi, nullptr, &t.framebuffer));
+  }
+}
+
+void DepthPass::destroyTargets() {
+  if (targets_.empty()) return;
+  VkDevice d = ctx_.device;
+  vkDeviceWaitIdle(d);
+  for (Target& t : targets_) {
+    if (t.framebuffer) vkDestroyFramebuffer(d, t.framebuffer, nullptr);
+    for (Image* i : {&t.color, &t.depth}) {
+      if (i->view) vkDestroyImageView(d, i->view, nullptr);
+      if (i->image) vkDestroyImage(d, i->image, nullptr);
+      if (i->memory) vkFreeMemory(d, i->memory, nullptr);
+    }
+  }
+  targets_.clear();
+  current_ = 0;
+  targetBytes_ = 0;
+}
+
+void DepthPass::recordWindow(vk::Commands& cmd, uint32_t face, double res, uint32_t x0, uint32_t y0, uint32_t w,
+                             uint32_t h, glm::vec3 light, float nearPlane) {
+  CS_CHECK(w > 0 && h > 0 && w <= largestTarget() && h <= largestTarget(),
+           "depth pass window " << w << "x" << h << " does not fit the largest target of " << largestTarget());
+  current_ = 0;
+  while (targets_[current_].size < std::max(w, h)) ++current_;
+  DepthPush push{};
+  push.clip = windowClip(face, res, x0, y0, w, h, nearPlane);
+  push.light = glm::vec4(light, 1.0f);
+  VkCommandBuffer cb = cmd.handle();
+  VkClearValue clears[2]{};
+  clears[0].color.float32[0] = SM_EMPTY_DEPTH;
+  clears[1].depthStencil = {0.0f, 0};  // reversed Z: 0 is infinitely far
+  VkRenderPassBeginInfo bi{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
+  bi.renderPass = renderPass_;
+  bi.framebuffer = targets_[current_].framebuffer;
+  bi.renderArea = {{0, 0}, {w, h}};
+  bi.clearValueCount = 2;
+  bi.pClearValues = clears;
+  vkCmdBeginRenderPass(cb, &bi, VK_SUBPASS_CONTENTS_INLINE);
+  if (indexCount_) {
+    vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
+    VkViewport viewport{0, 0, float(w), float(h), 0.0f, 1.0f};
+    VkRect2D scissor{{0, 0}, {w, h}};
+    vkCmdSetViewport(cb, 0, 1, &viewport);
+    vkCmdSetScissor(cb, 0, 1, &scissor);
+    vkCmdPushConstants(cb, layout_, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(push), &push);
+    VkDeviceSize offset = 0;
+    vkCmdBindVertexBuffers(cb, 0, 1, &vertices_.buffer, &offset);
+    vkCmdBindIndexBuffer(cb, indices_.buffer, 0, VK_INDEX_TYPE_UINT32);
+    if (!culling_) {
+      vkCmdDrawIndexed(cb, indexCount_, 1, 0, 0, 0);
+      drawn_ += indexCount_ / 3;
+    } else {
+      // The window's frustum in face space: u in [u0, u1], v in [v0, v1] (u = x_f / z_f), z_f >= near.
+      const double u0 = 2.0 * x0 / res - 1, u1 = 2.0 * (double(x0) + w) / res - 1;
+      const double v0 = 2.0 * y0 / res - 1, v1 = 2.0 * (double(y0) + h) / res - 1;
+      const double nu0 = std::sqrt(1 + u0 * u0), nu1 = std::sqrt(1 + u1 * u1);
+      const double nv0 = std::sqrt(1 + v0 * v0), nv1 = std::sqrt(1 + v1 * v1);
+      uint32_t runFirst = 0, runCount = 0;
+      auto flush = [&] {
+        if (runCount) vkCmdDrawIndexed(cb, runCount, 1, runFirst, 0, 0);
+        drawn_ += runCount / 3;
+        runCount = 0;
+      };
+      for (const Cluster& c : clusters_) {
+        const glm::dvec3 f(faceSpace(face, c.center - light));
+        const double r = c.radius;
+        const bool outside = f.z + r < nearPlane || (f.x - u0 * f.z) / nu0 < -r || (u1 * f.z - f.x) / nu1 < -r ||
+                             (f.y - v0 * f.z) / nv0 < -r || (v1 * f.z - f.y) / nv1 < -r;
+        if (outside) {
+          flush();
+          continue;
+        }
+        if (runCount == 0) runFirst = c.firstIndex;
+        runCount += c.indexCount;
+      }
+      flush();
+    }
+  }
+  vkCmdEndRenderPass(cb);
+}
+
+void DepthPass::recordCopy(vk::Commands& cmd, const std::vector<VkBufferImageCopy>& regions, const vk::Buffer& dst) {
+  if (regions.empty()) return;
+  vkCmdCopyImageToBuffer(cmd.handle(), targets_[current_].color.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, dst.buffer,
+                         uint32_t(regions.size()), regions.data());
+}
+
+}  // namespace cs::sm

@@ -1,0 +1,102 @@
+// shadowmaps/: the geometry pass both shadow maps share. Renders the scene as seen from the light into a
+// texel window of one cube face — a whole face for the cube shadow map, a superpage for RMSM — storing
+// the linear distance to the light (R32F; a D32 reversed-Z buffer with an infinite far plane picks the
+// nearest fragment), then copies rectangles of it into storage buffers.
+//
+// Why linear distance: for an omnidirectional light the six faces must agree where they meet, and a
+// distance is the same number whichever face (or level) stored it, so one bias rule serves every face
+// and every level; fp32 distance keeps 24 bits of relative precision at any range, where a
+// perspective depth would spend them near the light.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "core/scene.h"
+#include "vk/context.h"
+
+namespace cs::sm {
+
+// The clip transform of a window of face `face` at `res` texels a side: texel column x0 + i (row y0 + j)
+// of the face lands on column i (row j) of a w x h viewport. Points are light-relative. z_clip = near,
+// w_clip = z_f: depth = near / z_f (reversed, infinite far), and points nearer than `near` are clipped.
+glm::mat4 windowClip(uint32_t face, double res, double x0, double y0, double w, double h, float nearPlane);
+
+// Frustum culling: the triangles are grouped into clusters of kClusterTriangles consecutive ones (index
+// order; meshes are mostly spatially coherent in it), each bounded by a sphere computed when the geometry
+// is uploaded. A pass draws only the runs of clusters whose sphere meets the window's frustum (four planes
+// through the light and the near plane) — the culling paper 000 §4.4 leaves as future work. Host work is
+// per cluster and per pass, never per sample or per triangle.
+inline constexpr uint32_t kClusterTriangles = 64;
+
+class DepthPass {
+ public:
+  explicit DepthPass(vk::Context& ctx, bool culling = true);
+  ~DepthPass();
+  DepthPass(const DepthPass&) = delete;
+  DepthPass& operator=(const DepthPass&) = delete;
+
+  // Uploads the scene's triangles when they differ from the last upload; returns wall ms (0 if cached).
+  double setGeometry(const Scene& scene);
+  // Square colour + depth targets: `largest` texels a side, then halving ((largest - 1) / 2 + 1: 1025,
+  // 513, ..., so windows of 2^k + 1 texels fit) down to no less than `smallest`. Each pass renders into
+  // the smallest target its window fits: a render pass costs in proportion to its framebuffer on some
+  // drivers (lavapipe bins the whole framebuffer), so small windows must not pay for a large target.
+  // Recreated only when the sizes change.
+  void ensureTargets(uint32_t largest, uint32_t smallest);
+  uint32_t largestTarget() const { return targets_.empty() ? 0 : targets_.back().size; }
+
+  // One geometry pass: the texel window [x0, x0 + w) x [y0, y0 + h) of face `face` at `res` texels a side
+  // into the target's top-left w x h texels; texels no triangle covers hold SM_EMPTY_DEPTH.
+  void recordWindow(vk::Commands& cmd, uint32_t face, double res, uint32_t x0, uint32_t y0, uint32_t w,
+                    uint32_t h, glm::vec3 light, float nearPlane);
+  // Copies rectangles of the target the last recordWindow rendered into `dst` (4-byte texels). No
+  // barrier: the caller adds one before reading `dst`.
+  void recordCopy(vk::Commands& cmd, const std::vector<VkBufferImageCopy>& regions, const vk::Buffer& dst);
+
+  uint32_t triangleCount() const { return indexCount_ / 3; }
+  // Triangles drawn by the passes recorded since the last call (culling's effect); resets the count.
+  uint64_t takeTrianglesDrawn() { uint64_t n = drawn_; drawn_ = 0; return n; }
+  uint64_t geometryBytes() const { return vertices_.size + indices_.size; }
+  uint64_t targetBytes() const { return targetBytes_; }
+  uint64_t bytesAllocated() const { return geometryBytes() + targetBytes_; }
+
+ private:
+  void createPipeline();
+  void destroyTargets();
+
+  struct Cluster {
+    glm::vec3 center{0};
+    float radius = 0;
+    uint32_t firstIndex = 0, indexCount = 0;
+  };
+
+  vk::Context& ctx_;
+  bool culling_;
+  std::vector<Cluster> clusters_;
+  uint64_t drawn_ = 0;
+  vk::Buffer vertices_, indices_;
+  uint32_t indexCount_ = 0;
+  std::vector<glm::vec3> cachedPositions_;
+  std::vector<uint32_t> cachedIndices_;
+  VkRenderPass renderPass_ = VK_NULL_HANDLE;
+  VkPipelineLayout layout_ = VK_NULL_HANDLE;
+  VkPipeline pipeline_ = VK_NULL_HANDLE;
+  VkShaderModule vert_ = VK_NULL_HANDLE, frag_ = VK_NULL_HANDLE;
+  struct Image {
+    VkImage image = VK_NULL_HANDLE;
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    VkImageView view = VK_NULL_HANDLE;
+  };
+  struct Target {
+    Image color, depth;
+    VkFramebuffer framebuffer = VK_NULL_HANDLE;
+    uint32_t size = 0;
+  };
+  std::vector<Target> targets_;  // ascending sizes
+  size_t current_ = 0;           // the target of the last recordWindow
+  uint64_t targetBytes_ = 0;
+};
+
+}  // namespace cs::sm

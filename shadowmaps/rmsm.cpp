@@ -1,0 +1,578 @@
+// Resolution-matched shadow maps over six cube faces: see rmsm.h for the algorithm and its steps.
+#include "shadowmaps/rmsm.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+
+#include "core/error.h"
+#include "raster/raster.h"
+#include "reference/epsilon.h"
+#include "shadowmaps/depth_pass.h"
+#include "shadowmaps/rmsm_lookup.comp.h"
+#include "shadowmaps/rmsm_probe.comp.h"
+#include "shadowmaps/rmsm_prune.comp.h"
+#include "shadowmaps/rmsm_requests.comp.h"
+#include "shadowmaps/rmsm_tables.comp.h"
+#include "shadowmaps/rmsm_unique.comp.h"
+#include "shadowmaps/sm_shared.h"
+#include "sort/sort.h"
+#include "vk/context.h"
+
+namespace cs {
+
+using Clock = std::chrono::steady_clock;
+static double msSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+namespace sm {
+
+namespace {
+bool isPow2(uint64_t v) { return v != 0 && (v & (v - 1)) == 0; }
+uint32_t log2u(uint64_t v) {
+  uint32_t l = 0;
+  while ((uint64_t(1) << (l + 1)) <= v) ++l;
+  return l;
+}
+std::string mib(uint64_t bytes) { return std::to_string((bytes + (1 << 19)) >> 20) + " MiB"; }
+}  // namespace
+
+RmsmLayout rmsmLayout(const RmsmOptions& o, uint64_t maxBinding) {
+  RmsmLayout l;
+  if (!isPow2(o.pageSize) || o.pageSize < 4 || o.pageSize > 1024)
+    throw Error("page size " + std::to_string(o.pageSize) + " is not a power of two from 4 to 1024", "--rmsm-page");
+  if (!isPow2(o.superpageSize) || o.superpageSize < o.pageSize || o.superpageSize > 16384)
+    throw Error("superpage size " + std::to_string(o.superpageSize) +
+                    " is not a power of two from the page size to 16384", "rmsm superpage");
+  if (!isPow2(o.maxResolution) || o.maxResolution < o.pageSize)
+    throw Error("maximum resolution " + std::to_string(o.maxResolution) +
+                    " is not a power of two at least the page size (" + std::to_string(o.pageSize) + ")",
+                "--rmsm-max-res");
+  l.pageSize = o.pageSize;
+  l.log2Page = log2u(o.pageSize);
+  l.superpageSize = o.superpageSize;
+  l.maxLevel = log2u(o.maxResolution / o.pageSize);
+  if (l.maxLevel > SM_MAX_LEVEL)
+    throw Error("maximum resolution " + std::to_string(o.maxResolution) + " needs " + std::to_string(l.maxLevel) +
+                    " quadtree levels above the root; page keys hold " + std::to_string(SM_MAX_LEVEL),
+                "--rmsm-max-res", "at most " + std::to_string(o.pageSize << SM_MAX_LEVEL) + " with pages of " +
+                                      std::to_string(o.pageSize));
+  const uint64_t pagePayload = uint64_t(4) * o.pageSize * o.pageSize;
+  const uint64_t pages = o.poolBytes / pagePayload;
+  if (pages < 6)
+    throw Error("a pool of " + std::to_string(o.poolBytes) + " bytes holds " + std::to_string(pages) + " pages of " +
+                    std::to_string(o.pageSize) + "²; the coarsest frame needs 6 (one per face)",
+                "--rmsm-pool", "at least " + std::to_string(6 * pagePayload) + " bytes");
+  const uint64_t slotBytes = uint64_t(4) * (o.pageSize + 1) * (o.pageSize + 1);
+  if (pages * slotBytes > maxBinding)
+    throw Error("a pool of " + std::to_string(pages) + " pages takes " + mib(pages * slotBytes) +
+                    " with their aprons, more than one storage binding of this device (" + mib(maxBinding) + ")",
+                "--rmsm-pool", "at most " + std::to_string(maxBinding / slotBytes * pagePayload) + " bytes");
+  l.poolPages = uint32_t(pages);
+  l.poolBytes = pages * slotBytes;
+  l.tableEntries = uint64_t(6) * ((uint64_t(1) << (2 * (l.maxLevel + 1))) - 1) / 3;
+  l.tableBytes = l.tableEntries * 4;
+  if (l.tableBytes > maxBinding)
+    throw Error("page tables for " + std::to_string(o.maxResolution) + "² faces take " + mib(l.tableBytes) +
+                    ", more than one storage binding of this device (" + mib(maxBinding) + ")",
+                "--rmsm-max-res", "lower the maximum resolution or raise the page size");
+  return l;
+}
+
+uint32_t coarsenToFit(std::vector<uint32_t>& keys, uint32_t levelLimit, uint32_t capacity) {
+  CS_CHECK(capacity >= 6, "coarsenToFit: a capacity of " << capacity << " pages cannot hold the six roots");
+  while (keys.size() > capacity && levelLimit > 0) {
+    --levelLimit;
+    for (uint32_t& k : keys) {
+      const uint32_t level = keyLevel(k);
+      if (level > levelLimit)
+        k = (keyFace(k) << 28) | (levelLimit << 24) | ((k & 0xFFFFFFu) >> (2 * (level - levelLimit)));
+    }
+    std::sort(keys.begin(), keys.end());
+    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+  }
+  return levelLimit;
+}
+
+std::vector<Superpage> binSuperpages(const std::vector<uint32_t>& keys, uint32_t log2Page, uint32_t superpageSize,
+                                     float minOccupancy) {
+  std::vector<Superpage> out;
+  const uint32_t page = 1u << log2Page;
+  const uint32_t top = log2u(superpageSize) - log2Page;  // a superpage is 2^top pages a side
+  for (uint32_t i = 1; i < keys.size(); ++i)
+    CS_CHECK(keys[i - 1] < keys[i], "binSuperpages: keys are not sorted and unique at " << i);
+  // Pages [first, last) share the Morton prefix of an aligned square of 2^k pages a side (Z-order keeps
+  // them consecutive). Emit their bounding box, or split the square in four while the box is sparse.
+  auto bin = [&](auto&& self, uint32_t first, uint32_t last, uint32_t k) -> void {
+    uint32_t minX = UINT32_MAX, minY = UINT32_MAX, maxX = 0, maxY = 0;
+    for (uint32_t i = first; i < last; ++i) {
+      const uint32_t px = keyPageX(keys[i]), py = keyPageY(keys[i]);
+      minX = std::min(minX, px), maxX = std::max(maxX, px);
+      minY = std::min(minY, py), maxY = std::max(maxY, py);
+    }
+    const double box = double(maxX - minX + 1) * double(maxY - minY + 1);
+    if (k == 0 || double(last - first) >= minOccupancy * box) {
+      Superpage sp;
+      sp.face = keyFace(keys[first]);
+      sp.level = keyLevel(keys[first]);
+      sp.x0 = minX * page;
+      sp.y0 = minY * page;
+      sp.w = (maxX - minX + 1) * page + 1;  // + the apron of the last column of pages
+      sp.h = (maxY - minY + 1) * page + 1;
+      sp.first = first;
+      sp.count = last - first;
+      out.push_back(sp);
+      return;
+    }
+    const uint32_t shift = 2 * (k - 1);  // Morton bits below the child squares
+    for (uint32_t i = first; i < last;) {
+      uint32_t j = i + 1;
+      while (j < last && (keys[j] >> shift) == (keys[i] >> shift)) ++j;
+      self(self, i, j, k - 1);
+      i = j;
+    }
+  };
+  for (uint32_t i = 0; i < keys.size();) {
+    uint32_t j = i + 1;  // the keys of one superpage: same face, level and Morton prefix above `top`
+    while (j < keys.size() && (keys[j] >> (2 * top)) == (keys[i] >> (2 * top))) ++j;
+    bin(bin, i, j, top);
+    i = j;
+  }
+  return out;
+}
+
+uint32_t tableIndexOf(uint32_t key, uint32_t maxLevel) {
+  return tableIndex(keyFace(key), keyLevel(key), keyPageX(key), keyPageY(key), maxLevel);
+}
+
+}  // namespace sm
+
+// ---- the method --------------------------------------------------------------------------------------
+
+namespace {
+
+// Stage times in order of first appearance; a name seen again (a flushed cache's second analysis) adds up.
+struct Stages {
+  std::vector<StageTime> list;
+  void add(const std::string& name, double ms) {
+    for (auto& s : list)
+      if (s.name == name) {
+        s.ms += ms;
+        return;
+      }
+    list.push_back({name, ms});
+  }
+};
+
+struct Analysis {
+  uint32_t counters[SM_COUNT_WORDS] = {};
+  std::vector<uint32_t> unique;  // sorted unique page keys
+};
+
+}  // namespace
+
+struct Rmsm::State {
+  vk::Context& ctx;
+  RmsmOptions opt;
+  sm::RmsmLayout layout;
+  sm::DepthPass pass;
+  vk::Timer timer;
+  vk::Kernel requests, prune, unique, tables, lookup, probe;
+  vk::Buffer tableBuf, pool, counters, updates;  // persistent across frames
+  // Per G-buffer size.
+  uint32_t width = 0, height = 0;
+  vk::Buffer requestBuf, flags, compacted, uniqueBuf, lod, visibility;
+  std::unique_ptr<sort::Compact> compact;
+  std::unique_ptr<sort::RadixSort> sorter;
+  // Residency: the key of the page in each pool slot (slots 0..resident.size()-1 are taken).
+  std::vector<uint32_t> resident;
+  uint32_t cacheLimit = 0;       // cached mode: finest level of the resident pages (the fallback lowers it)
+  bool cacheValid = false;
+  glm::vec3 cacheLight{0};
+  uint64_t cacheFlushes = 0;
+  Analysis last;                 // the last frame's analysis, for the test hooks
+
+  State(vk::Context& c, const RmsmOptions& o)
+      : ctx(c), opt(o), layout(sm::rmsmLayout(o, c.maxStorageBufferRange())), pass(c, o.cull), timer(vk::createTimer(c, 64)) {
+    CS_CHECK(o.constantBias >= 0 && o.slopeBias >= 0 && o.maxSlope >= 0, "rmsm biases must be >= 0");
+    const uint32_t push = sizeof(sm::RmsmPush);
+    requests = vk::createKernel(c, "rmsm_requests", spv_rmsm_requests_comp, 6, push);
+    prune = vk::createKernel(c, "rmsm_prune", spv_rmsm_prune_comp, 3, push);
+    unique = vk::createKernel(c, "rmsm_unique", spv_rmsm_unique_comp, 3, push);
+    tables = vk::createKernel(c, "rmsm_tables", spv_rmsm_tables_comp, 2, push);
+    lookup = vk::createKernel(c, "rmsm_lookup", spv_rmsm_lookup_comp, 7, push);
+    probe = vk::createKernel(c, "rmsm_probe", spv_rmsm_probe_comp, 4, push);
+    tableBuf = vk::createBuffer(c, layout.tableBytes);
+    pool = vk::createBuffer(c, layout.poolBytes);
+    counters = vk::createBuffer(c, SM_COUNT_WORDS * 4);
+    updates = vk::createBuffer(c, uint64_t(2) * layout.poolPages * 8);
+    vk::Commands cmd(c);
+    cmd.fill(tableBuf, 0);
+    cmd.fill(pool, 0);
+    cmd.barrier();
+    cmd.submit();
+    cacheLimit = layout.maxLevel;
+  }
+
+  uint64_t pixelBytes() const {
+    return requestBuf.size + flags.size + compacted.size + uniqueBuf.size + lod.size + visibility.size +
+           (compact ? compact->bytesAllocated() : 0) + (sorter ? sorter->bytesAllocated() : 0);
+  }
+  uint64_t bytesAllocated() const {
+    return pass.bytesAllocated() + tableBuf.size + pool.size + counters.size + updates.size + pixelBytes();
+  }
+
+  void ensurePixels(uint32_t w, uint32_t h) {
+    if (w == width && h == height && requestBuf) return;
+    const uint64_t pixels = uint64_t(w) * h;
+    CS_CHECK(pixels * 2 < (1u << 30), "rmsm: " << w << "x" << h << " is too many pixels");
+    sort::checkBinding(ctx, 2 * pixels, 4, "rmsm page requests");
+    compact.reset();
+    sorter.reset();
+    requestBuf = vk::createBuffer(ctx, 8 * pixels);
+    flags = vk::createBuffer(ctx, 8 * pixels);
+    compacted = vk::createBuffer(ctx, 8 * pixels);
+    uniqueBuf = vk::createBuffer(ctx, 8 * pixels);
+    lod = vk::createBuffer(ctx, 4 * pixels);
+    visibility = vk::createBuffer(ctx, 4 * pixels);
+    compact = std::make_unique<sort::Compact>(ctx, uint32_t(2 * pixels));
+    sorter = std::make_unique<sort::RadixSort>(ctx, uint32_t(2 * pixels));
+    width = w;
+    height = h;
+  }
+
+  sm::RmsmPush push(glm::vec3 light, float eps, uint32_t levelLimit) const {
+    sm::RmsmPush p{};
+    p.light = glm::vec4(light, 1.0f);
+    p.width = width;
+    p.height = height;
+    p.log2Page = layout.log2Page;
+    p.maxLevel = layout.maxLevel;
+    p.levelLimit = levelLimit;
+    p.constantBias = opt.constantBias * eps;
+    p.slopeBias = opt.slopeBias;
+    p.maxSlope = opt.maxSlope;
+    p.minDistance = 2.0f * eps;
+    p.lodBias = opt.lodBias;
+    p.planeBias = opt.planeBias ? 1u : 0u;
+    return p;
+  }
+
+  // Steps 1-8 of Algorithm 2: requests -> prune -> compact on the GPU; the pruned count read back (one
+  // word) so that sort -> uniquify -> compact run on exactly that many keys rather than on the bound of
+  // two per pixel (a device count would size every dispatch and scratch scan for the bound); then the
+  // unique pages on the host.
+  Analysis analyse(const DeviceGBuffer& g, glm::vec3 light, float eps, uint32_t levelLimit, bool filter,
+                   bool clearTables, Stages& stages) {
+    const uint32_t pixels = width * height, slots = 2 * pixels;
+    sm::RmsmPush p = push(light, eps, levelLimit);
+    p.cachedFilter = filter ? 1u : 0u;
+    Analysis a;
+    timer.restart();
+    {
+      vk::Commands cmd(ctx, &timer);
+      if (clearTables) cmd.fill(tableBuf, 0);
+      cmd.fill(counters, 0);
+      cmd.barrier();
+      cmd.mark("start");
+      vk::Grid grid = vk::gridFor(pixels, SM_PIXEL_THREADS, ctx.maxWorkgroups());
+      cmd.dispatch(requests, {g.position, g.normal, tableBuf, lod, requestBuf, counters}, p, grid.x, grid.y);
+      cmd.barrier();
+      cmd.mark("requests");
+      cmd.dispatch(prune, {requestBuf, flags, counters}, p, grid.x, grid.y);
+      cmd.barrier();
+      cmd.mark("prune");
+      compact->record(cmd, flags, sort::Count(slots), compacted, sort::GpuWord(counters, SM_COUNT_PRUNED), requestBuf);
+      cmd.mark("compact");
+      cmd.submit();
+    }
+    for (auto& [n, ms] : timer.intervals()) stages.add(n, ms);
+    auto t0 = Clock::now();
+    vk::download(ctx, counters, a.counters, sizeof(a.counters));
+    const uint32_t pruned = std::min(a.counters[SM_COUNT_PRUNED], slots);
+    stages.add("readback", msSince(t0));
+    timer.restart();
+    if (pruned > 0) {
+      vk::Commands cmd(ctx, &timer);
+      cmd.mark("start");
+      sorter->record(cmd, compacted, vk::BufferRange(), sort::Count(pruned), 31);
+      cmd.mark("sort");
+      p.count = pruned;
+      vk::Grid listGrid = vk::gridFor(pruned, SM_LIST_THREADS, ctx.maxWorkgroups());
+      cmd.dispatch(unique, {compacted, flags, counters}, p, listGrid.x, listGrid.y);
+      cmd.barrier();
+      compact->record(cmd, flags, sort::Count(pruned), uniqueBuf, sort::GpuWord(counters, SM_COUNT_UNIQUE), compacted);
+      cmd.mark("uniquify");
+      cmd.submit();
+      for (auto& [n, ms] : timer.intervals()) stages.add(n, ms);
+    } else {
+      stages.add("sort", 0.0);
+      stages.add("uniquify", 0.0);
+    }
+    t0 = Clock::now();
+    vk::download(ctx, counters, a.counters, sizeof(a.counters));
+    a.unique = vk::download<uint32_t>(ctx, uniqueBuf, std::min(a.counters[SM_COUNT_UNIQUE], pruned));
+    stages.add("readback", msSince(t0));
+    return a;
+  }
+
+  // Uploads (table index, value) pairs — clears first, then writes — and records their scatter.
+  void recordTableUpdates(vk::Commands& cmd, const std::vector<glm::uvec2>& clears,
+                          const std::vector<glm::uvec2>& writes) {
+    std::vector<glm::uvec2> all(clears);
+    all.insert(all.end(), writes.begin(), writes.end());
+    CS_CHECK(all.size() * 8 <= updates.size, "rmsm: " << all.size() << " page-table updates overflow their buffer");
+    if (!all.empty()) vk::upload(ctx, updates, all.data(), all.size() * 8);
+    sm::RmsmPush p = push(glm::vec3(0), 0, layout.maxLevel);
+    uint32_t first = 0;
+    for (uint32_t n : {uint32_t(clears.size()), uint32_t(writes.size())}) {
+      if (n) {
+        p.first = first;
+        p.count = n;
+        vk::Grid grid = vk::gridFor(n, SM_LIST_THREADS, ctx.maxWorkgroups());
+        cmd.dispatch(tables, {updates, tableBuf}, p, grid.x, grid.y);
+        cmd.barrier();
+      }
+      first += n;
+    }
+  }
+
+  // Makes `keys` (sorted, unique, fitting the free slots) resident: table updates now recorded, slots
+  // appended to `resident`. `evict`: drop every resident page first (its entries are cleared).
+  void recordAllocation(vk::Commands& cmd, const std::vector<uint32_t>& keys, bool evict) {
+    std::vector<glm::uvec2> clears, writes;
+    if (evict) {
+      for (uint32_t k : resident) clears.push_back({sm::tableIndexOf(k, layout.maxLevel), 0u});
+      resident.clear();
+    }
+    CS_CHECK(resident.size() + keys.size() <= layout.poolPages,
+             "rmsm: " << keys.size() << " new pages do not fit the " << layout.poolPages - resident.size()
+                      << " free slots");
+    for (uint32_t k : keys) {
+      writes.push_back({sm::tableIndexOf(k, layout.maxLevel), uint32_t(resident.size()) + 1u});
+      resident.push_back(k);
+    }
+    recordTableUpdates(cmd, clears, writes);
+  }
+};
+
+Rmsm::Rmsm(vk::Context& ctx, const RmsmOptions& options) : s_(std::make_unique<State>(ctx, options)) {}
+Rmsm::~Rmsm() = default;
+
+const sm::RmsmLayout& Rmsm::layout() const { return s_->layout; }
+
+MethodOutput Rmsm::run(const FrameInput& frame) {
+  State& s = *s_;
+  CS_CHECK(frame.scene && frame.device, "rmsm: the frame needs a scene and the G-buffer on the GPU");
+  CS_CHECK(frame.vk == nullptr || frame.vk == &s.ctx, "rmsm: the frame's Vulkan context is not this method's");
+  const DeviceGBuffer& g = *frame.device;
+  const float eps = frame.epsilon > 0 ? frame.epsilon : EpsilonPolicy::forScene(*frame.scene).eps;
+  const sm::RmsmLayout& L = s.layout;
+  const uint32_t page = L.pageSize;
+  Stages stages;
+  auto t0 = Clock::now();
+
+  const double uploadMs = s.pass.setGeometry(*frame.scene);
+  s.pass.takeTrianglesDrawn();
+  if (uploadMs > 0) stages.add("upload", uploadMs);
+  s.ensurePixels(g.width, g.height);
+  const uint32_t pixels = g.width * g.height;
+
+  // Cached mode: the resident pages stay valid while the light and the geometry stay put.
+  bool flushTables = false;
+  uint64_t flushesBefore = s.cacheFlushes;
+  if (s.opt.cached && (!s.cacheValid || uploadMs > 0 || frame.light != s.cacheLight)) {
+    if (s.cacheValid) s.cacheFlushes++;
+    s.resident.clear();
+    s.cacheLimit = L.maxLevel;
+    flushTables = true;
+  }
+  uint32_t limit = s.opt.cached ? s.cacheLimit : L.maxLevel;
+  auto tAnalysis = Clock::now();
+  Analysis a = s.analyse(g, frame.light, eps, limit, s.opt.cached, flushTables, stages);
+  if (s.opt.cached && !s.resident.empty() && s.resident.size() + a.unique.size() > L.poolPages) {
+    // The new pages do not fit beside the cached ones: flush, and analyse the frame afresh.
+    s.cacheFlushes++;
+    s.resident.clear();
+    s.cacheLimit = limit = L.maxLevel;
+    a = s.analyse(g, frame.light, eps, limit, true, true, stages);
+  }
+  s.last = a;
+
+  // Fallback, allocation and superpage binning (host; steps 9-10).
+  auto tAlloc = Clock::now();
+  const double analysisWallMs = msSince(tAnalysis);
+  std::vector<uint32_t> pages = a.unique;
+  const uint32_t freeSlots = L.poolPages - (s.opt.cached ? uint32_t(s.resident.size()) : 0u);
+  const uint32_t frameLimit = sm::coarsenToFit(pages, limit, freeSlots);
+  if (s.opt.cached) s.cacheLimit = frameLimit;
+  const uint32_t firstSlot = s.opt.cached ? uint32_t(s.resident.size()) : 0u;
+  const std::vector<sm::Superpage> superpages = sm::binSuperpages(pages, L.log2Page, L.superpageSize, s.opt.minOccupancy);
+  uint32_t squares = 0;  // aligned superpages touched: the paper's superpage count (Fig. 11)
+  const uint32_t squareShift = 2 * (sm::log2u(L.superpageSize) - L.log2Page);
+  for (size_t i = 0; i < pages.size(); ++i) squares += i == 0 || (pages[i] >> squareShift) != (pages[i - 1] >> squareShift);
+  s.pass.ensureTargets(L.superpageSize + 1, L.pageSize + 1);
+  stages.add("allocate", msSince(tAlloc));
+
+  // Phase 2: page tables, superpages, lookup.
+  auto tRender = Clock::now();
+  s.timer.restart();
+  {
+    vk::Commands cmd(s.ctx, &s.timer);
+    cmd.mark("start");
+    s.recordAllocation(cmd, pages, !s.opt.cached);
+    cmd.mark("page_tables");
+    const uint32_t stride = (page + 1) * (page + 1);
+    std::vector<VkBufferImageCopy> regions;
+    for (const sm::Superpage& sp : superpages) {
+      s.pass.recordWindow(cmd, sp.face, double(page) * double(1u << sp.level), sp.x0, sp.y0, sp.w, sp.h,
+                          frame.light, eps);
+      regions.clear();
+      for (uint32_t i = sp.first; i < sp.first + sp.count; ++i) {
+        VkBufferImageCopy r{};
+        r.bufferOffset = VkDeviceSize(firstSlot + i) * stride * 4;
+        r.bufferRowLength = page + 1;
+        r.bufferImageHeight = page + 1;
+        r.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        r.imageOffset = {int32_t(sm::keyPageX(pages[i]) * page - sp.x0), int32_t(sm::keyPageY(pages[i]) * page - sp.y0), 0};
+        r.imageExtent = {page + 1, page + 1, 1};
+        regions.push_back(r);
+      }
+      s.pass.recordCopy(cmd, regions, s.pool);
+    }
+    cmd.barrier();
+    cmd.mark("superpages");
+    sm::RmsmPush p = s.push(frame.light, eps, frameLimit);
+    vk::Grid grid = vk::gridFor(pixels, SM_PIXEL_THREADS, s.ctx.maxWorkgroups());
+    cmd.dispatch(s.lookup, {g.position, g.normal, s.lod, s.tableBuf, s.pool, s.visibility, s.counters}, p, grid.x,
+                 grid.y);
+    cmd.barrier();
+    cmd.mark("lookup");
+    cmd.submit();
+  }
+  for (auto& [n, ms] : s.timer.intervals()) stages.add(n, ms);
+  if (s.opt.cached) {
+    s.cacheValid = true;
+    s.cacheLight = frame.light;
+  }
+  MethodOutput out;
+  const double renderWallMs = msSince(tRender);
+  out.totalMs = msSince(t0);
+
+  auto t1 = Clock::now();
+  out.visibility.resize(pixels);
+  if (pixels) vk::download(s.ctx, s.visibility, out.visibility.data(), uint64_t(pixels) * 4);
+  uint32_t misses = 0;
+  vk::download(s.ctx, s.counters, &misses, 4, SM_COUNT_MISSES * 4);
+
+  std::vector<uint32_t> perLevel(L.maxLevel + 1, 0);
+  for (uint32_t k : s.resident) perLevel[sm::keyLevel(k)]++;
+  double gpuMs = 0;
+  for (auto& st : stages.list) gpuMs += st.ms;
+  out.stages = std::move(stages.list);
+  out.bytesAllocated = s.bytesAllocated();
+  out.peakBytes = out.bytesAllocated;
+  const uint32_t effective = page << frameLimit;
+  out.stats = {{"requests_before_pruning", a.counters[SM_COUNT_REQUESTS]},
+               {"requests_after_pruning", a.counters[SM_COUNT_PRUNED]},
+               {"unique_pages", a.counters[SM_COUNT_UNIQUE]},
+               {"pages_rendered", pages.size()},
+               {"pages_resident", s.resident.size()},
+               {"pages_per_level", perLevel},
+               {"superpages", superpages.size()},
+               {"superpage_squares", squares},
+               {"page_size", page},
+               {"superpage_size", L.superpageSize},
+               {"pool_pages", L.poolPages},
+               {"pool_bytes", L.poolBytes},
+               {"page_table_bytes", L.tableBytes},
+               {"max_resolution", page << L.maxLevel},
+               {"effective_resolution", effective},
+               {"fallback", frameLimit < L.maxLevel},
+               {"fallback_levels", L.maxLevel - frameLimit},
+               {"isolated_samples", a.counters[SM_COUNT_ISOLATED]},
+               {"lookup_misses", misses},
+               {"cached", s.opt.cached},
+               {"cache_flushes", s.cacheFlushes - flushesBefore},
+               {"triangles", s.pass.triangleCount()},
+               {"geometry_passes", superpages.size()},
+               {"triangles_drawn", s.pass.takeTrianglesDrawn()},
+               {"lod_bias", s.opt.lodBias},
+               {"constant_bias", s.opt.constantBias * eps},
+               {"slope_bias_texels", s.opt.slopeBias},
+               {"plane_bias", s.opt.planeBias},
+               {"epsilon", eps},
+               {"gpu_and_host_ms", gpuMs},
+               {"analysis_wall_ms", analysisWallMs},  // steps 1-8: submits, waits and readbacks included
+               {"render_wall_ms", renderWallMs},      // page tables, superpages and lookup: recording included
+               {"readback_ms", msSince(t1)}};
+  return out;
+}
+
+// ---- test hooks ----------------------------------------------------------------------------------------
+
+std::vector<uint32_t> Rmsm::debugRequests() const {
+  return vk::download<uint32_t>(s_->ctx, s_->requestBuf, size_t(2) * s_->width * s_->height);
+}
+
+std::vector<uint32_t> Rmsm::debugCompacted() const {
+  return vk::download<uint32_t>(s_->ctx, s_->compacted, s_->last.counters[SM_COUNT_PRUNED]);
+}
+
+std::vector<uint32_t> Rmsm::debugUniquePages() const { return s_->last.unique; }
+
+std::vector<uint32_t> Rmsm::debugResidentPages() const { return s_->resident; }
+
+std::vector<float> Rmsm::debugPool() const {
+  return vk::download<float>(s_->ctx, s_->pool, size_t(s_->layout.poolPages) * (s_->layout.pageSize + 1) *
+                                                    (s_->layout.pageSize + 1));
+}
+
+void Rmsm::debugInstallPages(const std::vector<uint32_t>& keys, float (*texel)(uint32_t, uint32_t, uint32_t)) {
+  State& s = *s_;
+  std::vector<uint32_t> sorted(keys);
+  std::sort(sorted.begin(), sorted.end());
+  sorted.erase(std::unique(sorted.begin(), sorted.end()), sorted.end());
+  {
+    vk::Commands cmd(s.ctx);
+    s.recordAllocation(cmd, sorted, true);
+    cmd.submit();
+  }
+  const uint32_t p = s.layout.pageSize, side = p + 1;
+  std::vector<float> data(size_t(s.layout.poolPages) * side * side, 0.0f);
+  for (size_t slot = 0; slot < s.resident.size(); ++slot) {
+    const uint32_t k = s.resident[slot];
+    for (uint32_t y = 0; y < side; ++y)
+      for (uint32_t x = 0; x < side; ++x)
+        data[slot * side * side + y * side + x] = texel(k, sm::keyPageX(k) * p + x, sm::keyPageY(k) * p + y);
+  }
+  vk::upload(s.ctx, s.pool, data.data(), data.size() * 4);
+}
+
+std::vector<glm::uvec4> Rmsm::debugProbe(const std::vector<Probe>& probes) {
+  State& s = *s_;
+  std::vector<glm::uvec4> queries;
+  for (const Probe& q : probes) {
+    uint32_t sb, tb;
+    std::memcpy(&sb, &q.s, 4);
+    std::memcpy(&tb, &q.t, 4);
+    queries.push_back({q.face, q.level, sb, tb});
+  }
+  vk::Buffer in = vk::createBuffer(s.ctx, queries.size() * 16), out = vk::createBuffer(s.ctx, queries.size() * 16);
+  if (!queries.empty()) vk::upload(s.ctx, in, queries.data(), queries.size() * 16);
+  sm::RmsmPush p = s.push(glm::vec3(0), 0, s.layout.maxLevel);
+  p.count = uint32_t(queries.size());
+  vk::Commands cmd(s.ctx);
+  vk::Grid grid = vk::gridFor(queries.size(), SM_LIST_THREADS, s.ctx.maxWorkgroups());
+  cmd.dispatch(s.probe, {in, s.tableBuf, s.pool, out}, p, grid.x, grid.y);
+  cmd.barrier();
+  cmd.submit();
+  return vk::download<glm::uvec4>(s.ctx, out, queries.size());
+}
+
+std::unique_ptr<ShadowMethod> makeRmsm(vk::Context& ctx, const RmsmOptions& options) {
+  return std::make_unique<Rmsm>(ctx, options);
+}
+
+}  // namespace cs

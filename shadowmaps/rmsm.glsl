@@ -1,0 +1,62 @@
+// RMSM lookups shared by rmsm_lookup.comp and the test kernel rmsm_probe.comp: the page-table walk and
+// the 2x2 percentage-closer filter inside one page. Include after the bindings: it reads `tables`
+// (uint per entry), `pool` (float per texel) and the push constants `pc` (RmsmPush).
+//
+// Page tables hold each resident page at its own level only. findTexel() starts at the level asked for
+// and walks toward coarser levels until a table has the footprint's page: the finest resident page at or
+// below that level, which is what the paper's mip hierarchy of tables stores at every level (000
+// §3.3.3: "each page table resolution should use the highest resolution page that is less than or equal
+// to that page table's resolution") — without writing every finer table under every coarse page.
+
+uint pageSide() { return 1u << pc.log2Page; }
+uint pageStride() { return (pageSide() + 1u) * (pageSide() + 1u); }  // texels per pool slot (apron included)
+
+// The finest resident page at a level <= `level` that holds the bilinear footprint of (s, t) on `face`.
+// Out: its level, the pool index of the footprint's lower texel, the bilinear fraction.
+// `texel`: the footprint's lower texel in the found level's coordinates.
+bool findTexel(uint face, vec2 st, uint level, out uint foundLevel, out uint base, out vec2 frac, out uvec2 texelOut) {
+  for (int l = int(level); l >= 0; --l) {
+    float res = float(pageSide() << uint(l));
+    vec2 x = footprintCoord(st, res);
+    vec2 b = footprintBase(x, res);
+    uvec2 texel = uvec2(b);
+    uvec2 page = texel >> pc.log2Page;
+    uint entry = tables[tableIndex(face, uint(l), page.x, page.y, pc.maxLevel)];
+    if (entry != 0u) {
+      uvec2 local = texel - (page << pc.log2Page);
+      foundLevel = uint(l);
+      base = (entry - 1u) * pageStride() + local.y * (pageSide() + 1u) + local.x;
+      frac = clamp(x - b, vec2(0.0), vec2(1.0));
+      texelOut = texel;
+      return true;
+    }
+  }
+  foundLevel = 0u;
+  base = 0u;
+  frac = vec2(0.0);
+  texelOut = uvec2(0u);
+  return false;
+}
+
+// Percentage-closer filter of 4 texels at `level` (or the finest resident level below it). dF, nF: the
+// sample's offset from the light and its normal in face space (receiver-plane bias). Returns -1 when no
+// level has a page there.
+float pcfAtLevel(uint face, vec2 st, uint level, float dist, float cosTheta, vec3 dF, vec3 nF) {
+  uint found, base;
+  vec2 f;
+  uvec2 texel;
+  if (!findTexel(face, st, level, found, base, f, texel)) return -1.0;
+  float res = float(pageSide() << found);
+  float reach = dist - slopeScaledBias(dist, cosTheta, 2.0f / res, pc.constantBias, pc.slopeBias, pc.maxSlope);
+  float slack = 0.25 * dist * 2.0f / res;
+  uint row = pageSide() + 1u;
+  float l[4];
+  for (uint k = 0u; k < 4u; ++k) {
+    uvec2 o = uvec2(k & 1u, k >> 1u);
+    float r = pc.planeBias != 0u
+                  ? planeReach(dF, nF, 2.0 * (vec2(texel + o) + 0.5) / res - 1.0, reach, pc.constantBias, slack)
+                  : reach;
+    l[k] = pool[base + o.y * row + o.x] >= r ? 1.0 : 0.0;
+  }
+  return mix(mix(l[0], l[1], f.x), mix(l[2], l[3], f.x), f.y);
+}

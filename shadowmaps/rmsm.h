@@ -1,0 +1,153 @@
+// shadowmaps/: resolution-matched shadow maps (RMSM, paper 000: Lefohn, Sengupta, Owens 2007) for an
+// omnidirectional point light. CLI name "rmsm".
+//
+// The omnidirectional adaptation. The paper's RMSM serves one spot-light frustum; here each of the six
+// cube faces (sm_shared.h conventions) is its own virtual quadtree shadow map of up to maxResolution²
+// texels: level L of face f holds (P·2^L)² texels in P x P pages (P = pageSize), L = 0..maxLevel with
+// P·2^maxLevel = maxResolution. Each face has its own mip hierarchy of page tables; all six share ONE
+// physical page pool. A sample picks its face by the major axis of its direction from the light, so the
+// faces never overlap and a page key (face, level, page x, page y) names a page once.
+//
+// One frame, Algorithm 2 of the paper (every step on the GPU except 8 and 10, as in the paper):
+//   1-3  rmsm_requests.comp  per lit sample: face, (s, t), LOD ℓ = log2 sqrt|dX × dY| (eq. 1) from the
+//                            (s, t) of neighbouring samples of the raster output; λ = -ℓ - log2 P, the
+//                            continuous quadtree level; page requests at floor(λ) and floor(λ) + 1 (the
+//                            two levels the lookup blends)
+//   4    rmsm_prune.comp     connected components: drop a request when the left or lower neighbour asks
+//                            for the same page
+//   5    sort::Compact       drop invalid and pruned requests; the kept count is read back (one word) so
+//                            the next steps run on exactly that many keys, not on the 2-per-pixel bound
+//   6    sort::RadixSort     sort the page keys (31 bits: face, level, Morton order of the page)
+//   7    rmsm_unique.comp + sort::Compact  keep keys unlike their predecessor: the unique pages
+//   8    host                read back the unique pages (the count, then the keys)
+//        host                fallback (§3.3.5): when they exceed the pool, coarsen the finest level until
+//                            they fit (coarsenToFit: exact, pages map to their ancestors); the frame's
+//                            stats say so (fallback, fallback_levels, effective_resolution)
+//   9    rmsm_tables.comp    page allocation: pool slots, a scatter into the page tables
+//   10   host                superpage binning (binSuperpages): one linear pass over the sorted keys, since
+//                            Morton order makes each superpage's pages consecutive; each bin renders only
+//                            the bounding box of its pages (plus the apron), split into quadrants while
+//                            the pages fill less than half of it — a pass costs its area, not its pages
+//   11-12 depth_pass.h       one geometry pass per bin (triangle clusters outside its frustum culled),
+//                            then a copy of each page's (P+1)² texels (one-texel apron on the high sides,
+//                            so a 2x2 footprint never leaves its page) into its pool slot
+//   lookup rmsm_lookup.comp  PCF of 4 texels at the two nearest levels, blended (§3.3.1)
+// Page tables store each page at its own level; the lookup walks toward coarser levels (rmsm.glsl),
+// which answers exactly what the paper's filled hierarchy answers while updating O(pages) entries a
+// frame. Cached mode (§3.3.4; static scenes): pages and tables persist across frames, the request kernel
+// drops requests for resident pages, new pages take free slots; when they do not fit, or the light or
+// the geometry changes, the cache is flushed (all pages dropped) and the frame is built afresh.
+//
+// Bias: the cube map's slope-scaled rule (cube_sm.h), with the texel size of the level each lookup reads.
+#pragma once
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "eval/method.h"
+
+namespace cs {
+namespace vk { struct Context; }
+
+struct RmsmOptions {
+  uint32_t pageSize = 32;             // --rmsm-page: texels a page side (power of two, 4..superpageSize)
+  uint32_t maxResolution = 32768;     // --rmsm-max-res: finest effective resolution a face side (power of two)
+  uint64_t poolBytes = 16ull << 20;   // --rmsm-pool: the pool holds poolBytes / (4·P²) pages (the paper's
+                                      //   2048² texture of 32² pages = 16 MiB = 4096 pages); stored with
+                                      //   their aprons, they take (P+1)²/P² of that (+6% at P = 32)
+  uint32_t superpageSize = 1024;      // texels a superpage side (power of two, >= pageSize)
+  bool cached = false;                // --rmsm-cached: keep pages across frames (static scenes)
+  float minOccupancy = 0.5f;          // split a superpage's box while its pages fill less (binSuperpages)
+  bool cull = true;                   // per-superpage frustum culling of triangle clusters (depth_pass.h)
+  float lodBias = 0.0f;               // levels added to the matched level λ: 1 = texels half the pixel's
+                                      //   footprint (4x the pages); 0 = the paper's eq. 1
+  float constantBias = 2.0f;          // in units of the epsilon policy's eps (cube_sm.h)
+  float slopeBias = 1.5f;             // in texels of the level looked up
+  float maxSlope = 10.0f;             // clamp of tanθ
+  bool planeBias = false;             // receiver-plane bias per tap instead of slope-scaled (sm_shared.h)
+};
+
+namespace sm {
+
+// The sizes an RmsmOptions implies, validated against one storage binding (`maxBinding` bytes).
+struct RmsmLayout {
+  uint32_t pageSize = 0, log2Page = 0;
+  uint32_t maxLevel = 0;             // levels 0..maxLevel
+  uint32_t poolPages = 0;            // physical slots
+  uint32_t superpageSize = 0;
+  uint64_t poolBytes = 0;            // allocated: poolPages·(P+1)²·4
+  uint64_t tableEntries = 0;         // 6 faces · (4^(maxLevel+1) - 1) / 3
+  uint64_t tableBytes = 0;
+};
+// Throws cs::Error (naming the CLI flag) for sizes that are not powers of two, out of range, a pool
+// under 6 pages (one per face: the coarsest possible frame), or arrays past one binding.
+RmsmLayout rmsmLayout(const RmsmOptions& options, uint64_t maxBinding);
+
+// The fallback of paper 000 §3.3.5: while more than `capacity` unique pages remain, lower the finest
+// level by one and replace every page above it by its ancestor — exactly the pages the requests would
+// have asked for under that limit. `keys`: sorted unique page keys, left sorted and unique. Returns the
+// new level limit (<= levelLimit); capacity must be >= 6. One level at a time is coarse: when the pages
+// crowd the middle levels, one step can take the frame from just over the pool to a small part of it.
+uint32_t coarsenToFit(std::vector<uint32_t>& keys, uint32_t levelLimit, uint32_t capacity);
+
+// One geometry pass: a window of face `face` at `level`, covering pages [first, first + count) of the
+// binned list, whose texels start at (x0, y0) and span w x h (the pages' bounding box plus the apron).
+struct Superpage {
+  uint32_t face = 0, level = 0;
+  uint32_t x0 = 0, y0 = 0, w = 0, h = 0;
+  uint32_t first = 0, count = 0;
+};
+// Bins sorted page keys into superpages: aligned squares of superpageSize² texels of one level of one face
+// (a level smaller than a superpage is one square), each rendered as the bounding box of its pages. A box
+// whose pages fill less than `minOccupancy` of it is split into its four quadrants, recursively (down to
+// single pages): a pass costs its area times the depth complexity, and scattered pages would otherwise
+// pay for the empty texels between them. minOccupancy = 0: the paper's plain superpages.
+std::vector<Superpage> binSuperpages(const std::vector<uint32_t>& sortedKeys, uint32_t log2Page,
+                                     uint32_t superpageSize, float minOccupancy = 0.0f);
+
+}  // namespace sm
+
+class Rmsm : public ShadowMethod {
+ public:
+  Rmsm(vk::Context& ctx, const RmsmOptions& options);
+  ~Rmsm() override;
+  std::string name() const override { return "rmsm"; }
+
+  // visibility in [0, 1] per pixel, 1 where not lit. Stages (GPU timestamps, host wall clock for
+  // "readback" and "allocate"): requests, prune, compact, sort, uniquify, readback, allocate, page_tables,
+  // superpages, lookup (+ "upload" on frames that upload triangles). totalMs: wall clock up to the mask
+  // on the GPU. Stats: requests_before_pruning, requests_after_pruning, unique_pages, pages_rendered,
+  // pages_resident, superpages, pool_pages, pool_bytes, page_table_bytes, effective_resolution,
+  // max_resolution, fallback_levels, pages_per_level, isolated_samples, lookup_misses, cache state.
+  // In cached mode the request counts and unique_pages count only pages not yet resident.
+  MethodOutput run(const FrameInput& frame) override;
+
+  const sm::RmsmLayout& layout() const;
+
+  // ---- test hooks (state of the last run) ----
+  std::vector<uint32_t> debugRequests() const;       // 2 per pixel, SM_INVALID_KEY where none
+  std::vector<uint32_t> debugCompacted() const;      // pruned + compacted, before the sort (GPU order)
+  std::vector<uint32_t> debugUniquePages() const;    // sorted unique pages the GPU returned (pre-fallback)
+  std::vector<uint32_t> debugResidentPages() const;  // pages in the pool, by slot
+  std::vector<float> debugPool() const;              // the pool, (P+1)² texels per slot
+  // Makes exactly `keys` resident (through the page-table kernel) and fills each page's texels, apron
+  // included, with `texel(key, X, Y)` (X, Y: texel coordinates within the page's level of its face).
+  void debugInstallPages(const std::vector<uint32_t>& keys, float (*texel)(uint32_t key, uint32_t x, uint32_t y));
+  // findTexel() of rmsm.glsl for each query: (found, level, bits of the lower texel, of its diagonal).
+  struct Probe {
+    uint32_t face = 0, level = 0;
+    float s = 0, t = 0;
+  };
+  std::vector<glm::uvec4> debugProbe(const std::vector<Probe>& probes);
+
+ private:
+  struct State;
+  std::unique_ptr<State> s_;
+};
+
+std::unique_ptr<ShadowMethod> makeRmsm(vk::Context& ctx, const RmsmOptions& options = {});
+
+}  // namespace cs

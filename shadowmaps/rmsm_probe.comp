@@ -1,0 +1,28 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// Test kernel: the page-table walk of rmsm.glsl for a list of queries (face, level, s, t). Writes per
+// query (found ? 1 : 0, found level, the raw bits of the footprint's lower texel, of its diagonal
+// neighbour).
+// bindings: 0 = queries (uvec4: face, level, floatBits(s), floatBits(t)), 1 = tables, 2 = pool,
+//           3 = results (uvec4)
+#include "shadowmaps/sm_shared.h"
+layout(local_size_x = SM_LIST_THREADS) in;
+layout(std430, binding = 0) readonly buffer Queries { uvec4 queries[]; };
+layout(std430, binding = 1) readonly buffer Tables { uint tables[]; };
+layout(std430, binding = 2) readonly buffer Pool { float pool[]; };
+layout(std430, binding = 3) writeonly buffer Results { uvec4 results[]; };
+layout(push_constant) uniform Push { RmsmPush pc; };
+#include "shadowmaps/rmsm.glsl"
+
+void main() {
+  uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * SM_LIST_THREADS + gl_LocalInvocationIndex;
+  if (i >= pc.count) return;
+  uvec4 q = queries[i];
+  uint found, base;
+  vec2 frac;
+  uvec2 texel;
+  bool ok = findTexel(q.x, vec2(uintBitsToFloat(q.z), uintBitsToFloat(q.w)), q.y, found, base, frac, texel);
+  uint row = pageSide() + 1u;
+  results[i] = ok ? uvec4(1u, found, floatBitsToUint(pool[base]), floatBitsToUint(pool[base + row + 1u]))
+                  : uvec4(0u);
+}
