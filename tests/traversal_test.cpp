@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <random>
 #include <vector>
@@ -33,6 +34,7 @@ struct Pair {
   ConeNode cone;
   vec3 v[3];  // relative to the apex
   int kind;
+  float eps;  // hits count at distances in (eps, Lmax - eps) from the apex
 };
 constexpr int kKinds = 14;
 const char* kindName(int k) {
@@ -85,6 +87,7 @@ struct PairGenerator {
     double lmax = logUni(1e-2, 1e3);
     p.cone = cone(a, alpha, lmax);
     p.kind = int(rng() % kKinds);
+    p.eps = rng() % 2 ? 0.0f : float(lmax * logUni(1e-5, 0.3));
     double sc = logUni(1e-3, 1e3);
     auto rnd = [&] { return unit() * sc * uni(0, 1.5); };
     dvec3 v[3];
@@ -144,27 +147,28 @@ struct PairGenerator {
 struct BruteForce {
   std::mt19937_64 rng{7};
   double uni(double a = 0, double b = 1) { return std::uniform_real_distribution<double>(a, b)(rng); }
-  static bool inCone(dvec3 x, dvec3 a, double alpha, double lmax) {
+  // x on a ray of the cone at a distance where hits count: eps < |x| < Lmax - eps.
+  static bool inCone(dvec3 x, dvec3 a, double alpha, double lmax, double eps) {
     double l = glm::length(x);
-    if (!(l > 0) || l > lmax) return false;
+    if (!(l > 0) || !(l > eps) || !(l < lmax - eps)) return false;
     return std::atan2(glm::length(glm::cross(x, a)), glm::dot(x, a)) <= alpha;
   }
   bool hit(const Pair& p, vec4* leafHit = nullptr) {
     dvec3 a = glm::normalize(dvec3(vec3(p.cone.axisCos)));
     double alpha = std::atan2(double(p.cone.sinLen.x), double(p.cone.axisCos.w));
-    double lmax = p.cone.sinLen.z;
+    double lmax = p.cone.sinLen.z, eps = p.eps;
     dvec3 v0(p.v[0]), v1(p.v[1]), v2(p.v[2]);
     const int G = 20;
     for (int i = 0; i <= G; ++i)
       for (int j = 0; i + j <= G; ++j)
-        if (inCone(v0 + (double(i) / G) * (v1 - v0) + (double(j) / G) * (v2 - v0), a, alpha, lmax)) return true;
+        if (inCone(v0 + (double(i) / G) * (v1 - v0) + (double(j) / G) * (v2 - v0), a, alpha, lmax, eps)) return true;
     for (int k = 0; k < 300; ++k) {
       double b1 = uni(), b2 = uni();
       if (b1 + b2 > 1) b1 = 1 - b1, b2 = 1 - b2;
       if (k < 100) b2 = 0;
       else if (k < 150) b1 = 1 - b2;
       else if (k < 200) b1 = 0;
-      if (inCone(v0 + b1 * (v1 - v0) + b2 * (v2 - v0), a, alpha, lmax)) return true;
+      if (inCone(v0 + b1 * (v1 - v0) + b2 * (v2 - v0), a, alpha, lmax, eps)) return true;
     }
     dvec3 t = std::abs(a.x) < 0.5 ? dvec3(1, 0, 0) : dvec3(0, 1, 0);
     dvec3 u = glm::normalize(glm::cross(a, t)), w = glm::cross(a, u);
@@ -176,12 +180,12 @@ struct BruteForce {
       if (det != 0) {
         dvec3 tv = -v0, qv = glm::cross(tv, e1);
         double bu = glm::dot(tv, pv) / det, bv = glm::dot(r, qv) / det, tt = glm::dot(e2, qv) / det;
-        if (bu >= 0 && bv >= 0 && bu + bv <= 1 && tt > 0 && tt <= lmax) return true;
+        if (bu >= 0 && bv >= 0 && bu + bv <= 1 && tt > eps && tt < lmax - eps) return true;
       }
       vec3 wf = vec3(r * (lmax * (k % 5 == 0 ? 1.0 : uni(0.01, 1))));
       vec4 ray = cone::leafRay(wf, vec3(0));
       if (ray.w <= lmax && std::atan2(glm::length(glm::cross(dvec3(wf), a)), glm::dot(dvec3(wf), a)) <= alpha &&
-          cone::leafRayHitsTriangle(ray, 0.0f, p.v[0], p.v[1], p.v[2])) {
+          cone::leafRayHitsTriangle(ray, p.eps, p.v[0], p.v[1], p.v[2])) {
         if (leafHit) *leafHit = ray;
         return true;
       }
@@ -191,18 +195,21 @@ struct BruteForce {
 };
 
 TEST(PreciseConeTriangle, NeverRejectsAPairThatABruteForceSearchFindsIntersecting) {
-  PairGenerator gen(20240611);
+  // CONE_PROPERTY_PAIRS / CONE_PROPERTY_SEED run a longer sweep (e.g. 300000 pairs) by hand.
+  const char* pairsEnv = std::getenv("CONE_PROPERTY_PAIRS");
+  const char* seedEnv = std::getenv("CONE_PROPERTY_SEED");
+  PairGenerator gen(seedEnv ? std::strtoull(seedEnv, nullptr, 10) : 20240611);
   BruteForce brute;
-  const int n = 12000;
+  const int n = pairsEnv ? std::atoi(pairsEnv) : 12000;
   int hits = 0, misses = 0, rejected = 0;
   int missesByKind[kKinds] = {}, rejectedByKind[kKinds] = {};
   for (int i = 0; i < n; ++i) {
     Pair p = gen.make();
-    bool keep = cone::preciseConeTriangle(p.cone, p.v[0], p.v[1], p.v[2]);
+    bool keep = cone::preciseConeTriangle(p.cone, p.v[0], p.v[1], p.v[2], p.eps);
     if (brute.hit(p)) {
       hits++;
       ASSERT_TRUE(keep) << "pair " << i << " (" << kindName(p.kind) << ") intersects but was rejected: alpha "
-                        << p.cone.sinLen.w << " Lmax " << p.cone.sinLen.z;
+                        << p.cone.sinLen.w << " Lmax " << p.cone.sinLen.z << " eps " << p.eps;
     } else {
       misses++, missesByKind[p.kind]++;
       if (!keep) rejected++, rejectedByKind[p.kind]++;
@@ -259,7 +266,7 @@ TEST(PreciseConeTriangle, GpuKernelIsConservativeToo) {
   for (uint32_t i = 0; i < n; ++i) {
     Pair p = gen.make();
     cones[i] = p.cone;
-    for (int k = 0; k < 3; ++k) verts[3 * i + k] = vec4(p.v[k], 0);
+    for (int k = 0; k < 3; ++k) verts[3 * i + k] = vec4(p.v[k], k == 0 ? p.eps : 0.0f);
     vec4 ray(0);
     found[i] = brute.hit(p, &ray);
     if (ray.w > 0) rays[i] = ray, leafFound[i] = 1;
@@ -272,7 +279,6 @@ TEST(PreciseConeTriangle, GpuKernelIsConservativeToo) {
   vk::Kernel probe = vk::createKernel(ctx, "precise probe", spv_precise_probe_comp, 4, sizeof(traversal::TraversePush));
   traversal::TraversePush push{};
   push.count = n;
-  push.eps = 0.0f;
   {
     vk::Commands cmd(ctx);
     vk::Grid g = vk::gridFor(n, TRAVERSE_THREADS, ctx.maxWorkgroups());
@@ -282,7 +288,8 @@ TEST(PreciseConeTriangle, GpuKernelIsConservativeToo) {
   std::vector<uint32_t> r = vk::download<uint32_t>(ctx, out, n);
   uint32_t agree = 0, leafChecked = 0, leafAgree = 0;
   for (uint32_t i = 0; i < n; ++i) {
-    bool cpuKeep = cone::preciseConeTriangle(cones[i], vec3(verts[3 * i]), vec3(verts[3 * i + 1]), vec3(verts[3 * i + 2]));
+    bool cpuKeep = cone::preciseConeTriangle(cones[i], vec3(verts[3 * i]), vec3(verts[3 * i + 1]),
+                                             vec3(verts[3 * i + 2]), verts[3 * i].w);
     if (found[i]) {
       ASSERT_TRUE(r[i] & 1u) << "GPU rejected intersecting pair " << i;
     }

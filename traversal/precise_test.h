@@ -11,8 +11,9 @@
 //      "all vertices behind the apex plane"). For cones at or past pi/2 - eps (cos < CONE_WIDE_COS)
 //      this is the only angular test, as in the paper.
 //   2. Near point vs Lmax: the nearest point of the triangle's plane inside the cone is farther than
-//      Lmax (the paper's Z_near > 1 test). Done on the slab [min, max] of N.v_i that provably holds the
-//      triangle, so slivers with an inaccurate normal stay conservative.
+//      Lmax - eps (the paper's Z_near > 1 test; hits count only up to L - eps). Done on the slab
+//      [min, max] of N.v_i that provably holds the triangle, so slivers with an inaccurate normal stay
+//      conservative. (And, trivially, a triangle wholly within eps of the light is rejected.)
 //   3. Homogeneous edge equations: the plane through the apex and edge (v_j, v_k), oriented towards v_i,
 //      has the whole triangle on its positive side; reject when the cone is strictly on the negative
 //      side, i.e. when the angle between the plane normal and the axis exceeds pi/2 + alpha. In the
@@ -135,14 +136,19 @@ CONE_FN bool tangentSeparates(vec3 vi, float li, PreciseTriangle t, vec3 a, floa
   return dot(n, t.v0) >= m * t.len.x && dot(n, t.v1) >= m * t.len.y && dot(n, t.v2) >= m * t.len.z;
 }
 
-// False only when no ray of the cone -- directions within its half-angle of its axis, lengths up to
-// Lmax -- can meet the triangle (given relative to the cone's apex, the light).
-CONE_FN bool preciseConeTriangle(ConeNode cone, PreciseTriangle t) {
+// False only when no ray of the cone -- directions within its half-angle of its axis -- can meet the
+// triangle (given relative to the cone's apex, the light) at a distance tau with eps < tau < Lmax - eps:
+// the leaf test counts hits in (eps, L - eps) and L <= Lmax. eps = 0 asks about the whole cone.
+CONE_FN bool preciseConeTriangle(ConeNode cone, PreciseTriangle t, float eps) {
   if (coneIsEmpty(cone)) return false;
   vec3 a = vec3(cone.axisCos);
   float c = cone.axisCos.w;
   float s = cone.sinLen.x;
-  float lmax = cone.sinLen.z;
+  // The farthest a counted hit can be, rounded up by the margin of the longest ray.
+  float lfar = cone.sinLen.z * (1.0f + CONE_TEST_MARGIN) - eps;
+
+  // 0. The whole triangle within eps of the apex: no hit counts there.
+  if (max(t.len.x, max(t.len.y, t.len.z)) < eps * (1.0f - CONE_TEST_MARGIN)) return false;
 
   // 1. Complementary cone of the cone rounded up to pi/2 (the apex plane for narrow cones).
   vec2 wide = c > 0.0f ? vec2(0.0f, 1.0f) : vec2(c, s);
@@ -150,7 +156,7 @@ CONE_FN bool preciseConeTriangle(ConeNode cone, PreciseTriangle t) {
       coneOutside(t.v2, t.len.z, a, wide))
     return false;
 
-  // 2. Nearest point of the triangle's plane (slab) inside the cone, against Lmax.
+  // 2. Nearest point of the triangle's plane (slab) inside the cone, against Lmax - eps.
   float nl = t.plane.w;
   if (nl > 0.0f && (t.slab.x > 0.0f || t.slab.y < 0.0f)) {
     vec3 m = t.slab.x > 0.0f ? vec3(t.plane) : -vec3(t.plane);
@@ -160,7 +166,7 @@ CONE_FN bool preciseConeTriangle(ConeNode cone, PreciseTriangle t) {
     // |N| * max over the cone's unit directions r of m.r, rounded up: 1 when m is inside the cone,
     // else cos(theta_m - alpha).
     float reach = nu * c - mu * s <= CONE_TEST_MARGIN * nl ? nl : mu * c + nu * s + CONE_TEST_MARGIN * nl;
-    if (reach * (lmax * (1.0f + CONE_TEST_MARGIN)) < dist) return false;
+    if (reach * lfar < dist) return false;  // lfar <= 0: no hit can count at all, any slab rejects
   }
 
   if (!(c > CONE_WIDE_COS)) return true;            // wide cone: only the tests above apply
@@ -176,8 +182,12 @@ CONE_FN bool preciseConeTriangle(ConeNode cone, PreciseTriangle t) {
   return true;
 }
 
+CONE_FN bool preciseConeTriangle(ConeNode cone, vec3 v0, vec3 v1, vec3 v2, float eps) {
+  return preciseConeTriangle(cone, preciseTriangle(v0, v1, v2), eps);
+}
+
 CONE_FN bool preciseConeTriangle(ConeNode cone, vec3 v0, vec3 v1, vec3 v2) {
-  return preciseConeTriangle(cone, preciseTriangle(v0, v1, v2));
+  return preciseConeTriangle(cone, preciseTriangle(v0, v1, v2), 0.0f);
 }
 
 // v with the ray's major axis kz moved last, cyclically (kx = kz + 1, ky = kz + 2), and x, y swapped when

@@ -33,7 +33,7 @@ void main() {
   PreciseTriangle t = preciseTriangle(v0, v1, v2);  // once for the (up to) four children
   uint mask = 0u;
   for (uint c = r.x; c < r.y; c++)
-    if (preciseConeTriangle(nodes[p.childOffset + c], t)) mask |= 1u << (c - r.x);
+    if (preciseConeTriangle(nodes[p.childOffset + c], t, p.eps)) mask |= 1u << (c - r.x);
   masks[i] = mask;
   counts[i] = bitCount(mask);
   uint expected = p.fromTriangles != 0u ? 1u : 4u;
