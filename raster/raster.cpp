@@ -17,13 +17,6 @@ namespace {
 constexpr VkFormat kColorFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 
-uint32_t memoryType(const vk::Context& ctx, uint32_t bits, VkMemoryPropertyFlags want) {
-  for (uint32_t i = 0; i < ctx.memory.memoryTypeCount; ++i)
-    if ((bits & (1u << i)) && (ctx.memory.memoryTypes[i].propertyFlags & want) == want) return i;
-  for (uint32_t i = 0; i < ctx.memory.memoryTypeCount; ++i)
-    if (bits & (1u << i)) return i;
-  throw Error("no memory type for an image", ctx.deviceName());
-}
 }  // namespace
 
 uint32_t maxRasterPixels(const vk::Context& ctx) {
@@ -116,13 +109,8 @@ void Raster::createPipeline() {
   rp.pDependencies = &dep;
   VK_CHECK(vkCreateRenderPass(d, &rp, nullptr, &renderPass_));
 
-  VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
-  mi.codeSize = sizeof(spv_gbuffer_vert);
-  mi.pCode = spv_gbuffer_vert;
-  VK_CHECK(vkCreateShaderModule(d, &mi, nullptr, &vert_));
-  mi.codeSize = sizeof(spv_gbuffer_frag);
-  mi.pCode = spv_gbuffer_frag;
-  VK_CHECK(vkCreateShaderModule(d, &mi, nullptr, &frag_));
+  vert_ = vk::createShaderModule(ctx_, spv_gbuffer_vert, sizeof(spv_gbuffer_vert));
+  frag_ = vk::createShaderModule(ctx_, spv_gbuffer_frag, sizeof(spv_gbuffer_frag));
 
   VkPushConstantRange range{VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(RasterPush)};
   VkPipelineLayoutCreateInfo li{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
@@ -196,38 +184,16 @@ void Raster::createTargets(uint32_t width, uint32_t height) {
                     " needs G-buffer arrays larger than one storage binding",
                 ctx_.deviceName(), "at most " + std::to_string(maxRasterPixels(ctx_)) + " pixels on this device");
   targetBytes_ = 0;
-  auto make = [&](Target& t, VkFormat format, VkImageUsageFlags usage, VkImageAspectFlags aspect) {
-    VkImageCreateInfo ii{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
-    ii.imageType = VK_IMAGE_TYPE_2D;
-    ii.format = format;
-    ii.extent = {width, height, 1};
-    ii.mipLevels = 1;
-    ii.arrayLayers = 1;
-    ii.samples = VK_SAMPLE_COUNT_1_BIT;
-    ii.tiling = VK_IMAGE_TILING_OPTIMAL;
-    ii.usage = usage;
-    ii.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    VK_CHECK(vkCreateImage(d, &ii, nullptr, &t.image));
-    VkMemoryRequirements req;
-    vkGetImageMemoryRequirements(d, t.image, &req);
-    VkMemoryAllocateInfo ai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-    ai.allocationSize = req.size;
-    ai.memoryTypeIndex = memoryType(ctx_, req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
-    VK_CHECK(vkAllocateMemory(d, &ai, nullptr, &t.memory));
-    VK_CHECK(vkBindImageMemory(d, t.image, t.memory, 0));
-    targetBytes_ += req.size;
-    VkImageViewCreateInfo vi{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
-    vi.image = t.image;
-    vi.viewType = VK_IMAGE_VIEW_TYPE_2D;
-    vi.format = format;
-    vi.subresourceRange = {aspect, 0, 1, 0, 1};
-    VK_CHECK(vkCreateImageView(d, &vi, nullptr, &t.view));
+  auto make = [&](VkFormat format, VkImageUsageFlags usage, VkImageAspectFlags aspect) {
+    vk::Image t = vk::createImage(ctx_, width, height, format, usage, aspect);
+    targetBytes_ += t.bytes;
+    return t;
   };
-  make(position_, kColorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
-       VK_IMAGE_ASPECT_COLOR_BIT);
-  make(normal_, kColorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
-       VK_IMAGE_ASPECT_COLOR_BIT);
-  make(depth_, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, VK_IMAGE_ASPECT_DEPTH_BIT);
+  position_ = make(kColorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                   VK_IMAGE_ASPECT_COLOR_BIT);
+  normal_ = make(kColorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                 VK_IMAGE_ASPECT_COLOR_BIT);
+  depth_ = make(kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, VK_IMAGE_ASPECT_DEPTH_BIT);
   VkImageView views[3] = {position_.view, normal_.view, depth_.view};
   VkFramebufferCreateInfo fi{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
   fi.renderPass = renderPass_;
@@ -246,12 +212,7 @@ void Raster::destroyTargets() {
   vkDeviceWaitIdle(d);
   if (framebuffer_) vkDestroyFramebuffer(d, framebuffer_, nullptr);
   framebuffer_ = VK_NULL_HANDLE;
-  for (Target* t : {&position_, &normal_, &depth_}) {
-    if (t->view) vkDestroyImageView(d, t->view, nullptr);
-    if (t->image) vkDestroyImage(d, t->image, nullptr);
-    if (t->memory) vkFreeMemory(d, t->memory, nullptr);
-    *t = Target{};
-  }
+  for (vk::Image* t : {&position_, &normal_, &depth_}) t->reset();
   width_ = height_ = 0;
 }
 

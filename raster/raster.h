@@ -54,12 +54,7 @@ class Raster {
   VkPipelineLayout layout_ = VK_NULL_HANDLE;
   VkPipeline pipeline_ = VK_NULL_HANDLE;
   VkShaderModule vert_ = VK_NULL_HANDLE, frag_ = VK_NULL_HANDLE;
-  struct Target {
-    VkImage image = VK_NULL_HANDLE;
-    VkDeviceMemory memory = VK_NULL_HANDLE;
-    VkImageView view = VK_NULL_HANDLE;
-  };
-  Target position_, normal_, depth_;
+  vk::Image position_, normal_, depth_;
   VkFramebuffer framebuffer_ = VK_NULL_HANDLE;
   uint32_t width_ = 0, height_ = 0;
   uint64_t targetBytes_ = 0;

@@ -14,13 +14,6 @@ namespace {
 constexpr VkFormat kColorFormat = VK_FORMAT_R32_SFLOAT;
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
 
-uint32_t memoryType(const vk::Context& ctx, uint32_t bits, VkMemoryPropertyFlags want) {
-  for (uint32_t i = 0; i < ctx.memory.memoryTypeCount; ++i)
-    if ((bits & (1u << i)) && (ctx.memory.memoryTypes[i].propertyFlags & want) == want) return i;
-  for (uint32_t i = 0; i < ctx.memory.memoryTypeCount; ++i)
-    if (bits & (1u << i)) return i;
-  throw Error("no memory type for a shadow-map image", ctx.deviceName());
-}
 }  // namespace
 
 glm::mat4 windowClip(uint32_t face, double res, double x0, double y0, double w, double h, float nearPlane) {
@@ -138,13 +131,8 @@ void DepthPass::createPipeline() {
   rp.pDependencies = deps;
   VK_CHECK(vkCreateRenderPass(d, &rp, nullptr, &renderPass_));
 
-  VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
-  mi.codeSize = sizeof(spv_depth_vert);
-  mi.pCode = spv_depth_vert;
-  VK_CHECK(vkCreateShaderModule(d, &mi, nullptr, &vert_));
-  mi.codeSize = sizeof(spv_depth_frag);
-  mi.pCode = spv_depth_frag;
-  VK_CHECK(vkCreateShaderModule(d, &mi, nullptr, &frag_));
+  vert_ = vk::createShaderModule(ctx_, spv_depth_vert, sizeof(spv_depth_vert));
+  frag_ = vk::createShaderModule(ctx_, spv_depth_frag, sizeof(spv_depth_frag));
 
   VkPushConstantRange range{VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(DepthPush)};
   VkPipelineLayoutCreateInfo li{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
@@ -217,35 +205,9 @@ void DepthPass::ensureTargets(uint32_t largest, uint32_t smallest) {
                     " a side: lower --sm-resolution or the superpage size");
   destroyTargets();
   VkDevice d = ctx_.device;
-  auto make = [&](Image& t, uint32_t size, VkFormat format, VkImageUsageFlags usage, VkImageAspectFlags aspect) {
-    VkImageCreateInfo ii{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
-    ii.imageType = VK_IMAGE_TYPE_2D;
-    ii.format = format;
-    ii.extent = {size, size, 1};
-    ii.mipLevels = 1;
-    ii.arrayLayers = 1;
-    ii.samples = VK_SAMPLE_COUNT_1_BIT;
-    ii.tiling = VK_IMAGE_TILING_OPTIMAL;
-    ii.usage = usage;
-    ii.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    VK_CHECK(vkCreateImage(d, &ii, nullptr, &t.image));
-    VkMemoryRequirements req;
-    vkGetImageMemoryRequirements(d, t.image, &req);
-    VkMemoryAllocateInfo ai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-    ai.allocationSize = req.size;
-    ai.memoryTypeIndex = memoryType(ctx_, req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
-    VkResult r = vkAllocateMemory(d, &ai, nullptr, &t.memory);
-    if (r != VK_SUCCESS)
-      throw Error("cannot allocate a shadow-map target of " + std::to_string(size) + "² (" + vk::resultName(r) + ")",
-                  ctx_.deviceName(), "lower --sm-resolution or the superpage size");
-    VK_CHECK(vkBindImageMemory(d, t.image, t.memory, 0));
-    targetBytes_ += req.size;
-    VkImageViewCreateInfo vi{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
-    vi.image = t.image;
-    vi.viewType = VK_IMAGE_VIEW_TYPE_2D;
-    vi.format = format;
-    vi.subresourceRange = {aspect, 0, 1, 0, 1};
-    VK_CHECK(vkCreateImageView(d, &vi, nullptr, &t.view));
+  auto make = [&](vk::Image& t, uint32_t size, VkFormat format, VkImageUsageFlags usage, VkImageAspectFlags aspect) {
+    t = vk::createImage(ctx_, size, size, format, usage, aspect, "lower --sm-resolution or the superpage size");
+    targetBytes_ += t.bytes;
   };
   for (uint32_t size : sizes) {
     targets_.emplace_back();
@@ -272,11 +234,8 @@ void DepthPass::destroyTargets() {
   vkDeviceWaitIdle(d);
   for (Target& t : targets_) {
     if (t.framebuffer) vkDestroyFramebuffer(d, t.framebuffer, nullptr);
-    for (Image* i : {&t.color, &t.depth}) {
-      if (i->view) vkDestroyImageView(d, i->view, nullptr);
-      if (i->image) vkDestroyImage(d, i->image, nullptr);
-      if (i->memory) vkFreeMemory(d, i->memory, nullptr);
-    }
+    t.color.reset();
+    t.depth.reset();
   }
   targets_.clear();
   current_ = 0;

@@ -84,13 +84,8 @@ class DepthPass {
   VkPipelineLayout layout_ = VK_NULL_HANDLE;
   VkPipeline pipeline_ = VK_NULL_HANDLE;
   VkShaderModule vert_ = VK_NULL_HANDLE, frag_ = VK_NULL_HANDLE;
-  struct Image {
-    VkImage image = VK_NULL_HANDLE;
-    VkDeviceMemory memory = VK_NULL_HANDLE;
-    VkImageView view = VK_NULL_HANDLE;
-  };
   struct Target {
-    Image color, depth;
+    vk::Image color, depth;
     VkFramebuffer framebuffer = VK_NULL_HANDLE;
     uint32_t size = 0;
   };

@@ -389,6 +389,74 @@ void download(Context& ctx, const Buffer& src, void* data, VkDeviceSize bytes, V
   std::memcpy(data, staging.mapped, bytes);
 }
 
+// ---- images ------------------------------------------------------------------------------------
+
+Image& Image::operator=(Image&& o) noexcept {
+  if (this != &o) {
+    reset();
+    ctx = o.ctx, image = o.image, memory = o.memory, view = o.view, bytes = o.bytes;
+    o.image = VK_NULL_HANDLE, o.memory = VK_NULL_HANDLE, o.view = VK_NULL_HANDLE, o.bytes = 0;
+  }
+  return *this;
+}
+
+void Image::reset() {
+  if (ctx) {
+    if (view) vkDestroyImageView(ctx->device, view, nullptr);
+    if (image) vkDestroyImage(ctx->device, image, nullptr);
+    if (memory) vkFreeMemory(ctx->device, memory, nullptr);
+  }
+  image = VK_NULL_HANDLE, memory = VK_NULL_HANDLE, view = VK_NULL_HANDLE, bytes = 0;
+}
+
+Image createImage(Context& ctx, uint32_t width, uint32_t height, VkFormat format, VkImageUsageFlags usage,
+                  VkImageAspectFlags aspect, const std::string& hint) {
+  Image t;
+  t.ctx = &ctx;
+  VkImageCreateInfo ii{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+  ii.imageType = VK_IMAGE_TYPE_2D;
+  ii.format = format;
+  ii.extent = {width, height, 1};
+  ii.mipLevels = 1;
+  ii.arrayLayers = 1;
+  ii.samples = VK_SAMPLE_COUNT_1_BIT;
+  ii.tiling = VK_IMAGE_TILING_OPTIMAL;
+  ii.usage = usage;
+  ii.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  VK_CHECK(vkCreateImage(ctx.device, &ii, nullptr, &t.image));
+  VkMemoryRequirements req;
+  vkGetImageMemoryRequirements(ctx.device, t.image, &req);
+  uint32_t type = findMemoryType(ctx, req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+  if (type == UINT32_MAX) type = findMemoryType(ctx, req.memoryTypeBits, 0);
+  if (type == UINT32_MAX) throw Error("no memory type for a render target", ctx.deviceName());
+  VkMemoryAllocateInfo ai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+  ai.allocationSize = req.size;
+  ai.memoryTypeIndex = type;
+  VkResult r = vkAllocateMemory(ctx.device, &ai, nullptr, &t.memory);
+  if (r != VK_SUCCESS)
+    throw Error("cannot allocate a " + std::to_string(width) + "x" + std::to_string(height) + " render target (" +
+                    resultName(r) + ")",
+                ctx.deviceName(), hint);
+  VK_CHECK(vkBindImageMemory(ctx.device, t.image, t.memory, 0));
+  t.bytes = req.size;
+  VkImageViewCreateInfo vi{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+  vi.image = t.image;
+  vi.viewType = VK_IMAGE_VIEW_TYPE_2D;
+  vi.format = format;
+  vi.subresourceRange = {aspect, 0, 1, 0, 1};
+  VK_CHECK(vkCreateImageView(ctx.device, &vi, nullptr, &t.view));
+  return t;
+}
+
+VkShaderModule createShaderModule(Context& ctx, const uint32_t* spirv, size_t spirvBytes) {
+  VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+  mi.codeSize = spirvBytes;
+  mi.pCode = spirv;
+  VkShaderModule module = VK_NULL_HANDLE;
+  VK_CHECK(vkCreateShaderModule(ctx.device, &mi, nullptr, &module));
+  return module;
+}
+
 // ---- kernels ------------------------------------------------------------------------------------
 
 Kernel& Kernel::operator=(Kernel&& o) noexcept {
@@ -420,10 +488,7 @@ Kernel createKernel(Context& ctx, const char* name, const uint32_t* spirv, size_
   CS_CHECK(pushBytes <= ctx.properties.limits.maxPushConstantsSize,
            name << ": push constants of " << pushBytes << " bytes exceed the device's "
                 << ctx.properties.limits.maxPushConstantsSize);
-  VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
-  mi.codeSize = spirvBytes;
-  mi.pCode = spirv;
-  VK_CHECK(vkCreateShaderModule(ctx.device, &mi, nullptr, &k.module));
+  k.module = createShaderModule(ctx, spirv, spirvBytes);
 
   std::vector<VkDescriptorSetLayoutBinding> b(bindings);
   for (uint32_t i = 0; i < bindings; ++i)

@@ -102,6 +102,29 @@ std::vector<T> download(Context& ctx, const Buffer& src, size_t count, size_t fi
   return v;
 }
 
+// A 2-D render target with its own device-local memory and one view. Move-only.
+struct Image {
+  Context* ctx = nullptr;
+  VkImage image = VK_NULL_HANDLE;
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+  VkImageView view = VK_NULL_HANDLE;
+  VkDeviceSize bytes = 0;  // memory allocated
+
+  Image() = default;
+  Image(Image&& o) noexcept { *this = std::move(o); }
+  Image& operator=(Image&& o) noexcept;
+  Image(const Image&) = delete;
+  Image& operator=(const Image&) = delete;
+  ~Image() { reset(); }
+  void reset();
+};
+
+// Optimal tiling, one mip, one layer. `hint` is added to the error when the memory cannot be had.
+Image createImage(Context& ctx, uint32_t width, uint32_t height, VkFormat format, VkImageUsageFlags usage,
+                  VkImageAspectFlags aspect, const std::string& hint = "lower the resolution");
+// A shader module from SPIR-V words (the caller destroys it).
+VkShaderModule createShaderModule(Context& ctx, const uint32_t* spirv, size_t spirvBytes);
+
 // A range of a buffer bound to one storage-buffer binding. Range VK_WHOLE_SIZE = rest of the buffer.
 struct BufferRange {
   VkBuffer buffer = VK_NULL_HANDLE;
