@@ -13,6 +13,8 @@ std::string usageText() {
 
 usage:
   coneshadow render [SCENE] [options]   render one frame with a shadow method, compare it with Embree
+  coneshadow compare [SCENE] [options]  every method (and a small quality/memory sweep) on every view,
+                                        against one Embree reference; writes a report
   coneshadow info SCENE                 triangles (flattened over node instances), bounds, cameras, lights
   coneshadow devices                    list the Vulkan devices
   coneshadow help                       this text
@@ -41,6 +43,15 @@ render options:
                       default: a discrete GPU if there is one, else lavapipe
   --validation        enable VK_LAYER_KHRONOS_validation (slow; for debugging)
   --quiet             print only errors and the final summary line
+
+compare options (defaults: all views, all methods, 256x256, 3 frames, --out compare):
+  --methods A,B       methods to compare (default: all registered); each runs a small sweep:
+                      cubesm@512 and @2048 (face resolution), rmsm@4M and @16M (page pool),
+                      cone at its default traversal memory and at 1/1000 of it
+  --views V1,V2       cameras by name (default: every camera of the scene; the automatic one if none)
+  --width, --height, --frames, --device, --validation, --quiet: as for render
+  writes into --out DIR: results.json, results.csv (one row per view and method setting, "setting" in
+  stats), <view>_<setting>_{shaded,mask,diff}.png, report.md, report.html, speed_vs_error.svg
 
 exit codes:
   0  success
@@ -107,8 +118,19 @@ Options parseArgs(int argc, char** argv) {
   if (args.empty()) throw UsageError("no command given (try: coneshadow help)");
   o.command = args[0];
   if (o.command == "--help" || o.command == "-h") o.command = "help";
-  if (o.command != "render" && o.command != "info" && o.command != "devices" && o.command != "help")
-    throw UsageError("unknown command '" + o.command + "' (commands: render, info, devices, help)");
+  if (o.command != "render" && o.command != "compare" && o.command != "info" && o.command != "devices" &&
+      o.command != "help")
+    throw UsageError("unknown command '" + o.command + "' (commands: render, compare, info, devices, help)");
+  bool widthSet = false, heightSet = false, outSet = false;
+  auto list = [](const std::string& flag, const std::string& v) {
+    std::vector<std::string> items;
+    std::stringstream ss(v);
+    std::string part;
+    while (std::getline(ss, part, ','))
+      if (!part.empty()) items.push_back(part);
+    if (items.empty()) throw UsageError(flag + " wants a comma-separated list, got '" + v + "'");
+    return items;
+  };
   for (size_t i = 1; i < args.size(); ++i) {
     std::string a = args[i];
     auto value = [&](const std::string& flag) -> std::string {
@@ -121,14 +143,21 @@ Options parseArgs(int argc, char** argv) {
       o.method = value(a);
     } else if (a == "--width") {
       o.width = parseUint(a, value(a), 1, 16384);
+      widthSet = true;
     } else if (a == "--height") {
       o.height = parseUint(a, value(a), 1, 16384);
+      heightSet = true;
     } else if (a == "--view") {
       o.view = value(a);
     } else if (a == "--light") {
       o.light = parseVec3(a, value(a));
     } else if (a == "--out") {
       o.out = value(a);
+      outSet = true;
+    } else if (a == "--methods") {
+      o.methods = list(a, value(a));
+    } else if (a == "--views") {
+      o.views = list(a, value(a));
     } else if (a == "--dump") {
       o.dump = value(a);
     } else if (a == "--frames") {
@@ -168,6 +197,11 @@ Options parseArgs(int argc, char** argv) {
     } else {
       throw UsageError("unexpected argument '" + a + "' (one SCENE at most)");
     }
+  }
+  if (o.command == "compare") {
+    if (!widthSet) o.width = 256;
+    if (!heightSet) o.height = 256;
+    if (!outSet) o.out = "compare";
   }
   if (o.command == "info" && o.scene.empty()) throw UsageError("info needs a SCENE (a .gltf/.glb file, or builtin)");
   return o;

@@ -18,7 +18,7 @@ struct UsageError : std::runtime_error {
 };
 
 struct Options {
-  std::string command;               // info | render | devices | help
+  std::string command;               // info | render | compare | devices | help
   std::string scene;                 // empty = built-in scene
   std::string method = "embree";
   uint32_t width = 512, height = 512;
@@ -40,6 +40,8 @@ struct Options {
   uint32_t rmsmPage = 0;             // --rmsm-page N
   uint32_t rmsmMaxRes = 0;           // --rmsm-max-res N
   bool rmsmCached = false;           // --rmsm-cached      // --traversal-memory BYTES (cone path); 0 = the method's default
+  std::vector<std::string> methods;  // compare --methods a,b (empty = all registered)
+  std::vector<std::string> views;    // compare --views v1,v2 (empty = all views of the scene)
   std::vector<std::string> extra;    // method-specific --key=value settings, passed through
 };
 

@@ -10,6 +10,7 @@
 #include <sstream>
 #include <unistd.h>
 
+#include "app/frame_runner.h"
 #include "app/methods.h"
 #include "eval/frame_output.h"
 #include "eval/metrics.h"
@@ -24,86 +25,9 @@ namespace cs {
 
 namespace {
 
-struct NullBuffer : std::streambuf {
-  int overflow(int c) override { return c; }
-};
-
 std::string vec3Text(glm::vec3 v) {
   std::ostringstream os;
   os << std::setprecision(6) << v.x << "," << v.y << "," << v.z;
-  return os.str();
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
-// Output goes to a staging folder inside the target and is moved into place only when the whole frame
-// succeeded, so a failure never leaves a partial set of files behind.
-class StagedDir {
- public:
-  explicit StagedDir(const std::string& target) : target_(target) {
-    std::error_code ec;
-    fs::create_directories(target_, ec);
-    if (ec) throw Error("cannot create the output folder: " + ec.message(), target_, "check the path and permissions");
-    staging_ = (fs::path(target_) / (".staging-" + std::to_string(::getpid()))).string();
-    fs::remove_all(staging_, ec);
-    fs::create_directories(staging_, ec);
-    if (ec) throw Error("cannot write into the output folder: " + ec.message(), target_, "check permissions");
-  }
-  ~StagedDir() {
-    std::error_code ec;
-    fs::remove_all(staging_, ec);
-  }
-  const std::string& path() const { return staging_; }
-  void commit() {
-    for (auto& entry : fs::directory_iterator(staging_)) {
-      std::error_code ec;
-      fs::rename(entry.path(), fs::path(target_) / entry.path().filename(), ec);
-      if (ec) throw Error("cannot move " + entry.path().filename().string() + " into place: " + ec.message(), target_);
-    }
-  }
-
- private:
-  std::string target_, staging_;
-};
-
-struct Timed {
-  MethodOutput output;   // the median frame's output
-  std::vector<double> totals;
-  bool deterministic = true;
-};
-
-// One warm-up frame (shader compiles, caches), then `frames` timed ones; the median frame is kept and
-// every frame's mask must equal the first (the cone path promises bit-identical results).
-Timed runTimed(ShadowMethod& method, const FrameInput& frame, uint32_t frames, std::ostream& log) {
-  Timed t;
-  log << "  " << method.name() << ": warm-up" << std::flush;
-  MethodOutput first = method.run(frame);
-  std::vector<MethodOutput> outs;
-  for (uint32_t i = 0; i < frames; ++i) {
-    log << ", frame " << (i + 1) << "/" << frames << std::flush;
-    outs.push_back(method.run(frame));
-    t.totals.push_back(outs.back().totalMs);
-    if (outs.back().visibility != first.visibility) t.deterministic = false;
-  }
-  log << "\n";
-  double m = median(t.totals);
-  size_t best = 0;
-  for (size_t i = 0; i < outs.size(); ++i)
-    if (std::abs(outs[i].totalMs - m) < std::abs(outs[best].totalMs - m)) best = i;
-  t.output = std::move(outs[best]);
-  return t;
-}
-
-std::string stageText(const MethodOutput& out) {
-  std::ostringstream os;
-  os << std::fixed << std::setprecision(2);
-  for (size_t i = 0; i < out.stages.size(); ++i)
-    os << (i ? ", " : "") << out.stages[i].name << " " << out.stages[i].ms;
   return os.str();
 }
 

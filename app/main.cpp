@@ -3,6 +3,7 @@
 
 #include "app/cli.h"
 #include "app/commands.h"
+#include "app/compare.h"
 #include "core/error.h"
 
 int main(int argc, char** argv) {
@@ -20,6 +21,7 @@ int main(int argc, char** argv) {
     }
     if (options.command == "devices") return cs::runDevices(options);
     if (options.command == "info") return cs::runInfo(options);
+    if (options.command == "compare") return cs::runCompare(options);
     return cs::runRender(options);
   } catch (const cs::UsageError& e) {
     std::cerr << "coneshadow: " << e.what() << "\n";

@@ -1,0 +1,108 @@
+// Internal helpers shared by the render and compare commands: output staging, timed runs, medians.
+#pragma once
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <functional>
+#include <iomanip>
+#include <ostream>
+#include <sstream>
+#include <string>
+#include <system_error>
+#include <vector>
+#include <unistd.h>
+
+#include "core/error.h"
+#include "eval/method.h"
+
+namespace cs {
+
+struct NullBuffer : std::streambuf {
+  int overflow(int c) override { return c; }
+};
+
+inline double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// Output goes to a staging folder inside the target and is moved into place only when the whole run
+// succeeded, so a failure never leaves a partial set of files behind.
+class StagedDir {
+ public:
+  explicit StagedDir(const std::string& target) : target_(target) {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    fs::create_directories(target_, ec);
+    if (ec) throw Error("cannot create the output folder: " + ec.message(), target_, "check the path and permissions");
+    staging_ = (fs::path(target_) / (".staging-" + std::to_string(::getpid()))).string();
+    fs::remove_all(staging_, ec);
+    fs::create_directories(staging_, ec);
+    if (ec) throw Error("cannot write into the output folder: " + ec.message(), target_, "check permissions");
+  }
+  ~StagedDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(staging_, ec);
+  }
+  StagedDir(const StagedDir&) = delete;
+  StagedDir& operator=(const StagedDir&) = delete;
+  const std::string& path() const { return staging_; }
+  void commit() {
+    namespace fs = std::filesystem;
+    for (auto& entry : fs::directory_iterator(staging_)) {
+      std::error_code ec;
+      fs::rename(entry.path(), fs::path(target_) / entry.path().filename(), ec);
+      if (ec) throw Error("cannot move " + entry.path().filename().string() + " into place: " + ec.message(), target_);
+    }
+  }
+
+ private:
+  std::string target_, staging_;
+};
+
+struct Timed {
+  MethodOutput output;   // the median frame's output
+  std::vector<double> totals;
+  bool deterministic = true;
+};
+
+// Called before each run: frame 0 is the warm-up, then 1..frames.
+using FrameProgress = std::function<void(uint32_t frame, uint32_t frames)>;
+
+// One warm-up frame (shader compiles, caches), then `frames` timed ones; the median frame is kept and
+// every frame's mask must equal the first (the cone path promises bit-identical results). Without a
+// `progress` callback, progress goes to `log` as "  <name>: warm-up, frame 1/N, ...".
+inline Timed runTimed(ShadowMethod& method, const FrameInput& frame, uint32_t frames, std::ostream& log,
+                      const FrameProgress& progress = {}) {
+  Timed t;
+  if (progress) progress(0, frames);
+  else log << "  " << method.name() << ": warm-up" << std::flush;
+  MethodOutput first = method.run(frame);
+  std::vector<MethodOutput> outs;
+  for (uint32_t i = 0; i < frames; ++i) {
+    if (progress) progress(i + 1, frames);
+    else log << ", frame " << (i + 1) << "/" << frames << std::flush;
+    outs.push_back(method.run(frame));
+    t.totals.push_back(outs.back().totalMs);
+    if (outs.back().visibility != first.visibility) t.deterministic = false;
+  }
+  if (!progress) log << "\n";
+  double m = median(t.totals);
+  size_t best = 0;
+  for (size_t i = 0; i < outs.size(); ++i)
+    if (std::abs(outs[i].totalMs - m) < std::abs(outs[best].totalMs - m)) best = i;
+  t.output = std::move(outs[best]);
+  return t;
+}
+
+inline std::string stageText(const MethodOutput& out) {
+  std::ostringstream os;
+  os << std::fixed << std::setprecision(2);
+  for (size_t i = 0; i < out.stages.size(); ++i)
+    os << (i ? ", " : "") << out.stages[i].name << " " << out.stages[i].ms;
+  return os.str();
+}
+
+}  // namespace cs
