@@ -71,10 +71,7 @@ int runRender(const Options& o) {
   auto msSince = [&](auto t0) { return std::chrono::duration<double, std::milli>(wall() - t0).count(); };
 
   // Validate what can be validated before any heavy work.
-  {
-    auto names = methodNames();
-    if (std::find(names.begin(), names.end(), o.method) == names.end()) makeMethod(o.method, nullptr, o);
-  }
+  checkMethod(o.method, o);
 
   log << "[1/5] scene" << std::endl;
   Scene scene = loadSceneArg(o.scene, std::cerr);

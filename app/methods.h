@@ -10,6 +10,8 @@
 namespace cs {
 
 std::vector<std::string> methodNames();
+// Validates a method name and its settings before any heavy work; throws UsageError.
+void checkMethod(const std::string& name, const Options& options);
 // Throws UsageError for an unknown name or a setting the method does not take.
 std::unique_ptr<ShadowMethod> makeMethod(const std::string& name, vk::Context* ctx, const Options& options);
 

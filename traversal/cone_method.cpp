@@ -90,6 +90,9 @@ class ConeMethod : public ShadowMethod {
                             {"triangles", triangleCount_},
                             {"triangles_dropped", droppedTriangles_},
                             {"sorted", options_.sorted},
+                            {"variant", coneVariantName(options_)},
+                            {"test", options_.test == ConeTest::Sphere ? "sphere" : "precise"},
+                            {"front_face_culling", options_.frontFaceCulling},
                             {"epsilon", eps},
                             {"traversal_memory_bytes", options_.traversalMemoryBytes},
                             {"pair_capacity", traversal_.plan().pairCapacity},
@@ -108,6 +111,8 @@ class ConeMethod : public ShadowMethod {
       in.visibility = &visibility_;
       in.light = frame.light;
       in.eps = eps;
+      in.test = options_.test == ConeTest::Sphere ? TRAVERSE_TEST_SPHERE : TRAVERSE_TEST_PRECISE;
+      in.frontFaceCulling = options_.frontFaceCulling;
       ts = traversal_.run(in, &timer_);
       stats["tree_depth"] = tree_.shape().depth;
       stats["tree_nodes"] = tree_.shape().nodes();
@@ -206,6 +211,22 @@ class ConeMethod : public ShadowMethod {
 };
 
 }  // namespace
+
+bool applyConeVariant(const std::string& name, ConeOptions& o) {
+  if (name == "Precise" || name == "PreciseSorted") o.test = ConeTest::Precise;
+  else if (name == "Spheres" || name == "SpheresSorted") o.test = ConeTest::Sphere;
+  else return false;
+  o.sorted = name == "PreciseSorted" || name == "SpheresSorted";
+  return true;
+}
+
+bool isUnimplementedConeVariant(const std::string& name) {
+  return name == "PreciseSEA" || name == "PreciseEATP" || name == "PreciseSEATP";
+}
+
+std::string coneVariantName(const ConeOptions& o) {
+  return std::string(o.test == ConeTest::Sphere ? "Spheres" : "Precise") + (o.sorted ? "Sorted" : "");
+}
 
 std::unique_ptr<ShadowMethod> makeConeMethod(vk::Context& ctx, const ConeOptions& options) {
   return std::make_unique<ConeMethod>(ctx, options);

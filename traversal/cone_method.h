@@ -4,12 +4,19 @@
 #pragma once
 #include <cstdint>
 #include <memory>
+#include <string>
 
 #include "eval/method.h"
 #include "traversal/traversal.h"
 
 namespace cs {
 namespace vk { struct Context; }
+
+// The passes' cone/triangle test.
+enum class ConeTest {
+  Precise,  // precise_test.h (002 §3.2)
+  Sphere,   // sphere_test.h: the triangle's bounding sphere, the ray-space-hierarchy baseline (002 §3.2)
+};
 
 struct ConeOptions {
   // Bound on the traversal's pair arena + chunk scratch (002 §4.2; --traversal-memory). Past it the
@@ -18,6 +25,17 @@ struct ConeOptions {
   // 002 §3.5: sort the rays by Hilbert key of their direction before building the tree. Off: screen
   // order (Morton inside 64x64 tiles: four consecutive leaves are a 2x2 pixel block), as without sorting.
   bool sorted = true;
+  ConeTest test = ConeTest::Precise;
+  // 002 §3.6, front-face culling (off by default): only triangles facing away from the light cast. With
+  // glTF's counter-clockwise front faces, N = (v1 - v0) x (v2 - v0) points out of a closed mesh; a triangle
+  // faces the light when the light is on N's side, N.(light - v0) > 0, and is then dropped in pass 0 on
+  // the GPU (edge-on ones, within rounding, are kept). Exact only for closed, consistently wound meshes:
+  // a shadow ray that enters a closed mesh through a front face leaves it through a back face before the
+  // sample (which lies on a lit, front surface), so the back face alone decides the shadow. It is WRONG
+  // for open meshes and one-sided geometry (a single quad, a leaf card, a terrain sheet, a mesh with holes
+  // or inconsistent winding): there the face towards the light may be the only one the ray crosses, and
+  // dropping it lights samples that are in shadow. Also wrong with the light inside a closed caster.
+  bool frontFaceCulling = false;
   // Tests only: when arena.pairCapacity > 0, this exact arena (down to traversal::minimumPairs pairs and
   // chunks of one pair) instead of one planned from traversalMemoryBytes.
   traversal::ArenaPlan arena;
@@ -33,11 +51,21 @@ struct ConeOptions {
 //               timestamp intervals are still reported, in stats.timestamp_ms, for GPUs where they hold.
 //   totalMs     wall clock of the frame's shadow work up to the mask on the GPU; the readback of the mask
 //               to the host is stats.readback_ms.
-//   stats       lit_samples, triangles, tree_depth, tree_nodes, pairs_tested, pairs_survived, leaf_tests,
+//   stats       variant ("PreciseSorted", ...), test ("precise" | "sphere"), front_face_culling, lit_samples, triangles, tree_depth, tree_nodes, pairs_tested, pairs_survived, leaf_tests,
 //               traversal (per pass: inputs, pairs tested, survivors, chunks; leaf pairs/tests/hits;
 //               submits; peak_bytes), traversal_memory_bytes, pair_capacity, chunk_capacity, epsilon.
 //   bytesAllocated / peakBytes: every buffer the method holds for the frame / the same with the
 //               traversal's share at its measured peak (<= traversalMemoryBytes).
+// Paper 002's variant names (Table 1). Implemented: "Precise" (precise test, unsorted), "PreciseSorted"
+// (precise, sorted: the default), "Spheres" (sphere test, unsorted), "SpheresSorted" (sphere, sorted).
+// Sets o.test and o.sorted for an implemented name and returns true; false for any other name.
+bool applyConeVariant(const std::string& name, ConeOptions& o);
+// The variants of Table 1 with early accept and/or two-pass (PreciseSEA, PreciseEATP, PreciseSEATP),
+// not implemented yet: true for those names.
+bool isUnimplementedConeVariant(const std::string& name);
+// The variant name of these options ("PreciseSorted", "Spheres", ...).
+std::string coneVariantName(const ConeOptions& o);
+
 std::unique_ptr<ShadowMethod> makeConeMethod(vk::Context& ctx, const ConeOptions& options = {});
 
 }  // namespace cs

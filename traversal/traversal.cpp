@@ -160,6 +160,8 @@ bool Traversal::expandChunk(Frame& f, uint32_t child, bool fromTriangles, uint64
   p.outLimit = uint32_t(limit);
   p.eps = f.in->eps;
   p.minLength = 2.0f * f.in->eps;
+  p.test = f.in->test;
+  p.frontFaceCulling = f.in->frontFaceCulling ? 1u : 0u;
 
   if (f.timer) f.timer->restart();
   vk::Commands cmd(ctx_, f.timer);

@@ -4,7 +4,9 @@
 // ---- How it works ---------------------------------------------------------------------------------
 // Pairs. A pair is (triangle, node index within its depth). Pass 0 tests every triangle against the root
 // (depth 0); pass k takes the pairs of depth k-1 and tests each against its node's (up to) four children
-// at depth k with the precise cone/triangle test (precise_test.h). The survivors are compacted: the test
+// at depth k with the precise cone/triangle test (precise_test.h), or per frame the sphere test
+// (sphere_test.h; TraversalInput::test); with front-face culling, pass 0 drops the triangles that face the
+// light (002 §3.6; TraversalInput::frontFaceCulling). The survivors are compacted: the test
 // kernel writes a 4-bit child mask and its popcount per input pair, sort/'s exclusive Scan turns the
 // counts into offsets, and traverse_scatter.comp writes the surviving pairs, in input order. The pairs of
 // depth D-1 (parents of leaves) go to traverse_leaves.comp: four invocations per pair, one per ray under
@@ -106,6 +108,8 @@ struct TraversalInput {
   const vk::Buffer* visibility = nullptr; // uint per pixel: float bits, 1.0f lit; hits write 0
   glm::vec3 light{0};
   float eps = 0;                          // hits count in (eps, L - eps)
+  uint32_t test = TRAVERSE_TEST_PRECISE;  // the passes' cone/triangle test (traversal_layout.h)
+  bool frontFaceCulling = false;          // pass 0 drops triangles facing the light (cone_method.h)
 };
 
 class Traversal {

@@ -10,6 +10,10 @@
 #define STAT_TOTAL 1       // the scan's total: survivors of the chunk (written by sort/'s Scan)
 #define STAT_WORDS 4
 
+// TraversePush::test: the cone/triangle test of the passes (cone_method.h, ConeOptions::test).
+#define TRAVERSE_TEST_PRECISE 0u  // precise_test.h (002 §3.2)
+#define TRAVERSE_TEST_SPHERE 1u   // sphere_test.h: the triangle's bounding sphere (the ray-space-hierarchy baseline)
+
 #ifdef __cplusplus
 #include <cstddef>
 #include <cstdint>
@@ -33,12 +37,15 @@ struct TraversePush {
   float eps;          // leaves: hits count at distances in (eps, L - eps) from the light
   float minLength;    // leaves: rays not longer than this are degenerate (2 eps), never tested
   uint outLimit;      // scatter: no pair is written at or past this slot (the chunk overflowed)
-  uint pad0, pad1, pad2;
+  uint test;          // test: TRAVERSE_TEST_PRECISE or TRAVERSE_TEST_SPHERE
+  uint frontFaceCulling; // test, pass 0: 1 drops the triangles that face the light (002 §3.6, cone_method.h)
+  uint pad2;
 };
 
 #ifdef __cplusplus
 static_assert(sizeof(TraversePush) == 64 && offsetof(TraversePush, first) == 16 &&
-                  offsetof(TraversePush, minLength) == 44 && offsetof(TraversePush, outLimit) == 48,
+                  offsetof(TraversePush, minLength) == 44 && offsetof(TraversePush, outLimit) == 48 &&
+                  offsetof(TraversePush, test) == 52 && offsetof(TraversePush, frontFaceCulling) == 56,
               "TraversePush layout");
 }  // namespace cs::traversal
 #endif

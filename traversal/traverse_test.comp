@@ -1,7 +1,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 // One breadth-first pass (002 §3.1, §4.2): every input (triangle, node) pair is tested against the node's
-// children with the precise cone/triangle test (002 §3.2) -- or, in pass 0, every triangle against the
+// children with the precise cone/triangle test (002 §3.2) or the sphere test (sphere_test.h, p.test) -- or, in pass 0, every triangle against the
 // root. Writes the surviving children as a 4-bit mask and their count per input; sort/'s scan turns the
 // counts into output offsets and traverse_scatter.comp writes the pairs.
 // Tests counted by the host (4 per input pair, 1 per triangle) less STAT_MISSING, which the pairs of a
@@ -9,6 +9,7 @@
 // bindings: 0 = triangles (vec4 x 3 per triangle, world space), 1 = nodes (ConeNode), 2 = chunk (uvec2
 //           input pairs), 3 = masks (uint per input), 4 = counts (uint per input), 5 = stats (uint[STAT_WORDS])
 #include "traversal/precise_test.h"
+#include "traversal/sphere_test.h"
 #include "traversal/traverse.glsl"
 
 layout(local_size_x = TRAVERSE_THREADS) in;
@@ -30,10 +31,18 @@ void main() {
   precise vec3 v1 = tris[3u * pair.x + 1u].xyz - light;
   precise vec3 v2 = tris[3u * pair.x + 2u].xyz - light;
   uvec2 r = p.fromTriangles != 0u ? uvec2(0u, 1u) : childRange(pair.y, p.childCount);
-  PreciseTriangle t = preciseTriangle(v0, v1, v2);  // once for the (up to) four children
   uint mask = 0u;
-  for (uint c = r.x; c < r.y; c++)
-    if (preciseConeTriangle(nodes[p.childOffset + c], t, p.eps)) mask |= 1u << (c - r.x);
+  if (p.frontFaceCulling != 0u && p.fromTriangles != 0u && facesLight(v0, v1, v2)) {
+    // 002 §3.6: a triangle facing the light casts no shadow in a closed mesh; dropped at the root.
+  } else if (p.test == TRAVERSE_TEST_SPHERE) {
+    vec4 sphere = boundingSphere(v0, v1, v2);
+    for (uint c = r.x; c < r.y; c++)
+      if (sphereConeTriangle(nodes[p.childOffset + c], sphere, p.eps)) mask |= 1u << (c - r.x);
+  } else {
+    PreciseTriangle t = preciseTriangle(v0, v1, v2);  // once for the (up to) four children
+    for (uint c = r.x; c < r.y; c++)
+      if (preciseConeTriangle(nodes[p.childOffset + c], t, p.eps)) mask |= 1u << (c - r.x);
+  }
   masks[i] = mask;
   counts[i] = bitCount(mask);
   uint expected = p.fromTriangles != 0u ? 1u : 4u;

@@ -1,0 +1,310 @@
+// Paper 002's variants of the cone path (Table 1) and front-face culling (§3.6): every implemented variant
+// is exact against Embree outside the ambiguity band and gives the default's mask bit for bit; the sphere
+// test is conservative; front-face culling is exact on closed meshes and tests fewer pairs.
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "app/cli.h"
+#include "app/methods.h"
+#include "eval/metrics.h"
+#include "raster/raster.h"
+#include "reference/embree_reference.h"
+#include "reference/epsilon.h"
+#include "tests/test_context.h"
+#include "traversal/cone_method.h"
+#include "traversal/sphere_test.h"
+
+namespace cs {
+namespace {
+
+using glm::dvec3;
+using glm::vec3;
+using glm::vec4;
+
+const char* kVariants[] = {"PreciseSorted", "Precise", "Spheres", "SpheresSorted"};
+
+ConeOptions variant(const std::string& name, bool frontFaceCulling = false) {
+  ConeOptions o;
+  EXPECT_TRUE(applyConeVariant(name, o)) << name;
+  o.frontFaceCulling = frontFaceCulling;
+  return o;
+}
+
+Camera lookAt(vec3 eye, vec3 target, float yfov = 0.9f) {
+  Camera c;
+  c.eye = eye;
+  c.target = target;
+  c.yfov = yfov;
+  c.znear = 0.01f;
+  c.zfar = 1e4f;
+  return c;
+}
+
+struct Frame {
+  Raster raster;
+  DeviceGBuffer dev;
+  GBuffer host;
+  EpsilonPolicy policy;
+  FrameInput input;
+  std::vector<float> reference;
+  std::vector<uint8_t> band;
+  Frame(const Scene& scene, const Camera& camera, vec3 light, uint32_t size)
+      : raster(test::context(), scene), policy(EpsilonPolicy::forScene(scene)) {
+    raster.render(camera, light, size, size, dev, &host);
+    input.scene = &scene;
+    input.gbuffer = &host;
+    input.device = &dev;
+    input.vk = &test::context();
+    input.light = light;
+    input.epsilon = policy.eps;
+    EmbreeReference embree;
+    reference = embree.run(input).visibility;
+    band = embree.ambiguityBand(scene, host, light, policy);
+  }
+};
+
+struct VariantResult {
+  std::vector<float> mask;
+  uint64_t pairs = 0;
+};
+
+// Runs one configuration on the frame; expects zero misclassified samples outside the band.
+VariantResult runExact(Frame& f, const ConeOptions& o, const std::string& what) {
+  auto method = makeConeMethod(test::context(), o);
+  MethodOutput out = method->run(f.input);
+  ErrorStats e = compareVisibility(f.host, out.visibility, f.reference, f.band);
+  EXPECT_EQ(e.misclassifiedOutsideBand, 0u) << what << ": " << e.falseShadowOutsideBand << " false shadow, "
+                                            << e.falseLightOutsideBand << " false light (of " << e.litSamples << " lit)";
+  EXPECT_EQ(out.stats["variant"].get<std::string>(), coneVariantName(o)) << what;
+  EXPECT_EQ(out.stats["test"].get<std::string>(), o.test == ConeTest::Sphere ? "sphere" : "precise") << what;
+  EXPECT_EQ(out.stats["front_face_culling"].get<bool>(), o.frontFaceCulling) << what;
+  VariantResult r;
+  r.mask = std::move(out.visibility);
+  r.pairs = out.stats["pairs_tested"].get<uint64_t>();
+  std::printf("  %-48s lit %6llu pairs tested %10llu leaf tests %10llu\n", what.c_str(),
+              (unsigned long long)e.litSamples, (unsigned long long)r.pairs,
+              (unsigned long long)out.stats["leaf_tests"].get<uint64_t>());
+  return r;
+}
+
+bool sameBits(const std::vector<float>& a, const std::vector<float>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+}
+
+// Every variant on one frame: exact, and the default's mask bit for bit. Returns pairs tested per variant.
+std::vector<uint64_t> allVariants(Frame& f, const std::string& what) {
+  std::vector<uint64_t> pairs;
+  std::vector<float> first;
+  for (const char* v : kVariants) {
+    VariantResult r = runExact(f, variant(v), what + " " + v);
+    if (first.empty()) first = r.mask;
+    else EXPECT_TRUE(sameBits(first, r.mask)) << what << ": " << v << "'s mask differs from PreciseSorted's";
+    pairs.push_back(r.pairs);
+  }
+  return pairs;
+}
+
+TEST(VariantNames, MapToTheirOptionsAndEarlyAcceptTwoPassAreRejectedByMakeMethod) {
+  for (const char* v : kVariants) EXPECT_EQ(coneVariantName(variant(v)), v);
+  EXPECT_EQ(coneVariantName(ConeOptions{}), "PreciseSorted");
+  ConeOptions o;
+  EXPECT_FALSE(applyConeVariant("Nope", o));
+  Options opt;
+  for (const char* v : {"PreciseSEA", "PreciseEATP", "PreciseSEATP"}) {
+    EXPECT_TRUE(isUnimplementedConeVariant(v));
+    opt.extra = {std::string("variant=") + v};
+    try {
+      makeMethod("cone", &test::context(), opt);
+      ADD_FAILURE() << v << " accepted";
+    } catch (const UsageError& e) {
+      EXPECT_NE(std::string(e.what()).find("not implemented"), std::string::npos) << e.what();
+    }
+  }
+  opt.extra = {"variant=Bogus"};
+  EXPECT_THROW(makeMethod("cone", &test::context(), opt), UsageError);
+  opt.extra = {"front-face-culling=maybe"};
+  EXPECT_THROW(makeMethod("cone", &test::context(), opt), UsageError);
+  opt.extra = {"no-such-key=1"};
+  EXPECT_THROW(makeMethod("cone", &test::context(), opt), UsageError);
+  opt.extra = {"variant=Spheres", "front-face-culling=on"};
+  auto m = makeMethod("cone", &test::context(), opt);
+  EXPECT_EQ(m->name(), "cone");
+}
+
+TEST(VariantExactness, EveryVariantIsExactAndBitIdenticalOnTheBuiltinScene) {
+  Scene scene = builtinScene();
+  for (const char* view : {"wall", "fur"}) {
+    const Camera* cam = scene.findCamera(view);
+    ASSERT_NE(cam, nullptr) << view;
+    Frame f(scene, *cam, scene.lights[0].position, 96);
+    std::vector<uint64_t> pairs = allVariants(f, std::string("builtin/") + view);
+    if (std::string(view) == "wall") {
+      // 002 §3.2: the precise test culls large grazing triangles the sphere cannot.
+      EXPECT_GE(pairs[2], pairs[1]) << "Spheres vs Precise";
+      EXPECT_GE(pairs[3], pairs[0]) << "SpheresSorted vs PreciseSorted";
+    }
+  }
+}
+
+TEST(VariantExactness, EveryVariantIsExactOnAGltfModel) {
+  std::ostringstream warn;
+  Scene model = loadGltf(std::string(CONESHADOW_ASSIMP_MODELS) + "/2CylinderEngine-glTF-Binary/2CylinderEngine.glb", warn);
+  model.computeBounds();
+  const vec3 lo = model.boundsMin, hi = model.boundsMax, c = 0.5f * (lo + hi), ext = hi - lo;
+  const float diag = glm::length(ext);
+  // A ground plane under the model.
+  const float r = 2.0f * diag, y = lo.y - 0.01f * ext.y;
+  const uint32_t b = uint32_t(model.positions.size());
+  model.positions.insert(model.positions.end(),
+                         {{c.x - r, y, c.z - r}, {c.x + r, y, c.z - r}, {c.x + r, y, c.z + r}, {c.x - r, y, c.z + r}});
+  model.normals.insert(model.normals.end(), 4, vec3(0, 1, 0));
+  model.indices.insert(model.indices.end(), {b, b + 2, b + 1, b, b + 3, b + 2});
+  model.computeBounds();
+  Frame f(model, lookAt(c + vec3(0.55f, 0.45f, 0.7f) * diag, c, 0.8f), c + vec3(0.2f * ext.x, 0.9f * diag, 0.3f * ext.z),
+          96);
+  allVariants(f, "2CylinderEngine");
+}
+
+// ---- front-face culling on closed meshes ------------------------------------------------------------------
+
+// A box's 12 triangles, wound so that N = (v1 - v0) x (v2 - v0) points out of it (or into it: a room).
+void addBox(std::vector<vec3>& p, vec3 lo, vec3 hi, bool inward) {
+  const vec3 ctr = 0.5f * (lo + hi), d = hi - lo;
+  auto quad = [&](vec3 o, vec3 u, vec3 v) {
+    vec3 q[6] = {o, o + u, o + u + v, o, o + u + v, o + v};
+    for (int t = 0; t < 6; t += 3) {
+      vec3 n = glm::cross(q[t + 1] - q[t], q[t + 2] - q[t]);
+      bool out = glm::dot(n, (q[t] + q[t + 1] + q[t + 2]) / 3.0f - ctr) > 0;
+      if (out == inward) std::swap(q[t + 1], q[t + 2]);
+      p.insert(p.end(), {q[t], q[t + 1], q[t + 2]});
+    }
+  };
+  quad(lo, {d.x, 0, 0}, {0, d.y, 0});
+  quad(lo + vec3(0, 0, d.z), {d.x, 0, 0}, {0, d.y, 0});
+  quad(lo, {0, 0, d.z}, {0, d.y, 0});
+  quad(lo + vec3(d.x, 0, 0), {0, 0, d.z}, {0, d.y, 0});
+  quad(lo + vec3(0, d.y, 0), {d.x, 0, 0}, {0, 0, d.z});
+  quad(lo, {d.x, 0, 0}, {0, 0, d.z});
+}
+
+Scene soup(const std::vector<vec3>& positions) {
+  Scene s;
+  s.name = "closed room";
+  s.positions = positions;
+  for (uint32_t i = 0; i < positions.size(); ++i) s.indices.push_back(i);
+  s.normals.resize(positions.size());
+  for (size_t t = 0; t + 2 < positions.size(); t += 3) {
+    vec3 n = glm::normalize(glm::cross(positions[t + 1] - positions[t], positions[t + 2] - positions[t]));
+    s.normals[t] = s.normals[t + 1] = s.normals[t + 2] = n;
+  }
+  s.computeBounds();
+  return s;
+}
+
+TEST(VariantFrontFaceCulling, IsExactOnClosedMeshesAndTestsFewerPairs) {
+  std::vector<vec3> p;
+  addBox(p, {-6, 0, -6}, {6, 6, 6}, /*inward=*/true);  // the room, seen from inside
+  addBox(p, {1, 0, 1}, {2.5f, 1.5f, 2.5f}, false);
+  addBox(p, {-3, 1, -1}, {-1.5f, 2.2f, 1}, false);
+  addBox(p, {-1, 0, 2}, {0, 3, 3}, false);
+  for (int i = 0; i < 6; ++i) addBox(p, {-4.0f + 1.3f * i, 0.5f, -3}, {-3.5f + 1.3f * i, 1.0f, -2.5f}, false);
+  Scene scene = soup(p);
+  Frame f(scene, lookAt({-5, 5, 5}, {0, 1, 0}, 1.2f), vec3(0.3f, 4.5f, 0.2f), 96);
+  for (const char* v : kVariants) {
+    VariantResult off = runExact(f, variant(v), std::string("closed room ") + v);
+    VariantResult on = runExact(f, variant(v, true), std::string("closed room ") + v + " ffc");
+    EXPECT_TRUE(sameBits(off.mask, on.mask)) << v << ": front-face culling changed the mask";
+    EXPECT_LT(on.pairs, off.pairs) << v;
+  }
+}
+
+// ---- the sphere test is conservative ----------------------------------------------------------------------
+
+TEST(VariantSphereTest, NeverRejectsAPairWithAPointOrALeafHitInsideTheCone) {
+  std::mt19937_64 rng(20261122);
+  auto uni = [&](double a, double b) { return std::uniform_real_distribution<double>(a, b)(rng); };
+  auto unit = [&] {
+    for (;;) {
+      dvec3 q(uni(-1, 1), uni(-1, 1), uni(-1, 1));
+      double l = glm::length(q);
+      if (l > 1e-3 && l <= 1) return q / l;
+    }
+  };
+  const double angles[] = {0, 1e-6, 1e-3, 0.05, 0.3, 1.0, M_PI / 2 - 1e-4, M_PI / 2, 2.0, M_PI};
+  int hits = 0, misses = 0, rejected = 0;
+  for (int i = 0; i < 20000; ++i) {
+    dvec3 a = unit();
+    double alpha = i % 3 == 0 ? angles[rng() % std::size(angles)] : uni(0, 1.2);
+    double lmax = std::exp(uni(std::log(0.1), std::log(100.0)));
+    float eps = i % 4 == 0 ? 0.0f : float(lmax * 1e-3);
+    cone::ConeNode node;
+    node.axisCos = vec4(vec3(a), float(std::cos(alpha)));
+    node.sinLen = vec4(float(std::sin(alpha)), 0.0f, float(lmax), float(alpha));
+    // Triangles around the cone's boundary, of every size, some containing the apex.
+    dvec3 centre = unit() * (lmax * uni(0, 1.5));
+    if (i % 2 == 0) {  // near the boundary: a point at angle alpha +- a bit
+      dvec3 t = std::abs(a.x) < 0.5 ? dvec3(1, 0, 0) : dvec3(0, 1, 0);
+      dvec3 u = glm::normalize(glm::cross(a, t));
+      double th = std::min(M_PI, std::max(0.0, alpha + uni(-0.2, 0.2)));
+      centre = (std::cos(th) * a + std::sin(th) * u) * (lmax * uni(0.01, 1.3));
+    }
+    double size = lmax * std::exp(uni(std::log(1e-4), std::log(2.0)));
+    vec3 v[3];
+    for (auto& x : v) x = vec3(centre + unit() * size);
+    if (i % 10 == 0) v[0] = vec3(0);  // a vertex at the apex
+    bool keep = cone::sphereConeTriangle(node, v[0], v[1], v[2], eps);
+    // Brute force: points of the triangle inside the cone at distances in (eps, lmax - eps), and leaf rays.
+    auto inCone = [&](dvec3 x) {
+      double l = glm::length(x);
+      if (!(l > eps) || !(l < lmax - eps)) return false;
+      return std::atan2(glm::length(glm::cross(x, a)), glm::dot(x, a)) <= alpha;
+    };
+    bool hit = false;
+    const int G = 24;
+    for (int s = 0; s <= G && !hit; ++s)
+      for (int t = 0; s + t <= G && !hit; ++t)
+        hit = inCone(dvec3(v[0]) + (double(s) / G) * dvec3(v[1] - v[0]) + (double(t) / G) * dvec3(v[2] - v[0]));
+    for (int k = 0; k < 100 && !hit; ++k) {
+      double b1 = uni(0, 1), b2 = uni(0, 1);
+      if (b1 + b2 > 1) b1 = 1 - b1, b2 = 1 - b2;
+      dvec3 x = dvec3(v[0]) + b1 * dvec3(v[1] - v[0]) + b2 * dvec3(v[2] - v[0]);
+      if (!(glm::length(x) > 0)) continue;
+      // The leaf ray through that point, past it to a length inside the cone.
+      vec3 w = vec3(glm::normalize(x) * std::min(lmax, glm::length(x) * uni(1.0, 1.5)));
+      vec4 ray = cone::leafRay(w, vec3(0));
+      if (ray.w <= lmax && std::atan2(glm::length(glm::cross(dvec3(w), a)), glm::dot(dvec3(w), a)) <= alpha &&
+          cone::leafRayHitsTriangle(ray, eps, v[0], v[1], v[2]))
+        hit = true;
+    }
+    if (hit) {
+      hits++;
+      ASSERT_TRUE(keep) << "pair " << i << " intersects but the sphere test rejected it: alpha " << alpha << " Lmax "
+                        << lmax << " eps " << eps;
+    } else {
+      misses++;
+      rejected += !keep;
+    }
+  }
+  EXPECT_GT(hits, 1000);
+  EXPECT_GT(rejected, misses / 4) << rejected << " of " << misses;  // conservative, not trivially so
+}
+
+TEST(VariantSphereTest, FrontFacingFollowsTheCounterClockwiseConvention) {
+  // Light at the origin; a triangle in the plane y = 1, CCW seen from below (N = -y points at the light).
+  vec3 a(0, 1, 0), b(1, 1, 0), c(0, 1, 1);
+  EXPECT_TRUE(glm::dot(glm::cross(b - a, c - a), a) < 0);
+  EXPECT_TRUE(cone::facesLight(a, b, c));
+  EXPECT_FALSE(cone::facesLight(a, c, b));
+  EXPECT_FALSE(cone::facesLight(vec3(1, 0, 0), vec3(2, 0, 0), vec3(1, 0, 1)));  // edge-on: kept
+}
+
+}  // namespace
+}  // namespace cs

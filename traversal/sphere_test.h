@@ -1,0 +1,84 @@
+// traversal/: the sphere cone/triangle test, the ray-space-hierarchy baseline 002 §3.2 compares the precise
+// test against: the triangle's bounding sphere against the cone. Compiled by glslang and C++, like
+// precise_test.h (same conventions: vertices relative to the light, the cone's apex).
+// Sphere: centre = the centroid, radius = the largest distance to a vertex, both padded for fp32 so the
+// sphere provably holds the three fp32 vertices (and so the triangle: both are convex).
+// Reject (false) only when provably disjoint, every threshold padded by CONE_TEST_MARGIN of the magnitudes:
+//   - the sphere is wholly beyond Lmax - eps from the apex (no counted hit lies there: the leaf test counts
+//     tau in (eps, L - eps), L <= Lmax), or wholly within eps of it;
+//   - the sphere is outside the cone widened by its angular radius: the distance from the centre to the
+//     set of the cone's rays exceeds the radius. With theta the angle of the centre c off the axis, that
+//     distance is 0 for theta <= alpha, |c| sin(theta - alpha) when 0 <= theta - alpha <= pi/2 and |c|
+//     past pi/2; evaluated from |c| sin(theta - alpha) = |c x a| cos(alpha) - (c.a) sin(alpha)
+//     (coneOutside's quantity) and |c| cos(theta - alpha) = (c.a) cos(alpha) + |c x a| sin(alpha).
+//     A sphere holding the apex is never rejected by it (the distance is at most |c| < r).
+// NaN or inf anywhere makes every rejection condition false: the pair is kept.
+#ifndef CONESHADOW_TRAVERSAL_SPHERE_TEST_H
+#define CONESHADOW_TRAVERSAL_SPHERE_TEST_H
+
+#include "traversal/precise_test.h"
+
+#ifdef __cplusplus
+namespace cs::cone {
+namespace glsl {
+#define SPHERE_FN inline
+#else
+#define SPHERE_FN
+#endif
+
+// xyz: centre relative to the apex; w: radius, padded so the sphere holds the three vertices.
+SPHERE_FN vec4 boundingSphere(vec3 v0, vec3 v1, vec3 v2) {
+  vec3 c = (v0 + v1 + v2) * (1.0f / 3.0f);
+  float r = max(length(v0 - c), max(length(v1 - c), length(v2 - c)));
+  float big = max(length(v0), max(length(v1), length(v2)));
+  // The centre's rounding (a few ulp of the largest vertex) and the radius's own rounding.
+  return vec4(c, r * (1.0f + CONE_TEST_MARGIN) + CONE_TEST_MARGIN * big);
+}
+
+// False only when no ray of the cone can meet the sphere (and so the triangle) at a distance tau from the
+// apex with eps < tau < Lmax - eps.
+SPHERE_FN bool sphereConeTriangle(ConeNode cone, vec4 sphere, float eps) {
+  if (coneIsEmpty(cone)) return false;
+  vec3 a = vec3(cone.axisCos);
+  float c = cone.axisCos.w;
+  float s = cone.sinLen.x;
+  vec3 ctr = vec3(sphere);
+  float r = sphere.w;
+  float lc = length(ctr);
+  float pad = CONE_TEST_MARGIN * (lc + r);
+  float lfar = cone.sinLen.z * (1.0f + CONE_TEST_MARGIN) - eps;
+  if (lc - r - pad > lfar) return false;                           // wholly beyond Lmax - eps
+  if (lc + r + pad < eps * (1.0f - CONE_TEST_MARGIN)) return false;  // wholly within eps of the apex
+  float across = length(cross(ctr, a));
+  float along = dot(ctr, a);
+  float sinOff = across * c - along * s;  // |c| sin(theta - alpha): <= 0 with the centre inside the cone
+  float cosOff = along * c + across * s;  // |c| cos(theta - alpha): <= 0 past pi/2, the apex is nearest
+  float dist = sinOff <= 0.0f ? 0.0f : (cosOff <= 0.0f ? lc : sinOff);
+  return !(dist > r + pad);
+}
+
+SPHERE_FN bool sphereConeTriangle(ConeNode cone, vec3 v0, vec3 v1, vec3 v2, float eps) {
+  return sphereConeTriangle(cone, boundingSphere(v0, v1, v2), eps);
+}
+
+// 002 §3.6, front-face culling: true when the triangle (CCW = front, glTF) provably faces the light,
+// i.e. the light is strictly on the side its normal N = (v1 - v0) x (v2 - v0) points to: N.v0 < 0 with v0
+// relative to the light, beyond a rounding margin. Triangles within rounding of edge-on are kept (the
+// margin bounds N.v0's error by |e1| |e2| |v0|, so slivers with a noisy normal are kept too).
+SPHERE_FN bool facesLight(vec3 v0, vec3 v1, vec3 v2) {
+  vec3 e1 = v1 - v0;
+  vec3 e2 = v2 - v0;
+  vec3 N = cross(e1, e2);
+  float big = max(length(v0), max(length(v1), length(v2)));
+  return dot(N, v0) < -4.0f * CONE_TEST_MARGIN * length(e1) * length(e2) * big;
+}
+
+#ifdef __cplusplus
+}  // namespace glsl
+using glsl::boundingSphere;
+using glsl::facesLight;
+using glsl::sphereConeTriangle;
+}  // namespace cs::cone
+#endif
+#undef SPHERE_FN
+#endif
