@@ -30,8 +30,8 @@ render options:
   --out DIR           write shaded_<m>.png, mask_<m>.png, diff_<m>.png, results.json, results.csv (default out)
   --dump DIR          also write position.pfm, normal.pfm, visibility_<m>.pfm, band.pfm, meta.json
   --traversal-memory BYTES   cone path: bound on the traversal's pair buffers (e.g. 64M, 256K)
-  --variant=NAME      cone path, paper 002 Table 1: PreciseSorted (default), Precise, SpheresSorted, Spheres
-                      (early-accept and two-pass variants are not implemented yet)
+  --variant=NAME      cone path, paper 002 Table 1: PreciseSorted (default), Precise, SpheresSorted, Spheres,
+                      PreciseSEA (early accept); the two-pass variants are not implemented yet
   --front-face-culling=on   cone path: only triangles facing away from the light cast; exact only when
                       every caster is a closed mesh with consistent winding (wrong on the built-in fur)
   --ray-order O       cone path: hilbert (sorted rays, default) or screen (2x2 Morton screen order)

@@ -39,9 +39,9 @@ ConeOptions coneOptions(const Options& options) {
     const std::string key = kv.substr(0, eq), value = eq == std::string::npos ? "" : kv.substr(eq + 1);
     if (key == "variant") {
       if (isUnimplementedConeVariant(value))
-        throw UsageError("cone: variant '" + value + "' needs early accept / two-pass, which are not implemented yet");
+        throw UsageError("cone: variant '" + value + "' needs two-pass, which is not implemented yet");
       if (!applyConeVariant(value, cone))
-        throw UsageError("cone: unknown variant '" + value + "' (variants: Precise, PreciseSorted, Spheres, SpheresSorted)");
+        throw UsageError("cone: unknown variant '" + value + "' (variants: Precise, PreciseSorted, Spheres, SpheresSorted, PreciseSEA)");
       if (options.unsorted && cone.sorted)
         throw UsageError("cone: variant '" + value + "' is sorted, but --ray-order screen asks for unsorted rays");
     } else if (key == "front-face-culling") {

@@ -29,7 +29,7 @@ using glm::dvec3;
 using glm::vec3;
 using glm::vec4;
 
-const char* kVariants[] = {"PreciseSorted", "Precise", "Spheres", "SpheresSorted"};
+const char* kVariants[] = {"PreciseSorted", "Precise", "Spheres", "SpheresSorted", "PreciseSEA"};
 
 ConeOptions variant(const std::string& name, bool frontFaceCulling = false) {
   ConeOptions o;
@@ -112,13 +112,19 @@ std::vector<uint64_t> allVariants(Frame& f, const std::string& what) {
   return pairs;
 }
 
-TEST(VariantNames, MapToTheirOptionsAndEarlyAcceptTwoPassAreRejectedByMakeMethod) {
+TEST(VariantNames, MapToTheirOptionsAndTwoPassAreRejectedByMakeMethod) {
   for (const char* v : kVariants) EXPECT_EQ(coneVariantName(variant(v)), v);
   EXPECT_EQ(coneVariantName(ConeOptions{}), "PreciseSorted");
   ConeOptions o;
   EXPECT_FALSE(applyConeVariant("Nope", o));
   Options opt;
-  for (const char* v : {"PreciseSEA", "PreciseEATP", "PreciseSEATP"}) {
+  ConeOptions sea;
+  ASSERT_TRUE(applyConeVariant("PreciseSEA", sea));
+  EXPECT_TRUE(sea.earlyAccept && sea.sorted && sea.test == ConeTest::Precise);
+  EXPECT_EQ(coneVariantName(sea), "PreciseSEA");
+  EXPECT_FALSE(isUnimplementedConeVariant("PreciseSEA"));
+  EXPECT_FALSE(variant("PreciseSorted").earlyAccept);
+  for (const char* v : {"PreciseEATP", "PreciseSEATP"}) {
     EXPECT_TRUE(isUnimplementedConeVariant(v));
     opt.extra = {std::string("variant=") + v};
     try {

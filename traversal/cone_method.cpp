@@ -93,6 +93,7 @@ class ConeMethod : public ShadowMethod {
                             {"variant", coneVariantName(options_)},
                             {"test", options_.test == ConeTest::Sphere ? "sphere" : "precise"},
                             {"front_face_culling", options_.frontFaceCulling},
+                            {"early_accept", options_.earlyAccept && options_.test == ConeTest::Precise},
                             {"epsilon", eps},
                             {"traversal_memory_bytes", options_.traversalMemoryBytes},
                             {"pair_capacity", traversal_.plan().pairCapacity},
@@ -113,6 +114,7 @@ class ConeMethod : public ShadowMethod {
       in.eps = eps;
       in.test = options_.test == ConeTest::Sphere ? TRAVERSE_TEST_SPHERE : TRAVERSE_TEST_PRECISE;
       in.frontFaceCulling = options_.frontFaceCulling;
+      in.earlyAccept = options_.earlyAccept;
       ts = traversal_.run(in, &timer_);
       stats["tree_depth"] = tree_.shape().depth;
       stats["tree_nodes"] = tree_.shape().nodes();
@@ -141,6 +143,7 @@ class ConeMethod : public ShadowMethod {
     stats["pairs_tested"] = ts.pairsTested();
     stats["pairs_survived"] = ts.pairsSurvived();
     stats["leaf_tests"] = ts.leafTests;
+    stats["early_accepted_nodes"] = ts.earlyAccepted;
     stats["traversal_peak_bytes"] = ts.peakBytes;
     out.stages = std::move(stages);
     out.stats = std::move(stats);
@@ -153,7 +156,7 @@ class ConeMethod : public ShadowMethod {
  private:
   uint64_t bytesAllocated() const {
     return triangles_.size + (rays_ ? rays_->bytesAllocated() : 0) + visibility_.size + tree_.bytesAllocated() +
-           traversal_.bytesAllocated();
+           traversal_.bytesAllocated() + traversal_.flagBytes();
   }
 
   // Gathers the scene's triangles (vec4 x 3, world space) and uploads them when they changed. Triangles
@@ -213,18 +216,18 @@ class ConeMethod : public ShadowMethod {
 }  // namespace
 
 bool applyConeVariant(const std::string& name, ConeOptions& o) {
-  if (name == "Precise" || name == "PreciseSorted") o.test = ConeTest::Precise;
+  if (name == "Precise" || name == "PreciseSorted" || name == "PreciseSEA") o.test = ConeTest::Precise;
   else if (name == "Spheres" || name == "SpheresSorted") o.test = ConeTest::Sphere;
   else return false;
-  o.sorted = name == "PreciseSorted" || name == "SpheresSorted";
+  o.sorted = name == "PreciseSorted" || name == "SpheresSorted" || name == "PreciseSEA";
+  o.earlyAccept = name == "PreciseSEA";
   return true;
 }
 
-bool isUnimplementedConeVariant(const std::string& name) {
-  return name == "PreciseSEA" || name == "PreciseEATP" || name == "PreciseSEATP";
-}
+bool isUnimplementedConeVariant(const std::string& name) { return name == "PreciseEATP" || name == "PreciseSEATP"; }
 
 std::string coneVariantName(const ConeOptions& o) {
+  if (o.test == ConeTest::Precise && o.earlyAccept) return o.sorted ? "PreciseSEA" : "PreciseEA";
   return std::string(o.test == ConeTest::Sphere ? "Spheres" : "Precise") + (o.sorted ? "Sorted" : "");
 }
 

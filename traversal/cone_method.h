@@ -36,6 +36,11 @@ struct ConeOptions {
   // or inconsistent winding): there the face towards the light may be the only one the ray crosses, and
   // dropping it lights samples that are in shadow. Also wrong with the light inside a closed caster.
   bool frontFaceCulling = false;
+  // 002 §3.3, early accept (off by default; precise test only): a node whose every ray provably hits a
+  // triangle (precise_test.h: preciseConeCovered) shadows all its samples at once and stops there, and the
+  // other triangles' pairs at that node are dropped (traversal.h). The mask is unchanged; fewer pairs are
+  // tested where large occluders cover whole cones. Variant "PreciseSEA" = precise, sorted, early accept.
+  bool earlyAccept = false;
   // Tests only: when arena.pairCapacity > 0, this exact arena (down to traversal::minimumPairs pairs and
   // chunks of one pair) instead of one planned from traversalMemoryBytes.
   traversal::ArenaPlan arena;
@@ -51,17 +56,18 @@ struct ConeOptions {
 //               timestamp intervals are still reported, in stats.timestamp_ms, for GPUs where they hold.
 //   totalMs     wall clock of the frame's shadow work up to the mask on the GPU; the readback of the mask
 //               to the host is stats.readback_ms.
-//   stats       variant ("PreciseSorted", ...), test ("precise" | "sphere"), front_face_culling, lit_samples, triangles, tree_depth, tree_nodes, pairs_tested, pairs_survived, leaf_tests,
+//   stats       variant ("PreciseSorted", ...), test ("precise" | "sphere"), front_face_culling, early_accept,
+//               early_accepted_nodes, lit_samples, triangles, tree_depth, tree_nodes, pairs_tested, pairs_survived, leaf_tests,
 //               traversal (per pass: inputs, pairs tested, survivors, chunks; leaf pairs/tests/hits;
 //               submits; peak_bytes), traversal_memory_bytes, pair_capacity, chunk_capacity, epsilon.
 //   bytesAllocated / peakBytes: every buffer the method holds for the frame / the same with the
 //               traversal's share at its measured peak (<= traversalMemoryBytes).
 // Paper 002's variant names (Table 1). Implemented: "Precise" (precise test, unsorted), "PreciseSorted"
-// (precise, sorted: the default), "Spheres" (sphere test, unsorted), "SpheresSorted" (sphere, sorted).
-// Sets o.test and o.sorted for an implemented name and returns true; false for any other name.
+// (precise, sorted: the default), "Spheres" (sphere test, unsorted), "SpheresSorted" (sphere, sorted),
+// "PreciseSEA" (precise, sorted, early accept). Sets o.test, o.sorted and o.earlyAccept for an
+// implemented name and returns true; false for any other name.
 bool applyConeVariant(const std::string& name, ConeOptions& o);
-// The variants of Table 1 with early accept and/or two-pass (PreciseSEA, PreciseEATP, PreciseSEATP),
-// not implemented yet: true for those names.
+// The variants of Table 1 with two-pass (PreciseEATP, PreciseSEATP), not implemented yet: true for those.
 bool isUnimplementedConeVariant(const std::string& name);
 // The variant name of these options ("PreciseSorted", "Spheres", ...).
 std::string coneVariantName(const ConeOptions& o);

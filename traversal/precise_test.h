@@ -182,6 +182,48 @@ CONE_FN bool preciseConeTriangle(ConeNode cone, PreciseTriangle t, float eps) {
   return true;
 }
 
+// Early accept (002 §3.3), the other direction from preciseConeTriangle: true only when EVERY ray of the
+// cone -- a unit direction r within its half-angle of its axis, of length L >= Lmin -- meets the
+// triangle's interior at a distance tau from the apex (the light) with eps < tau < L - eps, i.e. the leaf
+// test would shadow every sample under the node. It may say false for a covered cone, never true for a
+// cone with a ray that misses. Checked with the same margins as the reject test, the other way round:
+//  - every direction lies strictly inside the three edge planes through the apex (oriented towards the
+//    triangle), by the edge normal's own error and a relative margin: min over the cone of n.r > 0;
+//  - the plane crossing tau = d / (m.r) (m the plane normal on the triangle's side, d in the slab) of
+//    every direction lies in (eps, Lmin - eps), the slab's far side over the smallest m.r against
+//    Lmin - eps, its near side over the largest against eps, each with the relative margin.
+// Narrow cones only (cos alpha > CONE_WIDE_COS); an empty cone or an unreliable edge plane is never covered.
+CONE_FN bool edgeContains(vec4 e, vec3 a, float c, float s) {
+  vec3 n = vec3(e);
+  float nl = length(n);
+  // |n| cos(phi + alpha) = min over the cone of n.r (alpha < pi/2 here), against the normal's error.
+  return e.w > 0.0f && dot(n, a) * c - length(cross(n, a)) * s > e.w + 4.0f * CONE_TEST_MARGIN * nl;
+}
+
+CONE_FN bool preciseConeCovered(ConeNode cone, PreciseTriangle t, float eps) {
+  if (coneIsEmpty(cone)) return false;
+  vec3 a = vec3(cone.axisCos);
+  float c = cone.axisCos.w;
+  float s = cone.sinLen.x;
+  float lmin = cone.sinLen.y;
+  if (!(c > CONE_WIDE_COS) || !(lmin > 0.0f)) return false;
+  float nl = t.plane.w;
+  if (!(nl > 0.0f) || !(t.slab.x > 0.0f || t.slab.y < 0.0f)) return false;  // light (near) in the plane
+  if (!edgeContains(t.edge0, a, c, s) || !edgeContains(t.edge1, a, c, s) || !edgeContains(t.edge2, a, c, s))
+    return false;
+  vec3 m = t.slab.x > 0.0f ? vec3(t.plane) : -vec3(t.plane);
+  float dnear = t.slab.x > 0.0f ? t.slab.x : -t.slab.y;
+  float dfar = t.slab.x > 0.0f ? t.slab.y : -t.slab.x;
+  float mu = dot(m, a);
+  float nu = length(cross(m, a));
+  float lo = mu * c - nu * s - 4.0f * CONE_TEST_MARGIN * nl;  // <= min over the cone of m.r
+  if (!(lo > 0.0f)) return false;                             // some direction (nearly) parallel to the plane
+  float hi = nu * c - mu * s <= CONE_TEST_MARGIN * nl ? nl : mu * c + nu * s + 4.0f * CONE_TEST_MARGIN * nl;
+  const float k = 1.0f + 4.0f * CONE_TEST_MARGIN;
+  // farthest crossing dfar / lo < Lmin - eps; nearest crossing dnear / hi > eps (margins both ways)
+  return dfar * k < lo * (lmin / k - eps * k) && dnear > hi * eps * k * k;
+}
+
 CONE_FN bool preciseConeTriangle(ConeNode cone, vec3 v0, vec3 v1, vec3 v2, float eps) {
   return preciseConeTriangle(cone, preciseTriangle(v0, v1, v2), eps);
 }
@@ -250,6 +292,7 @@ CONE_FN bool leafRayHitsTriangle(vec4 ray, float eps, vec3 v0, vec3 v1, vec3 v2)
 #ifdef __cplusplus
 }  // namespace glsl
 using glsl::leafRayHitsTriangle;
+using glsl::preciseConeCovered;
 using glsl::preciseConeTriangle;
 using glsl::preciseTriangle;
 using glsl::PreciseTriangle;

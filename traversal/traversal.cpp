@@ -80,6 +80,8 @@ nlohmann::json TraversalStats::toJson() const {
           {"leaf_pairs", leafPairs},
           {"leaf_tests", leafTests},
           {"submits", submits},
+          {"early_accepted_nodes", earlyAccepted},
+          {"early_dropped_pairs", droppedPairs},
           {"peak_pairs", peakPairs},
           {"peak_chunk", peakChunk},
           {"peak_bytes", peakBytes},
@@ -110,7 +112,7 @@ Traversal::Traversal(vk::Context& ctx, uint64_t memoryBytes)
 
 Traversal::Traversal(vk::Context& ctx, const ArenaPlan& plan) : ctx_(ctx), plan_(plan) {
   CS_CHECK(plan_.pairCapacity >= kMinPairs && plan_.chunkCapacity >= 1, "traversal arena plan too small");
-  test_ = vk::createKernel(ctx, "traverse test", spv_traverse_test_comp, 6, sizeof(TraversePush));
+  test_ = vk::createKernel(ctx, "traverse test", spv_traverse_test_comp, 10, sizeof(TraversePush));
   scatter_ = vk::createKernel(ctx, "traverse scatter", spv_traverse_scatter_comp, 5, sizeof(TraversePush));
   leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 6, sizeof(TraversePush));
   arena_ = vk::createBuffer(ctx, plan_.pairCapacity * kPairBytes);
@@ -162,6 +164,11 @@ bool Traversal::expandChunk(Frame& f, uint32_t child, bool fromTriangles, uint64
   p.minLength = 2.0f * f.in->eps;
   p.test = f.in->test;
   p.frontFaceCulling = f.in->frontFaceCulling ? 1u : 0u;
+  const bool early = f.in->earlyAccept && f.in->test == TRAVERSE_TEST_PRECISE;
+  p.earlyAccept = early ? 1u : 0u;
+  p.leafCount = f.shape->leaves;
+  p.leafShift = 2u * (f.depth - child);
+  p.inputOffset = fromTriangles ? 0u : f.shape->offsets[child - 1];
 
   if (f.timer) f.timer->restart();
   vk::Commands cmd(ctx_, f.timer);
@@ -170,7 +177,12 @@ bool Traversal::expandChunk(Frame& f, uint32_t child, bool fromTriangles, uint64
   cmd.barrier();
   cmd.mark("start");
   vk::Grid g = vk::gridFor(count, TRAVERSE_THREADS, ctx_.maxWorkgroups());
-  cmd.dispatch(test_, {*f.in->triangles, f.in->tree->nodes(), chunk_, masks_, counts_, stats_}, p, g.x, g.y);
+  if (early)
+    cmd.dispatch(test_, {*f.in->triangles, f.in->tree->nodes(), chunk_, masks_, counts_, stats_, f.in->samples,
+                         f.in->positions, *f.in->visibility, flags_}, p, g.x, g.y);
+  else  // bindings 6-9 unused: any valid buffer
+    cmd.dispatch(test_, {*f.in->triangles, f.in->tree->nodes(), chunk_, masks_, counts_, stats_, stats_, stats_,
+                         stats_, stats_}, p, g.x, g.y);
   cmd.barrier();
   scan_->record(cmd, counts_, counts_, sort::Count(count), sort::GpuWord(stats_, STAT_TOTAL));
   cmd.dispatch(scatter_, {arena_, chunk_, masks_, counts_, stats_}, p, g.x, g.y);
@@ -180,6 +192,7 @@ bool Traversal::expandChunk(Frame& f, uint32_t child, bool fromTriangles, uint64
 
   const uint32_t survived = f.words[STAT_TOTAL];
   PassStats& s = f.stats.passes[child];
+  f.stats.earlyAccepted += f.words[STAT_ACCEPTED];  // distinct nodes: a retried chunk finds them flagged
   f.stats.peakChunk = std::max(f.stats.peakChunk, count);
   if (outFirst + survived > limit) {
     s.overflows++;
@@ -189,6 +202,7 @@ bool Traversal::expandChunk(Frame& f, uint32_t child, bool fromTriangles, uint64
   s.tested += uint64_t(count) * (fromTriangles ? 1 : 4) - f.words[STAT_MISSING];
   s.survived += survived;
   s.chunks++;
+  f.stats.droppedPairs += f.words[STAT_DROPPED];
   f.stats.peakPairs = std::max(f.stats.peakPairs, outFirst + survived);
   return true;
 }
@@ -273,6 +287,18 @@ TraversalStats Traversal::run(const TraversalInput& in, vk::Timer* timer) {
   f.end.assign(f.depth, 0);
   f.ratio.assign(f.depth, 1.0);
   f.stats.passes.resize(f.depth);
+  if (in.earlyAccept && in.test == TRAVERSE_TEST_PRECISE) {  // the flags, cleared per frame
+    const uint64_t bytes = std::max<uint64_t>(uint64_t(f.shape->nodes()) * 4, 16);
+    if (flags_.size < bytes) {
+      flags_.reset();
+      flags_ = vk::createBuffer(ctx_, bytes);
+    }
+    vk::Commands cmd(ctx_);
+    cmd.fill(flags_, 0);
+    cmd.barrier();
+    cmd.submit();
+    f.stats.submits++;
+  }
 
   // Pass 0: every triangle against the root, as many at a time as depth 0 can hold beside the reserve of
   // the deeper depths (each triangle gives at most one pair), each batch finished before the next.

@@ -37,6 +37,16 @@
 // at one storage binding (maxStorageBufferRange) and reports what it allocates. peakBytes in the stats is
 // the high-water mark of the arena slots in use plus the scratch of the largest chunk: always <= the bound.
 //
+// Early accept (002 §3.3; TraversalInput::earlyAccept, precise test only). The test kernel also checks
+// each surviving child with preciseConeCovered (precise_test.h: every ray under the node hits the
+// triangle within (eps, L - eps), conservatively): a covered child shadows its leaf range at once (the
+// same AND of the visibility word as the leaves; degenerate rays skipped as there) and writes no pair;
+// the node is flagged (one word per interior node, cleared per frame) and every later pair at a flagged
+// node is dropped when it is next tested. The mask is unchanged (tests/early_accept_test.cpp): an accepted
+// node's samples are exactly what its leaves would shadow, and a dropped pair's samples are all 0 already.
+// A chunk retried after an overflow accepts again: idempotent. The flags are outside the memory bound
+// (flagBytes(): 4 bytes per interior node, like the tree's own nodes).
+//
 // Stats per frame: for each pass (depth), the (triangle, node) pairs tested, the survivors and the chunks;
 // the leaf tests; the submits; the time of the passes ("traversal") and of the leaf tests
 // ("leaves"), as the wall time of their submits (host waits included) and from timestamps.
@@ -86,6 +96,8 @@ struct TraversalStats {
   uint64_t leafPairs = 0;         // pairs of depth D-1 sent to the leaves
   uint64_t leafTests = 0;         // (pair, ray) combinations at the leaves: 4 per pair but under a last node
   uint64_t submits = 0;
+  uint64_t earlyAccepted = 0;     // early accept: distinct nodes found covered (and shadowed at once)
+  uint64_t droppedPairs = 0;      // early accept: pairs dropped because their node had been accepted
   uint64_t peakPairs = 0;         // arena high-water mark, in pairs
   uint32_t peakChunk = 0;         // largest chunk, in input pairs
   uint64_t peakBytes = 0;         // peakPairs * 8 + the scratch of the largest chunk (<= what is allocated)
@@ -110,6 +122,7 @@ struct TraversalInput {
   float eps = 0;                          // hits count in (eps, L - eps)
   uint32_t test = TRAVERSE_TEST_PRECISE;  // the passes' cone/triangle test (traversal_layout.h)
   bool frontFaceCulling = false;          // pass 0 drops triangles facing the light (cone_method.h)
+  bool earlyAccept = false;               // 002 §3.3, with the precise test only (see above)
 };
 
 class Traversal {
@@ -128,6 +141,8 @@ class Traversal {
 
   const ArenaPlan& plan() const { return plan_; }
   uint64_t bytesAllocated() const;
+  // The early-accept flags (allocated on the first frame that uses them; not in bytesAllocated()).
+  uint64_t flagBytes() const { return flags_.size; }
 
  private:
   struct Frame;
@@ -141,7 +156,7 @@ class Traversal {
   vk::Context& ctx_;
   ArenaPlan plan_;
   vk::Kernel test_, scatter_, leaves_;
-  vk::Buffer arena_, chunk_, masks_, counts_, stats_;
+  vk::Buffer arena_, chunk_, masks_, counts_, stats_, flags_;
   std::unique_ptr<sort::Scan> scan_;
 };
 

@@ -8,6 +8,8 @@
 // Counters the kernels add to (uint each, per submit; the host reads and clears them).
 #define STAT_MISSING 0     // tests short of 4 per input (1 per triangle): children or rays past a level's end
 #define STAT_TOTAL 1       // the scan's total: survivors of the chunk (written by sort/'s Scan)
+#define STAT_ACCEPTED 2    // early accept (002 §3.3): nodes the test kernel found covered and shadowed at once
+#define STAT_DROPPED 3     // early accept: input pairs dropped because their node was accepted (their tests in STAT_MISSING)
 #define STAT_WORDS 4
 
 // TraversePush::test: the cone/triangle test of the passes (cone_method.h, ConeOptions::test).
@@ -39,11 +41,15 @@ struct TraversePush {
   uint outLimit;      // scatter: no pair is written at or past this slot (the chunk overflowed)
   uint test;          // test: TRAVERSE_TEST_PRECISE or TRAVERSE_TEST_SPHERE
   uint frontFaceCulling; // test, pass 0: 1 drops the triangles that face the light (002 §3.6, cone_method.h)
-  uint pad2;
+  uint earlyAccept;   // test: 1 shadows the leaves of a covered child at once (002 §3.3) and marks it
+  uint leafCount;     // test, early accept: the tree's leaves (sorted rays)
+  uint leafShift;     // test, early accept: 2 (D - d) for the child depth d: leaves under a child = 4^(D-d)
+  uint inputOffset;   // test, early accept: node-array offset of the input pairs' depth (their flags)
+  uint pad0;
 };
 
 #ifdef __cplusplus
-static_assert(sizeof(TraversePush) == 64 && offsetof(TraversePush, first) == 16 &&
+static_assert(sizeof(TraversePush) == 80 && offsetof(TraversePush, first) == 16 &&
                   offsetof(TraversePush, minLength) == 44 && offsetof(TraversePush, outLimit) == 48 &&
                   offsetof(TraversePush, test) == 52 && offsetof(TraversePush, frontFaceCulling) == 56,
               "TraversePush layout");

@@ -6,8 +6,15 @@
 // counts into output offsets and traverse_scatter.comp writes the pairs.
 // Tests counted by the host (4 per input pair, 1 per triangle) less STAT_MISSING, which the pairs of a
 // level's last node (fewer than four children) add to.
+// Early accept (002 §3.3, p.earlyAccept, precise test only): a child the triangle covers
+// (preciseConeCovered: every ray under it hits) shadows every sample under it at once -- the same atomic
+// AND as the leaves, on the leaf range the implicit tree gives -- is marked in the flags (one word per
+// interior node, cleared per frame) and does not continue (no pair written). An input pair whose node is
+// flagged is dropped: its samples are all shadowed already (its children's tests go to STAT_MISSING).
 // bindings: 0 = triangles (vec4 x 3 per triangle, world space), 1 = nodes (ConeNode), 2 = chunk (uvec2
-//           input pairs), 3 = masks (uint per input), 4 = counts (uint per input), 5 = stats (uint[STAT_WORDS])
+//           input pairs), 3 = masks (uint per input), 4 = counts (uint per input), 5 = stats (uint[STAT_WORDS]),
+//           6 = samples (uint pixel per sorted ray), 7 = positions (vec4 per pixel), 8 = visibility (uint per
+//           pixel), 9 = flags (uint per interior node); 6-9 used with early accept only
 #include "traversal/precise_test.h"
 #include "traversal/sphere_test.h"
 #include "traversal/traverse.glsl"
@@ -19,7 +26,23 @@ layout(std430, binding = 2) readonly buffer Chunk { uvec2 pairs[]; };
 layout(std430, binding = 3) writeonly buffer Masks { uint masks[]; };
 layout(std430, binding = 4) writeonly buffer Counts { uint counts[]; };
 layout(std430, binding = 5) buffer Stats { uint stats[]; };
+layout(std430, binding = 6) readonly buffer Samples { uint samples[]; };
+layout(std430, binding = 7) readonly buffer Positions { vec4 positions[]; };
+layout(std430, binding = 8) buffer Visibility { uint visibility[]; };
+layout(std430, binding = 9) buffer Flags { uint flags[]; };
 layout(push_constant) uniform Push { TraversePush p; };
+
+// Shadows every sample under child c (of the child depth) at once and flags the node; counts it once.
+void acceptChild(uint c, vec3 light) {
+  if (atomicExchange(flags[p.childOffset + c], 1u) == 0u) atomicAdd(stats[STAT_ACCEPTED], 1u);
+  uint first = c << p.leafShift;
+  uint end = min((c + 1u) << p.leafShift, p.leafCount);
+  for (uint leaf = first; leaf < end; leaf++) {
+    uint sampleIndex = samples[leaf];
+    vec4 ray = leafRay(positions[sampleIndex].xyz, light);
+    if (leafRayUsable(ray, p.minLength) && visibility[sampleIndex] != 0u) atomicAnd(visibility[sampleIndex], 0u);
+  }
+}
 
 void main() {
   uint i = flatIndex();
@@ -32,7 +55,11 @@ void main() {
   precise vec3 v2 = tris[3u * pair.x + 2u].xyz - light;
   uvec2 r = p.fromTriangles != 0u ? uvec2(0u, 1u) : childRange(pair.y, p.childCount);
   uint mask = 0u;
-  if (p.frontFaceCulling != 0u && p.fromTriangles != 0u && facesLight(v0, v1, v2)) {
+  if (p.earlyAccept != 0u && p.fromTriangles == 0u && flags[p.inputOffset + pair.y] != 0u) {
+    // the node was accepted (by another triangle): every sample under it is shadowed already
+    atomicAdd(stats[STAT_DROPPED], 1u);
+    atomicAdd(stats[STAT_MISSING], r.y - r.x);
+  } else if (p.frontFaceCulling != 0u && p.fromTriangles != 0u && facesLight(v0, v1, v2)) {
     // 002 §3.6: a triangle facing the light casts no shadow in a closed mesh; dropped at the root.
   } else if (p.test == TRAVERSE_TEST_SPHERE) {
     vec4 sphere = boundingSphere(v0, v1, v2);
@@ -40,8 +67,12 @@ void main() {
       if (sphereConeTriangle(nodes[p.childOffset + c], sphere, p.eps)) mask |= 1u << (c - r.x);
   } else {
     PreciseTriangle t = preciseTriangle(v0, v1, v2);  // once for the (up to) four children
-    for (uint c = r.x; c < r.y; c++)
-      if (preciseConeTriangle(nodes[p.childOffset + c], t, p.eps)) mask |= 1u << (c - r.x);
+    for (uint c = r.x; c < r.y; c++) {
+      ConeNode node = nodes[p.childOffset + c];
+      if (!preciseConeTriangle(node, t, p.eps)) continue;
+      if (p.earlyAccept != 0u && preciseConeCovered(node, t, p.eps)) acceptChild(c, light);
+      else mask |= 1u << (c - r.x);
+    }
   }
   masks[i] = mask;
   counts[i] = bitCount(mask);
