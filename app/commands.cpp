@@ -95,15 +95,7 @@ int runRender(const Options& o) {
     log << "  no camera in the scene: using an automatic one (eye " << vec3Text(camera.eye) << ")\n";
   }
   view = camera.name.empty() ? "auto" : camera.name;
-  glm::vec3 light;
-  if (o.light) {
-    light = *o.light;
-  } else if (!scene.lights.empty()) {
-    light = scene.lights.front().position;
-  } else {
-    light = automaticLight(scene).position;
-    log << "  no point light in the scene: using an automatic one at " << vec3Text(light) << "\n";
-  }
+  glm::vec3 light = chooseLight(scene, o, log);
   log << "  view " << view << ", light " << vec3Text(light) << ", " << o.width << "x" << o.height << "\n";
 
   log << "[2/5] device" << std::endl;
@@ -131,13 +123,7 @@ int runRender(const Options& o) {
       << " ms; " << lit << " lit samples of " << gb.size() << "\n";
 
   EpsilonPolicy policy = EpsilonPolicy::forScene(scene);
-  FrameInput frame;
-  frame.scene = &scene;
-  frame.gbuffer = &gb;
-  frame.device = &dev;
-  frame.vk = ctx.get();
-  frame.light = light;
-  frame.epsilon = policy.eps;
+  FrameInput frame = frameInput(scene, gb, dev, *ctx, light, policy.eps);
 
   log << "[4/5] reference (embree) and band" << std::endl;
   EmbreeReference reference;

@@ -281,9 +281,7 @@ int runCompare(const Options& o) {
   } else {
     cameras.push_back(automaticCamera(scene));
   }
-  glm::vec3 light = o.light ? *o.light
-                    : !scene.lights.empty() ? scene.lights.front().position
-                                            : automaticLight(scene).position;
+  glm::vec3 light = chooseLight(scene, o, log);
   log << "scene " << scene.name << ": " << scene.triangleCount() << " triangles, " << cameras.size() << " view(s), "
       << settings.size() << " method setting(s), " << o.width << "x" << o.height << std::endl;
 
@@ -311,13 +309,7 @@ int runCompare(const Options& o) {
     RasterTiming rt = raster.render(camera, light, o.width, o.height, dev, &gb);
     size_t lit = gb.litCount();
 
-    FrameInput frame;
-    frame.scene = &scene;
-    frame.gbuffer = &gb;
-    frame.device = &dev;
-    frame.vk = ctx.get();
-    frame.light = light;
-    frame.epsilon = policy.eps;
+    FrameInput frame = frameInput(scene, gb, dev, *ctx, light, policy.eps);
 
     auto progress = [&](const std::string& label) {
       return [&log, tag, label](uint32_t f, uint32_t n) {

@@ -13,6 +13,8 @@
 #include <unistd.h>
 
 #include "core/error.h"
+#include "app/cli.h"
+#include "core/scene.h"
 #include "eval/method.h"
 
 namespace cs {
@@ -103,6 +105,29 @@ inline std::string stageText(const MethodOutput& out) {
   for (size_t i = 0; i < out.stages.size(); ++i)
     os << (i ? ", " : "") << out.stages[i].name << " " << out.stages[i].ms;
   return os.str();
+}
+
+// The frame's light: --light, else the scene's first point light, else an automatic one (said in one line).
+inline glm::vec3 chooseLight(const Scene& scene, const Options& o, std::ostream& log) {
+  if (o.light) return *o.light;
+  if (!scene.lights.empty()) return scene.lights.front().position;
+  glm::vec3 light = automaticLight(scene).position;
+  log << "  no point light in the scene: using an automatic one at " << light.x << "," << light.y << ","
+      << light.z << "\n";
+  return light;
+}
+
+// What every method is fed for one frame: the same samples, light and epsilon.
+inline FrameInput frameInput(const Scene& scene, const GBuffer& gb, const DeviceGBuffer& dev, vk::Context& ctx,
+                             glm::vec3 light, float epsilon) {
+  FrameInput frame;
+  frame.scene = &scene;
+  frame.gbuffer = &gb;
+  frame.device = &dev;
+  frame.vk = &ctx;
+  frame.light = light;
+  frame.epsilon = epsilon;
+  return frame;
 }
 
 }  // namespace cs

@@ -15,27 +15,14 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "tests/cli_support.h"
+
 namespace fs = std::filesystem;
 
 namespace {
 
-struct CliRun {
-  int code = -1;
-  std::string out;  // stdout and stderr together
-};
-
-CliRun cli(const std::string& args) {
-  std::string cmd = std::string(CONESHADOW_CLI) + " " + args + " 2>&1";
-  CliRun r;
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return r;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
-  int status = pclose(p);
-  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+using cs::test::CliRun;
+using cs::test::cli;
 
 std::string readText(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);

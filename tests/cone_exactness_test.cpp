@@ -16,6 +16,7 @@
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
 #include "reference/epsilon.h"
+#include "tests/cone_test_support.h"
 #include "tests/test_context.h"
 #include "traversal/cone_method.h"
 
@@ -102,15 +103,7 @@ struct Harness {
   }
 };
 
-Camera lookAt(vec3 eye, vec3 target, float yfov = 0.9f) {
-  Camera c;
-  c.eye = eye;
-  c.target = target;
-  c.yfov = yfov;
-  c.znear = 0.01f;
-  c.zfar = 1e4f;
-  return c;
-}
+using test::lookAt;
 
 // ---- the built-in scene -------------------------------------------------------------------------------
 

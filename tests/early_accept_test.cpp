@@ -17,6 +17,7 @@
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
 #include "reference/epsilon.h"
+#include "tests/cone_test_support.h"
 #include "tests/test_context.h"
 #include "traversal/cone_method.h"
 #include "traversal/precise_test.h"
@@ -139,38 +140,9 @@ TEST(EarlyAcceptCovered, RejectsTheClearMisses) {
 
 // ---- the traversal with early accept: the same mask, fewer pairs --------------------------------------
 
-Camera lookAt(vec3 eye, vec3 target, float yfov = 0.9f) {
-  Camera c;
-  c.eye = eye;
-  c.target = target;
-  c.yfov = yfov;
-  c.znear = 0.01f;
-  c.zfar = 1e4f;
-  return c;
-}
+using test::lookAt;
 
-struct Frame {
-  Raster raster;
-  DeviceGBuffer dev;
-  GBuffer host;
-  EpsilonPolicy policy;
-  FrameInput input;
-  std::vector<float> reference;
-  std::vector<uint8_t> band;
-  Frame(const Scene& scene, const Camera& camera, vec3 light, uint32_t size)
-      : raster(test::context(), scene), policy(EpsilonPolicy::forScene(scene)) {
-    raster.render(camera, light, size, size, dev, &host);
-    input.scene = &scene;
-    input.gbuffer = &host;
-    input.device = &dev;
-    input.vk = &test::context();
-    input.light = light;
-    input.epsilon = policy.eps;
-    EmbreeReference embree;
-    reference = embree.run(input).visibility;
-    band = embree.ambiguityBand(scene, host, light, policy);
-  }
-};
+using Frame = test::ReferenceFrame;
 
 struct Result {
   std::vector<float> mask;
