@@ -457,6 +457,66 @@ VkShaderModule createShaderModule(Context& ctx, const uint32_t* spirv, size_t sp
   return module;
 }
 
+VkPipeline createTrianglePipeline(Context& ctx, const TrianglePipelineDesc& desc) {
+  CS_CHECK(desc.vertexStreams >= 1 && desc.vertexStreams <= 4 && desc.colorAttachments <= 4,
+           "triangle pipeline: " << desc.vertexStreams << " streams, " << desc.colorAttachments << " attachments");
+  VkPipelineShaderStageCreateInfo stages[2]{};
+  stages[0] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_VERTEX_BIT, desc.vert, "main", nullptr};
+  stages[1] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_FRAGMENT_BIT, desc.frag, "main", nullptr};
+  VkVertexInputBindingDescription bindings[4];
+  VkVertexInputAttributeDescription attrs[4];
+  for (uint32_t i = 0; i < desc.vertexStreams; ++i) {
+    bindings[i] = {i, 3 * sizeof(float), VK_VERTEX_INPUT_RATE_VERTEX};
+    attrs[i] = {i, i, VK_FORMAT_R32G32B32_SFLOAT, 0};
+  }
+  VkPipelineVertexInputStateCreateInfo vi{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+  vi.vertexBindingDescriptionCount = desc.vertexStreams;
+  vi.pVertexBindingDescriptions = bindings;
+  vi.vertexAttributeDescriptionCount = desc.vertexStreams;
+  vi.pVertexAttributeDescriptions = attrs;
+  VkPipelineInputAssemblyStateCreateInfo ia{VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
+  ia.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+  VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
+  vp.viewportCount = 1;
+  vp.scissorCount = 1;
+  VkPipelineRasterizationStateCreateInfo rs{VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
+  rs.polygonMode = VK_POLYGON_MODE_FILL;
+  rs.cullMode = VK_CULL_MODE_NONE;  // open meshes are seen, and cast, from both sides
+  rs.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+  rs.lineWidth = 1.0f;
+  VkPipelineMultisampleStateCreateInfo ms{VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
+  ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+  VkPipelineDepthStencilStateCreateInfo ds{VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
+  ds.depthTestEnable = VK_TRUE;
+  ds.depthWriteEnable = VK_TRUE;
+  ds.depthCompareOp = desc.depthCompare;
+  VkPipelineColorBlendAttachmentState blend[4]{};
+  for (auto& b : blend) b.colorWriteMask = desc.colorWriteMask;
+  VkPipelineColorBlendStateCreateInfo cb{VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
+  cb.attachmentCount = desc.colorAttachments;
+  cb.pAttachments = blend;
+  VkDynamicState dyn[2] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+  VkPipelineDynamicStateCreateInfo dy{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
+  dy.dynamicStateCount = 2;
+  dy.pDynamicStates = dyn;
+  VkGraphicsPipelineCreateInfo pi{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
+  pi.stageCount = 2;
+  pi.pStages = stages;
+  pi.pVertexInputState = &vi;
+  pi.pInputAssemblyState = &ia;
+  pi.pViewportState = &vp;
+  pi.pRasterizationState = &rs;
+  pi.pMultisampleState = &ms;
+  pi.pDepthStencilState = &ds;
+  pi.pColorBlendState = &cb;
+  pi.pDynamicState = &dy;
+  pi.layout = desc.layout;
+  pi.renderPass = desc.renderPass;
+  VkPipeline pipeline = VK_NULL_HANDLE;
+  VK_CHECK(vkCreateGraphicsPipelines(ctx.device, VK_NULL_HANDLE, 1, &pi, nullptr, &pipeline));
+  return pipeline;
+}
+
 // ---- kernels ------------------------------------------------------------------------------------
 
 Kernel& Kernel::operator=(Kernel&& o) noexcept {

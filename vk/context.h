@@ -125,6 +125,20 @@ Image createImage(Context& ctx, uint32_t width, uint32_t height, VkFormat format
 // A shader module from SPIR-V words (the caller destroys it).
 VkShaderModule createShaderModule(Context& ctx, const uint32_t* spirv, size_t spirvBytes);
 
+// The fixed-function state every triangle pass here shares: triangle lists of vec3 vertex streams
+// (stream i at binding i, location i), no culling (two-sided), one sample, depth test and write, dynamic
+// viewport and scissor. What differs between passes is below.
+struct TrianglePipelineDesc {
+  VkShaderModule vert = VK_NULL_HANDLE, frag = VK_NULL_HANDLE;
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+  VkRenderPass renderPass = VK_NULL_HANDLE;
+  uint32_t vertexStreams = 1;                 // at most 4
+  uint32_t colorAttachments = 1;              // at most 4
+  VkColorComponentFlags colorWriteMask = 0xF;
+  VkCompareOp depthCompare = VK_COMPARE_OP_LESS;
+};
+VkPipeline createTrianglePipeline(Context& ctx, const TrianglePipelineDesc& desc);
+
 // A range of a buffer bound to one storage-buffer binding. Range VK_WHOLE_SIZE = rest of the buffer.
 struct BufferRange {
   VkBuffer buffer = VK_NULL_HANDLE;
