@@ -188,6 +188,14 @@ Options parseArgs(int argc, char** argv) {
       o.rmsmMaxRes = parseUint(a, value(a), 64, 1u << 20);
     } else if (a == "--rmsm-cached") {
       o.rmsmCached = true;
+    } else if (a == "--animate") {
+      o.animateFrames = parseUint(a, value(a), 1, 100000);
+    } else if (a == "--moving-camera") {
+      o.movingCamera = true;
+    } else if (a == "--scaling") {
+      o.scaling = true;
+    } else if (a == "--scaling-max-triangles") {
+      o.scalingMaxTriangles = parseUint(a, value(a), 1, 200000000u);
     } else if (a == "--validation") {
       o.validation = true;
     } else if (a == "--quiet") {

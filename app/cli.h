@@ -39,7 +39,13 @@ struct Options {
   uint64_t rmsmPool = 0;             // --rmsm-pool BYTES
   uint32_t rmsmPage = 0;             // --rmsm-page N
   uint32_t rmsmMaxRes = 0;           // --rmsm-max-res N
-  bool rmsmCached = false;           // --rmsm-cached      // --traversal-memory BYTES (cone path); 0 = the method's default
+  bool rmsmCached = false;           // --rmsm-cached
+  // dynamic scenes (compare): N animation frames, each a new scene state every method pays for (0 = static)
+  uint32_t animateFrames = 0;        // --animate N
+  bool movingCamera = false;         // --moving-camera: static scene, the camera moves (rmsm cached vs rebuilt)
+  // scaling runs (compare --scaling): resolution and triangle-count sweeps, behind the flag
+  bool scaling = false;              // --scaling
+  uint64_t scalingMaxTriangles = 0;  // --scaling-max-triangles N (0 = the sweep's default)
   std::vector<std::string> methods;  // compare --methods a,b (empty = all registered)
   std::vector<std::string> views;    // compare --views v1,v2 (empty = all views of the scene)
   std::vector<std::string> extra;    // method-specific --key=value settings, passed through
