@@ -2,6 +2,7 @@
 #include "app/methods.h"
 
 #include <algorithm>
+#include <cstdlib>
 
 #include "reference/embree_reference.h"
 #ifdef CONESHADOW_HAS_CONE
@@ -28,30 +29,60 @@ std::vector<std::string> methodNames() {
 
 namespace {
 #ifdef CONESHADOW_HAS_CONE
-// Cone settings from the CLI; throws UsageError for anything it does not take.
+// Cone settings from the CLI; throws UsageError for anything it does not take. --variant=NAME (paper 002
+// Table 1) is applied first, then the switches, whatever their order on the command line, so a switch
+// amends a variant: --variant=PreciseSorted --two-pass=on is PreciseSTP.
 ConeOptions coneOptions(const Options& options) {
   ConeOptions cone;
   if (options.traversalMemory) cone.traversalMemoryBytes = options.traversalMemory;
   cone.sorted = !options.unsorted;
-  // Method-specific settings: --variant=NAME (paper 002 Table 1), --front-face-culling=on|off.
+  const std::string settings =
+      "cone settings: --variant=NAME, --test=precise|sphere, --early-accept=on|off, --two-pass=on|off, "
+      "--front-face-culling=on|off, --blocker-solid-angle=SR, --blocker-max-fraction=F, --update-min-finished=F";
+  std::vector<std::pair<std::string, std::string>> switches;
   for (const std::string& kv : options.extra) {
     const size_t eq = kv.find('=');
     const std::string key = kv.substr(0, eq), value = eq == std::string::npos ? "" : kv.substr(eq + 1);
-    if (key == "variant") {
-      if (isUnimplementedConeVariant(value))
-        throw UsageError("cone: variant '" + value + "' needs two-pass, which is not implemented yet");
-      if (!applyConeVariant(value, cone))
-        throw UsageError("cone: unknown variant '" + value + "' (variants: Precise, PreciseSorted, Spheres, SpheresSorted, PreciseSEA)");
-      if (options.unsorted && cone.sorted)
-        throw UsageError("cone: variant '" + value + "' is sorted, but --ray-order screen asks for unsorted rays");
-    } else if (key == "front-face-culling") {
-      if (value != "on" && value != "off")
-        throw UsageError("cone: --front-face-culling takes on or off, not '" + value + "'");
-      cone.frontFaceCulling = value == "on";
-    } else {
-      throw UsageError("cone: unknown setting --" + kv + " (cone settings: --variant=NAME, --front-face-culling=on|off)");
+    if (key != "variant") {
+      switches.emplace_back(key, value);
+      continue;
     }
+    if (!applyConeVariant(value, cone)) {
+      std::string all;
+      for (auto& n : coneVariantNames()) all += (all.empty() ? "" : ", ") + n;
+      throw UsageError("cone: unknown variant '" + value + "' (variants: " + all + ")");
+    }
+    if (options.unsorted && cone.sorted)
+      throw UsageError("cone: variant '" + value + "' is sorted, but --ray-order screen asks for unsorted rays");
   }
+  auto onOff = [](const std::string& key, const std::string& value) {
+    if (value != "on" && value != "off")
+      throw UsageError("cone: --" + key + " takes on or off, not '" + value + "'");
+    return value == "on";
+  };
+  auto fraction = [](const std::string& key, const std::string& value, float lo, float hi) {
+    char* end = nullptr;
+    const float v = std::strtof(value.c_str(), &end);
+    if (value.empty() || *end != '\0' || !(v >= lo && v <= hi))
+      throw UsageError("cone: --" + key + " takes a number in [" + std::to_string(lo) + ", " + std::to_string(hi) +
+                       "], not '" + value + "'");
+    return v;
+  };
+  for (auto& [key, value] : switches) {
+    if (key == "front-face-culling") cone.frontFaceCulling = onOff(key, value);
+    else if (key == "early-accept") cone.earlyAccept = onOff(key, value);
+    else if (key == "two-pass") cone.twoPass = onOff(key, value);
+    else if (key == "test") {
+      if (value != "precise" && value != "sphere")
+        throw UsageError("cone: --test takes precise or sphere, not '" + value + "'");
+      cone.test = value == "sphere" ? ConeTest::Sphere : ConeTest::Precise;
+    } else if (key == "blocker-solid-angle") cone.blockerSolidAngle = fraction(key, value, 0.0f, 12.5664f);
+    else if (key == "blocker-max-fraction") cone.blockerMaxFraction = fraction(key, value, 0.0f, 1.0f);
+    else if (key == "update-min-finished") cone.updateMinFinished = fraction(key, value, 0.0f, 1.0f);
+    else throw UsageError("cone: unknown setting --" + key + (value.empty() ? "" : "=" + value) + " (" + settings + ")");
+  }
+  if (cone.earlyAccept && cone.test == ConeTest::Sphere)
+    throw UsageError("cone: early accept needs the precise test (the sphere test cannot prove a cone covered)");
   return cone;
 }
 #endif

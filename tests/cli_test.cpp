@@ -37,7 +37,7 @@ TEST(Cli, UsageErrorsExitWithTwo) {
   for (const char* args : {"", "frobnicate", "render --width", "render --width 0", "render --width x",
                            "render --light 1,2", "render --light 1,2,nan", "render --bogus",
                            "render --method no-such-method", "render --frames 0", "info",
-                           "render --traversal-memory -5", "render --method cone --variant=PreciseEATP",
+                           "render --traversal-memory -5", "render --method cone --test=sphere --early-accept=on",
                            "render --method cone --variant=Nope", "render --method cone --front-face-culling=maybe"}) {
     CliRun r = cli(args);
     EXPECT_EQ(r.code, 2) << "args: " << args << "\n" << r.out;

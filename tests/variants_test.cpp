@@ -30,7 +30,7 @@ using glm::dvec3;
 using glm::vec3;
 using glm::vec4;
 
-const char* kVariants[] = {"PreciseSorted", "Precise", "Spheres", "SpheresSorted", "PreciseSEA"};
+const char* kVariants[] = {"PreciseSorted", "Precise", "Spheres", "SpheresSorted", "PreciseSEA", "PreciseEATP", "PreciseSEATP"};
 
 ConeOptions variant(const std::string& name, bool frontFaceCulling = false) {
   ConeOptions o;
@@ -43,32 +43,15 @@ using test::lookAt;
 
 using Frame = test::ReferenceFrame;
 
-struct VariantResult {
-  std::vector<float> mask;
-  uint64_t pairs = 0;
-};
+using VariantResult = test::ConeRun;
+using test::sameBits;
 
-// Runs one configuration on the frame; expects zero misclassified samples outside the band.
+// One configuration on the frame, exact; its stats name its test and front-face culling.
 VariantResult runExact(Frame& f, const ConeOptions& o, const std::string& what) {
-  auto method = makeConeMethod(test::context(), o);
-  MethodOutput out = method->run(f.input);
-  ErrorStats e = compareVisibility(f.host, out.visibility, f.reference, f.band);
-  EXPECT_EQ(e.misclassifiedOutsideBand, 0u) << what << ": " << e.falseShadowOutsideBand << " false shadow, "
-                                            << e.falseLightOutsideBand << " false light (of " << e.litSamples << " lit)";
-  EXPECT_EQ(out.stats["variant"].get<std::string>(), coneVariantName(o)) << what;
-  EXPECT_EQ(out.stats["test"].get<std::string>(), o.test == ConeTest::Sphere ? "sphere" : "precise") << what;
-  EXPECT_EQ(out.stats["front_face_culling"].get<bool>(), o.frontFaceCulling) << what;
-  VariantResult r;
-  r.mask = std::move(out.visibility);
-  r.pairs = out.stats["pairs_tested"].get<uint64_t>();
-  std::printf("  %-48s lit %6llu pairs tested %10llu leaf tests %10llu\n", what.c_str(),
-              (unsigned long long)e.litSamples, (unsigned long long)r.pairs,
-              (unsigned long long)out.stats["leaf_tests"].get<uint64_t>());
+  VariantResult r = test::runExactCone(f, o, what);
+  EXPECT_EQ(r.stats["test"].get<std::string>(), o.test == ConeTest::Sphere ? "sphere" : "precise") << what;
+  EXPECT_EQ(r.stats["front_face_culling"].get<bool>(), o.frontFaceCulling) << what;
   return r;
-}
-
-bool sameBits(const std::vector<float>& a, const std::vector<float>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
 }
 
 // Every variant on one frame: exact, and the default's mask bit for bit. Returns pairs tested per variant.
@@ -84,37 +67,56 @@ std::vector<uint64_t> allVariants(Frame& f, const std::string& what) {
   return pairs;
 }
 
-TEST(VariantNames, MapToTheirOptionsAndTwoPassAreRejectedByMakeMethod) {
-  for (const char* v : kVariants) EXPECT_EQ(coneVariantName(variant(v)), v);
+TEST(VariantNames, MapToTheirOptionsAndTheSwitchesCombine) {
+  ASSERT_EQ(coneVariantNames().size(), std::size(kVariants));
+  for (const std::string& v : coneVariantNames()) EXPECT_EQ(coneVariantName(variant(v)), v);
   EXPECT_EQ(coneVariantName(ConeOptions{}), "PreciseSorted");
   ConeOptions o;
   EXPECT_FALSE(applyConeVariant("Nope", o));
-  Options opt;
-  ConeOptions sea;
-  ASSERT_TRUE(applyConeVariant("PreciseSEA", sea));
-  EXPECT_TRUE(sea.earlyAccept && sea.sorted && sea.test == ConeTest::Precise);
-  EXPECT_EQ(coneVariantName(sea), "PreciseSEA");
-  EXPECT_FALSE(isUnimplementedConeVariant("PreciseSEA"));
+  ConeOptions seatp = variant("PreciseSEATP"), eatp = variant("PreciseEATP");
+  EXPECT_TRUE(seatp.earlyAccept && seatp.sorted && seatp.twoPass && seatp.test == ConeTest::Precise);
+  EXPECT_TRUE(eatp.earlyAccept && !eatp.sorted && eatp.twoPass);
+  EXPECT_FALSE(variant("PreciseSEA").twoPass);
   EXPECT_FALSE(variant("PreciseSorted").earlyAccept);
-  for (const char* v : {"PreciseEATP", "PreciseSEATP"}) {
-    EXPECT_TRUE(isUnimplementedConeVariant(v));
-    opt.extra = {std::string("variant=") + v};
-    try {
-      makeMethod("cone", &test::context(), opt);
-      ADD_FAILURE() << v << " accepted";
-    } catch (const UsageError& e) {
-      EXPECT_NE(std::string(e.what()).find("not implemented"), std::string::npos) << e.what();
-    }
+
+  // The CLI: a variant, amended by switches in any order; bad values are usage errors.
+  auto optionsOf = [](std::vector<std::string> extra) {
+    Options opt;
+    opt.extra = std::move(extra);
+    checkMethod("cone", opt);
+    return opt;
+  };
+  EXPECT_NO_THROW(optionsOf({"two-pass=on", "variant=PreciseSorted"}));
+  for (std::vector<std::string> bad :
+       std::vector<std::vector<std::string>>{{"variant=Bogus"},
+                                             {"front-face-culling=maybe"},
+                                             {"no-such-key=1"},
+                                             {"two-pass=yes"},
+                                             {"test=cube"},
+                                             {"test=sphere", "early-accept=on"},
+                                             {"variant=PreciseSEA", "test=sphere"},
+                                             {"blocker-max-fraction=2"},
+                                             {"blocker-solid-angle=x"}}) {
+    Options opt;
+    opt.extra = bad;
+    EXPECT_THROW(checkMethod("cone", opt), UsageError) << bad.front();
   }
-  opt.extra = {"variant=Bogus"};
-  EXPECT_THROW(makeMethod("cone", &test::context(), opt), UsageError);
-  opt.extra = {"front-face-culling=maybe"};
-  EXPECT_THROW(makeMethod("cone", &test::context(), opt), UsageError);
-  opt.extra = {"no-such-key=1"};
-  EXPECT_THROW(makeMethod("cone", &test::context(), opt), UsageError);
-  opt.extra = {"variant=Spheres", "front-face-culling=on"};
+  Options unsorted;
+  unsorted.unsorted = true;
+  unsorted.extra = {"variant=PreciseSEATP"};
+  EXPECT_THROW(checkMethod("cone", unsorted), UsageError);
+  unsorted.extra = {"variant=PreciseEATP"};
+  EXPECT_NO_THROW(checkMethod("cone", unsorted));
+  Options opt;
+  opt.extra = {"variant=Spheres", "front-face-culling=on", "two-pass=on"};
   auto m = makeMethod("cone", &test::context(), opt);
   EXPECT_EQ(m->name(), "cone");
+  ConeOptions stp = variant("SpheresSorted");
+  stp.twoPass = true;
+  EXPECT_EQ(coneVariantName(stp), "SpheresSTP");
+  ConeOptions ea = variant("Precise");
+  ea.earlyAccept = true;
+  EXPECT_EQ(coneVariantName(ea), "PreciseEA");
 }
 
 TEST(VariantExactness, EveryVariantIsExactAndBitIdenticalOnTheBuiltinScene) {

@@ -1,6 +1,7 @@
 // The cone path as a ShadowMethod (see cone_method.h).
 #include "traversal/cone_method.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -10,6 +11,7 @@
 #include "raster/raster.h"
 #include "reference/epsilon.h"
 #include "sort/rays.h"
+#include "traversal/unfinished_rays.comp.h"
 #include "vk/context.h"
 
 namespace cs {
@@ -20,6 +22,42 @@ double msSince(Clock::time_point t0) { return std::chrono::duration<double, std:
 
 constexpr uint32_t kOne = 0x3F800000u;  // 1.0f: the visibility words start lit
 
+// Solid angle of triangle (a, b, c), vertices relative to the apex (Van Oosterom & Strackee); 0 for a
+// degenerate one.
+double solidAngle(glm::dvec3 a, glm::dvec3 b, glm::dvec3 c) {
+  const double la = glm::length(a), lb = glm::length(b), lc = glm::length(c);
+  const double num = std::abs(glm::dot(a, glm::cross(b, c)));
+  const double den = la * lb * lc + glm::dot(a, b) * lc + glm::dot(a, c) * lb + glm::dot(b, c) * la;
+  const double omega = 2.0 * std::atan2(num, den);
+  return std::isfinite(omega) ? std::abs(omega) : 0.0;
+}
+
+// Both passes' counts as one (the top-level stats of a two-pass frame): per-depth sums, peaks as maxima.
+traversal::TraversalStats combine(const traversal::TraversalStats& a, const traversal::TraversalStats& b) {
+  traversal::TraversalStats c = a;
+  if (c.passes.size() < b.passes.size()) c.passes.resize(b.passes.size());
+  for (size_t d = 0; d < b.passes.size(); ++d) {
+    c.passes[d].inputs += b.passes[d].inputs;
+    c.passes[d].tested += b.passes[d].tested;
+    c.passes[d].survived += b.passes[d].survived;
+    c.passes[d].chunks += b.passes[d].chunks;
+    c.passes[d].overflows += b.passes[d].overflows;
+  }
+  c.leafPairs += b.leafPairs;
+  c.leafTests += b.leafTests;
+  c.submits += b.submits;
+  c.earlyAccepted += b.earlyAccepted;
+  c.droppedPairs += b.droppedPairs;
+  c.peakPairs = std::max(c.peakPairs, b.peakPairs);
+  c.peakChunk = std::max(c.peakChunk, b.peakChunk);
+  c.peakBytes = std::max(c.peakBytes, b.peakBytes);
+  c.traversalMs += b.traversalMs;
+  c.leavesMs += b.leavesMs;
+  c.traversalGpuMs += b.traversalGpuMs;
+  c.leavesGpuMs += b.leavesGpuMs;
+  return c;
+}
+
 class ConeMethod : public ShadowMethod {
  public:
   ConeMethod(vk::Context& ctx, const ConeOptions& options)
@@ -28,7 +66,10 @@ class ConeMethod : public ShadowMethod {
         tree_(ctx),
         traversal_(options.arena.pairCapacity > 0 ? traversal::Traversal(ctx, options.arena)
                                                    : traversal::Traversal(ctx, options.traversalMemoryBytes)),
-        timer_(vk::createTimer(ctx, 64)) {}
+        timer_(vk::createTimer(ctx, 64)) {
+    if (options_.twoPass) unfinished_ = vk::createKernel(ctx, "unfinished rays", spv_unfinished_rays_comp, 3,
+                                                         sizeof(traversal::TraversePush));
+  }
 
   std::string name() const override { return "cone"; }
 
@@ -42,12 +83,21 @@ class ConeMethod : public ShadowMethod {
     MethodOutput out;
     auto t0 = Clock::now();
 
-    double uploadMs = uploadTriangles(scene);
+    double uploadMs = uploadTriangles(scene, frame.light);
     if (!rays_ || raysWidth_ != g.width || raysHeight_ != g.height) {
       rays_.reset();
       rays_ = std::make_unique<sort::LitRays>(ctx_, g.width, g.height);
       raysWidth_ = g.width;
       raysHeight_ = g.height;
+      if (options_.twoPass) {
+        compact_.reset();
+        compact_ = std::make_unique<sort::Compact>(ctx_, std::max(pixels, 1u));
+        rayFlags_.reset();
+        rayFlags_ = vk::createBuffer(ctx_, uint64_t(std::max(pixels, 1u)) * 4);
+        remaining_.reset();
+        remaining_ = vk::createBuffer(ctx_, uint64_t(std::max(pixels, 1u)) * 4);
+        if (!kept_) kept_ = vk::createBuffer(ctx_, 16);
+      }
     }
     if (visibility_.size < uint64_t(pixels) * 4) {
       visibility_.reset();
@@ -94,6 +144,7 @@ class ConeMethod : public ShadowMethod {
                             {"test", options_.test == ConeTest::Sphere ? "sphere" : "precise"},
                             {"front_face_culling", options_.frontFaceCulling},
                             {"early_accept", options_.earlyAccept && options_.test == ConeTest::Precise},
+                            {"two_pass", options_.twoPass},
                             {"epsilon", eps},
                             {"traversal_memory_bytes", options_.traversalMemoryBytes},
                             {"pair_capacity", traversal_.plan().pairCapacity},
@@ -115,9 +166,10 @@ class ConeMethod : public ShadowMethod {
       in.test = options_.test == ConeTest::Sphere ? TRAVERSE_TEST_SPHERE : TRAVERSE_TEST_PRECISE;
       in.frontFaceCulling = options_.frontFaceCulling;
       in.earlyAccept = options_.earlyAccept;
-      ts = traversal_.run(in, &timer_);
       stats["tree_depth"] = tree_.shape().depth;
       stats["tree_nodes"] = tree_.shape().nodes();
+      if (options_.twoPass) ts = runTwoPass(in, lit, g, stage, stats);
+      else ts = traversal_.run(in, &timer_);
     } else {
       stages.push_back({"build", 0.0});
       stats["tree_depth"] = 0;
@@ -156,13 +208,83 @@ class ConeMethod : public ShadowMethod {
  private:
   uint64_t bytesAllocated() const {
     return triangles_.size + (rays_ ? rays_->bytesAllocated() : 0) + visibility_.size + tree_.bytesAllocated() +
-           traversal_.bytesAllocated() + traversal_.flagBytes();
+           traversal_.bytesAllocated() + traversal_.flagBytes() + (compact_ ? compact_->bytesAllocated() : 0) +
+           rayFlags_.size + remaining_.size + kept_.size;
   }
 
-  // Gathers the scene's triangles (vec4 x 3, world space) and uploads them when they changed. Triangles
+  // 002 §3.4: pass one over the blockers (triangles [0, blockerCount_)), the update step, pass two over
+  // the rest. `in` is the one-pass input over the full tree; `stage` times a recorded submit.
+  template <class Stage>
+  traversal::TraversalStats runTwoPass(traversal::TraversalInput in, uint32_t lit, const DeviceGBuffer& g,
+                                       Stage& stage, nlohmann::json& stats) {
+    nlohmann::json tp = {{"blockers", blockerCount_},
+                         {"blocker_solid_angle_sr", options_.blockerSolidAngle},
+                         {"blocker_max_fraction", options_.blockerMaxFraction},
+                         {"update_min_finished", options_.updateMinFinished}};
+    if (blockerCount_ == 0 || blockerCount_ >= triangleCount_) {
+      // Nothing to split: one pass over every triangle (the stats say why).
+      tp["update"] = blockerCount_ == 0 ? "none: no triangle qualifies as a blocker, one pass"
+                                        : "none: every triangle is a blocker, one pass";
+      tp["rays_finished_pass_one"] = 0;
+      stats["two_pass"] = tp;
+      return traversal_.run(in, &timer_);
+    }
+    in.firstTriangle = 0;
+    in.triangleCount = blockerCount_;
+    traversal::TraversalStats one = traversal_.run(in, &timer_);
+
+    // Update: the rays still lit, in their order.
+    traversal::TraversePush p{};
+    p.count = lit;
+    stage("update", [&](vk::Commands& cmd) {
+      vk::Grid grid = vk::gridFor(lit, TRAVERSE_THREADS, ctx_.maxWorkgroups());
+      cmd.dispatch(unfinished_, {rays_->samples(), visibility_, rayFlags_}, p, grid.x, grid.y);
+      cmd.barrier();
+      compact_->record(cmd, rayFlags_, sort::Count(lit), remaining_, sort::GpuWord(kept_, 0), rays_->samples());
+      cmd.barrier();
+    });
+    uint32_t remaining = 0;
+    vk::download(ctx_, kept_, &remaining, 4);
+    CS_CHECK(remaining <= lit, "cone: two-pass update kept " << remaining << " of " << lit << " rays");
+    const uint32_t finished = lit - remaining;
+    tp["rays_finished_pass_one"] = finished;
+    tp["rays_remaining"] = remaining;
+    tp["pass_one"] = one.toJson();
+
+    traversal::TraversalStats two;
+    if (remaining == 0) {
+      tp["update"] = "done: every ray finished in pass one, no pass two";
+    } else if (double(finished) < double(options_.updateMinFinished) * double(lit)) {
+      // Too few finished rays for a smaller tree to pay: pass two on the first tree (002 §3.4).
+      tp["update"] = "skipped: pass one finished too few rays, pass two reuses the first tree";
+      in.firstTriangle = blockerCount_;
+      in.triangleCount = triangleCount_ - blockerCount_;
+      two = traversal_.run(in, &timer_);
+    } else {
+      tp["update"] = "rebuilt";
+      const float eps = in.eps;
+      stage("rebuild", [&](vk::Commands& cmd) {
+        tree_.record(cmd, g.position, remaining_, remaining, in.light, 2.0f * eps);
+      });
+      tp["tree_depth_pass_two"] = tree_.shape().depth;
+      tp["tree_nodes_pass_two"] = tree_.shape().nodes();
+      in.samples = remaining_;
+      in.firstTriangle = blockerCount_;
+      in.triangleCount = triangleCount_ - blockerCount_;
+      two = traversal_.run(in, &timer_);
+    }
+    tp["pass_two"] = two.toJson();
+    stats["two_pass"] = tp;
+    return combine(one, two);
+  }
+
+  // Gathers the scene's triangles (vec4 x 3, world space) and uploads them when they changed (with
+  // two-pass, also when the light moved: the blockers, first in the buffer, depend on it). Triangles
   // with a non-finite coordinate are dropped, as Embree drops them. Returns the wall ms, 0 if cached.
-  double uploadTriangles(const Scene& scene) {
-    if (cachedPositions_ == scene.positions && cachedIndices_ == scene.indices && triangles_) return 0.0;
+  double uploadTriangles(const Scene& scene, glm::vec3 light) {
+    if (cachedPositions_ == scene.positions && cachedIndices_ == scene.indices && triangles_ &&
+        (!options_.twoPass || cachedLight_ == light))
+      return 0.0;
     auto t0 = Clock::now();
     CS_CHECK(scene.indices.size() % 3 == 0, "scene '" << scene.name << "': index count is not a multiple of 3");
     std::vector<glm::vec4> tris;
@@ -185,6 +307,7 @@ class ConeMethod : public ShadowMethod {
       for (auto& p : v) tris.emplace_back(p, 1.0f);
     }
     triangleCount_ = uint32_t(tris.size() / 3);
+    if (options_.twoPass) orderBlockersFirst(tris, light);
     const uint64_t bytes = std::max<uint64_t>(tris.size() * sizeof(glm::vec4), 16);
     CS_CHECK(bytes <= ctx_.maxStorageBufferRange(),
              "scene '" << scene.name << "': " << triangleCount_ << " triangles (" << bytes
@@ -196,7 +319,37 @@ class ConeMethod : public ShadowMethod {
     if (!tris.empty()) vk::upload(ctx_, triangles_, tris.data(), tris.size() * sizeof(glm::vec4));
     cachedPositions_ = scene.positions;
     cachedIndices_ = scene.indices;
+    cachedLight_ = light;
     return msSince(t0);
+  }
+
+  // Two-pass blockers (cone_method.h): triangles subtending at least blockerSolidAngle at the light, the
+  // largest blockerMaxFraction of all at most, moved to the front in their scene order; sets blockerCount_.
+  void orderBlockersFirst(std::vector<glm::vec4>& tris, glm::vec3 light) {
+    const size_t n = tris.size() / 3;
+    std::vector<double> omega(n);
+    const glm::dvec3 l(light);
+    for (size_t t = 0; t < n; ++t)
+      omega[t] = solidAngle(glm::dvec3(glm::vec3(tris[3 * t])) - l, glm::dvec3(glm::vec3(tris[3 * t + 1])) - l,
+                            glm::dvec3(glm::vec3(tris[3 * t + 2])) - l);
+    std::vector<uint32_t> candidates;
+    for (size_t t = 0; t < n; ++t)
+      if (omega[t] >= double(options_.blockerSolidAngle)) candidates.push_back(uint32_t(t));
+    const size_t cap = size_t(std::floor(double(options_.blockerMaxFraction) * double(n)));
+    if (candidates.size() > cap) {  // the largest `cap`, ties broken by scene order: deterministic
+      auto larger = [&](uint32_t a, uint32_t b) { return omega[a] != omega[b] ? omega[a] > omega[b] : a < b; };
+      std::nth_element(candidates.begin(), candidates.begin() + cap, candidates.end(), larger);
+      candidates.resize(cap);
+    }
+    std::vector<uint8_t> isBlocker(n, 0);
+    for (uint32_t t : candidates) isBlocker[t] = 1;
+    std::vector<glm::vec4> ordered;
+    ordered.reserve(tris.size());
+    for (int pass = 1; pass >= 0; --pass)
+      for (size_t t = 0; t < n; ++t)
+        if (isBlocker[t] == pass) ordered.insert(ordered.end(), tris.begin() + 3 * t, tris.begin() + 3 * t + 3);
+    tris.swap(ordered);
+    blockerCount_ = uint32_t(candidates.size());
   }
 
   vk::Context& ctx_;
@@ -211,24 +364,51 @@ class ConeMethod : public ShadowMethod {
   uint64_t droppedTriangles_ = 0;
   std::vector<glm::vec3> cachedPositions_;
   std::vector<uint32_t> cachedIndices_;
+  glm::vec3 cachedLight_{0};
+  // two-pass
+  uint32_t blockerCount_ = 0;
+  vk::Kernel unfinished_;
+  std::unique_ptr<sort::Compact> compact_;
+  vk::Buffer rayFlags_, remaining_, kept_;
 };
 
 }  // namespace
 
 bool applyConeVariant(const std::string& name, ConeOptions& o) {
-  if (name == "Precise" || name == "PreciseSorted" || name == "PreciseSEA") o.test = ConeTest::Precise;
-  else if (name == "Spheres" || name == "SpheresSorted") o.test = ConeTest::Sphere;
-  else return false;
-  o.sorted = name == "PreciseSorted" || name == "SpheresSorted" || name == "PreciseSEA";
-  o.earlyAccept = name == "PreciseSEA";
-  return true;
+  struct Row {
+    const char* name;
+    ConeTest test;
+    bool sorted, earlyAccept, twoPass;
+  };
+  static const Row rows[] = {{"Precise", ConeTest::Precise, false, false, false},
+                             {"PreciseSorted", ConeTest::Precise, true, false, false},
+                             {"Spheres", ConeTest::Sphere, false, false, false},
+                             {"SpheresSorted", ConeTest::Sphere, true, false, false},
+                             {"PreciseSEA", ConeTest::Precise, true, true, false},
+                             {"PreciseEATP", ConeTest::Precise, false, true, true},
+                             {"PreciseSEATP", ConeTest::Precise, true, true, true}};
+  for (const Row& r : rows)
+    if (name == r.name) {
+      o.test = r.test;
+      o.sorted = r.sorted;
+      o.earlyAccept = r.earlyAccept;
+      o.twoPass = r.twoPass;
+      return true;
+    }
+  return false;
 }
 
-bool isUnimplementedConeVariant(const std::string& name) { return name == "PreciseEATP" || name == "PreciseSEATP"; }
+const std::vector<std::string>& coneVariantNames() {
+  static const std::vector<std::string> names = {"Precise",    "PreciseSorted", "Spheres",     "SpheresSorted",
+                                                 "PreciseSEA", "PreciseEATP",   "PreciseSEATP"};
+  return names;
+}
 
 std::string coneVariantName(const ConeOptions& o) {
-  if (o.test == ConeTest::Precise && o.earlyAccept) return o.sorted ? "PreciseSEA" : "PreciseEA";
-  return std::string(o.test == ConeTest::Sphere ? "Spheres" : "Precise") + (o.sorted ? "Sorted" : "");
+  const bool early = o.earlyAccept && o.test == ConeTest::Precise;
+  std::string name = o.test == ConeTest::Sphere ? "Spheres" : "Precise";
+  if (!early && !o.twoPass) return name + (o.sorted ? "Sorted" : "");
+  return name + (o.sorted ? "S" : "") + (early ? "EA" : "") + (o.twoPass ? "TP" : "");
 }
 
 std::unique_ptr<ShadowMethod> makeConeMethod(vk::Context& ctx, const ConeOptions& options) {

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "eval/method.h"
 #include "traversal/traversal.h"
@@ -41,6 +42,21 @@ struct ConeOptions {
   // other triangles' pairs at that node are dropped (traversal.h). The mask is unchanged; fewer pairs are
   // tested where large occluders cover whole cones. Variant "PreciseSEA" = precise, sorted, early accept.
   bool earlyAccept = false;
+  // 002 §3.4, two-pass traversal (off by default). Pass one pushes only the likely blockers through the
+  // tree; the rays they shadowed are dropped (the unfinished rays are compacted in their order, so still
+  // sorted) and the tree is rebuilt over the rest; pass two pushes the remaining triangles through the
+  // smaller tree. Exact either way: every (triangle, ray) pair is still decided, a dropped ray is shadowed.
+  // The blocker heuristic: a triangle is a likely blocker when the solid angle it subtends at the light
+  // (exact, Van Oosterom-Strackee) is at least blockerSolidAngle steradians -- large walls and floors near
+  // the light, what paper 002 names as good occluders in architectural scenes -- keeping only the
+  // largest blockerMaxFraction of the triangles when more qualify (pass one should stay cheap). Chosen
+  // on the host per frame (the light or the triangles changed), the triangle buffer ordered blockers
+  // first. The update (compaction + rebuild) is skipped, as the paper allows, when pass one finished
+  // fewer than updateMinFinished of the lit rays: pass two then reuses the first tree (stats say so).
+  bool twoPass = false;
+  float blockerSolidAngle = 4.0f * 3.14159265f / 4096.0f;  // sr: 1/4096 of the sphere
+  float blockerMaxFraction = 0.125f;
+  float updateMinFinished = 0.1f;
   // Tests only: when arena.pairCapacity > 0, this exact arena (down to traversal::minimumPairs pairs and
   // chunks of one pair) instead of one planned from traversalMemoryBytes.
   traversal::ArenaPlan arena;
@@ -49,7 +65,8 @@ struct ConeOptions {
 // name() = "cone". MethodOutput:
 //   visibility  0/1 per pixel (1 where the sample is not lit); exactly 0.0f or 1.0f, never NaN.
 //   stages      "compact", "keys", "sort", "build", "traversal", "leaves" (and "upload" on frames whose
-//               triangles changed): each the host's wall clock around its own submit(s), waits included.
+//               triangles changed; with two-pass also "update", the unfinished rays' compaction, and
+//               "rebuild", the second tree; traversal and leaves are both passes'): each the host's wall clock around its own submit(s), waits included.
 //               Not timestamps: on lavapipe a timestamp written after a barrier can take the time of the
 //               dispatch *after* it (measured: a 30 ms leaf dispatch reported as 0.05 ms, its time showing
 //               up in the interval before it), so per-stage timestamps are misattributed there. The
@@ -57,19 +74,24 @@ struct ConeOptions {
 //   totalMs     wall clock of the frame's shadow work up to the mask on the GPU; the readback of the mask
 //               to the host is stats.readback_ms.
 //   stats       variant ("PreciseSorted", ...), test ("precise" | "sphere"), front_face_culling, early_accept,
+//               two_pass (when on: blockers, rays finished in pass one, update rebuilt or skipped and why,
+//               each pass's traversal stats; the top-level counts are the two passes' sums),
 //               early_accepted_nodes, lit_samples, triangles, tree_depth, tree_nodes, pairs_tested, pairs_survived, leaf_tests,
 //               traversal (per pass: inputs, pairs tested, survivors, chunks; leaf pairs/tests/hits;
 //               submits; peak_bytes), traversal_memory_bytes, pair_capacity, chunk_capacity, epsilon.
 //   bytesAllocated / peakBytes: every buffer the method holds for the frame / the same with the
 //               traversal's share at its measured peak (<= traversalMemoryBytes).
-// Paper 002's variant names (Table 1). Implemented: "Precise" (precise test, unsorted), "PreciseSorted"
-// (precise, sorted: the default), "Spheres" (sphere test, unsorted), "SpheresSorted" (sphere, sorted),
-// "PreciseSEA" (precise, sorted, early accept). Sets o.test, o.sorted and o.earlyAccept for an
-// implemented name and returns true; false for any other name.
+// Paper 002's variant names (Table 1): "Precise" (precise test, unsorted), "PreciseSorted" (precise,
+// sorted: the default), "Spheres" (sphere test, unsorted), "SpheresSorted" (sphere, sorted), "PreciseSEA"
+// (precise, sorted, early accept), "PreciseEATP" (precise, unsorted, early accept, two-pass),
+// "PreciseSEATP" (precise, sorted, early accept, two-pass). Sets o.test, o.sorted, o.earlyAccept and
+// o.twoPass for one of those names and returns true; false for any other name.
 bool applyConeVariant(const std::string& name, ConeOptions& o);
-// The variants of Table 1 with two-pass (PreciseEATP, PreciseSEATP), not implemented yet: true for those.
-bool isUnimplementedConeVariant(const std::string& name);
-// The variant name of these options ("PreciseSorted", "Spheres", ...).
+// The seven names above, in Table 1's order.
+const std::vector<std::string>& coneVariantNames();
+// The variant name of these options: a Table 1 name, or for other combinations of the switches the same
+// scheme -- Precise|Spheres, then "Sorted" alone, or S (sorted), EA (early accept), TP (two-pass): e.g.
+// "PreciseEA", "PreciseSTP", "SpheresSTP".
 std::string coneVariantName(const ConeOptions& o);
 
 std::unique_ptr<ShadowMethod> makeConeMethod(vk::Context& ctx, const ConeOptions& options = {});

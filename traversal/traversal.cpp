@@ -303,9 +303,10 @@ TraversalStats Traversal::run(const TraversalInput& in, vk::Timer* timer) {
   // Pass 0: every triangle against the root, as many at a time as depth 0 can hold beside the reserve of
   // the deeper depths (each triangle gives at most one pair), each batch finished before the next.
   const uint64_t limit = plan_.pairCapacity - reserveBelow(f.depth, 0);
-  uint64_t pos = 0;
-  while (pos < in.triangleCount) {
-    const uint64_t m = std::min<uint64_t>({in.triangleCount - pos, plan_.chunkCapacity, limit});
+  uint64_t pos = in.firstTriangle;
+  const uint64_t endTriangle = uint64_t(in.firstTriangle) + in.triangleCount;
+  while (pos < endTriangle) {
+    const uint64_t m = std::min<uint64_t>({endTriangle - pos, plan_.chunkCapacity, limit});
     CS_CHECK(expandChunk(f, 0, true, pos, uint32_t(m), 0, limit), "pass 0 cannot overflow");
     f.base[0] = 0;
     f.end[0] = f.words[STAT_TOTAL];

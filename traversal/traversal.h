@@ -114,6 +114,7 @@ struct TraversalStats {
 struct TraversalInput {
   const vk::Buffer* triangles = nullptr;  // vec4 x 3 per triangle, world space (w ignored)
   uint32_t triangleCount = 0;
+  uint32_t firstTriangle = 0;             // the triangles traversed: [firstTriangle, firstTriangle + triangleCount)
   const cone::ConeTree* tree = nullptr;   // built over the rays below
   vk::BufferRange samples;                // pixel index per sorted ray (tree->shape().leaves of them)
   vk::BufferRange positions;              // vec4 per pixel (the G-buffer)
