@@ -12,6 +12,7 @@
 #include "app/commands.h"
 #include "app/frame_runner.h"
 #include "app/methods.h"
+#include "app/svg_plot.h"
 #include "core/image_io.h"
 #include "eval/frame_output.h"
 #include "eval/metrics.h"
@@ -74,6 +75,58 @@ std::vector<CompareSetting> compareSettings(const std::vector<std::string>& meth
   return out;
 }
 
+CropWindow boundaryWindow(const GBuffer& gb, const std::vector<float>& reference) {
+  const uint32_t W = gb.width, H = gb.height;
+  CropWindow c;
+  c.width = std::max(1u, W / 4);
+  c.height = std::max(1u, H / 4);
+  c.x = (W - c.width) / 2;
+  c.y = (H - c.height) / 2;
+  if (W == 0 || H == 0 || reference.size() != gb.size()) return c;
+  // Summed-area table of boundary pixels, one row and column of zeros in front.
+  std::vector<uint32_t> sat(size_t(W + 1) * (H + 1), 0);
+  auto at = [&](uint32_t x, uint32_t y) -> uint32_t& { return sat[size_t(y) * (W + 1) + x]; };
+  auto lit = [&](size_t i) { return gb.isLit(i); };
+  auto dark = [&](size_t i) { return reference[i] < 0.5f; };
+  for (uint32_t y = 0; y < H; ++y)
+    for (uint32_t x = 0; x < W; ++x) {
+      size_t i = size_t(y) * W + x;
+      bool edge = false;
+      if (lit(i)) {
+        if (x + 1 < W && lit(i + 1) && dark(i + 1) != dark(i)) edge = true;
+        if (y + 1 < H && lit(i + W) && dark(i + W) != dark(i)) edge = true;
+      }
+      at(x + 1, y + 1) = uint32_t(edge) + at(x, y + 1) + at(x + 1, y) - at(x, y);
+    }
+  uint32_t best = 0;
+  for (uint32_t y = 0; y + c.height <= H; ++y)
+    for (uint32_t x = 0; x + c.width <= W; ++x) {
+      uint32_t n = at(x + c.width, y + c.height) - at(x, y + c.height) - at(x + c.width, y) + at(x, y);
+      if (n > best) {
+        best = n;
+        c.x = x;
+        c.y = y;
+      }
+    }
+  return c;
+}
+
+std::vector<uint8_t> closeupStrip(const std::vector<std::vector<uint8_t>>& images, uint32_t width, CropWindow crop,
+                                  uint32_t scale, uint32_t gap, uint32_t& stripWidth, uint32_t& stripHeight) {
+  const uint32_t n = uint32_t(images.size()), tw = crop.width * scale;
+  stripWidth = n ? n * tw + (n - 1) * gap : 0;
+  stripHeight = crop.height * scale;
+  std::vector<uint8_t> rgb(size_t(stripWidth) * stripHeight * 3, 0);  // black gaps
+  for (uint32_t k = 0; k < n; ++k)
+    for (uint32_t y = 0; y < stripHeight; ++y)
+      for (uint32_t x = 0; x < tw; ++x) {
+        size_t src = (size_t(crop.y + y / scale) * width + crop.x + x / scale) * 3;
+        size_t dst = (size_t(y) * stripWidth + k * (tw + gap) + x) * 3;
+        for (int ch = 0; ch < 3; ++ch) rgb[dst + ch] = images[k][src + ch];
+      }
+  return rgb;
+}
+
 namespace {
 
 struct Row {
@@ -82,16 +135,20 @@ struct Row {
   double msMin = 0, msMax = 0;
 };
 
-std::string htmlEscape(const std::string& s) {
-  std::string o;
-  for (char c : s) {
-    if (c == '<') o += "&lt;";
-    else if (c == '>') o += "&gt;";
-    else if (c == '&') o += "&amp;";
-    else if (c == '"') o += "&quot;";
-    else o += c;
-  }
-  return o;
+// The close-up strip of one view, as the reports describe it.
+struct Closeup {
+  std::string view, file;
+  CropWindow crop;
+  uint32_t scale = 1;
+  std::vector<std::string> order;  // tiles left to right
+};
+
+std::string closeupText(const Closeup& c) {
+  std::string order;
+  for (auto& l : c.order) order += (order.empty() ? "" : ", ") + l;
+  return "close-ups (shaded, pixels " + std::to_string(c.crop.x) + "," + std::to_string(c.crop.y) + " size " +
+         std::to_string(c.crop.width) + "x" + std::to_string(c.crop.height) + ", enlarged " + std::to_string(c.scale) +
+         "x nearest-neighbour; the window with the most reference shadow-boundary pixels), left to right: " + order;
 }
 
 std::string num(double v, int prec) {
@@ -128,7 +185,7 @@ std::vector<std::string> viewOrder(const std::vector<Row>& rows) {
 }
 
 std::string reportMd(const std::string& sceneName, const std::string& device, uint32_t w, uint32_t h,
-                     uint32_t frames, const std::vector<Row>& rows) {
+                     uint32_t frames, const std::vector<Row>& rows, const std::vector<Closeup>& closeups) {
   std::ostringstream os;
   os << "# coneshadow compare: " << sceneName << "\n\n"
      << "device: " << device << "\n\n"
@@ -147,22 +204,25 @@ std::string reportMd(const std::string& sceneName, const std::string& device, ui
       for (auto& c : cells(r)) os << " " << c << " |";
       os << "\n";
     }
+    for (auto& c : closeups)
+      if (c.view == v) os << "\n" << closeupText(c) << "\n\n![" << v << " close-ups](" << c.file << ")\n";
   }
-  os << "\nplot: speed_vs_error.svg\n";
+  os << "\n## Speed against error\n\n![speed vs error](speed_vs_error.png)\n\n(vector: speed_vs_error.svg)\n";
   return os.str();
 }
 
 std::string reportHtml(const std::string& sceneName, const std::string& device, uint32_t w, uint32_t h,
-                       uint32_t frames, const std::vector<Row>& rows) {
+                       uint32_t frames, const std::vector<Row>& rows, const std::vector<Closeup>& closeups) {
   std::ostringstream os;
   os << "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>coneshadow compare: " << htmlEscape(sceneName)
      << "</title>\n<style>body{font-family:sans-serif}table{border-collapse:collapse}td,th{border:1px solid #bbb;"
         "padding:3px 6px;text-align:right}td:first-child{text-align:left}img{image-rendering:pixelated;"
-        "width:160px}</style></head><body>\n"
+        "width:160px}img.closeup{width:auto;max-width:100%}</style></head><body>\n"
      << "<h1>coneshadow compare: " << htmlEscape(sceneName) << "</h1>\n<p>device: " << htmlEscape(device)
      << "</p>\n<p>" << w << "x" << h << ", median of " << frames
      << " frame(s) after one warm-up; misclassified over lit samples against Embree (in parentheses: outside the "
-        "ambiguity band).</p>\n<p><img style=\"width:720px\" src=\"speed_vs_error.svg\" alt=\"speed vs error\"></p>\n";
+        "ambiguity band).</p>\n<p><a href=\"speed_vs_error.svg\"><img style=\"width:720px\" src=\"speed_vs_error.png\" "
+        "alt=\"speed vs error\"></a></p>\n";
   for (auto& v : viewOrder(rows)) {
     os << "<h2>" << htmlEscape(v) << "</h2>\n<table>\n<tr>";
     for (auto& hcell : kHeader) os << "<th>" << htmlEscape(hcell) << "</th>";
@@ -176,77 +236,34 @@ std::string reportHtml(const std::string& sceneName, const std::string& device, 
       os << "</tr>\n";
     }
     os << "</table>\n";
+    for (auto& c : closeups)
+      if (c.view == v)
+        os << "<p>" << htmlEscape(closeupText(c)) << "</p>\n<p><img class=\"closeup\" src=\"" << htmlEscape(c.file)
+           << "\" alt=\"" << htmlEscape(v) << " close-ups\"></p>\n";
   }
   os << "</body></html>\n";
   return os.str();
 }
 
-// Speed (x, log ms) against error (y, log misclassified fraction, exact zeros at a floor labelled "0").
+// Speed (x, log ms) against error (y, log misclassified fraction, exact zeros at a floor labelled "0"),
+// one colour per method.
 std::string speedVsErrorSvg(const std::vector<Row>& rows) {
-  constexpr double kFloor = 1e-7;
-  const double W = 760, H = 480, left = 80, right = 170, top = 30, bottom = 60;
-  double pw = W - left - right, ph = H - top - bottom;
-  double lo = 1e30, hi = 0;
+  LogPanel panel;
+  panel.xLabel = "shadow time per frame, ms (log scale)";
+  panel.yLabel = "misclassified fraction of lit samples (log; 0 at the floor)";
+  panel.yFloor = 1e-7;
+  panel.fixedY = true;
+  panel.yMinDecade = -7;
+  panel.yMaxDecade = 0;
   for (auto& r : rows) {
-    double ms = std::max(r.result.totalMs, 1e-3);
-    lo = std::min(lo, ms);
-    hi = std::max(hi, ms);
+    auto it = std::find_if(panel.series.begin(), panel.series.end(),
+                           [&](const PlotSeries& s) { return s.name == r.result.method; });
+    if (it == panel.series.end()) it = panel.series.insert(panel.series.end(), PlotSeries{r.result.method, {}, false});
+    it->points.push_back({std::max(r.result.totalMs, 1e-3), r.result.error.misclassifiedFraction,
+                          r.result.view + " " + r.setting + ": " + num(r.result.totalMs, 3) + " ms, " +
+                              pct(r.result.error.misclassifiedFraction) + " misclassified"});
   }
-  if (rows.empty()) lo = hi = 1;
-  int x0 = int(std::floor(std::log10(lo))), x1 = int(std::ceil(std::log10(hi)));
-  if (x1 <= x0) x1 = x0 + 1;
-  int y0 = -7, y1 = 0;
-  auto px = [&](double ms) { return left + (std::log10(std::max(ms, 1e-3)) - x0) / (x1 - x0) * pw; };
-  auto py = [&](double f) { return top + ph - (std::log10(std::max(f, kFloor)) - y0) / (y1 - y0) * ph; };
-  const char* palette[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"};
-  std::map<std::string, std::string> colour;
-  std::vector<std::string> methods;
-  for (auto& r : rows)
-    if (!colour.count(r.result.method)) {
-      colour[r.result.method] = palette[methods.size() % 8];
-      methods.push_back(r.result.method);
-    }
-  std::ostringstream os;
-  os << std::fixed << std::setprecision(2);
-  os << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << H << "\" viewBox=\"0 0 " << W
-     << " " << H << "\" font-family=\"sans-serif\" font-size=\"12\">\n"
-     << "<rect x=\"0\" y=\"0\" width=\"" << W << "\" height=\"" << H << "\" fill=\"white\"/>\n"
-     << "<rect x=\"" << left << "\" y=\"" << top << "\" width=\"" << pw << "\" height=\"" << ph
-     << "\" fill=\"none\" stroke=\"black\"/>\n";
-  for (int e = x0; e <= x1; ++e) {
-    double x = px(std::pow(10.0, e));
-    std::ostringstream label;
-    label << std::pow(10.0, e);
-    os << "<line x1=\"" << x << "\" y1=\"" << top << "\" x2=\"" << x << "\" y2=\"" << top + ph
-       << "\" stroke=\"#ddd\"/>\n<text x=\"" << x << "\" y=\"" << top + ph + 16 << "\" text-anchor=\"middle\">"
-       << label.str() << "</text>\n";
-  }
-  for (int e = y0; e <= y1; ++e) {
-    double y = py(std::pow(10.0, e));
-    std::string label = e == y0 ? "0" : "1e" + std::to_string(e);
-    if (e == 0) label = "1";
-    os << "<line x1=\"" << left << "\" y1=\"" << y << "\" x2=\"" << left + pw << "\" y2=\"" << y
-       << "\" stroke=\"#ddd\"/>\n<text x=\"" << left - 6 << "\" y=\"" << y + 4 << "\" text-anchor=\"end\">" << label
-       << "</text>\n";
-  }
-  os << "<text x=\"" << left + pw / 2 << "\" y=\"" << H - 18
-     << "\" text-anchor=\"middle\">shadow time per frame, ms (log scale)</text>\n"
-     << "<text transform=\"translate(18," << top + ph / 2
-     << ") rotate(-90)\" text-anchor=\"middle\">misclassified fraction of lit samples (log; 0 at the floor)</text>\n";
-  for (auto& r : rows) {
-    os << "<circle cx=\"" << px(r.result.totalMs) << "\" cy=\"" << py(r.result.error.misclassifiedFraction)
-       << "\" r=\"5\" fill=\"" << colour[r.result.method] << "\" fill-opacity=\"0.75\" stroke=\"black\"><title>"
-       << htmlEscape(r.result.view + " " + r.setting) << ": " << num(r.result.totalMs, 3) << " ms, "
-       << pct(r.result.error.misclassifiedFraction) << " misclassified</title></circle>\n";
-  }
-  for (size_t i = 0; i < methods.size(); ++i) {
-    double y = top + 10 + 20.0 * double(i);
-    os << "<rect x=\"" << left + pw + 16 << "\" y=\"" << y - 6 << "\" width=\"12\" height=\"12\" fill=\""
-       << colour[methods[i]] << "\"/>\n<text x=\"" << left + pw + 34 << "\" y=\"" << y + 4 << "\">"
-       << htmlEscape(methods[i]) << "</text>\n";
-  }
-  os << "</svg>\n";
-  return os.str();
+  return logPlotSvg({panel});
 }
 
 }  // namespace
@@ -295,6 +312,7 @@ int runCompare(const Options& o) {
 
   StagedDir out(o.out);
   std::vector<Row> rows;
+  std::vector<Closeup> closeups;
   Raster raster(*ctx, scene);
   EpsilonPolicy policy = EpsilonPolicy::forScene(scene);
   for (size_t vi = 0; vi < cameras.size(); ++vi) {
@@ -345,6 +363,11 @@ int runCompare(const Options& o) {
       rows.push_back(std::move(row));
     };
 
+    Closeup closeup;
+    closeup.view = view;
+    closeup.file = view + "_closeups.png";
+    closeup.order.push_back("embree");
+    std::vector<std::vector<uint8_t>> shaded = {shadedImage(gb, ref.output.visibility)};
     for (auto& s : settings) {
       if (s.method == "embree") {
         addRow(s, ref);
@@ -352,8 +375,17 @@ int runCompare(const Options& o) {
       }
       auto method = makeMethod(s.method, ctx.get(), s.options);
       Timed t = runTimed(*method, frame, o.frames, log, progress(s.label));
+      shaded.push_back(shadedImage(gb, t.output.visibility));
+      closeup.order.push_back(s.label);
       addRow(s, t);
     }
+    // Enlarged to about 256 pixels a tile, at least 2x, so single-pixel aliasing is visible.
+    closeup.crop = boundaryWindow(gb, ref.output.visibility);
+    closeup.scale = std::max(2u, (256 + closeup.crop.width - 1) / closeup.crop.width);
+    uint32_t sw = 0, sh = 0;
+    std::vector<uint8_t> strip = closeupStrip(shaded, gb.width, closeup.crop, closeup.scale, 4, sw, sh);
+    writePng((fs::path(out.path()) / closeup.file).string(), sw, sh, strip);
+    closeups.push_back(std::move(closeup));
   }
 
   log << "writing reports" << std::endl;
@@ -362,15 +394,17 @@ int runCompare(const Options& o) {
   writeResults(out.path(), results);
   std::string dir = out.path();
   writeFileAtomic((fs::path(dir) / "report.md").string(),
-                  reportMd(scene.name, device, o.width, o.height, o.frames, rows));
+                  reportMd(scene.name, device, o.width, o.height, o.frames, rows, closeups));
   writeFileAtomic((fs::path(dir) / "report.html").string(),
-                  reportHtml(scene.name, device, o.width, o.height, o.frames, rows));
+                  reportHtml(scene.name, device, o.width, o.height, o.frames, rows, closeups));
   writeFileAtomic((fs::path(dir) / "speed_vs_error.svg").string(), speedVsErrorSvg(rows));
+  svgToPng((fs::path(dir) / "speed_vs_error.svg").string(), (fs::path(dir) / "speed_vs_error.png").string());
   out.commit();
 
   std::cout << "result: compared " << settings.size() << " method setting(s) on " << cameras.size() << " view(s) of "
             << scene.name << " at " << o.width << "x" << o.height << "; wrote " << o.out << "/ (report.md, report.html, "
-            << "speed_vs_error.svg, results.json, results.csv, " << rows.size() * 3 << " images)\n";
+            << "speed_vs_error.svg/.png, results.json, results.csv, " << rows.size() * 3 << " images, "
+            << closeups.size() << " close-up strip(s))\n";
   return kExitOk;
 }
 

@@ -15,6 +15,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "app/compare.h"
+#include "app/svg_plot.h"
+#include "core/error.h"
 #include "tests/cli_support.h"
 
 namespace fs = std::filesystem;
@@ -32,6 +35,10 @@ std::string readText(const fs::path& p) {
 }
 
 // RFC 4180 cells: quoted cells may hold commas and doubled quotes.
+void writeText(const fs::path& p, const std::string& text) {
+  std::ofstream(p, std::ios::binary) << text;
+}
+
 std::vector<std::vector<std::string>> parseCsv(const std::string& text) {
   std::vector<std::vector<std::string>> rows;
   std::vector<std::string> row;
@@ -122,7 +129,8 @@ TEST(Compare, TinyBuiltinRunWritesConsistentReports) {
   EXPECT_NE(r.out.find("[view 2/2] room:"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("frame 1/1"), std::string::npos) << r.out;
 
-  for (const char* f : {"results.json", "results.csv", "report.md", "report.html", "speed_vs_error.svg"})
+  for (const char* f : {"results.json", "results.csv", "report.md", "report.html", "speed_vs_error.svg",
+                        "speed_vs_error.png", "wall_closeups.png", "room_closeups.png"})
     EXPECT_TRUE(fs::exists(out / f)) << f;
   for (auto& e : fs::directory_iterator(out))
     EXPECT_EQ(e.path().filename().string().rfind(".staging", 0), std::string::npos) << "staging left behind";
@@ -192,8 +200,84 @@ TEST(Compare, TinyBuiltinRunWritesConsistentReports) {
     EXPECT_EQ(src.find('/'), std::string::npos) << src;
     EXPECT_TRUE(fs::exists(out / src)) << src;
   }
-  EXPECT_EQ(images, results.size() * 3 + 1);
+  EXPECT_EQ(images, results.size() * 3 + 1 + 2) << "per setting 3, the plot, one close-up strip per view";
+  EXPECT_NE(html.find("speed_vs_error.png"), std::string::npos);
+  EXPECT_NE(md.find("](speed_vs_error.png)"), std::string::npos);
+  EXPECT_NE(md.find("](wall_closeups.png)"), std::string::npos);
+  EXPECT_NE(md.find("left to right: embree, "), std::string::npos) << "the strip's order is documented";
   fs::remove_all(out);
+}
+
+cs::GBuffer litPlane(uint32_t w, uint32_t h) {
+  cs::GBuffer gb;
+  gb.width = w;
+  gb.height = h;
+  gb.position.assign(gb.size(), glm::vec4(0, 0, 0, 1));
+  gb.normal.assign(gb.size(), glm::vec4(0, 0, 1, 1));
+  return gb;
+}
+
+TEST(Compare, CloseupWindowHoldsTheShadowBoundary) {
+  // 64x40, every sample lit; the reference is dark in a 6x6 square at (45, 25): the only boundary.
+  cs::GBuffer gb = litPlane(64, 40);
+  std::vector<float> ref(gb.size(), 1.0f);
+  for (uint32_t y = 25; y < 31; ++y)
+    for (uint32_t x = 45; x < 51; ++x) ref[y * 64 + x] = 0.0f;
+  cs::CropWindow c = cs::boundaryWindow(gb, ref);
+  EXPECT_EQ(c.width, 16u);
+  EXPECT_EQ(c.height, 10u);
+  EXPECT_LE(c.x + c.width, 64u);
+  EXPECT_LE(c.y + c.height, 40u);
+  // Both the left and the right edge of the square lie inside the window.
+  EXPECT_LE(c.x, 44u);
+  EXPECT_GE(c.x + c.width, 51u);
+  EXPECT_LE(c.y, 25u);
+  // No boundary at all: the centre window.
+  std::vector<float> lit(gb.size(), 1.0f);
+  cs::CropWindow centre = cs::boundaryWindow(gb, lit);
+  EXPECT_EQ(centre.x, 24u);
+  EXPECT_EQ(centre.y, 15u);
+}
+
+TEST(Compare, CloseupStripIsNearestNeighbourSideBySide) {
+  // Two 4x2 images; crop 2x1 at (1, 1), scale 3, gap 2: each source pixel a 3x3 block.
+  auto image = [](uint8_t base) {
+    std::vector<uint8_t> rgb(4 * 2 * 3);
+    for (size_t i = 0; i < rgb.size(); ++i) rgb[i] = uint8_t(base + i);
+    return rgb;
+  };
+  std::vector<std::vector<uint8_t>> images = {image(0), image(100)};
+  uint32_t w = 0, h = 0;
+  auto strip = cs::closeupStrip(images, 4, {1, 1, 2, 1}, 3, 2, w, h);
+  ASSERT_EQ(w, 2u * 6 + 2);
+  ASSERT_EQ(h, 3u);
+  ASSERT_EQ(strip.size(), size_t(w) * h * 3);
+  auto px = [&](uint32_t x, uint32_t y) { return strip[(size_t(y) * w + x) * 3]; };
+  for (uint32_t y = 0; y < 3; ++y) {
+    EXPECT_EQ(px(0, y), images[0][(1 * 4 + 1) * 3]);
+    EXPECT_EQ(px(2, y), images[0][(1 * 4 + 1) * 3]);
+    EXPECT_EQ(px(3, y), images[0][(1 * 4 + 2) * 3]);
+    EXPECT_EQ(px(6, y), 0) << "gap";
+    EXPECT_EQ(px(8, y), images[1][(1 * 4 + 1) * 3]);
+    EXPECT_EQ(px(13, y), images[1][(1 * 4 + 2) * 3]);
+  }
+}
+
+TEST(Compare, PlotToPngFailureIsAnErrorAndLeavesNoFile) {
+  fs::path dir = fs::temp_directory_path() / ("coneshadow_svg_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  writeText(dir / "bad.svg", "this is not an svg");
+  try {
+    cs::svgToPng((dir / "bad.svg").string(), (dir / "bad.png").string());
+    ADD_FAILURE() << "no error for a broken SVG";
+  } catch (const cs::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("rsvg-convert"), std::string::npos) << e.what();
+  }
+  for (auto& e : fs::directory_iterator(dir)) EXPECT_EQ(e.path().filename(), "bad.svg") << "left behind";
+  writeText(dir / "ok.svg", cs::logPlotSvg({cs::LogPanel{"x", "y", {{"s", {{1, 2, ""}, {10, 20, ""}}, true}}}}));
+  cs::svgToPng((dir / "ok.svg").string(), (dir / "ok.png").string());
+  EXPECT_GT(fs::file_size(dir / "ok.png"), 100u);
+  fs::remove_all(dir);
 }
 
 TEST(Compare, UnknownMethodIsAUsageErrorNamingIt) {

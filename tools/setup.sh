@@ -11,6 +11,7 @@ PACKAGES=(
   libembree-dev libtbb-dev libglm-dev libtinygltf-dev libstb-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   assimp-testmodels
+  librsvg2-bin chromium
 )
 
 missing=()
