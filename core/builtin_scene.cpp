@@ -9,6 +9,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "core/animation.h"
 #include "core/scene.h"
 
 namespace cs {
@@ -150,6 +151,16 @@ std::vector<Camera> views() {
   };
 }
 
+// The movable objects, for the built-in motion: which triangles each one owns.
+enum class PieceKind { WallCaster, Floating, Floor, Table, Fur };
+struct Piece {
+  PieceKind kind;
+  glm::dvec3 centre;
+  uint32_t firstVertex = 0, firstIndex = 0, vertexCount = 0, indexCount = 0;
+};
+
+Scene buildScene(std::vector<Piece>* pieces);
+
 }  // namespace
 
 std::vector<std::string> builtinViewNames() {
@@ -158,11 +169,25 @@ std::vector<std::string> builtinViewNames() {
   return names;
 }
 
-Scene builtinScene() {
+Scene builtinScene() { return buildScene(nullptr); }
+
+namespace {
+
+// `pieces`, when given, receives the vertex and index range of every movable object.
+Scene buildScene(std::vector<Piece>* pieces) {
   Scene scene;
   scene.name = "builtin";
   Builder b{scene};
   Rng rng{0xC0FFEE5EEDull};
+  auto beginPiece = [&](PieceKind kind, const glm::dvec3& centre) {
+    if (pieces) pieces->push_back({kind, centre, uint32_t(scene.positions.size()), uint32_t(scene.indices.size())});
+  };
+  auto endPiece = [&] {
+    if (!pieces) return;
+    Piece& p = pieces->back();
+    p.vertexCount = uint32_t(scene.positions.size()) - p.firstVertex;
+    p.indexCount = uint32_t(scene.indices.size()) - p.firstIndex;
+  };
 
   // Room: two triangles per face, normals inward. Its corners: x0/x1, y0/y1, z0/z1.
   const double x0 = kRoomMin.x, y0 = kRoomMin.y, z0 = kRoomMin.z, x1 = kRoomMax.x, y1 = kRoomMax.y, z1 = kRoomMax.z;
@@ -222,7 +247,9 @@ Scene builtinScene() {
       {{{0.95, 3.3, -1.9}, 0.13}, {{1.6, 2.95, -1.95}, 0.1}, {{1.45, 3.55, -2.05}, 0.09}}};
   for (size_t i = 0; i < wallCasters.size(); ++i) {
     const auto& [c, r] = wallCasters[i];
+    beginPiece(PieceKind::WallCaster, c);
     shape(int(i), placed(c, randomRotation(rng), glm::dvec3(r)));
+    endPiece();
     taken.push_back({c, r * std::sqrt(3.0)});
   }
   int placedCount = 3;
@@ -235,7 +262,9 @@ Scene builtinScene() {
     const glm::dmat4 rotation = randomRotation(rng);
     if (!isFree(c, r, false)) continue;
     taken.push_back({c, r});
+    beginPiece(PieceKind::Floating, c);
     shape(kind, placed(c, rotation, half));
+    endPiece();
     ++placedCount;
   }
   for (int attempt = 0; placedCount < 36 && attempt < 10000; ++attempt) {
@@ -247,7 +276,9 @@ Scene builtinScene() {
     const glm::dmat4 rotation = glm::rotate(glm::dmat4(1), rng.range(0, 2 * glm::pi<double>()), glm::dvec3(0, 1, 0));
     if (!isFree(c, r, true)) continue;
     taken.push_back({c, r});
+    beginPiece(PieceKind::Floor, c);
     shape(kind, placed(c, rotation, half));
+    endPiece();
     ++placedCount;
   }
   for (int i = 0; i < 4; ++i) {  // on the table top, one per quarter
@@ -255,12 +286,15 @@ Scene builtinScene() {
     const glm::dvec3 half = randomHalfSize(kind) * 0.6;
     const glm::dvec3 c = topCentre + glm::dvec3((i % 2 ? 0.5 : -0.5) * kTableHalf.x, 0.05 + half.y,
                                                 (i / 2 ? 0.45 : -0.45) * kTableHalf.z);
+    beginPiece(PieceKind::Table, c);
     shape(kind, placed(c, glm::rotate(glm::dmat4(1), rng.range(0, 6.28), glm::dvec3(0, 1, 0)), half));
+    endPiece();
   }
 
   // Furball: a small core on a thin stand, 3000 hairs. Each hair is a twisted strip of two
   // triangles, root wider than tip, bent sideways by a random curl.
   constexpr double kCore = 0.16;
+  beginPiece(PieceKind::Fur, kFurCentre);
   b.sphere(placed(kFurCentre, glm::dmat4(1), glm::dvec3(kCore)), 10, 6);
   b.cylinder(placed({kFurCentre.x, 0.5 * (kFurCentre.y - kCore), kFurCentre.z}, glm::dmat4(1),
                     {0.03, 0.5 * (kFurCentre.y - kCore), 0.03}),
@@ -280,6 +314,7 @@ Scene builtinScene() {
     const double w0 = rng.range(0.004, 0.008), w1 = 0.3 * w0;
     b.quad(root - across0 * w0, root + across0 * w0, tip + across1 * w1, tip - across1 * w1);
   }
+  endPiece();
 
   PointLight light;
   light.name = "room_light";
@@ -288,6 +323,72 @@ Scene builtinScene() {
   scene.cameras = views();
   scene.computeBounds();
   return scene;
+}
+
+// A rotation channel of `turns` whole turns about `axis` over t in [0, 1], keyed every eighth of a turn
+// (slerp between keys 45 degrees apart is exactly uniform).
+AnimationChannel spin(int node, const glm::dvec3& axis, int turns) {
+  AnimationChannel c;
+  c.node = node;
+  c.path = AnimationPath::Rotation;
+  const int keys = 8 * std::abs(turns);
+  for (int k = 0; k <= keys; ++k) {
+    const double t = double(k) / keys;
+    const glm::dquat q = glm::angleAxis(2 * glm::pi<double>() * turns * t, glm::normalize(axis));
+    c.times.push_back(t);
+    c.values.emplace_back(q.x, q.y, q.z, q.w);
+  }
+  return c;
+}
+
+// A rotation about +y swinging as amplitude · sin(2πt), keyed at 32 points of the cycle.
+AnimationChannel swing(int node, double amplitude) {
+  AnimationChannel c;
+  c.node = node;
+  c.path = AnimationPath::Rotation;
+  for (int k = 0; k <= 32; ++k) {
+    const double t = k / 32.0;
+    const glm::dquat q = glm::angleAxis(amplitude * std::sin(2 * glm::pi<double>() * t), glm::dvec3(0, 1, 0));
+    c.times.push_back(t);
+    c.values.emplace_back(q.x, q.y, q.z, q.w);
+  }
+  return c;
+}
+
+}  // namespace
+
+AnimatedScene builtinAnimatedScene() {
+  AnimatedScene a;
+  std::vector<Piece> pieces;
+  a.rest = buildScene(&pieces);
+  a.localPositions = a.rest.positions;
+  a.localNormals = a.rest.normals;
+  a.start = 0;
+  a.end = 1;
+  a.cyclic = true;
+  // Node 0: the pivot of the shapes floating around the light, on the light's vertical axis.
+  AnimationNode group;
+  group.translation = kLight;
+  a.nodes.push_back(group);
+  a.channels.push_back(swing(0, 0.5));
+  for (size_t i = 0; i < pieces.size(); ++i) {
+    const Piece& p = pieces[i];
+    const bool floating = p.kind == PieceKind::Floating;
+    AnimationNode n;
+    n.parent = floating ? 0 : -1;
+    n.translation = floating ? p.centre - kLight : p.centre;
+    const int node = int(a.nodes.size());
+    a.nodes.push_back(n);
+    // Upright things (floor, table, fur) turn about +y; casters in the air tumble about a tilted axis.
+    const double k = double(i);
+    const bool upright = p.kind == PieceKind::Floor || p.kind == PieceKind::Table || p.kind == PieceKind::Fur;
+    const glm::dvec3 axis = upright ? glm::dvec3(0, 1, 0) : glm::dvec3(std::sin(1.7 * k), 1.0, std::cos(2.3 * k));
+    a.channels.push_back(spin(node, axis, i % 2 ? 1 : -1));
+    a.ranges.push_back({node, p.firstVertex, p.vertexCount, p.firstIndex, p.indexCount, true});
+    for (uint32_t v = p.firstVertex; v < p.firstVertex + p.vertexCount; ++v)
+      a.localPositions[v] = glm::vec3(glm::dvec3(a.rest.positions[v]) - p.centre);
+  }
+  return a;
 }
 
 }  // namespace cs

@@ -20,6 +20,7 @@
 #include <glm/gtc/quaternion.hpp>
 #include <nlohmann/json.hpp>
 
+#include "core/animation.h"
 #include "core/error.h"
 #include "core/scene.h"
 
@@ -534,6 +535,8 @@ class Loader {
   Loader(const std::string& path, std::ostream& warn) : path_(path), warn_(warn), model_(parseFile(path, warn)) {}
 
   Scene load();
+  // load() keeping what the animation needs: node hierarchy, vertex ranges, channels.
+  AnimatedScene loadAnimated();
 
  private:
   struct Primitive {  // one decoded mesh primitive, object space, referenced vertices only
@@ -553,6 +556,7 @@ class Loader {
   std::map<int, std::vector<Primitive>> meshCache_;  // meshes are decoded once, instanced many times
   std::vector<CameraUse> cameraUses_;
   size_t skippedNonTriangle_ = 0, repairedNormals_ = 0, skippedOrtho_ = 0, skippedLights_ = 0, skinned_ = 0;
+  AnimatedScene* anim_ = nullptr;  // set by loadAnimated(): record each mesh instance's node and local vertices
 
   [[noreturn]] void bad(const std::string& what) const { throw Error(what, path_, kMalformed); }
 
@@ -562,7 +566,9 @@ class Loader {
   std::vector<int> sceneRoots() const;
   glm::dmat4 localMatrix(int node) const;
   void traverse(const std::vector<int>& roots);
-  void addMeshInstance(int mesh, const glm::dmat4& world);
+  void addMeshInstance(int mesh, const glm::dmat4& world, int node);
+  void readAnimations();
+  std::vector<double> readScalars(int accessor, const std::string& what) const;
   Primitive decode(int mesh, int prim);
   std::vector<glm::vec3> readVec3(int accessor, const char* what) const;
   std::vector<uint32_t> readIndices(int accessor, size_t vertexCount) const;
@@ -749,7 +755,7 @@ void Loader::traverse(const std::vector<int>& roots) {
     const tinygltf::Node& node = model_.nodes[size_t(n)];
     if (node.mesh != -1) {
       if (node.skin != -1) ++skinned_;
-      addMeshInstance(node.mesh, world);
+      addMeshInstance(node.mesh, world, n);
     }
     if (node.camera != -1) cameraUses_.push_back({node.camera, world});
     if (auto it = node.extensions.find("KHR_lights_punctual"); it != node.extensions.end())
@@ -893,7 +899,7 @@ glm::vec3 unitOr(const glm::dvec3& v, const glm::dvec3& fallback) {
   return glm::vec3(len > 0 && std::isfinite(len) ? v / len : fallback);
 }
 
-void Loader::addMeshInstance(int mesh, const glm::dmat4& world) {
+void Loader::addMeshInstance(int mesh, const glm::dmat4& world, int node) {
   auto cached = meshCache_.find(mesh);
   if (cached == meshCache_.end()) {
     std::vector<Primitive> prims;
@@ -920,6 +926,26 @@ void Loader::addMeshInstance(int mesh, const glm::dmat4& world) {
     const size_t added = prim.normals.empty() || !invertible ? prim.triangles.size() : prim.positions.size();
     if (scene_.positions.size() + added > UINT32_MAX)
       throw Error("the flattened scene has more than 2^32 vertices", path_, "coneshadow indexes vertices with 32 bits");
+    if (anim_ && !prim.triangles.empty()) {
+      VertexRange r;
+      r.node = node;
+      r.firstVertex = uint32_t(scene_.positions.size());
+      r.vertexCount = uint32_t(added);
+      r.firstIndex = uint32_t(scene_.indices.size());
+      r.indexCount = uint32_t(prim.triangles.size());
+      r.flatNormals = prim.normals.empty() || !invertible;
+      anim_->ranges.push_back(r);
+      if (!r.flatNormals) {
+        anim_->localPositions.insert(anim_->localPositions.end(), prim.positions.begin(), prim.positions.end());
+        anim_->localNormals.insert(anim_->localNormals.end(), prim.normals.begin(), prim.normals.end());
+      } else {
+        for (size_t t = 0; t < prim.triangles.size(); t += 3)
+          for (size_t k : {size_t(0), flip ? size_t(2) : size_t(1), flip ? size_t(1) : size_t(2)}) {
+            anim_->localPositions.push_back(prim.positions[prim.triangles[t + k]]);
+            anim_->localNormals.emplace_back(0, 1, 0);  // recomputed from the winding when posed
+          }
+      }
+    }
     if (!prim.normals.empty() && invertible) {
       const auto base = uint32_t(scene_.positions.size());
       for (size_t v = 0; v < prim.positions.size(); ++v) {
@@ -947,6 +973,140 @@ void Loader::addMeshInstance(int mesh, const glm::dmat4& world) {
       }
     }
   }
+}
+
+std::vector<double> Loader::readScalars(int index, const std::string& what) const {
+  if (index < 0 || size_t(index) >= model_.accessors.size())
+    bad(what + " refers to accessor " + std::to_string(index) + ", which does not exist");
+  const tinygltf::Accessor& a = model_.accessors[size_t(index)];
+  if (a.type != TINYGLTF_TYPE_SCALAR || a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT)
+    bad(what + " (accessor " + std::to_string(index) + ") must be SCALAR of FLOAT");
+  std::vector<double> out(a.count);
+  forEachElement(a, [&](size_t i, const unsigned char* p) {
+    float f;
+    std::memcpy(&f, p, 4);
+    out[i] = f;
+  });
+  for (size_t i = 0; i < out.size(); ++i) {
+    if (!std::isfinite(out[i])) bad(what + " (accessor " + std::to_string(index) + ") has a non-finite time");
+    if (i > 0 && !(out[i] > out[i - 1]))
+      bad(what + " (accessor " + std::to_string(index) + ") times do not increase: key " + std::to_string(i) + " at " +
+          std::to_string(out[i]) + " after " + std::to_string(out[i - 1]));
+  }
+  return out;
+}
+
+// Node animation channels of every animation (glTF 2.0 §3.11), validated like the geometry.
+void Loader::readAnimations() {
+  AnimatedScene& a = *anim_;
+  const size_t nodeCount = model_.nodes.size();
+  a.nodes.assign(nodeCount, AnimationNode{});
+  for (size_t n = 0; n < nodeCount; ++n) {
+    const tinygltf::Node& node = model_.nodes[n];
+    for (int c : node.children) a.nodes[size_t(c)].parent = int(n);
+    if (node.matrix.size() == 16) {
+      a.nodes[n].matrix = localMatrix(int(n));
+      continue;
+    }
+    localMatrix(int(n));  // validates the rotation and finiteness
+    if (node.translation.size() == 3) a.nodes[n].translation = {node.translation[0], node.translation[1], node.translation[2]};
+    if (node.rotation.size() == 4)
+      a.nodes[n].rotation = glm::normalize(glm::dquat(node.rotation[3], node.rotation[0], node.rotation[1], node.rotation[2]));
+    if (node.scale.size() == 3) a.nodes[n].scale = {node.scale[0], node.scale[1], node.scale[2]};
+  }
+
+  size_t weights = 0, cubic = 0;
+  for (size_t ai = 0; ai < model_.animations.size(); ++ai) {
+    const tinygltf::Animation& anim = model_.animations[ai];
+    const std::string name = "animation " + std::to_string(ai);
+    for (size_t ci = 0; ci < anim.channels.size(); ++ci) {
+      const tinygltf::AnimationChannel& ch = anim.channels[ci];
+      const std::string cname = name + " channel " + std::to_string(ci);
+      if (ch.sampler < 0 || size_t(ch.sampler) >= anim.samplers.size())
+        bad(cname + " refers to sampler " + std::to_string(ch.sampler) + ", which does not exist (the animation has " +
+            counted(anim.samplers.size(), "sampler") + ")");
+      AnimationChannel c;
+      if (ch.target_path == "weights") {
+        ++weights;
+        continue;
+      } else if (ch.target_path == "translation") {
+        c.path = AnimationPath::Translation;
+      } else if (ch.target_path == "rotation") {
+        c.path = AnimationPath::Rotation;
+      } else if (ch.target_path == "scale") {
+        c.path = AnimationPath::Scale;
+      } else {
+        bad(cname + " targets path '" + ch.target_path + "' (must be translation, rotation, scale or weights)");
+      }
+      if (ch.target_node < 0) continue;  // no node: nothing this file animates (extensions may use it)
+      if (size_t(ch.target_node) >= nodeCount)
+        bad(cname + " targets node " + std::to_string(ch.target_node) + ", which does not exist");
+      if (model_.nodes[size_t(ch.target_node)].matrix.size() == 16)
+        bad(cname + " targets node " + std::to_string(ch.target_node) +
+            ", which has a matrix (animated nodes must use translation, rotation and scale)");
+      c.node = ch.target_node;
+
+      const tinygltf::AnimationSampler& s = anim.samplers[size_t(ch.sampler)];
+      const std::string sname = name + " sampler " + std::to_string(ch.sampler);
+      bool cubicSpline = false;
+      if (s.interpolation.empty() || s.interpolation == "LINEAR") {
+        c.interpolation = AnimationInterpolation::Linear;
+      } else if (s.interpolation == "STEP") {
+        c.interpolation = AnimationInterpolation::Step;
+      } else if (s.interpolation == "CUBICSPLINE") {
+        c.interpolation = AnimationInterpolation::Linear;
+        cubicSpline = true;
+        ++cubic;
+      } else {
+        bad(sname + " has interpolation '" + s.interpolation + "' (must be LINEAR, STEP or CUBICSPLINE)");
+      }
+      c.times = readScalars(s.input, sname + " input");
+      if (s.output < 0 || size_t(s.output) >= model_.accessors.size())
+        bad(sname + " output refers to accessor " + std::to_string(s.output) + ", which does not exist");
+      const tinygltf::Accessor& out = model_.accessors[size_t(s.output)];
+      const bool rotation = c.path == AnimationPath::Rotation;
+      const int type = rotation ? TINYGLTF_TYPE_VEC4 : TINYGLTF_TYPE_VEC3;
+      if (out.type != type || out.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT)
+        bad(sname + " output (accessor " + std::to_string(s.output) + ") must be " + (rotation ? "VEC4" : "VEC3") +
+            " of FLOAT for a " + ch.target_path + " channel");
+      const size_t perKey = cubicSpline ? 3 : 1;
+      if (out.count != c.times.size() * perKey)
+        bad(sname + " has " + std::to_string(out.count) + " output values for " + counted(c.times.size(), "key time") +
+            (cubicSpline ? " (CUBICSPLINE needs 3 per key)" : " (needs one per key)"));
+      std::vector<glm::dvec4> values(out.count, glm::dvec4(0));
+      const size_t comps = rotation ? 4 : 3;
+      forEachElement(out, [&](size_t i, const unsigned char* p) {
+        float f[4] = {0, 0, 0, 0};
+        std::memcpy(f, p, comps * 4);
+        values[i] = glm::dvec4(f[0], f[1], f[2], f[3]);
+      });
+      for (size_t k = 0; k < c.times.size(); ++k) {
+        const glm::dvec4 v = values[k * perKey + (cubicSpline ? 1 : 0)];  // CUBICSPLINE: in-tangent, value, out-tangent
+        if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z) || !std::isfinite(v.w))
+          bad(sname + " output has a non-finite value at key " + std::to_string(k));
+        if (rotation && !(glm::length(v) > 0)) bad(sname + " output has a zero rotation at key " + std::to_string(k));
+        c.values.push_back(v);
+      }
+      a.start = a.channels.empty() ? c.times.front() : std::min(a.start, c.times.front());
+      a.end = a.channels.empty() ? c.times.back() : std::max(a.end, c.times.back());
+      a.channels.push_back(std::move(c));
+    }
+  }
+  if (weights)
+    warn_ << path_ << ": ignored " << counted(weights, "morph-target weights channel")
+          << " (only rigid node animation is applied)\n";
+  if (cubic)
+    warn_ << path_ << ": " << counted(cubic, "CUBICSPLINE channel")
+          << " sampled as LINEAR through the keyframe values (tangents ignored)\n";
+}
+
+AnimatedScene Loader::loadAnimated() {
+  AnimatedScene a;
+  anim_ = &a;
+  a.rest = load();  // every vertex lies in one range, in order: localPositions matches rest.positions
+  readAnimations();
+  anim_ = nullptr;
+  return a;
 }
 
 std::string Loader::uniqueName(std::string name, bool camera) const {
@@ -1056,6 +1216,14 @@ Scene Loader::load() {
 }
 
 }  // namespace
+
+AnimatedScene loadAnimatedGltf(const std::string& path, std::ostream& warn) {
+  try {
+    return Loader(path, warn).loadAnimated();
+  } catch (const std::bad_alloc&) {
+    throw Error("out of memory while loading", path, "the file is too large or malformed");
+  }
+}
 
 Scene loadGltf(const std::string& path, std::ostream& warn) {
   try {
