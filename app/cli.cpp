@@ -31,7 +31,12 @@ render options:
   --dump DIR          also write position.pfm, normal.pfm, visibility_<m>.pfm, band.pfm, meta.json
   --traversal-memory BYTES   cone path: bound on the traversal's pair buffers (e.g. 64M, 256K)
   --variant=NAME      cone path, paper 002 Table 1: PreciseSorted (default), Precise, SpheresSorted, Spheres,
-                      PreciseSEA (early accept); the two-pass variants are not implemented yet
+                      PreciseSEA (early accept), PreciseEATP, PreciseSEATP (early accept + two-pass)
+  --test=T, --early-accept=on|off, --two-pass=on|off   cone path switches, applied after --variant:
+                      T = precise or sphere; early accept needs the precise test
+  --blocker-solid-angle=SR, --blocker-max-fraction=F, --update-min-finished=F   two-pass: blockers are
+                      triangles subtending >= SR at the light (default 1/4096 of the sphere), the largest
+                      F of all at most (0.125); the update is skipped below F finished rays (0.1)
   --front-face-culling=on   cone path: only triangles facing away from the light cast; exact only when
                       every caster is a closed mesh with consistent winding (wrong on the built-in fur)
   --ray-order O       cone path: hilbert (sorted rays, default) or screen (2x2 Morton screen order)
@@ -55,7 +60,14 @@ compare options (defaults: all views, all methods, 256x256, 3 frames, --out comp
   --views V1,V2       cameras by name (default: every camera of the scene; the automatic one if none)
   --width, --height, --frames, --device, --validation, --quiet: as for render
   writes into --out DIR: results.json, results.csv (one row per view and method setting, "setting" in
-  stats), <view>_<setting>_{shaded,mask,diff}.png, report.md, report.html, speed_vs_error.svg
+  stats), <view>_<setting>_{shaded,mask,diff}.png, <view>_closeups.png (the same crop of every setting,
+  Embree first, enlarged nearest-neighbour), report.md, report.html, speed_vs_error.svg/.png
+  --scaling           scaling runs instead: one view (the first of --views) at 256², 512², 1024², 2048², then
+                      at --width x --height with the scene as 1, 4, 16, ... translated copies side by side;
+                      methods embree, cone, cubesm, rmsm at their defaults (or --methods); a point a method
+                      cannot run says "failed: <reason>"; writes scaling.md, scaling.json, scaling.csv,
+                      scaling_resolution.svg/.png, scaling_triangles.svg/.png
+  --scaling-max-triangles N   bound of the triangle sweep (default 10000000)
 
 exit codes:
   0  success
