@@ -10,8 +10,10 @@
 #include <sstream>
 
 #include "app/commands.h"
+#include "app/dynamic.h"
 #include "app/frame_runner.h"
 #include "app/methods.h"
+#include "app/scaling.h"
 #include "app/svg_plot.h"
 #include "core/image_io.h"
 #include "eval/frame_output.h"
@@ -269,6 +271,8 @@ std::string speedVsErrorSvg(const std::vector<Row>& rows) {
 }  // namespace
 
 int runCompare(const Options& o) {
+  if (o.animateFrames) return runDynamicCompare(o);
+  if (o.scaling) return runScaling(o);
   NullBuffer nullBuf;
   std::ostream quiet(&nullBuf);
   std::ostream& log = o.quiet ? quiet : std::cout;

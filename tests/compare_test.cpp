@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include "app/compare.h"
+#include "app/scaling.h"
 #include "app/svg_plot.h"
 #include "core/error.h"
 #include "tests/cli_support.h"
@@ -278,6 +279,75 @@ TEST(Compare, PlotToPngFailureIsAnErrorAndLeavesNoFile) {
   cs::svgToPng((dir / "ok.svg").string(), (dir / "ok.png").string());
   EXPECT_GT(fs::file_size(dir / "ok.png"), 100u);
   fs::remove_all(dir);
+}
+
+TEST(Scaling, CopiesGrowByFourUpToTheTriangleBound) {
+  EXPECT_EQ(cs::scalingCopies(100, 50), (std::vector<uint32_t>{1}));
+  EXPECT_EQ(cs::scalingCopies(100, 1600), (std::vector<uint32_t>{1, 4, 16}));
+  EXPECT_EQ(cs::scalingCopies(7540, 10'000'000), (std::vector<uint32_t>{1, 4, 16, 64, 256, 1024}));
+}
+
+TEST(Scaling, InstancedCopiesAreTranslatedBeyondTheBounds) {
+  cs::Scene s;
+  s.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 1}};
+  s.normals = {{0, 0, 1}, {0, 0, 1}, {0, 0, 1}};
+  s.indices = {0, 1, 2};
+  s.computeBounds();
+  cs::Scene big = cs::instancedScene(s, 4);
+  ASSERT_EQ(big.triangleCount(), 4u);
+  ASSERT_EQ(big.positions.size(), 12u);
+  EXPECT_EQ(big.positions[0], s.positions[0]) << "copy 0 stays in place";
+  for (uint32_t c = 1; c < 4; ++c) {
+    glm::vec3 d = big.positions[3 * c] - s.positions[0];
+    EXPECT_EQ(d.y, 0.0f);
+    EXPECT_TRUE(d.x >= 1.0f || d.z >= 1.0f) << "copy " << c << " overlaps the original";
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(big.indices[3 * c + k], 3 * c + s.indices[k]);
+  }
+}
+
+TEST(Scaling, TinySweepWritesFilesWithCsvMatchingJson) {
+  fs::path out = fs::temp_directory_path() / ("coneshadow_scaling_" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  // Built-in scene (7,540 triangles): 1 and 4 copies under a 40,000-triangle bound.
+  CliRun r = cli("compare --scaling --width 24 --height 24 --scaling-sizes=16,24 --scaling-max-triangles 40000 "
+                 "--frames 1 --quiet --out " + out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const char* f : {"scaling.md", "scaling.json", "scaling.csv", "scaling_resolution.svg", "scaling_resolution.png",
+                        "scaling_triangles.svg", "scaling_triangles.png"})
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  nlohmann::json doc = nlohmann::json::parse(readText(out / "scaling.json"));
+  const nlohmann::json& rows = doc.at("rows");
+  EXPECT_FALSE(doc.at("device").get<std::string>().empty());
+  std::map<std::string, int> perSweep;
+  for (auto& row : rows) perSweep[row.at("sweep")]++;
+  size_t methods = rows.size() / 4;
+  ASSERT_GT(methods, 0u);
+  EXPECT_EQ(perSweep["resolution"], int(2 * methods));
+  EXPECT_EQ(perSweep["triangles"], int(2 * methods));
+  for (auto& row : rows) {
+    EXPECT_EQ(row.at("status"), "ok") << row.dump();
+    if (row.at("sweep") == "triangles" && row.at("copies") == 4) {
+      EXPECT_EQ(row.at("triangles"), 4 * 7540);
+    }
+    if (row.at("method") == "cone" || row.at("method") == "embree") {
+      EXPECT_EQ(row.at("misclassified_outside_band"), 0) << row.dump();
+    }
+  }
+  auto csv = parseCsv(readText(out / "scaling.csv"));
+  ASSERT_EQ(csv.size(), rows.size() + 1);
+  const auto& header = csv[0];
+  for (size_t i = 0; i < rows.size(); ++i) {
+    ASSERT_EQ(csv[i + 1].size(), header.size()) << "row " << i;
+    ASSERT_EQ(rows[i].size(), header.size()) << "row " << i;
+    for (size_t c = 0; c < header.size(); ++c) {
+      ASSERT_TRUE(rows[i].contains(header[c])) << header[c];
+      expectCellEquals(csv[i + 1][c], rows[i].at(header[c]), "row " + std::to_string(i) + " " + header[c]);
+    }
+  }
+  std::string md = readText(out / "scaling.md");
+  EXPECT_NE(md.find("](scaling_triangles.png)"), std::string::npos);
+  EXPECT_NE(md.find("| 4 / 30160 |"), std::string::npos) << md;
+  fs::remove_all(out);
 }
 
 TEST(Compare, UnknownMethodIsAUsageErrorNamingIt) {

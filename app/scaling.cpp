@@ -1,0 +1,379 @@
+// `coneshadow compare --scaling`: see scaling.h.
+#include "app/scaling.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "app/commands.h"
+#include "app/frame_runner.h"
+#include "app/methods.h"
+#include "app/svg_plot.h"
+#include "core/image_io.h"
+#include "eval/frame_output.h"
+#include "eval/metrics.h"
+#include "raster/raster.h"
+#include "reference/embree_reference.h"
+#include "reference/epsilon.h"
+#include "vk/context.h"
+
+namespace fs = std::filesystem;
+
+namespace cs {
+
+std::vector<uint32_t> scalingCopies(uint64_t sceneTriangles, uint64_t maxTriangles) {
+  std::vector<uint32_t> ks = {1};
+  for (uint64_t k = 4; sceneTriangles > 0 && k * sceneTriangles <= maxTriangles && k <= (1u << 30); k *= 4)
+    ks.push_back(uint32_t(k));
+  return ks;
+}
+
+Scene instancedScene(const Scene& scene, uint32_t copies) {
+  Scene out;
+  out.name = copies == 1 ? scene.name : scene.name + " x" + std::to_string(copies);
+  out.cameras = scene.cameras;
+  out.lights = scene.lights;
+  const uint32_t cols = uint32_t(std::ceil(std::sqrt(double(copies))));
+  const glm::vec3 extent = scene.boundsMax - scene.boundsMin;
+  const float dx = std::max(extent.x, 1e-3f) * 1.1f, dz = std::max(extent.z, 1e-3f) * 1.1f;
+  const size_t nv = scene.positions.size();
+  out.positions.reserve(nv * copies);
+  out.normals.reserve(scene.normals.size() * copies);
+  out.indices.reserve(scene.indices.size() * copies);
+  for (uint32_t c = 0; c < copies; ++c) {
+    const glm::vec3 offset(float(c % cols) * dx, 0.0f, float(c / cols) * dz);
+    const uint32_t base = uint32_t(out.positions.size());
+    for (auto& p : scene.positions) out.positions.push_back(p + offset);
+    out.normals.insert(out.normals.end(), scene.normals.begin(), scene.normals.end());
+    for (uint32_t i : scene.indices) out.indices.push_back(base + i);
+  }
+  out.computeBounds();
+  return out;
+}
+
+namespace {
+
+// One method at one point of a sweep; failed points carry the reason and no numbers.
+struct ScalingRow {
+  std::string sweep;  // "resolution" | "triangles"
+  uint32_t width = 0, height = 0, copies = 1;
+  uint64_t triangles = 0;
+  std::string method;
+  std::string status = "ok";  // "ok" or "failed: <reason>"
+  double msMedian = 0, msMin = 0, msMax = 0;
+  uint64_t bytes = 0, peakBytes = 0;
+  uint64_t lit = 0, band = 0, misclassified = 0, misclassifiedOutsideBand = 0;
+  double misclassifiedPct = 0, misclassifiedOutsideBandPct = 0;
+  bool ok() const { return status == "ok"; }
+};
+
+// Columns of scaling.csv, in order; scaling.json rows carry the same keys (numbers null when failed).
+const std::vector<std::string> kColumns = {
+    "sweep", "width", "height", "pixels", "copies", "triangles", "method", "status", "ms_median", "ms_min", "ms_max",
+    "bytes_allocated", "peak_bytes", "lit_samples", "band_samples", "misclassified", "misclassified_pct",
+    "misclassified_outside_band", "misclassified_outside_band_pct"};
+
+nlohmann::ordered_json toJson(const ScalingRow& r) {
+  nlohmann::ordered_json j;
+  j["sweep"] = r.sweep;
+  j["width"] = r.width;
+  j["height"] = r.height;
+  j["pixels"] = uint64_t(r.width) * r.height;
+  j["copies"] = r.copies;
+  j["triangles"] = r.triangles;
+  j["method"] = r.method;
+  j["status"] = r.status;
+  const bool ok = r.ok();
+  auto num = [&](const char* key, auto v) { j[key] = ok ? nlohmann::ordered_json(v) : nlohmann::ordered_json(); };
+  num("ms_median", r.msMedian);
+  num("ms_min", r.msMin);
+  num("ms_max", r.msMax);
+  num("bytes_allocated", r.bytes);
+  num("peak_bytes", r.peakBytes);
+  num("lit_samples", r.lit);
+  num("band_samples", r.band);
+  num("misclassified", r.misclassified);
+  num("misclassified_pct", r.misclassifiedPct);
+  num("misclassified_outside_band", r.misclassifiedOutsideBand);
+  num("misclassified_outside_band_pct", r.misclassifiedOutsideBandPct);
+  return j;
+}
+
+std::string csvCell(const nlohmann::ordered_json& v) {
+  if (v.is_null()) return "";
+  std::string s = v.is_string() ? v.get<std::string>() : v.dump();  // numbers: the JSON serializer's digits
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string q = "\"";
+  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return q + "\"";
+}
+
+std::string fixed(double v, int prec) {
+  std::ostringstream os;
+  os << std::fixed << std::setprecision(prec) << v;
+  return os.str();
+}
+
+std::string mib(uint64_t bytes) { return fixed(double(bytes) / (1024.0 * 1024.0), 2); }
+
+// Time (top panel) and bytes allocated (bottom) against x, one line per method, failed points left out.
+std::string sweepSvg(const std::vector<ScalingRow>& rows, const std::string& sweep, const std::string& xLabel,
+                     const std::vector<std::string>& methods) {
+  LogPanel time{xLabel, "shadow time per frame, ms (median)", {}};
+  LogPanel bytes{xLabel, "bytes allocated per frame", {}};
+  for (auto& m : methods) {
+    PlotSeries ts{m, {}, true}, bs{m, {}, true};
+    for (auto& r : rows) {
+      if (r.sweep != sweep || r.method != m || !r.ok()) continue;
+      double x = sweep == "resolution" ? double(r.width) * r.height : double(r.triangles);
+      std::string where = sweep == "resolution" ? std::to_string(r.width) + "x" + std::to_string(r.height)
+                                                : std::to_string(r.triangles) + " triangles";
+      ts.points.push_back({x, std::max(r.msMedian, 1e-3), m + " " + where + ": " + fixed(r.msMedian, 2) + " ms"});
+      bs.points.push_back({x, double(std::max<uint64_t>(r.bytes, 1)), m + " " + where + ": " + mib(r.bytes) + " MiB"});
+    }
+    time.series.push_back(ts);
+    bytes.series.push_back(bs);
+  }
+  return logPlotSvg({time, bytes});
+}
+
+std::string scalingMd(const std::string& sceneName, const std::string& view, const std::string& device,
+                      const Options& o, const std::vector<ScalingRow>& rows) {
+  std::ostringstream os;
+  os << "# coneshadow scaling: " << sceneName << " / " << view << "\n\n"
+     << "device: " << device << "\n\n"
+     << "Median of " << o.frames << " frame(s) after one warm-up per point. Misclassified: lit samples against "
+     << "Embree on the same samples, outside the ambiguity band. MiB: bytes the method allocated for the frame "
+     << "(peak: its peak working set).\n\n"
+     << "Triangle sweep at " << o.width << "x" << o.height << ": the scene instanced as k translated copies side "
+     << "by side on a grid in the x-z plane beyond its bounds (copy 0 in place; camera, light and epsilon of the "
+     << "original), so the picture stays the same and every method still pays for every triangle.\n";
+  for (const char* sweep : {"resolution", "triangles"}) {
+    os << "\n## " << (std::string(sweep) == "resolution" ? "Resolution sweep" : "Triangle sweep") << "\n\n"
+       << "| " << (std::string(sweep) == "resolution" ? "size" : "copies / triangles")
+       << " | method | ms median (min-max) | MiB | peak MiB | misclassified outside band | status |\n"
+       << "| --- | --- | ---: | ---: | ---: | ---: | --- |\n";
+    for (auto& r : rows) {
+      if (r.sweep != sweep) continue;
+      std::string where = r.sweep == "resolution" ? std::to_string(r.width) + "x" + std::to_string(r.height)
+                                                  : std::to_string(r.copies) + " / " + std::to_string(r.triangles);
+      if (r.ok())
+        os << "| " << where << " | " << r.method << " | " << fixed(r.msMedian, 2) << " (" << fixed(r.msMin, 2) << "-"
+           << fixed(r.msMax, 2) << ") | " << mib(r.bytes) << " | " << mib(r.peakBytes) << " | "
+           << fixed(r.misclassifiedOutsideBandPct, 4) << " % (" << r.misclassifiedOutsideBand << ") | ok |\n";
+      else
+        os << "| " << where << " | " << r.method << " | - | - | - | - | " << r.status << " |\n";
+    }
+    os << "\n![" << sweep << " sweep](scaling_" << sweep << ".png)\n\n(vector: scaling_" << sweep << ".svg)\n";
+  }
+  return os.str();
+}
+
+}  // namespace
+
+int runScaling(const Options& base) {
+  NullBuffer nullBuf;
+  std::ostream quiet(&nullBuf);
+  std::ostream& log = base.quiet ? quiet : std::cout;
+
+  // The hidden --scaling-sizes=N1,N2 setting; everything else in `extra` goes to the methods.
+  Options o = base;
+  std::vector<uint32_t> sizes = {256, 512, 1024, 2048};
+  o.extra.clear();
+  for (auto& kv : base.extra) {
+    if (kv.rfind("scaling-sizes=", 0) != 0) {
+      o.extra.push_back(kv);
+      continue;
+    }
+    sizes.clear();
+    std::stringstream ss(kv.substr(14));
+    std::string part;
+    while (std::getline(ss, part, ',')) {
+      char* end = nullptr;
+      long v = std::strtol(part.c_str(), &end, 10);
+      if (part.empty() || *end != '\0' || v < 1 || v > 16384)
+        throw UsageError("--scaling-sizes wants sizes in [1, 16384] separated by commas, got '" + kv.substr(14) + "'");
+      sizes.push_back(uint32_t(v));
+    }
+    if (sizes.empty()) throw UsageError("--scaling-sizes wants at least one size");
+  }
+  auto registered = methodNames();
+  std::vector<std::string> methods;
+  if (!o.methods.empty()) {
+    methods = o.methods;
+  } else {
+    for (const char* m : {"embree", "cone", "cubesm", "rmsm"})
+      if (std::find(registered.begin(), registered.end(), m) != registered.end()) methods.push_back(m);
+  }
+  for (auto& m : methods) checkMethod(m, o);  // throws UsageError before any heavy work
+  const uint64_t maxTriangles = o.scalingMaxTriangles ? o.scalingMaxTriangles : kDefaultScalingMaxTriangles;
+
+  Scene scene = loadSceneArg(o.scene, std::cerr);
+  std::string viewName = !o.views.empty() ? o.views.front() : o.view;
+  Camera camera;
+  if (!viewName.empty()) {
+    const Camera* c = scene.findCamera(viewName);
+    if (!c) throw UsageError("scene " + scene.name + " has no view '" + viewName + "'");
+    camera = *c;
+  } else {
+    camera = scene.cameras.empty() ? automaticCamera(scene) : scene.cameras.front();
+  }
+  const std::string view = camera.name.empty() ? "auto" : camera.name;
+  const glm::vec3 light = chooseLight(scene, o, log);
+  const EpsilonPolicy policy = EpsilonPolicy::forScene(scene);  // the original's, at every point
+  const std::vector<uint32_t> copies = scalingCopies(scene.triangleCount(), maxTriangles);
+
+  vk::ContextOptions co;
+  co.device = o.device;
+  co.validation = o.validation;
+  co.quiet = true;
+  auto ctx = vk::createContext(co);
+  const std::string device = ctx->driverDescription();
+  log << "scaling " << scene.name << " / " << view << ": " << sizes.size() << " resolution point(s), "
+      << copies.size() << " triangle point(s) up to " << copies.back() * scene.triangleCount() << " triangles, "
+      << methods.size() << " method(s); device: " << device << std::endl;
+
+  StagedDir out(o.out);
+  std::vector<ScalingRow> rows;
+  auto failAll = [&](const ScalingRow& proto, const std::string& tag, const std::string& why) {
+    for (auto& m : methods) {
+      ScalingRow r = proto;
+      r.method = m;
+      r.status = "failed: " + why;
+      log << tag << m << " " << r.status << std::endl;
+      rows.push_back(r);
+    }
+  };
+  auto runPoint = [&](const std::string& sweep, const Scene& s, uint32_t k, uint32_t w, uint32_t h) {
+    ScalingRow proto;
+    proto.sweep = sweep;
+    proto.width = w;
+    proto.height = h;
+    proto.copies = k;
+    proto.triangles = s.triangleCount();
+    const std::string tag = "[" + sweep + " " + std::to_string(w) + "x" + std::to_string(h) + ", " +
+                            std::to_string(proto.triangles) + " triangles] ";
+    // The shared part: raster, Embree reference, band. If it fails, every method fails at this point.
+    GBuffer gb;
+    DeviceGBuffer dev;
+    std::unique_ptr<Raster> raster;
+    EmbreeReference reference;
+    Timed ref;
+    std::vector<uint8_t> band;
+    try {
+      log << tag << "raster, reference, band" << std::endl;
+      raster = std::make_unique<Raster>(*ctx, s);
+      raster->render(camera, light, w, h, dev, &gb);  // warm-up
+      raster->render(camera, light, w, h, dev, &gb);
+      FrameInput frame = frameInput(s, gb, dev, *ctx, light, policy.eps);
+      ref = runTimed(reference, frame, o.frames, quiet);
+      band = reference.ambiguityBand(s, gb, light, policy, {}, nullptr);
+    } catch (const std::exception& e) {
+      failAll(proto, tag, e.what());
+      return;
+    }
+    FrameInput frame = frameInput(s, gb, dev, *ctx, light, policy.eps);
+    for (auto& m : methods) {
+      ScalingRow r = proto;
+      r.method = m;
+      try {
+        Timed local;
+        const Timed* t = &ref;
+        if (m != "embree") {
+          auto method = makeMethod(m, ctx.get(), o);
+          local = runTimed(*method, frame, o.frames, quiet);
+          t = &local;
+        }
+        ErrorStats err = compareVisibility(gb, t->output.visibility, ref.output.visibility, band);
+        r.msMedian = median(t->totals);
+        r.msMin = *std::min_element(t->totals.begin(), t->totals.end());
+        r.msMax = *std::max_element(t->totals.begin(), t->totals.end());
+        r.bytes = t->output.bytesAllocated;
+        r.peakBytes = t->output.peakBytes;
+        r.lit = err.litSamples;
+        r.band = err.bandSamples;
+        r.misclassified = err.misclassified;
+        r.misclassifiedPct = err.misclassifiedFraction * 100.0;
+        r.misclassifiedOutsideBand = err.misclassifiedOutsideBand;
+        r.misclassifiedOutsideBandPct = err.misclassifiedFractionOutsideBand * 100.0;
+        log << tag << m << ": " << fixed(r.msMedian, 2) << " ms, " << mib(r.bytes) << " MiB, "
+            << r.misclassifiedOutsideBand << " misclassified outside band" << std::endl;
+      } catch (const std::exception& e) {
+        r.status = std::string("failed: ") + e.what();
+        log << tag << m << " " << r.status << std::endl;
+      }
+      rows.push_back(r);
+    }
+  };
+
+  for (uint32_t n : sizes) runPoint("resolution", scene, 1, n, n);
+  for (uint32_t k : copies) {
+    if (k == 1) {
+      runPoint("triangles", scene, 1, o.width, o.height);
+      continue;
+    }
+    Scene big;
+    try {
+      big = instancedScene(scene, k);
+    } catch (const std::exception& e) {  // std::bad_alloc on the host
+      ScalingRow proto;
+      proto.sweep = "triangles";
+      proto.width = o.width;
+      proto.height = o.height;
+      proto.copies = k;
+      proto.triangles = uint64_t(scene.triangleCount()) * k;
+      failAll(proto, "[triangles, " + std::to_string(k) + " copies] ", e.what());
+      continue;
+    }
+    runPoint("triangles", big, k, o.width, o.height);
+  }
+
+  log << "writing scaling reports" << std::endl;
+  const fs::path dir = out.path();
+  nlohmann::ordered_json json = nlohmann::ordered_json::array();
+  std::string csv;
+  for (size_t c = 0; c < kColumns.size(); ++c) {
+    if (c) csv += ',';
+    csv += kColumns[c];
+  }
+  csv += "\n";
+  for (auto& r : rows) {
+    auto j = toJson(r);
+    for (size_t c = 0; c < kColumns.size(); ++c) {
+      if (c) csv += ',';
+      csv += csvCell(j.at(kColumns[c]));
+    }
+    csv += "\n";
+    json.push_back(j);
+  }
+  nlohmann::ordered_json doc;
+  doc["scene"] = scene.name;
+  doc["view"] = view;
+  doc["device"] = device;
+  doc["frames"] = o.frames;
+  doc["rows"] = json;
+  writeFileAtomic((dir / "scaling.json").string(), doc.dump(2) + "\n");
+  writeFileAtomic((dir / "scaling.csv").string(), csv);
+  writeFileAtomic((dir / "scaling.md").string(), scalingMd(scene.name, view, device, o, rows));
+  writeFileAtomic((dir / "scaling_resolution.svg").string(),
+                  sweepSvg(rows, "resolution", "pixels (log scale)", methods));
+  writeFileAtomic((dir / "scaling_triangles.svg").string(),
+                  sweepSvg(rows, "triangles", "triangles (log scale)", methods));
+  for (const char* name : {"scaling_resolution", "scaling_triangles"})
+    svgToPng((dir / (std::string(name) + ".svg")).string(), (dir / (std::string(name) + ".png")).string());
+  out.commit();
+
+  size_t failed = size_t(std::count_if(rows.begin(), rows.end(), [](const ScalingRow& r) { return !r.ok(); }));
+  std::cout << "result: scaling of " << scene.name << " / " << view << ": " << rows.size() << " point(s), " << failed
+            << " failed; wrote " << o.out << "/ (scaling.md, scaling.json, scaling.csv, scaling_resolution.svg/.png, "
+            << "scaling_triangles.svg/.png)\n";
+  return kExitOk;
+}
+
+}  // namespace cs
