@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "app/commands.h"
+#include "app/dynamic.h"
 #include "app/frame_runner.h"
 #include "app/methods.h"
 #include "app/scaling.h"
@@ -270,6 +271,7 @@ std::string speedVsErrorSvg(const std::vector<Row>& rows) {
 }  // namespace
 
 int runCompare(const Options& o) {
+  if (o.animateFrames) return runDynamicCompare(o);
   if (o.scaling) return runScaling(o);
   NullBuffer nullBuf;
   std::ostream quiet(&nullBuf);

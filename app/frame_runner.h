@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <functional>
 #include <iomanip>
+#include <iostream>
+#include <memory>
 #include <ostream>
 #include <sstream>
 #include <string>
@@ -16,12 +18,33 @@
 #include "app/cli.h"
 #include "core/scene.h"
 #include "eval/method.h"
+#include "vk/context.h"
 
 namespace cs {
 
 struct NullBuffer : std::streambuf {
   int overflow(int c) override { return c; }
 };
+
+// A command's progress stream: stdout, or nowhere under --quiet.
+class ProgressLog {
+ public:
+  explicit ProgressLog(bool quiet) : stream_(quiet ? &null_ : std::cout.rdbuf()) {}
+  std::ostream& stream() { return stream_; }
+
+ private:
+  NullBuffer null_;
+  std::ostream stream_;
+};
+
+// The Vulkan context of a command: --device and --validation from the CLI, no driver chatter.
+inline std::unique_ptr<vk::Context> commandContext(const Options& o) {
+  vk::ContextOptions co;
+  co.device = o.device;
+  co.validation = o.validation;
+  co.quiet = true;
+  return vk::createContext(co);
+}
 
 inline double median(std::vector<double> v) {
   if (v.empty()) return 0;
@@ -115,6 +138,24 @@ inline glm::vec3 chooseLight(const Scene& scene, const Options& o, std::ostream&
   log << "  no point light in the scene: using an automatic one at " << light.x << "," << light.y << ","
       << light.z << "\n";
   return light;
+}
+
+// The views a compare run covers: --views by name, else every camera of the scene, else an automatic one.
+inline std::vector<Camera> selectViews(const Scene& scene, const Options& o) {
+  std::vector<Camera> cameras;
+  for (auto& v : o.views) {
+    const Camera* c = scene.findCamera(v);
+    if (!c) {
+      std::string all;
+      for (auto& cam : scene.cameras) all += (all.empty() ? "" : ", ") + cam.name;
+      throw UsageError("scene " + scene.name + " has no view '" + v + "'" +
+                       (all.empty() ? " (it has no cameras)" : " (views: " + all + ")"));
+    }
+    cameras.push_back(*c);
+  }
+  if (!cameras.empty()) return cameras;
+  if (!scene.cameras.empty()) return scene.cameras;
+  return {automaticCamera(scene)};
 }
 
 // What every method is fed for one frame: the same samples, light and epsilon.

@@ -7,6 +7,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -280,6 +282,90 @@ TEST(BuiltinMotion, MovesTheShapesKeepsTheRoomAndUnitNormals) {
     const glm::vec3 p = s1.positions[s1.indices[t]], q = s1.positions[s1.indices[t + 1]], r = s1.positions[s1.indices[t + 2]];
     ASSERT_GE(glm::dot(glm::cross(q - p, r - p), s1.normals[s1.indices[t]]), 0.0f) << "triangle " << t / 3;
   }
+}
+
+// ------------------------------------------------------------------------------------------------
+// compare --animate through the CLI, at 64x64.
+
+struct OutDir {
+  fs::path path = fs::temp_directory_path() / ("coneshadow_dynamic_" + std::to_string(::getpid()));
+  ~OutDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+};
+
+json readJson(const fs::path& p) {
+  std::ifstream in(p);
+  return json::parse(in);
+}
+
+size_t fileLines(const fs::path& p) {
+  std::ifstream in(p);
+  size_t n = 0;
+  for (std::string line; std::getline(in, line);) ++n;
+  return n;
+}
+
+bool hasStage(const json& row, const std::string& name) {
+  for (const json& s : row["stages"])
+    if (s["name"] == name) return true;
+  return false;
+}
+
+TEST(DynamicCompare, BuiltinMotionEveryMethodPaysPerFrameAndTheConePathIsExactOnEveryFrame) {
+  OutDir out;
+  const test::CliRun r = test::cli("compare --animate 3 --width 64 --height 64 --methods cone,embree,rmsm --views wall "
+                                   "--quiet --out " + out.path.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("result: dynamic compare of 3 method row(s) over 3 frame(s)"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("frame 1/3"), std::string::npos) << "--quiet prints no progress:\n" << r.out;
+  ASSERT_TRUE(fs::exists(out.path / "dynamic.md"));
+  std::ifstream md(out.path / "dynamic.md");
+  const std::string report((std::istreambuf_iterator<char>(md)), std::istreambuf_iterator<char>());
+  for (const char* cell : {"| cone |", "| embree |", "| rmsm |", "bvh_build", "upload", "superpages"})
+    EXPECT_NE(report.find(cell), std::string::npos) << cell << "\n" << report;
+  EXPECT_EQ(fileLines(out.path / "results.csv"), 1u + 3 * 3);
+
+  std::map<std::string, std::vector<int>> frames;
+  for (const json& row : readJson(out.path / "results.json")) {
+    const std::string m = row["method"];
+    frames[m].push_back(row["stats"]["frame"].get<int>());
+    EXPECT_TRUE(row["stats"].contains("time"));
+    if (m == "cone") {
+      EXPECT_EQ(row["error"]["misclassified_outside_band"], 0) << "frame " << row["stats"]["frame"];
+      EXPECT_TRUE(hasStage(row, "upload")) << "the moved triangles are uploaded every frame";
+    }
+    if (m == "embree") {
+      EXPECT_TRUE(hasStage(row, "bvh_build"));
+    }
+    if (m == "rmsm") {
+      EXPECT_TRUE(hasStage(row, "superpages"));
+    }
+  }
+  for (const char* m : {"cone", "embree", "rmsm"}) EXPECT_EQ(frames[m], (std::vector<int>{0, 1, 2})) << m;
+}
+
+TEST(DynamicCompare, StaticFileNeedsMovingCameraThenRmsmRunsRebuiltAndCached) {
+  OutDir out;
+  const std::string box = model("BoxTextured-glTF-Binary/BoxTextured.glb");
+  const test::CliRun refused = test::cli("compare " + box + " --animate 2 --out " + out.path.string());
+  EXPECT_EQ(refused.code, 2) << refused.out;
+  EXPECT_NE(refused.out.find("--moving-camera"), std::string::npos) << refused.out;
+
+  const test::CliRun r = test::cli("compare " + box + " --animate 2 --moving-camera --width 64 --height 64 "
+                                   "--methods cone,rmsm --out " + out.path.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("frame 2/2"), std::string::npos) << r.out;
+  std::map<std::string, int> rows;
+  for (const json& row : readJson(out.path / "results.json")) {
+    rows[row["stats"]["setting"].get<std::string>()]++;
+    // The scene does not move: the cone path never re-uploads its triangles after the warm-up.
+    if (row["method"] == "cone") {
+      EXPECT_FALSE(hasStage(row, "upload"));
+    }
+  }
+  EXPECT_EQ(rows, (std::map<std::string, int>{{"cone", 2}, {"rmsm", 2}, {"rmsm (cached)", 2}}));
 }
 
 }  // namespace

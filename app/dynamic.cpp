@@ -1,0 +1,305 @@
+// `coneshadow compare --animate N`: see dynamic.h.
+#include "app/dynamic.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <sstream>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "app/frame_runner.h"
+#include "app/methods.h"
+#include "core/animation.h"
+#include "core/image_io.h"
+#include "eval/frame_output.h"
+#include "eval/metrics.h"
+#include "raster/raster.h"
+#include "reference/embree_reference.h"
+#include "reference/epsilon.h"
+#include "vk/context.h"
+
+namespace fs = std::filesystem;
+
+namespace cs {
+
+bool isRebuildStage(const std::string& method, const std::string& stage) {
+  static const std::map<std::string, std::vector<std::string>> kRebuild = {
+      {"embree", {"bvh_build"}},
+      {"cone", {"upload", "build"}},
+      {"rmsm", {"upload", "allocate", "page_tables", "superpages"}},
+      {"cubesm", {"upload", "faces"}},
+  };
+  auto it = kRebuild.find(method);
+  return it != kRebuild.end() && std::find(it->second.begin(), it->second.end(), stage) != it->second.end();
+}
+
+Camera orbitCamera(const Camera& camera, uint32_t k, uint32_t n, bool enclosed) {
+  if (n == 0) return camera;
+  const double phase = double(k) / double(n), twoPi = 2 * glm::pi<double>();
+  const double angle = enclosed ? 0.5 * std::sin(twoPi * phase) : twoPi * phase;
+  glm::dvec3 up(camera.up);
+  if (!(glm::length(up) > 0)) up = {0, 1, 0};
+  const glm::dvec3 target(camera.target), offset = glm::dvec3(camera.eye) - target;
+  Camera out = camera;
+  out.eye = glm::vec3(target + glm::dvec3(glm::rotate(glm::dmat4(1), angle, glm::normalize(up)) * glm::dvec4(offset, 0)));
+  return out;
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+std::string num(double v, int prec) {
+  std::ostringstream os;
+  os << std::fixed << std::setprecision(prec) << v;
+  return os.str();
+}
+
+// One row of the report: a method (with its options) on one view, over every frame.
+struct Track {
+  std::string method, label;
+  Options options;
+  std::unique_ptr<ShadowMethod> object;  // null for embree: the reference's own run is its row
+  std::vector<FrameResult> frames;
+};
+
+struct ViewLog {
+  std::string view;
+  std::vector<double> rasterMs, uploadMs;
+};
+
+std::vector<Track> makeTracks(const std::vector<std::string>& methods, const Options& o, bool staticScene) {
+  std::vector<Track> tracks;
+  for (const std::string& m : methods) {
+    if (m != "rmsm") {
+      tracks.push_back({m, m, o, nullptr, {}});
+      continue;
+    }
+    Options rebuilt = o, cached = o;
+    rebuilt.rmsmCached = false;
+    cached.rmsmCached = true;
+    tracks.push_back({m, "rmsm", rebuilt, nullptr, {}});
+    // A static scene seen by a moving camera is where cached pages pay; in a moving scene rmsm drops
+    // its cache whenever the geometry changes, so the cached row is only run when asked for.
+    if (staticScene || o.rmsmCached) tracks.push_back({m, "rmsm (cached)", cached, nullptr, {}});
+  }
+  return tracks;
+}
+
+// The per-frame rebuild stages of a track: "bvh_build 1.23" or "upload 0.40 + build 2.10 = 2.50",
+// medians over the frames.
+std::string rebuildText(const Track& t) {
+  std::vector<std::string> names;
+  for (const FrameResult& f : t.frames)
+    for (const StageTime& s : f.stages)
+      if (isRebuildStage(t.method, s.name) && std::find(names.begin(), names.end(), s.name) == names.end())
+        names.push_back(s.name);
+  if (names.empty()) return "—";
+  std::string text;
+  std::vector<double> sums(t.frames.size(), 0.0);
+  for (const std::string& n : names) {
+    std::vector<double> ms;
+    for (size_t k = 0; k < t.frames.size(); ++k) {
+      double v = 0;
+      for (const StageTime& s : t.frames[k].stages)
+        if (s.name == n) v += s.ms;
+      ms.push_back(v);
+      sums[k] += v;
+    }
+    text += (text.empty() ? "" : " + ") + n + " " + num(median(ms), 2);
+  }
+  if (names.size() > 1) text += " = " + num(median(sums), 2);
+  return text;
+}
+
+std::string dynamicMd(const std::string& sceneName, const std::string& device, const Options& o,
+                      const std::string& motion, const std::vector<ViewLog>& views,
+                      const std::vector<std::vector<Track>>& tracks) {
+  std::ostringstream os;
+  os << "# coneshadow compare --animate: " << sceneName << "\n\n"
+     << "device: " << device << "\n\n"
+     << o.width << "x" << o.height << ", " << o.animateFrames << " frame(s): " << motion
+     << ". Every method object persists across the frames, so each frame pays the method's per-frame cost; "
+        "one warm-up frame at a half-step pose comes first. ms per frame: median (min–max) over the frames. "
+        "Per-frame rebuild: medians of the stages that rebuild the method's scene or shadow structure every "
+        "frame, by the names the method reports. Misclassified: lit samples outside the ambiguity band whose "
+        "answer differs from Embree's, summed over the frames (count, and % of the lit samples outside the "
+        "band); worst frame: the one with the most.\n";
+  for (size_t v = 0; v < views.size(); ++v) {
+    os << "\n## " << views[v].view << "\n\n"
+       << "| method | ms per frame median (min–max) | per-frame rebuild, median ms | misclassified outside band, "
+          "all frames | worst frame |\n| --- | ---: | --- | ---: | --- |\n";
+    for (const Track& t : tracks[v]) {
+      std::vector<double> ms;
+      uint64_t wrong = 0, counted = 0, worst = 0;
+      size_t worstFrame = 0;
+      for (size_t k = 0; k < t.frames.size(); ++k) {
+        const ErrorStats& e = t.frames[k].error;
+        ms.push_back(t.frames[k].totalMs);
+        wrong += e.misclassifiedOutsideBand;
+        counted += e.litSamples - e.bandSamples;
+        if (e.misclassifiedOutsideBand > worst) {
+          worst = e.misclassifiedOutsideBand;
+          worstFrame = k;
+        }
+      }
+      const double fraction = counted ? double(wrong) / double(counted) : 0.0;
+      os << "| " << t.label << " | " << num(median(ms), 2) << " (" << num(*std::min_element(ms.begin(), ms.end()), 2)
+         << "–" << num(*std::max_element(ms.begin(), ms.end()), 2) << ") | " << rebuildText(t) << " | " << wrong
+         << " (" << num(100.0 * fraction, 4) << "%) | "
+         << (worst ? "frame " + std::to_string(worstFrame) + ": " + std::to_string(worst) : std::string("none"))
+         << " |\n";
+    }
+    os << "\nraster (the camera pass, not a shadow cost): median " << num(median(views[v].rasterMs), 2)
+       << " ms per frame";
+    if (!views[v].uploadMs.empty()) os << ", plus " << num(median(views[v].uploadMs), 2) << " ms geometry upload";
+    os << ".\n";
+  }
+  return os.str();
+}
+
+}  // namespace
+
+int runDynamicCompare(const Options& o) {
+  ProgressLog progress(o.quiet);
+  std::ostream& log = progress.stream();
+  const uint32_t n = o.animateFrames;
+
+  std::vector<std::string> methods = o.methods.empty() ? methodNames() : o.methods;
+  for (const std::string& m : methods) checkMethod(m, o);
+
+  AnimatedScene anim;
+  if (o.scene.empty() || o.scene == "builtin") {
+    anim = builtinAnimatedScene();
+  } else {
+    if (!fs::exists(o.scene))
+      throw Error("no such file", o.scene, "give a .gltf/.glb path, or omit SCENE for the built-in scene");
+    anim = loadAnimatedGltf(o.scene, std::cerr);
+  }
+  const bool animated = anim.animated();
+  if (!animated && !o.movingCamera)
+    throw UsageError("scene " + anim.rest.name +
+                     " has no node animation that moves its triangles: add --moving-camera to orbit the camera "
+                     "around the static scene");
+  const bool enclosed = o.scene.empty() || o.scene == "builtin";  // the built-in views are inside a closed room
+  std::string motion = animated ? (anim.cyclic ? "one cycle of the built-in motion, t = k/" + std::to_string(n)
+                                               : "the file's animation at evenly spaced times over t = " +
+                                                     num(anim.start, 3) + ".." + num(anim.end, 3))
+                                : std::string("static scene");
+  if (o.movingCamera)
+    motion += enclosed ? ", the camera swinging ±0.5 rad about its target" : ", the camera orbiting its target once";
+
+  const Scene& rest = anim.rest;
+  std::vector<Camera> cameras = selectViews(rest, o);
+  const glm::vec3 light = chooseLight(rest, o, log);
+  std::vector<std::vector<Track>> tracks;
+  for (size_t v = 0; v < cameras.size(); ++v) tracks.push_back(makeTracks(methods, o, !animated));
+  log << "scene " << rest.name << ": " << rest.triangleCount() << " triangles, " << cameras.size() << " view(s), "
+      << tracks.front().size() << " method row(s), " << n << " frame(s), " << o.width << "x" << o.height << "; "
+      << motion << std::endl;
+
+  auto ctx = commandContext(o);
+  const std::string device = ctx->driverDescription();
+  log << "device: " << device << std::endl;
+
+  StagedDir out(o.out);
+  Raster raster(*ctx, rest);
+  Scene scene = rest;
+  std::vector<ViewLog> viewLogs;
+  for (size_t vi = 0; vi < cameras.size(); ++vi) {
+    const Camera& camera = cameras[vi];
+    ViewLog vl;
+    vl.view = camera.name.empty() ? "auto" : camera.name;
+    const std::string tag = "[view " + std::to_string(vi + 1) + "/" + std::to_string(cameras.size()) + "] " + vl.view;
+    EmbreeReference reference;
+    for (Track& t : tracks[vi])
+      if (t.method != "embree") t.object = makeMethod(t.method, ctx.get(), t.options);
+
+    DeviceGBuffer dev;
+    GBuffer gb;
+    // One frame's scene state, samples, reference and band; time < 0 is the warm-up at a half step.
+    auto frameAt = [&](double time, const Camera& cam) {
+      double uploadMs = 0;
+      if (animated) {
+        anim.pose(time, scene);
+        const auto t0 = Clock::now();
+        raster.setGeometry(scene);
+        uploadMs = msSince(t0);
+      }
+      const RasterTiming rt = raster.render(cam, light, o.width, o.height, dev, &gb);
+      return std::make_pair(rt.gpuMs, uploadMs);
+    };
+
+    log << tag << ": warm-up" << std::endl;
+    {
+      const double tw = animated ? 0.5 * (anim.frameTime(0, n) + anim.frameTime(std::min(1u, n - 1), n)) : 0.0;
+      frameAt(tw, o.movingCamera ? orbitCamera(camera, 1, 2 * n, enclosed) : camera);
+      const EpsilonPolicy policy = EpsilonPolicy::forScene(scene);
+      const FrameInput frame = frameInput(scene, gb, dev, *ctx, light, policy.eps);
+      reference.run(frame);
+      for (Track& t : tracks[vi])
+        if (t.object) t.object->run(frame);
+    }
+
+    for (uint32_t k = 0; k < n; ++k) {
+      const double time = animated ? anim.frameTime(k, n) : 0.0;
+      const auto [rasterMs, uploadMs] = frameAt(time, o.movingCamera ? orbitCamera(camera, k, n, enclosed) : camera);
+      vl.rasterMs.push_back(rasterMs);
+      if (animated) vl.uploadMs.push_back(uploadMs);
+      const EpsilonPolicy policy = EpsilonPolicy::forScene(scene);
+      const FrameInput frame = frameInput(scene, gb, dev, *ctx, light, policy.eps);
+      const MethodOutput ref = reference.run(frame);
+      const std::vector<uint8_t> band = reference.ambiguityBand(scene, gb, light, policy);
+      const size_t lit = gb.litCount();
+      std::ostringstream line;
+      line << tag << ": frame " << (k + 1) << "/" << n << " (t " << num(time, 3) << "):";
+      for (Track& t : tracks[vi]) {
+        const MethodOutput mo = t.object ? t.object->run(frame) : ref;
+        const ErrorStats err = compareVisibility(gb, mo.visibility, ref.visibility, band);
+        FrameResult r = makeFrameResult(rest.name, vl.view, t.method, gb, t.object ? device : "cpu (embree)", mo, err);
+        double rebuildMs = 0;
+        for (const StageTime& s : mo.stages)
+          if (isRebuildStage(t.method, s.name)) rebuildMs += s.ms;
+        nlohmann::json& st = r.stats;
+        st["frame"] = k;
+        st["time"] = time;
+        st["frames"] = n;
+        st["setting"] = t.label;
+        st["animated"] = animated;
+        st["moving_camera"] = o.movingCamera;
+        st["rebuild_ms"] = rebuildMs;
+        st["raster_ms"] = rasterMs;
+        st["geometry_upload_ms"] = uploadMs;
+        st["lit_samples"] = lit;
+        st["band_samples"] = err.bandSamples;
+        t.frames.push_back(std::move(r));
+        line << " " << t.label << " " << num(mo.totalMs, 1) << " ms (" << err.misclassifiedOutsideBand << " outside band)";
+      }
+      log << line.str() << std::endl;
+    }
+    for (Track& t : tracks[vi]) t.object.reset();  // free the view's GPU memory before the next one
+    viewLogs.push_back(std::move(vl));
+  }
+
+  std::vector<FrameResult> results;
+  for (auto& view : tracks)
+    for (Track& t : view) results.insert(results.end(), t.frames.begin(), t.frames.end());
+  writeResults(out.path(), results);
+  writeFileAtomic((fs::path(out.path()) / "dynamic.md").string(),
+                  dynamicMd(rest.name, device, o, motion, viewLogs, tracks));
+  out.commit();
+
+  std::cout << "result: dynamic compare of " << tracks.front().size() << " method row(s) over " << n << " frame(s) on "
+            << cameras.size() << " view(s) of " << rest.name << " at " << o.width << "x" << o.height << " ("
+            << motion << "); wrote " << o.out << "/ (dynamic.md, results.json, results.csv)\n";
+  return kExitOk;
+}
+
+}  // namespace cs

@@ -1,0 +1,27 @@
+// `coneshadow compare --animate N`: dynamic scenes. For N frames over the scene's animation (the built-in
+// motion, or the file's node animation channels) and/or a camera orbiting its target (--moving-camera),
+// every method runs on every frame's own scene state and samples, with method objects kept across
+// frames, so each pays its per-frame cost: Embree rebuilds its BVH, the cone path re-uploads its
+// triangles and rebuilds its ray tree, RMSM renders its pages again (and, for a static scene with a
+// moving camera, also runs cached as a separate row). Writes dynamic.md, results.json and results.csv.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "app/cli.h"
+#include "eval/method.h"
+
+namespace cs {
+
+int runDynamicCompare(const Options& options);
+
+// The stages of a method's frame that are per-frame rebuilds of its scene or shadow structure
+// (embree: bvh_build; cone: upload, build; rmsm: upload, allocate, page_tables, superpages;
+// cubesm: upload, faces).
+bool isRebuildStage(const std::string& method, const std::string& stage);
+
+// The camera of frame k of n: orbiting its target about `up` by 2π·k/n, or, when `enclosed` (a camera
+// inside a room), swinging by ±0.5 rad so that it stays inside.
+Camera orbitCamera(const Camera& camera, uint32_t k, uint32_t n, bool enclosed);
+
+}  // namespace cs
