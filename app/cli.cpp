@@ -68,6 +68,13 @@ compare options (defaults: all views, all methods, 256x256, 3 frames, --out comp
                       cannot run says "failed: <reason>"; writes scaling.md, scaling.json, scaling.csv,
                       scaling_resolution.svg/.png, scaling_triangles.svg/.png
   --scaling-max-triangles N   bound of the triangle sweep (default 10000000)
+  --animate N         dynamic scene instead: N frames over the scene's motion (the built-in motion's cycle,
+                      or the file's node animation: translation/rotation/scale channels), each method kept
+                      across frames so every frame pays its per-frame cost (Embree BVH build, cone upload +
+                      tree, rmsm pages); writes dynamic.md, results.json, results.csv (one row per method
+                      and frame, with frame and time in stats)
+  --moving-camera     with --animate: the camera orbits its target (a swing inside the built-in room); a
+                      file without animation needs it, and then rmsm also runs cached, as the row rmsm (cached)
 
 exit codes:
   0  success
@@ -227,6 +234,9 @@ Options parseArgs(int argc, char** argv) {
     if (!heightSet) o.height = 256;
     if (!outSet) o.out = "compare";
   }
+  if (o.movingCamera && !o.animateFrames) throw UsageError("--moving-camera needs --animate N");
+  if (o.animateFrames && o.command != "compare") throw UsageError("--animate is an option of compare");
+  if (o.animateFrames && o.scaling) throw UsageError("--animate and --scaling are separate runs; give one of them");
   if (o.command == "info" && o.scene.empty()) throw UsageError("info needs a SCENE (a .gltf/.glb file, or builtin)");
   return o;
 }

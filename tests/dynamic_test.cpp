@@ -313,6 +313,17 @@ bool hasStage(const json& row, const std::string& name) {
   return false;
 }
 
+TEST(DynamicCompare, FlagsOutsideADynamicCompareAreUsageErrors) {
+  for (const char* args : {"compare --moving-camera", "render --animate 2", "compare --animate 2 --scaling",
+                           "compare --animate 0"}) {
+    const test::CliRun r = test::cli(args);
+    EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
+  }
+  const test::CliRun help = test::cli("help");
+  EXPECT_NE(help.out.find("--animate N"), std::string::npos);
+  EXPECT_NE(help.out.find("--moving-camera"), std::string::npos);
+}
+
 TEST(DynamicCompare, BuiltinMotionEveryMethodPaysPerFrameAndTheConePathIsExactOnEveryFrame) {
   OutDir out;
   const test::CliRun r = test::cli("compare --animate 3 --width 64 --height 64 --methods cone,embree,rmsm --views wall "
