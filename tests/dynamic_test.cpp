@@ -357,6 +357,19 @@ TEST(DynamicCompare, BuiltinMotionEveryMethodPaysPerFrameAndTheConePathIsExactOn
   for (const char* m : {"cone", "embree", "rmsm"}) EXPECT_EQ(frames[m], (std::vector<int>{0, 1, 2})) << m;
 }
 
+TEST(DynamicCompare, AnimatedFileRunsOverItsKeyTimes) {
+  TinyGltf g;
+  OutDir out;
+  const test::CliRun r = test::cli("compare " + g.write() + " --animate 3 --width 64 --height 64 --methods cone,embree "
+                                   "--quiet --out " + out.path.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("the file's animation at evenly spaced times over t = 0.000..2.000"), std::string::npos) << r.out;
+  std::vector<double> times;
+  for (const json& row : readJson(out.path / "results.json"))
+    if (row["method"] == "cone") times.push_back(row["stats"]["time"].get<double>());
+  EXPECT_EQ(times, (std::vector<double>{0.0, 1.0, 2.0}));  // not a cycle: first to last key
+}
+
 TEST(DynamicCompare, StaticFileNeedsMovingCameraThenRmsmRunsRebuiltAndCached) {
   OutDir out;
   const std::string box = model("BoxTextured-glTF-Binary/BoxTextured.glb");
