@@ -16,6 +16,7 @@ usage:
   coneshadow compare [SCENE] [options]  every method (and a small quality/memory sweep) on every view,
                                         against one Embree reference; writes a report
   coneshadow info SCENE                 triangles (flattened over node instances), bounds, cameras, lights
+  coneshadow results-table DIR...       markdown table of the compare results in each DIR (the README's)
   coneshadow devices                    list the Vulkan devices
   coneshadow help                       this text
 

@@ -1,20 +1,26 @@
 // coneshadow: the command-line entry point. Errors end as one line on stderr and a documented exit code.
 #include <iostream>
+#include <string>
+#include <vector>
 
 #include "app/cli.h"
 #include "app/commands.h"
 #include "app/compare.h"
+#include "app/results_table.h"
 #include "core/error.h"
 
 int main(int argc, char** argv) {
+  // results-table takes folders only, no options.
+  const bool resultsTable = argc > 1 && std::string(argv[1]) == "results-table";
   cs::Options options;
   try {
-    options = cs::parseArgs(argc, argv);
+    if (!resultsTable) options = cs::parseArgs(argc, argv);
   } catch (const cs::UsageError& e) {
     std::cerr << "coneshadow: " << e.what() << "\n";
     return cs::kExitUsage;
   }
   try {
+    if (resultsTable) return cs::runResultsTable(std::vector<std::string>(argv + 2, argv + argc), std::cout);
     if (options.command == "help") {
       std::cout << cs::usageText();
       return cs::kExitOk;

@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include "app/compare.h"
+#include "app/results_table.h"
 #include "app/scaling.h"
 #include "app/svg_plot.h"
 #include "core/error.h"
@@ -348,6 +349,36 @@ TEST(Scaling, TinySweepWritesFilesWithCsvMatchingJson) {
   EXPECT_NE(md.find("](scaling_triangles.png)"), std::string::npos);
   EXPECT_NE(md.find("| 4 / 30160 |"), std::string::npos) << md;
   fs::remove_all(out);
+}
+
+nlohmann::json resultRow(const std::string& view, const std::string& method, const std::string& setting, double ms,
+                         double outsideBand) {
+  return {{"scene", "s"},
+          {"view", view},
+          {"method", method},
+          {"width", 64},
+          {"height", 32},
+          {"device", "gpu0"},
+          {"total_ms", ms},
+          {"stats", {{"setting", setting}, {"gpu", "gpu0"}}},
+          {"error", {{"misclassified_fraction_outside_band", outsideBand}}}};
+}
+
+TEST(ResultsTable, RatiosComeFromTheSameRun) {
+  nlohmann::json run = nlohmann::json::array();
+  run.push_back(resultRow("a", "embree", "embree", 10, 0));
+  run.push_back(resultRow("a", "cone", "cone@64M", 30, 0));
+  run.push_back(resultRow("a", "cone", "cone@65.5K", 45, 0));
+  run.push_back(resultRow("a", "rmsm", "rmsm@16M", 60, 0.0125));
+  run.push_back(resultRow("b", "embree", "embree", 20, 0));
+  run.push_back(resultRow("b", "cone", "cone@64M", 10, 0));
+  std::string t = cs::resultsTable({run});
+  EXPECT_NE(t.find("Device: `gpu0`"), std::string::npos) << t;
+  EXPECT_NE(t.find("| scene / view | size | embree | cone@64M | cone@65.5K | rmsm@16M | cone / Embree | cone / rmsm@16M |"),
+            std::string::npos) << t;
+  EXPECT_NE(t.find("| s / a | 64x32 | 10.0 ms / 0 % | 30.0 ms / 0 % | 45.0 ms / 0 % | 60.0 ms / 1.250 % | 3.00x | 0.50x |"),
+            std::string::npos) << t;
+  EXPECT_NE(t.find("| s / b | 64x32 | 20.0 ms / 0 % | 10.0 ms / 0 % | - | - | 0.50x | - |"), std::string::npos) << t;
 }
 
 TEST(Compare, UnknownMethodIsAUsageErrorNamingIt) {
