@@ -273,9 +273,8 @@ std::string speedVsErrorSvg(const std::vector<Row>& rows) {
 int runCompare(const Options& o) {
   if (o.animateFrames) return runDynamicCompare(o);
   if (o.scaling) return runScaling(o);
-  NullBuffer nullBuf;
-  std::ostream quiet(&nullBuf);
-  std::ostream& log = o.quiet ? quiet : std::cout;
+  ProgressLog progressLog(o.quiet);
+  std::ostream& log = progressLog.stream();
 
   // Validate the method list before any heavy work (makeMethod throws UsageError naming an unknown one).
   auto registered = methodNames();
@@ -285,32 +284,12 @@ int runCompare(const Options& o) {
   std::vector<CompareSetting> settings = compareSettings(methods, o);
 
   Scene scene = loadSceneArg(o.scene, std::cerr);
-  std::vector<Camera> cameras;
-  if (!o.views.empty()) {
-    for (auto& v : o.views) {
-      const Camera* c = scene.findCamera(v);
-      if (!c) {
-        std::string all;
-        for (auto& cam : scene.cameras) all += (all.empty() ? "" : ", ") + cam.name;
-        throw UsageError("scene " + scene.name + " has no view '" + v + "'" +
-                         (all.empty() ? " (it has no cameras)" : " (views: " + all + ")"));
-      }
-      cameras.push_back(*c);
-    }
-  } else if (!scene.cameras.empty()) {
-    cameras = scene.cameras;
-  } else {
-    cameras.push_back(automaticCamera(scene));
-  }
+  std::vector<Camera> cameras = selectViews(scene, o);
   glm::vec3 light = chooseLight(scene, o, log);
   log << "scene " << scene.name << ": " << scene.triangleCount() << " triangles, " << cameras.size() << " view(s), "
       << settings.size() << " method setting(s), " << o.width << "x" << o.height << std::endl;
 
-  vk::ContextOptions co;
-  co.device = o.device;
-  co.validation = o.validation;
-  co.quiet = true;
-  auto ctx = vk::createContext(co);
+  auto ctx = commandContext(o);
   std::string device = ctx->driverDescription();
   log << "device: " << device << std::endl;
 

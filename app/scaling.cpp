@@ -178,9 +178,9 @@ std::string scalingMd(const std::string& sceneName, const std::string& view, con
 }  // namespace
 
 int runScaling(const Options& base) {
-  NullBuffer nullBuf;
-  std::ostream quiet(&nullBuf);
-  std::ostream& log = base.quiet ? quiet : std::cout;
+  ProgressLog progressLog(base.quiet), silent(true);
+  std::ostream& log = progressLog.stream();
+  std::ostream& quiet = silent.stream();  // per-frame progress of runTimed: one line per method instead
 
   // The hidden --scaling-sizes=N1,N2 setting; everything else in `extra` goes to the methods.
   Options o = base;
@@ -215,25 +215,15 @@ int runScaling(const Options& base) {
   const uint64_t maxTriangles = o.scalingMaxTriangles ? o.scalingMaxTriangles : kDefaultScalingMaxTriangles;
 
   Scene scene = loadSceneArg(o.scene, std::cerr);
-  std::string viewName = !o.views.empty() ? o.views.front() : o.view;
-  Camera camera;
-  if (!viewName.empty()) {
-    const Camera* c = scene.findCamera(viewName);
-    if (!c) throw UsageError("scene " + scene.name + " has no view '" + viewName + "'");
-    camera = *c;
-  } else {
-    camera = scene.cameras.empty() ? automaticCamera(scene) : scene.cameras.front();
-  }
+  Options viewOptions = o;
+  if (viewOptions.views.empty() && !o.view.empty()) viewOptions.views = {o.view};
+  const Camera camera = selectViews(scene, viewOptions).front();  // the first of --views, else the first camera
   const std::string view = camera.name.empty() ? "auto" : camera.name;
   const glm::vec3 light = chooseLight(scene, o, log);
   const EpsilonPolicy policy = EpsilonPolicy::forScene(scene);  // the original's, at every point
   const std::vector<uint32_t> copies = scalingCopies(scene.triangleCount(), maxTriangles);
 
-  vk::ContextOptions co;
-  co.device = o.device;
-  co.validation = o.validation;
-  co.quiet = true;
-  auto ctx = vk::createContext(co);
+  auto ctx = commandContext(o);
   const std::string device = ctx->driverDescription();
   log << "scaling " << scene.name << " / " << view << ": " << sizes.size() << " resolution point(s), "
       << copies.size() << " triangle point(s) up to " << copies.back() * scene.triangleCount() << " triangles, "
