@@ -9,7 +9,7 @@
 // Copies sit side by side on a grid in the x–z plane beyond the scene's bounds (instancedScene); the
 // camera, light and epsilon stay those of the original, so the picture is the same and only the
 // triangle count grows.
-// A method that fails at a point (too many triangles for one storage binding, out of memory, ...) gives
+// A method that fails at a point (out of device memory, a device limit, ...) gives
 // that point "failed: <reason>"; the sweep goes on.
 #pragma once
 #include <cstdint>

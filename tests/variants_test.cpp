@@ -153,6 +153,21 @@ TEST(VariantExactness, EveryVariantIsExactOnAGltfModel) {
   allVariants(f, "2CylinderEngine");
 }
 
+TEST(VariantExactness, AScenePastOneTriangleBufferIsTraversedBufferByBufferWithTheSameMask) {
+  // 7,540 triangles in buffers of 1,000 (as a scene past the device's storage binding would be split).
+  Scene scene = builtinScene();
+  Frame f(scene, *scene.findCamera("room"), scene.lights[0].position, 80);
+  for (const char* v : {"PreciseSorted", "PreciseSEATP", "Spheres"}) {
+    VariantResult whole = runExact(f, variant(v), std::string("builtin/room ") + v);
+    ConeOptions split = variant(v);
+    split.trianglesPerBinding = 1000;
+    VariantResult parts = runExact(f, split, std::string("builtin/room ") + v + " in 1000-triangle buffers");
+    EXPECT_EQ(parts.stats["triangle_buffers"].get<uint64_t>(), 8u);
+    EXPECT_EQ(whole.stats["triangle_buffers"].get<uint64_t>(), 1u);
+    EXPECT_TRUE(sameBits(whole.mask, parts.mask)) << v << ": splitting the triangles changed the mask";
+  }
+}
+
 // ---- front-face culling on closed meshes ------------------------------------------------------------------
 
 // A box's 12 triangles, wound so that N = (v1 - v0) x (v2 - v0) points out of it (or into it: a room).

@@ -139,6 +139,7 @@ class ConeMethod : public ShadowMethod {
     nlohmann::json stats = {{"lit_samples", lit},
                             {"triangles", triangleCount_},
                             {"triangles_dropped", droppedTriangles_},
+                            {"triangle_buffers", triangles_.size()},
                             {"sorted", options_.sorted},
                             {"variant", coneVariantName(options_)},
                             {"test", options_.test == ConeTest::Sphere ? "sphere" : "precise"},
@@ -155,8 +156,6 @@ class ConeMethod : public ShadowMethod {
         tree_.record(cmd, g.position, rays_->samples(), lit, frame.light, 2.0f * eps);
       });
       traversal::TraversalInput in;
-      in.triangles = &triangles_;
-      in.triangleCount = triangleCount_;
       in.tree = &tree_;
       in.samples = rays_->samples();
       in.positions = g.position;
@@ -169,7 +168,7 @@ class ConeMethod : public ShadowMethod {
       stats["tree_depth"] = tree_.shape().depth;
       stats["tree_nodes"] = tree_.shape().nodes();
       if (options_.twoPass) ts = runTwoPass(in, lit, g, stage, stats);
-      else ts = traversal_.run(in, &timer_);
+      else ts = traverse(in, 0, triangleCount_);
     } else {
       stages.push_back({"build", 0.0});
       stats["tree_depth"] = 0;
@@ -207,9 +206,31 @@ class ConeMethod : public ShadowMethod {
 
  private:
   uint64_t bytesAllocated() const {
-    return triangles_.size + (rays_ ? rays_->bytesAllocated() : 0) + visibility_.size + tree_.bytesAllocated() +
+    uint64_t triangleBytes = 0;
+    for (const vk::Buffer& b : triangles_) triangleBytes += b.size;
+    return triangleBytes + (rays_ ? rays_->bytesAllocated() : 0) + visibility_.size + tree_.bytesAllocated() +
            traversal_.bytesAllocated() + traversal_.flagBytes() + (compact_ ? compact_->bytesAllocated() : 0) +
            rayFlags_.size + remaining_.size + kept_.size;
+  }
+
+  // Triangles [first, first + count) through the tree of `in`, one traversal per triangle buffer they
+  // fall in (one, unless the scene exceeds a storage binding); the stats summed.
+  traversal::TraversalStats traverse(traversal::TraversalInput in, uint32_t first, uint32_t count) {
+    traversal::TraversalStats total;
+    bool any = false;
+    const uint64_t end = uint64_t(first) + count;
+    for (uint64_t c = first / chunkTriangles_; c < triangles_.size() && c * chunkTriangles_ < end; ++c) {
+      const uint64_t lo = std::max<uint64_t>(first, c * chunkTriangles_);
+      const uint64_t hi = std::min<uint64_t>(end, (c + 1) * uint64_t(chunkTriangles_));
+      if (lo >= hi) continue;
+      in.triangles = &triangles_[c];
+      in.firstTriangle = uint32_t(lo - c * chunkTriangles_);
+      in.triangleCount = uint32_t(hi - lo);
+      traversal::TraversalStats ts = traversal_.run(in, &timer_);
+      total = any ? combine(total, ts) : ts;
+      any = true;
+    }
+    return total;
   }
 
   // 002 §3.4: pass one over the blockers (triangles [0, blockerCount_)), the update step, pass two over
@@ -227,11 +248,9 @@ class ConeMethod : public ShadowMethod {
                                         : "none: every triangle is a blocker, one pass";
       tp["rays_finished_pass_one"] = 0;
       stats["two_pass"] = tp;
-      return traversal_.run(in, &timer_);
+      return traverse(in, 0, triangleCount_);
     }
-    in.firstTriangle = 0;
-    in.triangleCount = blockerCount_;
-    traversal::TraversalStats one = traversal_.run(in, &timer_);
+    traversal::TraversalStats one = traverse(in, 0, blockerCount_);
 
     // Update: the rays still lit, in their order.
     traversal::TraversePush p{};
@@ -257,9 +276,7 @@ class ConeMethod : public ShadowMethod {
     } else if (double(finished) < double(options_.updateMinFinished) * double(lit)) {
       // Too few finished rays for a smaller tree to pay: pass two on the first tree (002 §3.4).
       tp["update"] = "skipped: pass one finished too few rays, pass two reuses the first tree";
-      in.firstTriangle = blockerCount_;
-      in.triangleCount = triangleCount_ - blockerCount_;
-      two = traversal_.run(in, &timer_);
+      two = traverse(in, blockerCount_, triangleCount_ - blockerCount_);
     } else {
       tp["update"] = "rebuilt";
       const float eps = in.eps;
@@ -269,9 +286,7 @@ class ConeMethod : public ShadowMethod {
       tp["tree_depth_pass_two"] = tree_.shape().depth;
       tp["tree_nodes_pass_two"] = tree_.shape().nodes();
       in.samples = remaining_;
-      in.firstTriangle = blockerCount_;
-      in.triangleCount = triangleCount_ - blockerCount_;
-      two = traversal_.run(in, &timer_);
+      two = traverse(in, blockerCount_, triangleCount_ - blockerCount_);
     }
     tp["pass_two"] = two.toJson();
     stats["two_pass"] = tp;
@@ -282,7 +297,7 @@ class ConeMethod : public ShadowMethod {
   // two-pass, also when the light moved: the blockers, first in the buffer, depend on it). Triangles
   // with a non-finite coordinate are dropped, as Embree drops them. Returns the wall ms, 0 if cached.
   double uploadTriangles(const Scene& scene, glm::vec3 light) {
-    if (cachedPositions_ == scene.positions && cachedIndices_ == scene.indices && triangles_ &&
+    if (cachedPositions_ == scene.positions && cachedIndices_ == scene.indices && !triangles_.empty() &&
         (!options_.twoPass || cachedLight_ == light))
       return 0.0;
     auto t0 = Clock::now();
@@ -308,15 +323,25 @@ class ConeMethod : public ShadowMethod {
     }
     triangleCount_ = uint32_t(tris.size() / 3);
     if (options_.twoPass) orderBlockersFirst(tris, light);
-    const uint64_t bytes = std::max<uint64_t>(tris.size() * sizeof(glm::vec4), 16);
-    CS_CHECK(bytes <= ctx_.maxStorageBufferRange(),
-             "scene '" << scene.name << "': " << triangleCount_ << " triangles (" << bytes
-                       << " bytes) exceed one storage binding of this device (" << ctx_.maxStorageBufferRange() << ")");
-    if (triangles_.size < bytes) {
-      triangles_.reset();
-      triangles_ = vk::createBuffer(ctx_, bytes);
+    // One buffer per `perBinding` triangles: a scene larger than one storage binding of the device
+    // (128 MiB on lavapipe: 2.8 M triangles) is traversed binding by binding (traverse()).
+    constexpr uint64_t kTriangleBytes = 3 * sizeof(glm::vec4);
+    const uint64_t perBinding =
+        options_.trianglesPerBinding ? options_.trianglesPerBinding : ctx_.maxStorageBufferRange() / kTriangleBytes;
+    CS_CHECK(perBinding >= 1, "cone: a storage binding of this device cannot hold one triangle");
+    chunkTriangles_ = uint32_t(std::min<uint64_t>(perBinding, UINT32_MAX));
+    const size_t chunks = std::max<size_t>(1, (triangleCount_ + uint64_t(chunkTriangles_) - 1) / chunkTriangles_);
+    triangles_.resize(chunks);
+    for (size_t c = 0; c < chunks; ++c) {
+      const uint64_t first = uint64_t(c) * chunkTriangles_;
+      const uint64_t count = std::min<uint64_t>(chunkTriangles_, triangleCount_ - std::min<uint64_t>(first, triangleCount_));
+      const uint64_t bytes = std::max<uint64_t>(count * kTriangleBytes, 16);
+      if (triangles_[c].size < bytes || triangles_[c].size > 2 * bytes) {
+        triangles_[c].reset();
+        triangles_[c] = vk::createBuffer(ctx_, bytes);
+      }
+      if (count) vk::upload(ctx_, triangles_[c], tris.data() + 3 * first, count * kTriangleBytes);
     }
-    if (!tris.empty()) vk::upload(ctx_, triangles_, tris.data(), tris.size() * sizeof(glm::vec4));
     cachedPositions_ = scene.positions;
     cachedIndices_ = scene.indices;
     cachedLight_ = light;
@@ -359,7 +384,9 @@ class ConeMethod : public ShadowMethod {
   vk::Timer timer_;
   std::unique_ptr<sort::LitRays> rays_;
   uint32_t raysWidth_ = 0, raysHeight_ = 0;
-  vk::Buffer triangles_, visibility_;
+  std::vector<vk::Buffer> triangles_;  // chunkTriangles_ triangles each (the last: the rest)
+  uint32_t chunkTriangles_ = 1;
+  vk::Buffer visibility_;
   uint32_t triangleCount_ = 0;
   uint64_t droppedTriangles_ = 0;
   std::vector<glm::vec3> cachedPositions_;

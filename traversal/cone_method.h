@@ -57,6 +57,10 @@ struct ConeOptions {
   float blockerSolidAngle = 4.0f * 3.14159265f / 4096.0f;  // sr: 1/4096 of the sphere
   float blockerMaxFraction = 0.125f;
   float updateMinFinished = 0.1f;
+  // Triangles per triangle buffer; 0 = as many as one storage binding of the device holds (48 bytes each:
+  // 2.8 M on lavapipe's 128 MiB). A larger scene is traversed buffer by buffer, the same tree and mask
+  // (tests set a small value to prove it).
+  uint32_t trianglesPerBinding = 0;
   // Tests only: when arena.pairCapacity > 0, this exact arena (down to traversal::minimumPairs pairs and
   // chunks of one pair) instead of one planned from traversalMemoryBytes.
   traversal::ArenaPlan arena;
