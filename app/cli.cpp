@@ -47,6 +47,8 @@ render options:
   --rmsm-pool BYTES   rmsm: physical page pool (default 16M; too small -> coarser finest LOD, reported)
   --rmsm-page N       rmsm: page side in texels (default 32)
   --rmsm-max-res N    rmsm: finest effective resolution per face side (default 32768)
+  --rmsm-lod-bias L   rmsm: request pages L levels finer than the resolution-matched level (default 0;
+                      1 = texels half a pixel's footprint, 4x the pages)
   --rmsm-cached       rmsm: keep pages across frames (static scenes)
   --frames N          timed frames after one warm-up; medians are reported (default 3)
   --device D          Vulkan device by index or name substring (see `coneshadow devices`);
@@ -56,8 +58,9 @@ render options:
 
 compare options (defaults: all views, all methods, 256x256, 3 frames, --out compare):
   --methods A,B       methods to compare (default: all registered); each runs a small sweep:
-                      cubesm@512 and @2048 (face resolution), rmsm@4M and @16M (page pool),
-                      cone at its default traversal memory and at 1/1000 of it
+                      cubesm@512, @1024, @2048 (face resolution); rmsm@4M and @16M (page pool),
+                      @16M,max4096 (finest LOD capped at 4096²), @16M,lod+1 (pages one level finer than
+                      resolution-matched); cone at its default traversal memory, 1/64 and 1/1000 of it
   --views V1,V2       cameras by name (default: every camera of the scene; the automatic one if none)
   --width, --height, --frames, --device, --validation, --quiet: as for render
   writes into --out DIR: results.json, results.csv (one row per view and method setting, "setting" in
@@ -206,6 +209,13 @@ Options parseArgs(int argc, char** argv) {
       o.rmsmPage = parseUint(a, value(a), 4, 4096);
     } else if (a == "--rmsm-max-res") {
       o.rmsmMaxRes = parseUint(a, value(a), 64, 1u << 20);
+    } else if (a == "--rmsm-lod-bias") {
+      const std::string v = value(a);
+      char* end = nullptr;
+      const float bias = std::strtof(v.c_str(), &end);
+      if (v.empty() || *end != '\0' || !(bias >= -4.0f && bias <= 4.0f))
+        throw UsageError("--rmsm-lod-bias wants a number of levels in [-4, 4], got '" + v + "'");
+      o.rmsmLodBias = bias;
     } else if (a == "--rmsm-cached") {
       o.rmsmCached = true;
     } else if (a == "--animate") {

@@ -47,24 +47,32 @@ std::vector<CompareSetting> compareSettings(const std::vector<std::string>& meth
   std::vector<CompareSetting> out;
   for (auto& m : methods) {
     if (m == "cubesm") {
-      for (uint32_t r : {512u, 2048u}) {
+      for (uint32_t r : {512u, 1024u, 2048u}) {
         Options o = base;
         o.smResolution = r;
         out.push_back({m, m + "@" + std::to_string(r), o});
       }
     } else if (m == "rmsm") {
+      // Pool size, then at the default pool the finest LOD (a 4096² cap per face) and the analysis's
+      // matching (one level finer than resolution-matched: texels half a pixel's footprint).
       for (uint64_t pool : {4ull << 20, 16ull << 20}) {
         Options o = base;
         o.rmsmPool = pool;
         out.push_back({m, m + "@" + bytesLabel(pool), o});
       }
+      Options coarse = base, fine = base;
+      coarse.rmsmPool = fine.rmsmPool = 16ull << 20;
+      coarse.rmsmMaxRes = 4096;
+      fine.rmsmLodBias = 1.0f;
+      out.push_back({m, m + "@16M,max4096", coarse});
+      out.push_back({m, m + "@16M,lod+1", fine});
 #ifdef CONESHADOW_HAS_CONE
     } else if (m == "cone") {
       uint64_t def = base.traversalMemory ? base.traversalMemory : traversal::kDefaultMemoryBytes;
-      // 1/1000 of the default, kept well above the smallest budget planArena accepts (kMinPairs pairs
-      // plus one chunk's scratch).
+      // The default, 1/64 of it, and 1/1000 of it, kept well above the smallest budget planArena accepts
+      // (kMinPairs pairs plus one chunk's scratch).
       uint64_t low = std::max<uint64_t>(def / 1000, 4096);
-      for (uint64_t mem : {def, low}) {
+      for (uint64_t mem : {def, std::max<uint64_t>(def / 64, 4096), low}) {
         Options o = base;
         o.traversalMemory = mem;
         out.push_back({m, m + "@" + bytesLabel(mem), o});

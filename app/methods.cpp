@@ -127,6 +127,7 @@ std::unique_ptr<ShadowMethod> makeMethod(const std::string& name, vk::Context* c
     if (options.rmsmPool) rm.poolBytes = options.rmsmPool;
     if (options.rmsmPage) rm.pageSize = options.rmsmPage;
     if (options.rmsmMaxRes) rm.maxResolution = options.rmsmMaxRes;
+    rm.lodBias = options.rmsmLodBias;
     rm.cached = options.rmsmCached;
     rm.planeBias = options.smPlaneBias;
     return makeRmsm(*ctx, rm);

@@ -157,7 +157,7 @@ TEST(Compare, TinyBuiltinRunWritesConsistentReports) {
   EXPECT_EQ(views.size(), 2u);
   EXPECT_EQ(views["wall"], views["room"]);
   if (coneRows == 0) GTEST_LOG_(INFO) << "built without the cone path: no cone rows to check";
-  else EXPECT_EQ(coneRows, 4u) << "cone at two traversal budgets on two views";
+  else EXPECT_EQ(coneRows, 6u) << "cone at three traversal budgets on two views";
 
   // results.csv: the same rows, field by field, with the same numbers.
   auto csv = parseCsv(readText(out / "results.csv"));
