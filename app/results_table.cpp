@@ -54,8 +54,8 @@ std::string resultsTable(const std::vector<nlohmann::json>& runs) {
   std::ostringstream os;
   os << "Device: ";
   for (size_t i = 0; i < devices.size(); ++i) os << (i ? "; " : "") << "`" << devices[i] << "`";
-  os << " (Embree on the host CPU). Cells: median ms per frame / misclassified lit samples outside the ambiguity "
-        "band; ratios: "
+  os << " (Embree on the host CPU). Cells: median ms per frame / % of the lit samples misclassified outside the "
+        "ambiguity band; ratios: "
      << (cone.empty() ? "cone" : cone) << " time over Embree's and over rmsm@16M's, same run.\n\n"
      << "| scene / view | size |";
   for (auto& s : settings) os << " " << s << " |";
