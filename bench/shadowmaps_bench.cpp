@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/bench_scenes.h"
 #include "eval/frame_output.h"
 #include "eval/metrics.h"
 #include "raster/raster.h"
@@ -29,43 +30,7 @@
 namespace {
 
 using namespace cs;
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0 : (v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]));
-}
-
-struct Timed {
-  MethodOutput output;  // of the last frame
-  double medianMs = 0;
-};
-
-Timed runTimed(ShadowMethod& m, const FrameInput& frame, int frames) {
-  Timed t;
-  m.run(frame);  // warm-up: lavapipe compiles shaders at the first dispatch
-  std::vector<double> ms;
-  for (int i = 0; i < frames; ++i) {
-    t.output = m.run(frame);
-    ms.push_back(t.output.totalMs);
-  }
-  t.medianMs = median(ms);
-  return t;
-}
-
-struct View {
-  Scene* scene;
-  Camera camera;
-  glm::vec3 light;
-  std::string name;
-};
-
-std::vector<std::string> split(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  for (std::string item; std::getline(ss, item, ',');)
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
+using bench::split;
 
 }  // namespace
 
@@ -109,22 +74,7 @@ int main(int argc, char** argv) {
   }
   try {
     std::vector<std::unique_ptr<Scene>> scenes;
-    std::vector<View> views;
-    for (const std::string& s : split(scenesArg)) {
-      if (s == "builtin") {
-        scenes.push_back(std::make_unique<Scene>(builtinScene()));
-        for (const Camera& c : scenes.back()->cameras)
-          views.push_back({scenes.back().get(), c, scenes.back()->lights.at(0).position, "builtin/" + c.name});
-      } else {
-        std::string path = s == "engine" ? "/usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb" : s;
-        scenes.push_back(std::make_unique<Scene>(loadGltf(path, std::cerr)));
-        Scene& sc = *scenes.back();
-        Camera c = sc.cameras.empty() ? automaticCamera(sc) : sc.cameras.front();
-        glm::vec3 l = sc.lights.empty() ? automaticLight(sc).position : sc.lights.front().position;
-        views.push_back({&sc, c, l, (s == "engine" ? std::string("2CylinderEngine") : sc.name) + "/" +
-                                        (c.name.empty() ? "auto" : c.name)});
-      }
-    }
+    std::vector<bench::View> views = bench::loadViews(scenesArg, scenes);
     vk::ContextOptions co;
     co.device = device;
     co.quiet = true;
@@ -136,22 +86,14 @@ int main(int argc, char** argv) {
                 rmsmOptions.cached ? ", cached" : "");
     std::printf("%-24s %-7s %10s %8s %12s %12s %9s %9s %10s\n", "view", "method", "ms", "x embree", "misclass",
                 "outside band", "f.shadow", "f.light", "MiB");
-    for (View& v : views) {
-      Scene& scene = *v.scene;
-      Raster raster(*ctx, scene);
-      DeviceGBuffer dev;
-      GBuffer gb;
-      raster.render(v.camera, v.light, size, size, dev, &gb);
-      EpsilonPolicy policy = EpsilonPolicy::forScene(scene);
-      FrameInput frame;
-      frame.scene = &scene;
-      frame.gbuffer = &gb;
-      frame.device = &dev;
-      frame.vk = ctx.get();
-      frame.light = v.light;
-      frame.epsilon = policy.eps;
+    for (const bench::View& v : views) {
+      bench::ViewFrame vf(*ctx, v, size);
+      const Scene& scene = *v.scene;
+      const GBuffer& gb = vf.gb;
+      const FrameInput& frame = vf.input;
+      const EpsilonPolicy& policy = vf.policy;
       EmbreeReference reference;
-      Timed ref = runTimed(reference, frame, frames);
+      bench::Timed ref = bench::runTimed(reference, frame, frames);
       std::vector<uint8_t> band = reference.ambiguityBand(scene, gb, v.light, policy);
       struct Entry {
         std::string name;
@@ -164,7 +106,7 @@ int main(int argc, char** argv) {
         else if (m == "rmsm") methods.push_back({m, makeRmsm(*ctx, rmsmOptions)});
         else throw Error("unknown method '" + m + "'", "--methods", "cone, cubesm, rmsm");
       }
-      auto row = [&](const std::string& name, const Timed& t) {
+      auto row = [&](const std::string& name, const bench::Timed& t) {
         ErrorStats e = compareVisibility(gb, t.output.visibility, ref.output.visibility, band);
         std::printf("%-24s %-7s %10.2f %8.2f %12.6f %12.6f %9.6f %9.6f %10.1f\n", v.name.c_str(), name.c_str(),
                     t.medianMs, t.medianMs / ref.medianMs, e.misclassifiedFraction,
@@ -178,7 +120,7 @@ int main(int argc, char** argv) {
       };
       row("embree", ref);
       for (Entry& m : methods) {
-        Timed t = runTimed(*m.method, frame, frames);
+        bench::Timed t = bench::runTimed(*m.method, frame, frames);
         row(m.name, t);
         if (m.name == "rmsm") {
           const nlohmann::json& s = t.output.stats;

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/bench_scenes.h"
 #include "eval/metrics.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
@@ -29,43 +30,7 @@
 namespace {
 
 using namespace cs;
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0 : (v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]));
-}
-
-struct Timed {
-  MethodOutput output;  // of the last frame
-  double medianMs = 0;
-  int frames = 0;
-};
-
-Timed runTimed(ShadowMethod& m, const FrameInput& frame, int frames, double slowMs) {
-  Timed t;
-  t.output = m.run(frame);  // warm-up
-  if (t.output.totalMs > slowMs) {
-    t.medianMs = t.output.totalMs;
-    t.frames = 1;
-    return t;
-  }
-  std::vector<double> ms;
-  for (int i = 0; i < frames; ++i) {
-    t.output = m.run(frame);
-    ms.push_back(t.output.totalMs);
-  }
-  t.medianMs = median(ms);
-  t.frames = frames;
-  return t;
-}
-
-std::vector<std::string> split(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  for (std::string item; std::getline(ss, item, ',');)
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
+using bench::split;
 
 std::string millions(uint64_t n) {
   char buf[32];
@@ -73,13 +38,6 @@ std::string millions(uint64_t n) {
   else std::snprintf(buf, sizeof buf, "%llu", (unsigned long long)n);
   return buf;
 }
-
-struct View {
-  Scene* scene;
-  Camera camera;
-  glm::vec3 light;
-  std::string name;
-};
 
 }  // namespace
 
@@ -116,23 +74,7 @@ int main(int argc, char** argv) {
       if (!applyConeVariant(v, o)) throw Error("unknown variant '" + v + "'", "--variants", "Precise, PreciseSorted, ...");
     }
     std::vector<std::unique_ptr<Scene>> scenes;
-    std::vector<View> views;
-    for (const std::string& s : split(scenesArg)) {
-      if (s == "builtin") {
-        scenes.push_back(std::make_unique<Scene>(builtinScene()));
-        for (const Camera& c : scenes.back()->cameras)
-          views.push_back({scenes.back().get(), c, scenes.back()->lights.at(0).position, "builtin/" + c.name});
-      } else {
-        std::string path =
-            s == "engine" ? "/usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb" : s;
-        scenes.push_back(std::make_unique<Scene>(loadGltf(path, std::cerr)));
-        Scene& sc = *scenes.back();
-        Camera c = sc.cameras.empty() ? automaticCamera(sc) : sc.cameras.front();
-        glm::vec3 l = sc.lights.empty() ? automaticLight(sc).position : sc.lights.front().position;
-        views.push_back({&sc, c, l, (s == "engine" ? std::string("2CylinderEngine") : sc.name) + "/" +
-                                        (c.name.empty() ? "auto" : c.name)});
-      }
-    }
+    std::vector<bench::View> views = bench::loadViews(scenesArg, scenes);
     vk::ContextOptions co;
     co.device = device;
     co.quiet = true;
@@ -143,22 +85,14 @@ int main(int argc, char** argv) {
     std::printf("| view | variant | nodes visited | early accepted | finished in pass one | ms | × Embree | "
                 "misclassified outside band |\n|---|---|---:|---:|---:|---:|---:|---:|\n");
     std::fflush(stdout);
-    for (View& v : views) {
-      Scene& scene = *v.scene;
-      Raster raster(*ctx, scene);
-      DeviceGBuffer dev;
-      GBuffer gb;
-      raster.render(v.camera, v.light, size, size, dev, &gb);
-      EpsilonPolicy policy = EpsilonPolicy::forScene(scene);
-      FrameInput frame;
-      frame.scene = &scene;
-      frame.gbuffer = &gb;
-      frame.device = &dev;
-      frame.vk = ctx.get();
-      frame.light = v.light;
-      frame.epsilon = policy.eps;
+    for (const bench::View& v : views) {
+      bench::ViewFrame vf(*ctx, v, size);
+      const Scene& scene = *v.scene;
+      const GBuffer& gb = vf.gb;
+      const FrameInput& frame = vf.input;
+      const EpsilonPolicy& policy = vf.policy;
       EmbreeReference reference;
-      Timed ref = runTimed(reference, frame, frames, slowMs);
+      bench::Timed ref = bench::runTimed(reference, frame, frames, slowMs);
       std::vector<uint8_t> band = reference.ambiguityBand(scene, gb, v.light, policy);
       std::printf("| %s | Embree (%zu lit samples) | | | | %.1f | 1.00 | |\n", v.name.c_str(), gb.litCount(),
                   ref.medianMs);
@@ -167,7 +101,7 @@ int main(int argc, char** argv) {
         ConeOptions o;
         applyConeVariant(name, o);
         auto method = makeConeMethod(*ctx, o);
-        Timed t = runTimed(*method, frame, frames, slowMs);
+        bench::Timed t = bench::runTimed(*method, frame, frames, slowMs);
         ErrorStats e = compareVisibility(gb, t.output.visibility, ref.output.visibility, band);
         const nlohmann::json& s = t.output.stats;
         std::string finished = "–";
