@@ -49,6 +49,8 @@ render options:
   --rmsm-max-res N    rmsm: finest effective resolution per face side (default 32768)
   --rmsm-lod-bias L   rmsm: request pages L levels finer than the resolution-matched level (default 0;
                       1 = texels half a pixel's footprint, 4x the pages)
+  --rmsm-analysis K   rmsm: analysis resolution, pages requested by every K-th pixel in x and y (1, 2, 4,
+                      8, 16; default 1); K > 1 also keeps a 256² backup level resident on the faces in use
   --rmsm-cached       rmsm: keep pages across frames (static scenes)
   --frames N          timed frames after one warm-up; medians are reported (default 3)
   --device D          Vulkan device by index or name substring (see `coneshadow devices`);
@@ -60,7 +62,8 @@ compare options (defaults: all views, all methods, 256x256, 3 frames, --out comp
   --methods A,B       methods to compare (default: all registered); each runs a small sweep:
                       cubesm@512, @1024, @2048 (face resolution); rmsm@4M and @16M (page pool),
                       @16M,max4096 (finest LOD capped at 4096²), @16M,lod+1 (pages one level finer than
-                      resolution-matched); cone at its default traversal memory, 1/64 and 1/1000 of it
+                      resolution-matched), @16M,analysis2x and 8x (analysis down-sampled: pages requested
+                      by every 2nd, 8th pixel); cone at its default traversal memory, 1/64 and 1/1000 of it
   --views V1,V2       cameras by name (default: every camera of the scene; the automatic one if none)
   --width, --height, --frames, --device, --validation, --quiet: as for render
   writes into --out DIR: results.json, results.csv (one row per view and method setting, "setting" in
@@ -216,6 +219,10 @@ Options parseArgs(int argc, char** argv) {
       if (v.empty() || *end != '\0' || !(bias >= -4.0f && bias <= 4.0f))
         throw UsageError("--rmsm-lod-bias wants a number of levels in [-4, 4], got '" + v + "'");
       o.rmsmLodBias = bias;
+    } else if (a == "--rmsm-analysis") {
+      const uint32_t k = parseUint(a, value(a), 1, 16);
+      if (k & (k - 1)) throw UsageError("--rmsm-analysis wants 1, 2, 4, 8 or 16 (every k-th pixel), got " + std::to_string(k));
+      o.rmsmAnalysis = k;
     } else if (a == "--rmsm-cached") {
       o.rmsmCached = true;
     } else if (a == "--animate") {

@@ -40,6 +40,7 @@ struct Options {
   uint32_t rmsmPage = 0;             // --rmsm-page N
   uint32_t rmsmMaxRes = 0;           // --rmsm-max-res N
   float rmsmLodBias = 0.0f;          // --rmsm-lod-bias L: levels finer than the resolution-matched one
+  uint32_t rmsmAnalysis = 1;         // --rmsm-analysis K: pages requested by every K-th pixel in x and y
   bool rmsmCached = false;           // --rmsm-cached
   // dynamic scenes (compare): N animation frames, each a new scene state every method pays for (0 = static)
   uint32_t animateFrames = 0;        // --animate N

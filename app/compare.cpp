@@ -53,8 +53,9 @@ std::vector<CompareSetting> compareSettings(const std::vector<std::string>& meth
         out.push_back({m, m + "@" + std::to_string(r), o});
       }
     } else if (m == "rmsm") {
-      // Pool size, then at the default pool the finest LOD (a 4096² cap per face) and the analysis's
-      // matching (one level finer than resolution-matched: texels half a pixel's footprint).
+      // Pool size, then at the default pool the finest LOD (a 4096² cap per face), the analysis's
+      // matching (one level finer than resolution-matched: texels half a pixel's footprint) and the
+      // analysis resolution (every 2nd and 8th pixel in x and y: 000 §3.3.5).
       for (uint64_t pool : {4ull << 20, 16ull << 20}) {
         Options o = base;
         o.rmsmPool = pool;
@@ -66,6 +67,12 @@ std::vector<CompareSetting> compareSettings(const std::vector<std::string>& meth
       fine.rmsmLodBias = 1.0f;
       out.push_back({m, m + "@16M,max4096", coarse});
       out.push_back({m, m + "@16M,lod+1", fine});
+      for (uint32_t k : {2u, 8u}) {
+        Options sparse = base;
+        sparse.rmsmPool = 16ull << 20;
+        sparse.rmsmAnalysis = k;
+        out.push_back({m, m + "@16M,analysis" + std::to_string(k) + "x", sparse});
+      }
 #ifdef CONESHADOW_HAS_CONE
     } else if (m == "cone") {
       uint64_t def = base.traversalMemory ? base.traversalMemory : traversal::kDefaultMemoryBytes;

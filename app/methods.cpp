@@ -128,6 +128,7 @@ std::unique_ptr<ShadowMethod> makeMethod(const std::string& name, vk::Context* c
     if (options.rmsmPage) rm.pageSize = options.rmsmPage;
     if (options.rmsmMaxRes) rm.maxResolution = options.rmsmMaxRes;
     rm.lodBias = options.rmsmLodBias;
+    rm.analysisStep = options.rmsmAnalysis;
     rm.cached = options.rmsmCached;
     rm.planeBias = options.smPlaneBias;
     return makeRmsm(*ctx, rm);

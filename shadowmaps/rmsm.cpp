@@ -49,10 +49,17 @@ RmsmLayout rmsmLayout(const RmsmOptions& o, uint64_t maxBinding) {
     throw Error("maximum resolution " + std::to_string(o.maxResolution) +
                     " is not a power of two at least the page size (" + std::to_string(o.pageSize) + ")",
                 "--rmsm-max-res");
+  if (o.analysisStep != 1 && o.analysisStep != 2 && o.analysisStep != 4 && o.analysisStep != 8 &&
+      o.analysisStep != 16)
+    throw Error("analysis step " + std::to_string(o.analysisStep) + " is not 1, 2, 4, 8 or 16", "--rmsm-analysis");
+  if (!isPow2(o.backupResolution))
+    throw Error("backup resolution " + std::to_string(o.backupResolution) + " is not a power of two",
+                "rmsm backup resolution");
   l.pageSize = o.pageSize;
   l.log2Page = log2u(o.pageSize);
   l.superpageSize = o.superpageSize;
   l.maxLevel = log2u(o.maxResolution / o.pageSize);
+  l.backupLevel = o.backupResolution > o.pageSize ? std::min(l.maxLevel, log2u(o.backupResolution / o.pageSize)) : 0u;
   if (l.maxLevel > SM_MAX_LEVEL)
     throw Error("maximum resolution " + std::to_string(o.maxResolution) + " needs " + std::to_string(l.maxLevel) +
                     " quadtree levels above the root; page keys hold " + std::to_string(SM_MAX_LEVEL),
@@ -93,6 +100,27 @@ uint32_t coarsenToFit(std::vector<uint32_t>& keys, uint32_t levelLimit, uint32_t
     keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
   }
   return levelLimit;
+}
+
+uint32_t addBackupPages(std::vector<uint32_t>& keys, uint32_t faces, const std::vector<uint32_t>& resident,
+                        uint32_t level) {
+  const uint32_t side = 1u << level;
+  std::vector<uint32_t> add;
+  for (uint32_t f = 0; f < 6; ++f)
+    if (faces & (1u << f))
+      for (uint32_t y = 0; y < side; ++y)
+        for (uint32_t x = 0; x < side; ++x) {
+          const uint32_t k = pageKey(f, level, x, y);
+          if (!std::binary_search(resident.begin(), resident.end(), k) &&
+              !std::binary_search(keys.begin(), keys.end(), k))
+            add.push_back(k);
+        }
+  if (add.empty()) return 0;
+  std::sort(add.begin(), add.end());
+  const size_t mid = keys.size();
+  keys.insert(keys.end(), add.begin(), add.end());
+  std::inplace_merge(keys.begin(), keys.begin() + long(mid), keys.end());
+  return uint32_t(add.size());
 }
 
 std::vector<Superpage> binSuperpages(const std::vector<uint32_t>& keys, uint32_t log2Page, uint32_t superpageSize,
@@ -256,6 +284,7 @@ struct Rmsm::State {
     p.minDistance = 2.0f * eps;
     p.lodBias = opt.lodBias;
     p.planeBias = opt.planeBias ? 1u : 0u;
+    p.analysisStep = opt.analysisStep;
     return p;
   }
 
@@ -404,6 +433,13 @@ MethodOutput Rmsm::run(const FrameInput& frame) {
   auto tAlloc = Clock::now();
   const double analysisWallMs = msSince(tAnalysis);
   std::vector<uint32_t> pages = a.unique;
+  uint32_t backupPages = 0;
+  if (s.opt.analysisStep > 1) {
+    // Cached mode: resident backup pages are not asked again.
+    std::vector<uint32_t> resident(s.opt.cached ? s.resident : std::vector<uint32_t>{});
+    std::sort(resident.begin(), resident.end());
+    backupPages = sm::addBackupPages(pages, a.counters[SM_COUNT_FACES], resident, std::min(L.backupLevel, limit));
+  }
   const uint32_t freeSlots = L.poolPages - (s.opt.cached ? uint32_t(s.resident.size()) : 0u);
   const uint32_t frameLimit = sm::coarsenToFit(pages, limit, freeSlots);
   if (s.opt.cached) s.cacheLimit = frameLimit;
@@ -492,6 +528,9 @@ MethodOutput Rmsm::run(const FrameInput& frame) {
                {"fallback", frameLimit < L.maxLevel},
                {"fallback_levels", L.maxLevel - frameLimit},
                {"isolated_samples", a.counters[SM_COUNT_ISOLATED]},
+               {"analysis_step", s.opt.analysisStep},
+               {"backup_pages", backupPages},
+               {"backup_resolution", s.opt.analysisStep > 1 ? page << std::min(L.backupLevel, limit) : 0u},
                {"lookup_misses", misses},
                {"cached", s.opt.cached},
                {"cache_flushes", s.cacheFlushes - flushesBefore},

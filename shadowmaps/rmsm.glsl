@@ -14,8 +14,11 @@ uint pageStride() { return (pageSide() + 1u) * (pageSide() + 1u); }  // texels p
 // The finest resident page at a level <= `level` that holds the bilinear footprint of (s, t) on `face`.
 // Out: its level, the pool index of the footprint's lower texel, the bilinear fraction.
 // `texel`: the footprint's lower texel in the found level's coordinates.
+// Failing that (only at a reduced analysis resolution, where a page nobody asked for can be missing while
+// a finer one, the backup level's, is there), the coarsest resident page finer than `level`.
 bool findTexel(uint face, vec2 st, uint level, out uint foundLevel, out uint base, out vec2 frac, out uvec2 texelOut) {
-  for (int l = int(level); l >= 0; --l) {
+  for (int k = 0; k <= int(pc.maxLevel); ++k) {
+    int l = k <= int(level) ? int(level) - k : k;
     float res = float(pageSide() << uint(l));
     vec2 x = footprintCoord(st, res);
     vec2 b = footprintBase(x, res);

@@ -32,9 +32,16 @@
 //                            then a copy of each page's (P+1)² texels (one-texel apron on the high sides,
 //                            so a 2x2 footprint never leaves its page) into its pool slot
 //   lookup rmsm_lookup.comp  PCF of 4 texels at the two nearest levels, blended (§3.3.1)
+// Analysis resolution (§3.3.5, the paper's first quality knob): with analysisStep = k > 1 only every k-th
+// pixel in x and y requests pages (k² fewer requests to prune, sort and uniquify; the LOD is still each
+// pixel's own), so pages only unanalysed pixels need can be missing. The lookup then uses the finest
+// resident page below the level it wants — a neighbour's, usually — and, as the paper's "backup"
+// standard shadow map, the host adds every page of one coarse level (backupResolution² texels a face) on
+// each face that holds a lit sample (the request kernel ORs the faces into one counter word), so every
+// lookup finds a page (lookup_misses stays 0).
 // Page tables store each page at its own level; the lookup walks toward coarser levels (rmsm.glsl),
 // which answers exactly what the paper's filled hierarchy answers while updating O(pages) entries a
-// frame. Cached mode (§3.3.4; static scenes): pages and tables persist across frames, the request kernel
+// frame (and only when that finds nothing, at a reduced analysis resolution, toward finer ones). Cached mode (§3.3.4; static scenes): pages and tables persist across frames, the request kernel
 // drops requests for resident pages, new pages take free slots; when they do not fit, or the light or
 // the geometry changes, the cache is flushed (all pages dropped) and the frame is built afresh.
 //
@@ -62,6 +69,10 @@ struct RmsmOptions {
   bool cached = false;                // --rmsm-cached: keep pages across frames (static scenes)
   float minOccupancy = 0.5f;          // split a superpage's box while its pages fill less (binSuperpages)
   bool cull = true;                   // per-superpage frustum culling of triangle clusters (depth_pass.h)
+  uint32_t analysisStep = 1;          // --rmsm-analysis: pages requested by every k-th pixel in x and y
+                                      //   (1, 2, 4, 8 or 16; 1 = the full-resolution analysis)
+  uint32_t backupResolution = 256;    // analysisStep > 1: a whole level of this many texels a face side
+                                      //   is resident on every face in use (the backup shadow map)
   float lodBias = 0.0f;               // levels added to the matched level λ: 1 = texels half the pixel's
                                       //   footprint (4x the pages); 0 = the paper's eq. 1
   float constantBias = 2.0f;          // in units of the epsilon policy's eps (cube_sm.h)
@@ -78,12 +89,14 @@ struct RmsmLayout {
   uint32_t maxLevel = 0;             // levels 0..maxLevel
   uint32_t poolPages = 0;            // physical slots
   uint32_t superpageSize = 0;
+  uint32_t backupLevel = 0;          // the level of the backup pages (analysisStep > 1)
   uint64_t poolBytes = 0;            // allocated: poolPages·(P+1)²·4
   uint64_t tableEntries = 0;         // 6 faces · (4^(maxLevel+1) - 1) / 3
   uint64_t tableBytes = 0;
 };
 // Throws cs::Error (naming the CLI flag) for sizes that are not powers of two, out of range, a pool
-// under 6 pages (one per face: the coarsest possible frame), or arrays past one binding.
+// under 6 pages (one per face: the coarsest possible frame), arrays past one binding, or an analysis step
+// other than 1, 2, 4, 8, 16.
 RmsmLayout rmsmLayout(const RmsmOptions& options, uint64_t maxBinding);
 
 // The fallback of paper 000 §3.3.5: while more than `capacity` unique pages remain, lower the finest
@@ -92,6 +105,12 @@ RmsmLayout rmsmLayout(const RmsmOptions& options, uint64_t maxBinding);
 // new level limit (<= levelLimit); capacity must be >= 6. One level at a time is coarse: when the pages
 // crowd the middle levels, one step can take the frame from just over the pool to a small part of it.
 uint32_t coarsenToFit(std::vector<uint32_t>& keys, uint32_t levelLimit, uint32_t capacity);
+
+// The backup pages of a reduced analysis: every page of `level` on each face f with bit f of `faces`
+// set, merged into `keys` (sorted, unique; left so) unless `resident` (sorted) holds it already.
+// Returns how many were added.
+uint32_t addBackupPages(std::vector<uint32_t>& keys, uint32_t faces, const std::vector<uint32_t>& resident,
+                        uint32_t level);
 
 // One geometry pass: a window of face `face` at `level`, covering pages [first, first + count) of the
 // binned list, whose texels start at (x0, y0) and span w x h (the pages' bounding box plus the apron).

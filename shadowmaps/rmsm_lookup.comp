@@ -2,7 +2,8 @@
 #extension GL_GOOGLE_include_directive : require
 // RMSM lookup (paper 000 §3.3.1): per lit sample, two percentage-closer lookups of 4 texels at the two
 // quadtree levels around its λ (after the frame's fallback: frameLevel), blended by fract(λ). A footprint
-// with no resident page at any level (never expected) counts as a miss and is lit.
+// with no resident page at any level counts as a miss and is lit (never with full-resolution analysis;
+// at a reduced one the backup level makes it rare: rmsm.h).
 // bindings: 0 = position, 1 = normal, 2 = lod (float per pixel), 3 = tables, 4 = pool (float per texel),
 //           5 = visibility (float per pixel), 6 = counters
 #include "shadowmaps/sm_shared.h"

@@ -13,7 +13,9 @@
 //   Requests: the page holding the bilinear footprint at floor(λ') and, when fract(λ') > 0, at
 //   floor(λ')+1, λ' = frameLevel(λ) (λ itself, except in cached mode after a fallback lowered the
 //   cache's finest level); SM_INVALID_KEY otherwise. In cached mode a request whose page is already
-//   resident is dropped here. `lod` keeps λ in [0, maxLevel].
+//   resident is dropped here. `lod` keeps λ in [0, maxLevel] for every pixel, since every pixel looks
+//   up; at a reduced analysis resolution (000 §3.3.5, analysisStep > 1) only the pixels on the
+//   analysisStep grid request pages, and the others find their neighbours' pages or coarser ones.
 // bindings: 0 = position (vec4 per pixel), 1 = normal (vec4 per pixel), 2 = tables (uint per entry),
 //           3 = lod (float per pixel: λ, -1 where none), 4 = requests (2 uint per pixel),
 //           5 = counters (uint[SM_COUNT_WORDS])
@@ -67,16 +69,18 @@ uint requestAt(uint face, vec2 st, uint level) {
   return key;
 }
 
-void main() {
-  uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * SM_PIXEL_THREADS + gl_LocalInvocationIndex;
-  if (i >= pc.width * pc.height) return;
+shared uint groupFaces;
+
+// Pixel i's LOD and requests; returns its face, or -1 when it is not a lit sample.
+int analyse(uint i) {
+  if (i >= pc.width * pc.height) return -1;
   requests[2u * i] = SM_INVALID_KEY;
   requests[2u * i + 1u] = SM_INVALID_KEY;
   lod[i] = -1.0;
   vec4 p = position[i];
   vec4 n = normal[i];
   vec3 d = p.xyz - pc.light.xyz;
-  if (!(p.w > 0.5 && n.w > 0.0) || length(d) <= pc.minDistance) return;
+  if (!(p.w > 0.5 && n.w > 0.0) || length(d) <= pc.minDistance) return -1;
   uint face = cubeFace(d);
   vec2 st = faceST(faceSpace(face, d));
 
@@ -107,8 +111,19 @@ void main() {
     atomicAdd(counters[SM_COUNT_ISOLATED], 1u);
   }
   lod[i] = lambda;
+  if (x % int(pc.analysisStep) != 0 || y % int(pc.analysisStep) != 0) return int(face);
   lambda = frameLevel(lambda, pc.levelLimit);  // cached mode: the cache's fallback state
   uint level = uint(floor(lambda));
   requests[2u * i] = requestAt(face, st, level);
   if (lambda > float(level)) requests[2u * i + 1u] = requestAt(face, st, level + 1u);
+  return int(face);
+}
+
+void main() {
+  if (gl_LocalInvocationIndex == 0u) groupFaces = 0u;
+  barrier();
+  int face = analyse((gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * SM_PIXEL_THREADS + gl_LocalInvocationIndex);
+  if (face >= 0) atomicOr(groupFaces, 1u << uint(face));
+  barrier();
+  if (gl_LocalInvocationIndex == 0u && groupFaces != 0u) atomicOr(counters[SM_COUNT_FACES], groupFaces);
 }

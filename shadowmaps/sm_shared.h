@@ -42,8 +42,9 @@ using glm::sqrt;
 #define SM_COUNT_REQUESTS 0u      // valid page requests before pruning
 #define SM_COUNT_PRUNED 1u        // after connected-components pruning (= compacted)
 #define SM_COUNT_UNIQUE 2u        // after sort + uniquify
-#define SM_COUNT_MISSES 3u        // lookups that found no page at any level (must stay 0)
+#define SM_COUNT_MISSES 3u        // lookups that found no page at any level (0 with full-resolution analysis)
 #define SM_COUNT_ISOLATED 4u      // lit samples with no usable neighbour for the derivatives
+#define SM_COUNT_FACES 5u         // bit f set: some lit sample lies on cube face f
 #define SM_COUNT_WORDS 8u
 
 // ---- cube faces ------------------------------------------------------------------------------------
@@ -198,7 +199,8 @@ struct RmsmPush {
   float minDistance;
   float lodBias;       // levels added to λ before clamping (> 0: finer than the pixels ask for)
   uint planeBias;      // 1: receiver-plane bias per tap (planeReach), 0: slope-scaled
-  uint pad0, pad1;
+  uint analysisStep;   // requests from every analysisStep-th pixel in x and y (1: every pixel; 000 §3.3.5)
+  uint pad0;
 };
 
 #ifdef __cplusplus

@@ -39,7 +39,8 @@ TEST(Cli, UsageErrorsExitWithTwo) {
                            "render --method no-such-method", "render --frames 0", "info",
                            "render --traversal-memory -5", "render --method cone --test=sphere --early-accept=on",
                            "render --method cone --variant=Nope", "render --method cone --front-face-culling=maybe",
-                           "render --rmsm-lod-bias x", "render --rmsm-lod-bias 9"}) {
+                           "render --rmsm-lod-bias x", "render --rmsm-lod-bias 9", "render --rmsm-analysis 3",
+                           "render --rmsm-analysis 32", "render --rmsm-analysis 0"}) {
     CliRun r = cli(args);
     EXPECT_EQ(r.code, 2) << "args: " << args << "\n" << r.out;
     EXPECT_NE(r.out.find("coneshadow: "), std::string::npos) << args;

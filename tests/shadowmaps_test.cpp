@@ -638,6 +638,77 @@ TEST(Rmsm, ATinyPoolStillShadowsTheWholeFrameAndReportsTheFallback) {
   EXPECT_LT(f.compare(good.visibility).misclassifiedFraction, e.misclassifiedFraction);
 }
 
+TEST(Rmsm, BackupPagesAreOneWholeLevelOfEveryFaceInUse) {
+  std::vector<uint32_t> keys = {sm::pageKey(1, 5, 7, 9), sm::pageKey(1, 2, 3, 1), sm::pageKey(4, 6, 0, 0)};
+  std::sort(keys.begin(), keys.end());
+  const std::vector<uint32_t> resident = {sm::pageKey(4, 2, 1, 1)};  // resident already: not asked again
+  const uint32_t added = sm::addBackupPages(keys, (1u << 1) | (1u << 4), resident, 2);
+  EXPECT_EQ(added, 16u + 16u - 1u - 1u);  // level 2: 16 pages a face, faces 1 and 4, minus the two held
+  EXPECT_EQ(keys.size(), 3u + added);
+  EXPECT_TRUE(std::is_sorted(keys.begin(), keys.end()));
+  EXPECT_EQ(std::adjacent_find(keys.begin(), keys.end()), keys.end()) << "a backup page twice";
+  for (uint32_t f = 0; f < 6; ++f)
+    for (uint32_t x = 0; x < 4; ++x)
+      for (uint32_t y = 0; y < 4; ++y) {
+        const uint32_t k = sm::pageKey(f, 2, x, y);
+        const bool want = (f == 1 || f == 4) && k != resident[0];
+        EXPECT_EQ(std::binary_search(keys.begin(), keys.end(), k), want) << f << " " << x << " " << y;
+      }
+  std::vector<uint32_t> none;
+  EXPECT_EQ(sm::addBackupPages(none, 0u, {}, 3), 0u) << "no face in use, no backup";
+  RmsmOptions o;
+  o.analysisStep = 3;
+  EXPECT_THROW(sm::rmsmLayout(o, 128ull << 20), Error);
+  o.analysisStep = 8;
+  EXPECT_EQ(sm::rmsmLayout(o, 128ull << 20).backupLevel, 3u);  // 256² = 32² pages · 2^3
+}
+
+// Paper 000 §3.3.5's first knob: the analysis at a reduced resolution. Only the pixels on the k-grid
+// request pages, so the sort sees about k² fewer requests; the others find a neighbour's page, a coarser
+// one, or the backup level. The shadows stay close to the full analysis's, and no lookup finds nothing.
+TEST(Rmsm, ReducedAnalysisRequestsFewerPagesAndStaysCloseToTheFullAnalysis) {
+  Frame f = builtinFrame("room", 192, 160);
+  Rmsm full(test::context(), RmsmOptions{});
+  MethodOutput base = full.run(f.input());
+  const double baseError = f.compare(base.visibility).misclassifiedFraction;
+  const uint64_t baseRequests = base.stats["requests_before_pruning"].get<uint64_t>();
+  EXPECT_EQ(base.stats["backup_pages"], 0);
+  EXPECT_EQ(base.stats["lookup_misses"], 0);
+  std::printf("  analysis 1x: %llu requests, %u unique pages, misclassified %.4f %%\n",
+              (unsigned long long)baseRequests, base.stats["unique_pages"].get<uint32_t>(), 100 * baseError);
+  uint64_t previous = baseRequests;
+  for (uint32_t k : {2u, 4u, 8u}) {
+    RmsmOptions o;
+    o.analysisStep = k;
+    Rmsm sparse(test::context(), o);
+    MethodOutput out = sparse.run(f.input());
+    const uint64_t requests = out.stats["requests_before_pruning"].get<uint64_t>();
+    const double error = f.compare(out.visibility).misclassifiedFraction;
+    std::printf("  analysis %ux: %llu requests, %u unique + %u backup pages, misclassified %.4f %%\n", k,
+                (unsigned long long)requests, out.stats["unique_pages"].get<uint32_t>(),
+                out.stats["backup_pages"].get<uint32_t>(), 100 * error);
+    EXPECT_EQ(out.stats["analysis_step"], k);
+    // Only pixels on the grid ask; about 1/k² of the full analysis's requests.
+    const std::vector<uint32_t> req = sparse.debugRequests();
+    for (uint32_t i = 0; i < f.host.size(); ++i) {
+      const uint32_t x = i % f.host.width, y = i / f.host.width;
+      if (x % k || y % k) ASSERT_EQ(req[2 * i], SM_INVALID_KEY) << "pixel " << x << "," << y << " off the grid asked";
+    }
+    EXPECT_LT(requests, previous);
+    EXPECT_LT(double(requests), 1.5 * double(baseRequests) / (k * k)) << k;
+    EXPECT_GT(double(requests), 0.5 * double(baseRequests) / (k * k)) << k;
+    previous = requests;
+    // The backup level: all 64 pages (256²) of level 3 on each face in use; every lookup finds a page.
+    EXPECT_GT(out.stats["backup_pages"].get<uint32_t>(), 0u);
+    EXPECT_EQ(out.stats["pages_per_level"][3].get<uint32_t>() % 64, 0u);
+    EXPECT_EQ(out.stats["backup_resolution"], 256);
+    EXPECT_EQ(out.stats["lookup_misses"], 0);
+    EXPECT_FALSE(out.stats["fallback"].get<bool>());
+    // Little loss of quality (the paper: "little or no loss" down to 8x).
+    EXPECT_LT(error, baseError + 0.01) << k;
+  }
+}
+
 // Cached mode (paper 000 §3.3.4): a static frame asks for nothing new; a new view adds only its new pages
 // and shades exactly as an uncached run; a moved light flushes the cache.
 TEST(Rmsm, CachedModeAddsOnlyNewPagesAndFlushesWhenTheLightMoves) {
