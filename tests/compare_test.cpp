@@ -193,6 +193,25 @@ TEST(Compare, TinyBuiltinRunWritesConsistentReports) {
   EXPECT_NE(md.find("device: "), std::string::npos);
   EXPECT_NE(md.find("## wall"), std::string::npos);
   EXPECT_NE(md.find("## room"), std::string::npos);
+  // Every row carries its stages and its own measure of work; the sweep has RMSM's three knobs.
+  for (const char* column : {"| ms per stage |", "| false shadow / false light (outside band) |", "| nodes or pages |"})
+    EXPECT_EQ(countOf(md, column), 2u) << column << ": once per view";
+  for (auto& row : results) {
+    const std::string setting = row.at("stats").at("setting");
+    const size_t at = md.find("| " + setting + " |", md.find("## " + row.at("view").get<std::string>()));
+    ASSERT_NE(at, std::string::npos) << setting;
+    const std::string line = md.substr(at, md.find('\n', at) - at);
+    if (!row.at("stages").empty())
+      EXPECT_NE(line.find(row.at("stages")[0].at("name").get<std::string>() + " "), std::string::npos) << line;
+    if (row.at("method") == "cone")
+      EXPECT_NE(line.find(std::to_string(row.at("stats").at("pairs_tested").get<uint64_t>()) + " nodes visited"),
+                std::string::npos) << line;
+    if (row.at("method") == "rmsm")
+      EXPECT_NE(line.find(std::to_string(row.at("stats").at("pages_rendered").get<uint64_t>()) + " pages"),
+                std::string::npos) << line;
+  }
+  for (const char* setting : {"rmsm@4M", "rmsm@16M,max4096", "rmsm@16M,analysis8x"})
+    if (views["wall"] > 1) EXPECT_NE(md.find("| " + std::string(setting) + " |"), std::string::npos) << setting;
   std::string html = readText(out / "report.html");
   std::regex img("<img[^>]*src=\"([^\"]+)\"");
   size_t images = 0;
