@@ -20,14 +20,17 @@ usage:
   coneshadow devices                    list the Vulkan devices
   coneshadow help                       this text
 
-SCENE is a glTF 2.0 file (.gltf or .glb). Without SCENE, render uses the built-in scene (a lit room
-with clutter and a furball; views: wall, fur, room, ceiling), and `info builtin` describes it.
+SCENE is a glTF 2.0 file (.gltf or .glb) or a BART scene (.aff, with the files it includes; e.g. the
+museum, robots and kitchen of the BART benchmark). Without SCENE, render uses the built-in scene (a lit
+room with clutter and a furball; views: wall, fur, room, ceiling), and `info builtin` describes it.
 
 render options:
   --method M          shadow method: embree (the reference), cone (the cone hierarchy), cubesm, rmsm
   --width W --height H   resolution of the camera pass (default 512x512)
   --view NAME         camera by name (default: the scene's first camera; automatic when it has none)
   --light X,Y,Z       point light position (default: the scene's first point light; automatic if none)
+  --time T            a BART .aff scene at scene time T (default: the start of its animation range); its
+                      views: view (the file's v) and animated (its camera track at T)
   --out DIR           write shaded_<m>.png, mask_<m>.png, diff_<m>.png, results.json, results.csv (default out)
   --dump DIR          also write position.pfm, normal.pfm, visibility_<m>.pfm, band.pfm, meta.json
   --traversal-memory BYTES   cone path: bound on the traversal's pair buffers (e.g. 64M, 256K)
@@ -219,6 +222,12 @@ Options parseArgs(int argc, char** argv) {
       if (v.empty() || *end != '\0' || !(bias >= -4.0f && bias <= 4.0f))
         throw UsageError("--rmsm-lod-bias wants a number of levels in [-4, 4], got '" + v + "'");
       o.rmsmLodBias = bias;
+    } else if (a == "--time") {
+      const std::string v = value(a);
+      char* end = nullptr;
+      const double t = std::strtod(v.c_str(), &end);
+      if (v.empty() || *end != '\0' || !std::isfinite(t)) throw UsageError("--time wants a finite number (scene time), got '" + v + "'");
+      o.sceneTime = t;
     } else if (a == "--rmsm-analysis") {
       const uint32_t k = parseUint(a, value(a), 1, 16);
       if (k & (k - 1)) throw UsageError("--rmsm-analysis wants 1, 2, 4, 8 or 16 (every k-th pixel), got " + std::to_string(k));

@@ -24,6 +24,7 @@ struct Options {
   uint32_t width = 512, height = 512;
   std::string view;                  // camera name; empty = scene's first camera
   std::optional<glm::vec3> light;    // overrides the scene's first point light
+  std::optional<double> sceneTime;   // --time T: where a BART (.aff) scene is placed in its animation
   std::string out = "out";
   std::string dump;                  // empty = no dump
   std::string device;                // --device: index or name substring

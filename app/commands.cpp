@@ -2,6 +2,7 @@
 #include "app/commands.h"
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -33,9 +34,22 @@ std::string vec3Text(glm::vec3 v) {
 
 }  // namespace
 
-Scene loadSceneArg(const std::string& arg, std::ostream& log) {
-  if (arg.empty() || arg == "builtin") return builtinScene();
-  if (!fs::exists(arg)) throw Error("no such file", arg, "give a .gltf/.glb path, or omit SCENE for the built-in scene");
+bool isAffFile(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return ext == ".aff";
+}
+
+Scene loadSceneArg(const Options& o, std::ostream& log) {
+  const std::string& arg = o.scene;
+  if (arg.empty() || arg == "builtin") {
+    if (o.sceneTime) throw UsageError("--time places a BART (.aff) scene in time; the built-in scene has no time");
+    return builtinScene();
+  }
+  if (!fs::exists(arg))
+    throw Error("no such file", arg, "give a .gltf/.glb or BART .aff path, or omit SCENE for the built-in scene");
+  if (isAffFile(arg)) return loadAff(arg, log, o.sceneTime);
+  if (o.sceneTime) throw UsageError("--time places a BART (.aff) scene in time; " + arg + " is glTF (use compare --animate)");
   return loadGltf(arg, log);
 }
 
@@ -45,7 +59,7 @@ int runDevices(const Options&) {
 }
 
 int runInfo(const Options& options) {
-  Scene scene = loadSceneArg(options.scene, std::cerr);
+  Scene scene = loadSceneArg(options, std::cerr);
   EpsilonPolicy eps = EpsilonPolicy::forScene(scene);
   std::cout << "scene: " << scene.name << "\n"
             << "triangles: " << scene.triangleCount() << " (flattened over node instances)\n"
@@ -74,7 +88,7 @@ int runRender(const Options& o) {
   checkMethod(o.method, o);
 
   log << "[1/5] scene" << std::endl;
-  Scene scene = loadSceneArg(o.scene, std::cerr);
+  Scene scene = loadSceneArg(o, std::cerr);
   log << "  " << scene.name << ": " << scene.triangleCount() << " triangles, diagonal " << scene.diagonal() << "\n";
 
   Camera camera;

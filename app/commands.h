@@ -9,7 +9,8 @@ int runInfo(const Options& options);
 int runRender(const Options& options);
 int runDevices(const Options& options);
 
-// SCENE argument → scene: empty or "builtin" is the built-in scene, anything else a glTF file.
-Scene loadSceneArg(const std::string& arg, std::ostream& log);
+// SCENE of the command line: the built-in scene, a glTF file, or a BART .aff file at --time.
+Scene loadSceneArg(const Options& options, std::ostream& log);
+bool isAffFile(const std::string& path);
 
 }  // namespace cs

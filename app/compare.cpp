@@ -338,7 +338,7 @@ int runCompare(const Options& o) {
     if (std::find(registered.begin(), registered.end(), m) == registered.end()) makeMethod(m, nullptr, o);
   std::vector<CompareSetting> settings = compareSettings(methods, o);
 
-  Scene scene = loadSceneArg(o.scene, std::cerr);
+  Scene scene = loadSceneArg(o, std::cerr);
   std::vector<Camera> cameras = selectViews(scene, o);
   glm::vec3 light = chooseLight(scene, o, log);
   log << "scene " << scene.name << ": " << scene.triangleCount() << " triangles, " << cameras.size() << " view(s), "

@@ -13,6 +13,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
+#include "app/commands.h"
 #include "app/frame_runner.h"
 #include "app/methods.h"
 #include "core/animation.h"
@@ -181,6 +182,9 @@ int runDynamicCompare(const Options& o) {
   } else {
     if (!fs::exists(o.scene))
       throw Error("no such file", o.scene, "give a .gltf/.glb path, or omit SCENE for the built-in scene");
+    if (isAffFile(o.scene))
+      throw UsageError("compare --animate plays glTF node animation; a BART .aff scene loads at one time: "
+                       "give --time T (render, compare) instead");
     anim = loadAnimatedGltf(o.scene, std::cerr);
   }
   const bool animated = anim.animated();

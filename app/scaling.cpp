@@ -214,7 +214,7 @@ int runScaling(const Options& base) {
   for (auto& m : methods) checkMethod(m, o);  // throws UsageError before any heavy work
   const uint64_t maxTriangles = o.scalingMaxTriangles ? o.scalingMaxTriangles : kDefaultScalingMaxTriangles;
 
-  Scene scene = loadSceneArg(o.scene, std::cerr);
+  Scene scene = loadSceneArg(o, std::cerr);
   Options viewOptions = o;
   if (viewOptions.views.empty() && !o.view.empty()) viewOptions.views = {o.view};
   const Camera camera = selectViews(scene, viewOptions).front();  // the first of --views, else the first camera

@@ -4,6 +4,7 @@
 #pragma once
 #include <cstdint>
 #include <iosfwd>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -48,6 +49,19 @@ struct Scene {
 // positions and normals; cameras; KHR_lights_punctual point lights.
 // Throws cs::Error naming the file and the problem on any malformed input.
 Scene loadGltf(const std::string& path, std::ostream& warn);
+
+// Loads a BART scene file (.aff: the animated extension of NFF, as the BART benchmark ships it) and the
+// files it includes, placed at scene time `time` (default: the start of its `a` range, else 0).
+// Geometry: polygons (p, pp; fans), textured triangles (tt), meshes (m: vertices, normals, texture
+// coordinates, triangles), animated triangles (tpa: linear between keys), open cones and cylinders (c,
+// 16 sides) and spheres (s), under static transforms (xs: scale, then rotation about an axis by degrees,
+// then translation) and animated ones (x NAME, driven by k NAME: translation and scale on
+// Kochanek-Bartels splines, rotations spherical-linear between the keys' axis-angle orientations).
+// Cameras: the `v` view ("view"; its angle taken as the vertical field of view) and, when the file has
+// a `k camera` track, "animated" (a camera at the origin looking down -z, +y up, moved by the track).
+// Lights: every `l`. Materials, background and texture names are read and dropped.
+// Throws cs::Error naming the file and line of any malformed input.
+Scene loadAff(const std::string& path, std::ostream& warn, std::optional<double> time = std::nullopt);
 
 // The built-in scene (needs no file): an enclosed room lit by a point light inside it, large wall and
 // floor triangles grazing the light, a clutter of small meshes and a furball of thin hair-like strips.

@@ -692,7 +692,9 @@ TEST(Rmsm, ReducedAnalysisRequestsFewerPagesAndStaysCloseToTheFullAnalysis) {
     const std::vector<uint32_t> req = sparse.debugRequests();
     for (uint32_t i = 0; i < f.host.size(); ++i) {
       const uint32_t x = i % f.host.width, y = i / f.host.width;
-      if (x % k || y % k) ASSERT_EQ(req[2 * i], SM_INVALID_KEY) << "pixel " << x << "," << y << " off the grid asked";
+      if (x % k || y % k) {
+        ASSERT_EQ(req[2 * i], SM_INVALID_KEY) << "pixel " << x << "," << y << " off the grid asked";
+      }
     }
     EXPECT_LT(requests, previous);
     EXPECT_LT(double(requests), 1.5 * double(baseRequests) / (k * k)) << k;
