@@ -116,6 +116,40 @@ TEST(Cli, EveryMethodRendersTheBuiltinSceneAndTheConePathIsExact) {
   }
 }
 
+TEST(Cli, BartSceneRendersAtASceneTimeFromItsCameraTrack) {
+  const std::string museum = std::string(CONESHADOW_BART_SCENES) + "/museum/museum5.aff";
+  if (!fs::exists(museum)) GTEST_SKIP() << "no BART scenes at " << CONESHADOW_BART_SCENES;
+  fs::path out = tempDir("bart");
+  CliRun r = cli("render " + museum + " --method cone --view animated --time 2.5 --width 48 --height 40 --frames 1 --out " +
+                 out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  auto j = nlohmann::json::parse(std::ifstream(out / "results.json"));
+  EXPECT_EQ(j[1]["scene"], "museum5.aff");
+  EXPECT_EQ(j[1]["view"], "animated");
+  EXPECT_EQ(j[1]["error"]["misclassified_outside_band"], 0) << r.out;
+  fs::remove_all(out);
+  CliRun info = cli("info " + museum);
+  EXPECT_EQ(info.code, 0) << info.out;
+  EXPECT_NE(info.out.find("triangles: 11564"), std::string::npos) << info.out;
+  // --time is for .aff scenes only; --animate plays glTF animation only.
+  for (const std::string& args : {std::string("render --time 1 --frames 1"), "render " + museum + " --time soon",
+                                  "compare " + museum + " --animate 4"}) {
+    CliRun bad = cli(args);
+    EXPECT_EQ(bad.code, 2) << args << "\n" << bad.out;
+    EXPECT_NE(bad.out.find("coneshadow: "), std::string::npos) << args;
+  }
+  // A malformed .aff: one line naming file and line, exit 1, no output folder.
+  fs::path dir = tempDir("bad_aff");
+  fs::create_directories(dir);
+  std::ofstream(dir / "broken.aff") << "p 3\n 0 0 0\n 1 0 0\n 0 1 0\nwhat 1\n";
+  fs::path badOut = dir / "out";
+  CliRun broken = cli("render " + (dir / "broken.aff").string() + " --frames 1 --out " + badOut.string());
+  EXPECT_EQ(broken.code, 1) << broken.out;
+  EXPECT_NE(broken.out.find("broken.aff:5: unknown keyword 'what'"), std::string::npos) << broken.out;
+  EXPECT_FALSE(fs::exists(badOut));
+  fs::remove_all(dir);
+}
+
 TEST(Cli, UnknownViewListsTheViews) {
   CliRun r = cli("render --view nowhere --frames 1 --out " + tempDir("view").string());
   EXPECT_EQ(r.code, 2) << r.out;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <memory>
 #include <random>
 #include <sstream>
@@ -205,6 +206,28 @@ TEST(ConeExactness, GltfModelsOnAGroundPlaneFromTwoLightsOneCloseToASurface) {
       CaseResult r = Harness::get().run(scene, cam, light, m.size, m.size, what);
       EXPECT_GT(r.error.litSamples, 500u) << what;
     }
+  }
+}
+
+// ---- the BART scenes paper 002 measured on --------------------------------------------------------------
+
+TEST(ConeExactness, BartMuseumKitchenAndRobotsFromTheirViewsAndLights) {
+  const std::string bart = CONESHADOW_BART_SCENES;
+  if (!std::filesystem::exists(bart + "/museum/museum5.aff")) GTEST_SKIP() << "no BART scenes at " << bart;
+  struct BartCase {
+    const char* file;
+    double time;
+    uint32_t size;
+  };
+  for (const BartCase& c : {BartCase{"museum/museum5.aff", 2.0, 128}, BartCase{"kitchen/kitchen.aff", 0.0, 96},
+                            BartCase{"robot/Robot.aff", 0.0, 64}}) {
+    std::ostringstream warn;
+    Scene scene = loadAff(bart + "/" + c.file, warn, c.time);
+    for (const Camera& cam : scene.cameras)
+      for (size_t l = 0; l < std::min<size_t>(scene.lights.size(), 2); ++l) {
+        const std::string what = std::string(c.file) + " " + cam.name + " " + scene.lights[l].name;
+        Harness::get().run(scene, cam, scene.lights[l].position, c.size, c.size, what);
+      }
   }
 }
 
