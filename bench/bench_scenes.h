@@ -1,6 +1,8 @@
 // What the scene benchmarks share: the views named on their command line ("builtin": every view of the
-// built-in scene; "engine": assimp's 2CylinderEngine with its automatic camera and light; or a .gltf/.glb
-// path), one frame's input for a view, the median of a method's frames after a warm-up, and list parsing.
+// built-in scene; "engine": assimp's 2CylinderEngine with its automatic camera and light; "museum": the
+// BART museum paper 002 measured on, its view and its camera track at t = 0 and 2.5 with the scene at
+// that time, lit by its first light; or a .gltf/.glb/.aff path), one frame's input for a view, the median
+// of a method's frames after a warm-up, and list parsing.
 #pragma once
 #include <algorithm>
 #include <iostream>
@@ -73,9 +75,23 @@ inline std::vector<View> loadViews(const std::string& list, std::vector<std::uni
         views.push_back({scenes.back().get(), c, scenes.back()->lights.at(0).position, "builtin/" + c.name});
       continue;
     }
+    if (s == "museum") {
+      const std::string museum = std::string(CONESHADOW_BART_SCENES) + "/museum/museum5.aff";
+      for (double t : {0.0, 2.5}) {
+        scenes.push_back(std::make_unique<Scene>(loadAff(museum, std::cerr, t)));
+        Scene& sc = *scenes.back();
+        std::ostringstream at;
+        at << "@" << t;
+        for (const Camera& c : sc.cameras)
+          if (t == 0.0 || c.name == "animated")
+            views.push_back({&sc, c, sc.lights.at(0).position, "museum5/" + c.name + at.str()});
+      }
+      continue;
+    }
     const std::string path =
         s == "engine" ? "/usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb" : s;
-    scenes.push_back(std::make_unique<Scene>(loadGltf(path, std::cerr)));
+    const bool aff = path.size() > 4 && path.compare(path.size() - 4, 4, ".aff") == 0;
+    scenes.push_back(std::make_unique<Scene>(aff ? loadAff(path, std::cerr) : loadGltf(path, std::cerr)));
     Scene& sc = *scenes.back();
     Camera c = sc.cameras.empty() ? automaticCamera(sc) : sc.cameras.front();
     glm::vec3 l = sc.lights.empty() ? automaticLight(sc).position : sc.lights.front().position;

@@ -3,10 +3,11 @@
 // early-accepted nodes, rays finished in two-pass's first pass, median ms of the whole shadow frame, its
 // ratio to Embree's (BVH build + one ray per sample), and the misclassified samples outside the band
 // (0: every variant is exact). Prints a markdown table (the README's variants table).
-//   variants_bench [--size 1024] [--frames 3] [--scenes builtin,engine] [--variants A,B,...] [--device D]
+//   variants_bench [--size 1024] [--frames 3] [--scenes builtin,engine,museum] [--variants A,B,...] [--device D]
 //                  [--slow-ms 5000]
 // "builtin" is every named view of the built-in scene; "engine" is assimp's 2CylinderEngine (121,496
-// triangles flattened) with the automatic camera and light (or a .gltf/.glb path). Each configuration
+// triangles flattened) with the automatic camera and light; "museum" is the BART museum paper 002's
+// Table 2 measured (bench_scenes.h); or a .gltf/.glb/.aff path. Each configuration
 // runs a warm-up frame (pipeline compiles) and then --frames timed ones; a warm-up slower than --slow-ms
 // is itself the one timed frame (compiles are noise against it) so the unsorted variants' worst views
 // finish in minutes on lavapipe.
@@ -45,7 +46,7 @@ int main(int argc, char** argv) {
   uint32_t size = 1024;
   int frames = 3;
   double slowMs = 5000;
-  std::string device, scenesArg = "builtin,engine", variantsArg;
+  std::string device, scenesArg = "builtin,engine,museum", variantsArg;
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -62,7 +63,7 @@ int main(int argc, char** argv) {
     else if (a == "--scenes") scenesArg = next();
     else if (a == "--variants") variantsArg = next();
     else {
-      std::cerr << "usage: variants_bench [--size N] [--frames N] [--scenes builtin,engine] [--variants A,B]"
+      std::cerr << "usage: variants_bench [--size N] [--frames N] [--scenes builtin,engine,museum] [--variants A,B]"
                    " [--device D] [--slow-ms MS]\n";
       return 2;
     }
