@@ -79,7 +79,9 @@ compare options (defaults: all views, all methods, 256x256, 3 frames, --out comp
                       scaling_resolution.svg/.png, scaling_triangles.svg/.png
   --scaling-max-triangles N   bound of the triangle sweep (default 10000000)
   --animate N         dynamic scene instead: N frames over the scene's motion (the built-in motion's cycle,
-                      or the file's node animation: translation/rotation/scale channels), each method kept
+                      a glTF file's node animation: translation/rotation/scale channels, or a BART file's
+                      keyframes and animated triangles over its `a` range, its `animated` view riding the
+                      camera track), each method kept
                       across frames so every frame pays its per-frame cost (Embree BVH build, cone upload +
                       tree, rmsm pages); writes dynamic.md, results.json, results.csv (one row per method
                       and frame, with frame and time in stats)

@@ -54,6 +54,50 @@ Camera orbitCamera(const Camera& camera, uint32_t k, uint32_t n, bool enclosed) 
 
 namespace {
 
+// What moves a dynamic scene: the built-in motion or a glTF file's node animation (AnimatedScene), or a
+// BART file's keyframes and animated triangles (AffAnimation, whose camera track moves its `animated`
+// view).
+struct Motion {
+  Scene rest;
+  bool animated = false, cyclic = false;
+  double start = 0, end = 0;
+  std::unique_ptr<AnimatedScene> gltf;
+  std::unique_ptr<AffAnimation> aff;
+  void pose(double t, Scene& scene) const {
+    if (gltf) gltf->pose(t, scene);
+    else if (aff) scene = aff->sceneAt(t);
+  }
+  double frameTime(uint32_t k, uint32_t n) const {
+    if (gltf) return gltf->frameTime(k, n);
+    return n <= 1 ? start : start + (end - start) * double(k) / double(n - 1);
+  }
+};
+
+Motion loadMotion(const std::string& path) {
+  Motion m;
+  if (path.empty() || path == "builtin") {
+    m.gltf = std::make_unique<AnimatedScene>(builtinAnimatedScene());
+  } else {
+    if (!fs::exists(path))
+      throw Error("no such file", path, "give a .gltf/.glb or BART .aff path, or omit SCENE for the built-in scene");
+    if (isAffFile(path)) m.aff = std::make_unique<AffAnimation>(path, std::cerr);
+    else m.gltf = std::make_unique<AnimatedScene>(loadAnimatedGltf(path, std::cerr));
+  }
+  if (m.gltf) {
+    m.rest = m.gltf->rest;
+    m.animated = m.gltf->animated();
+    m.cyclic = m.gltf->cyclic;
+    m.start = m.gltf->start;
+    m.end = m.gltf->end;
+  } else {
+    m.rest = m.aff->sceneAt(m.aff->start());
+    m.animated = m.aff->animated();
+    m.start = m.aff->start();
+    m.end = m.aff->end();
+  }
+  return m;
+}
+
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
@@ -176,18 +220,9 @@ int runDynamicCompare(const Options& o) {
   std::vector<std::string> methods = o.methods.empty() ? methodNames() : o.methods;
   for (const std::string& m : methods) checkMethod(m, o);
 
-  AnimatedScene anim;
-  if (o.scene.empty() || o.scene == "builtin") {
-    anim = builtinAnimatedScene();
-  } else {
-    if (!fs::exists(o.scene))
-      throw Error("no such file", o.scene, "give a .gltf/.glb path, or omit SCENE for the built-in scene");
-    if (isAffFile(o.scene))
-      throw UsageError("compare --animate plays glTF node animation; a BART .aff scene loads at one time: "
-                       "give --time T (render, compare) instead");
-    anim = loadAnimatedGltf(o.scene, std::cerr);
-  }
-  const bool animated = anim.animated();
+  if (o.sceneTime) throw UsageError("--time places a static scene; compare --animate plays the whole animation");
+  Motion anim = loadMotion(o.scene);
+  const bool animated = anim.animated;
   if (!animated && !o.movingCamera)
     throw UsageError("scene " + anim.rest.name +
                      " has no node animation that moves its triangles: add --moving-camera to orbit the camera "
@@ -197,6 +232,7 @@ int runDynamicCompare(const Options& o) {
                                                : "the file's animation at evenly spaced times over t = " +
                                                      num(anim.start, 3) + ".." + num(anim.end, 3))
                                 : std::string("static scene");
+  if (animated && anim.aff) motion += " (the `animated` view follows the file's camera track)";
   if (o.movingCamera)
     motion += enclosed ? ", the camera swinging ±0.5 rad about its target" : ", the camera orbiting its target once";
 
@@ -228,11 +264,14 @@ int runDynamicCompare(const Options& o) {
 
     DeviceGBuffer dev;
     GBuffer gb;
-    // One frame's scene state, samples, reference and band; time < 0 is the warm-up at a half step.
-    auto frameAt = [&](double time, const Camera& cam) {
+    // One frame's scene state, samples, reference and band.
+    auto frameAt = [&](double time, Camera cam) {
       double uploadMs = 0;
       if (animated) {
         anim.pose(time, scene);
+        // A BART camera track moves the `animated` view (unless --moving-camera orbits it instead).
+        if (anim.aff && !o.movingCamera && camera.name == "animated")
+          if (const Camera* tracked = scene.findCamera("animated")) cam = *tracked;
         const auto t0 = Clock::now();
         raster.setGeometry(scene);
         uploadMs = msSince(t0);

@@ -582,26 +582,83 @@ struct Flattener {
 
 }  // namespace
 
-Scene loadAff(const std::string& path, std::ostream& warn, std::optional<double> time) {
+struct AffAnimation::Data {
+  std::string name;  // file name, for the scene and the warnings
   Parsed parsed;
-  Parser parser(parsed);
-  parser.parseFile(fs::path(path), parsed.root, 0, "");
-  const double t = time ? *time : (parsed.hasRange ? parsed.start : 0.0);
-  if (!std::isfinite(t)) throw Error("the scene time is not finite", path);
+  bool animated = false;
+  double start = 0, end = 0;
+};
 
+AffAnimation::AffAnimation(const std::string& path, std::ostream& warn) : d_(std::make_unique<Data>()) {
+  Data& d = *d_;
+  d.name = fs::path(path).filename().string();
+  Parser parser(d.parsed);
+  parser.parseFile(fs::path(path), d.parsed.root, 0, "");
+  const Parsed& parsed = d.parsed;
+  if (!parsed.unordered.empty()) {
+    warn << d.name << ": keys not in time order, sorted by time in " << parsed.unordered.size() << " track(s):";
+    for (size_t i = 0; i < parsed.unordered.size() && i < 3; ++i) warn << " " << parsed.unordered[i];
+    warn << (parsed.unordered.size() > 3 ? " ...\n" : "\n");
+  }
+  if (parsed.skipped) warn << d.name << ": " << parsed.skipped << " polygon(s) with fewer than 3 vertices skipped\n";
+  // Animated: an x block driven by keyframes, or a tpa triangle with two keys or more.
+  double lo = 1e300, hi = -1e300;
+  auto visit = [&](auto&& self, const Group& g) -> void {
+    if (g.kind == Group::Kind::Animated) {
+      auto it = parsed.tracks.find(g.track);
+      if (it != parsed.tracks.end()) {
+        for (const std::vector<Key>* keys : {&it->second.transl, &it->second.rot, &it->second.scale})
+          if (keys->size() > 1) {
+            d.animated = true;
+            lo = std::min(lo, keys->front().time);
+            hi = std::max(hi, keys->back().time);
+          }
+      }
+    }
+    for (const AnimTri& a : g.animTris)
+      if (a.times.size() > 1) {
+        d.animated = true;
+        lo = std::min(lo, a.times.front());
+        hi = std::max(hi, a.times.back());
+      }
+    for (auto& c : g.children) self(self, *c);
+  };
+  visit(visit, parsed.root);
+  if (parsed.hasRange) {
+    d.start = parsed.start;
+    d.end = std::max(parsed.start, parsed.end);
+  } else if (d.animated) {
+    d.start = lo;
+    d.end = hi;
+  }
+  // The first placement checks what every placement shares: triangles, finite vertices.
+  sceneAt(d.start, &warn);
+}
+
+AffAnimation::~AffAnimation() = default;
+AffAnimation::AffAnimation(AffAnimation&&) noexcept = default;
+AffAnimation& AffAnimation::operator=(AffAnimation&&) noexcept = default;
+
+double AffAnimation::start() const { return d_->start; }
+double AffAnimation::end() const { return d_->end; }
+bool AffAnimation::animated() const { return d_->animated; }
+
+Scene AffAnimation::sceneAt(double t, std::ostream* warn) const {
+  const Parsed& parsed = d_->parsed;
+  if (!std::isfinite(t)) throw Error("the scene time is not finite", d_->name);
   Scene scene;
-  scene.name = fs::path(path).filename().string();
+  scene.name = d_->name;
   Flattener flat{parsed, t, scene, {}};
   flat.walk(parsed.root, glm::dmat4(1.0));
-  if (!flat.undriven.empty()) {
-    warn << scene.name << ": " << flat.undriven.size() << " animated transform(s) without keyframes, left in place:";
-    for (size_t i = 0; i < flat.undriven.size() && i < 3; ++i) warn << " " << flat.undriven[i];
-    warn << (flat.undriven.size() > 3 ? " ...\n" : "\n");
+  if (warn && !flat.undriven.empty()) {
+    *warn << scene.name << ": " << flat.undriven.size() << " animated transform(s) without keyframes, left in place:";
+    for (size_t i = 0; i < flat.undriven.size() && i < 3; ++i) *warn << " " << flat.undriven[i];
+    *warn << (flat.undriven.size() > 3 ? " ...\n" : "\n");
   }
-  if (scene.indices.empty()) throw Error("the scene has no triangles", path);
+  if (scene.indices.empty()) throw Error("the scene has no triangles", d_->name);
   for (const glm::vec3& p : scene.positions)
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-      throw Error("a transformed vertex is not finite (a transform overflows float)", path);
+      throw Error("a transformed vertex is not finite (a transform overflows float)", d_->name);
   scene.computeBounds();
   const float diag = scene.diagonal() > 0 ? scene.diagonal() : 1.0f;
   if (parsed.hasView) {
@@ -624,13 +681,12 @@ Scene loadAff(const std::string& path, std::ostream& warn, std::optional<double>
     scene.cameras.push_back(c);
   }
   scene.lights = parsed.lights;
-  if (!parsed.unordered.empty()) {
-    warn << scene.name << ": keys not in time order, sorted by time in " << parsed.unordered.size() << " track(s):";
-    for (size_t i = 0; i < parsed.unordered.size() && i < 3; ++i) warn << " " << parsed.unordered[i];
-    warn << (parsed.unordered.size() > 3 ? " ...\n" : "\n");
-  }
-  if (parsed.skipped) warn << scene.name << ": " << parsed.skipped << " polygon(s) with fewer than 3 vertices skipped\n";
   return scene;
+}
+
+Scene loadAff(const std::string& path, std::ostream& warn, std::optional<double> time) {
+  AffAnimation a(path, warn);
+  return time ? a.sceneAt(*time) : a.sceneAt(a.start());
 }
 
 }  // namespace cs

@@ -4,6 +4,7 @@
 #pragma once
 #include <cstdint>
 #include <iosfwd>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -62,6 +63,25 @@ Scene loadGltf(const std::string& path, std::ostream& warn);
 // Lights: every `l`. Materials, background and texture names are read and dropped.
 // Throws cs::Error naming the file and line of any malformed input.
 Scene loadAff(const std::string& path, std::ostream& warn, std::optional<double> time = std::nullopt);
+
+// A BART file read once and placed at any time (loadAff is one placement): for dynamic scenes.
+class AffAnimation {
+ public:
+  AffAnimation(const std::string& path, std::ostream& warn);  // throws cs::Error like loadAff
+  ~AffAnimation();
+  AffAnimation(AffAnimation&&) noexcept;
+  AffAnimation& operator=(AffAnimation&&) noexcept;
+  double start() const;   // the file's `a` range; without one, the span of its keys (0..0 if static)
+  double end() const;
+  bool animated() const;  // some keyframed transform or animated triangle moves
+  // The scene at time t (keys held outside their range); cameras "view" and "animated" as loadAff's.
+  // warn: where a transform without keyframes is reported (nullptr: silently).
+  Scene sceneAt(double t, std::ostream* warn = nullptr) const;
+
+ private:
+  struct Data;
+  std::unique_ptr<Data> d_;
+};
 
 // The built-in scene (needs no file): an enclosed room lit by a point light inside it, large wall and
 // floor triangles grazing the light, a clutter of small meshes and a furball of thin hair-like strips.

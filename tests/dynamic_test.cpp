@@ -9,6 +9,7 @@
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -368,6 +369,31 @@ TEST(DynamicCompare, AnimatedFileRunsOverItsKeyTimes) {
   for (const json& row : readJson(out.path / "results.json"))
     if (row["method"] == "cone") times.push_back(row["stats"]["time"].get<double>());
   EXPECT_EQ(times, (std::vector<double>{0.0, 1.0, 2.0}));  // not a cycle: first to last key
+}
+
+TEST(DynamicCompare, BartMuseumPlaysItsAnimatedArtAndItsCameraTrack) {
+  const std::string museum = std::string(CONESHADOW_BART_SCENES) + "/museum/museum5.aff";
+  if (!fs::exists(museum)) GTEST_SKIP() << "no BART scenes at " << CONESHADOW_BART_SCENES;
+  OutDir out;
+  const test::CliRun r = test::cli("compare " + museum + " --animate 3 --width 64 --height 64 --methods cone,embree "
+                                   "--quiet --out " + out.path.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  // The museum's `a -1 5` range, first to last.
+  EXPECT_NE(r.out.find("over t = -1.000..5.000"), std::string::npos) << r.out;
+  std::map<std::string, std::vector<double>> times;
+  std::map<std::string, std::set<uint64_t>> lit;
+  for (const json& row : readJson(out.path / "results.json")) {
+    if (row["method"] != "cone") continue;
+    const std::string view = row["view"];
+    times[view].push_back(row["stats"]["time"].get<double>());
+    lit[view].insert(row["stats"]["lit_samples"].get<uint64_t>());
+    EXPECT_EQ(row["error"]["misclassified_outside_band"], 0) << view << " t " << row["stats"]["time"];
+    EXPECT_TRUE(hasStage(row, "upload")) << "the animated art moves every frame";
+  }
+  EXPECT_EQ(times["view"], (std::vector<double>{-1.0, 2.0, 5.0}));
+  EXPECT_EQ(times["animated"], (std::vector<double>{-1.0, 2.0, 5.0}));
+  EXPECT_EQ(lit["animated"].size(), 3u) << "the camera track moves the view: every frame sees other samples";
+  EXPECT_EQ(test::cli("compare " + museum + " --animate 2 --time 1").code, 2) << "--time is for one placement";
 }
 
 TEST(DynamicCompare, StaticFileNeedsMovingCameraThenRmsmRunsRebuiltAndCached) {
