@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # Regenerates the README's results table from one command: runs `coneshadow compare` on the built-in
-# scene and on 2CylinderEngine, formats their results.json with `coneshadow results-table`, and rewrites
-# README.md between <!-- results:begin --> and <!-- results:end -->.
+# scene, on 2CylinderEngine and (when ../shared/scenes/bart is there) on the BART museum at t = 2.5,
+# formats their results.json with `coneshadow results-table`, and rewrites README.md between
+# <!-- results:begin --> and <!-- results:end -->.
 # Environment: WIDTH, HEIGHT (default 1024), FRAMES (default 5), OUT (default build/readme-results),
-# ENGINE (the glTF file), SKIP_BUILD=1 to use the current build/ as is.
+# ENGINE (the glTF file), MUSEUM (the BART museum's .aff; empty to leave it out), SKIP_BUILD=1 to use
+# the current build/ as is.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -12,6 +14,7 @@ HEIGHT=${HEIGHT:-1024}
 FRAMES=${FRAMES:-5}
 OUT=${OUT:-build/readme-results}
 ENGINE=${ENGINE:-/usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb}
+MUSEUM=${MUSEUM-../shared/scenes/bart/museum/museum5.aff}
 CLI=build/app/coneshadow
 
 [ "${SKIP_BUILD:-0}" = 1 ] || ./tools/setup.sh
@@ -23,11 +26,19 @@ grep -q '^<!-- results:begin -->$' README.md && grep -q '^<!-- results:end -->$'
 args="--width $WIDTH --height $HEIGHT --frames $FRAMES"
 cmd_builtin="$CLI compare $args --out $OUT/builtin"
 cmd_engine="$CLI compare $ENGINE $args --out $OUT/engine"
-for cmd in "$cmd_builtin" "$cmd_engine"; do
+cmds=("$cmd_builtin" "$cmd_engine")
+dirs=("$OUT/builtin" "$OUT/engine")
+if [ -n "$MUSEUM" ] && [ -f "$MUSEUM" ]; then
+  cmds+=("$CLI compare $MUSEUM --time 2.5 $args --out $OUT/museum")
+  dirs+=("$OUT/museum")
+elif [ -n "$MUSEUM" ]; then
+  echo "readme_results: $MUSEUM not found: the museum is left out (MUSEUM= to silence this)" >&2
+fi
+for cmd in "${cmds[@]}"; do
   echo "readme_results: $cmd"
   $cmd --quiet
 done
-table=$("$CLI" results-table "$OUT/builtin" "$OUT/engine")
+table=$("$CLI" results-table "${dirs[@]}")
 
 section=$(mktemp)
 trap 'rm -f "$section" README.md.tmp.$$' EXIT
@@ -37,9 +48,8 @@ trap 'rm -f "$section" README.md.tmp.$$' EXIT
   echo "every view of each scene at ${WIDTH}x${HEIGHT}, median of $FRAMES frame(s) after a warm-up; commands:"
   echo
   echo '```'
-  echo "$cmd_builtin"
-  echo "$cmd_engine"
-  echo "$CLI results-table $OUT/builtin $OUT/engine"
+  for cmd in "${cmds[@]}"; do echo "$cmd"; done
+  echo "$CLI results-table ${dirs[*]}"
   echo '```'
   echo
   echo "$table"
@@ -51,4 +61,4 @@ awk -v section="$section" '
   !skip { print }
 ' README.md > "README.md.tmp.$$"
 mv "README.md.tmp.$$" README.md
-echo "readme_results: README.md results section rewritten from $OUT/builtin and $OUT/engine"
+echo "readme_results: README.md results section rewritten from ${dirs[*]}"
