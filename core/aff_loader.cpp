@@ -24,6 +24,7 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr int kMaxIncludeDepth = 32;
+constexpr size_t kMaxBlockDepth = 256;  // nested { } blocks: BART nests a dozen
 constexpr uint32_t kConeSegments = 16;  // sides of a tessellated cone or cylinder
 constexpr uint32_t kSphereRings = 8;     // a sphere: kSphereRings x 2·kSphereRings quads
 
@@ -136,6 +137,7 @@ class Parser {
   };
 
   Parsed& out_;
+  size_t depth_ = 0;  // open blocks over all the files being read (includes nest inside blocks)
 
   static std::string at(const File& f, const Token& t) { return f.name() + ":" + std::to_string(t.line); }
   static std::string at(const File& f) {
@@ -190,6 +192,7 @@ class Parser {
     if (k == "}") {
       if (stack.size() == 1) throw Error("'}' closes no block", at(f, t));
       stack.pop_back();
+      depth_--;
     } else if (k == "v") {
       view(f);
     } else if (k == "l") {
@@ -244,7 +247,7 @@ class Parser {
       const glm::dvec3 tr = vec3(f, "a translation");
       child->local = trs(tr, axis, angle, s);
       expect(f, "{");
-      stack.push_back(child.get());
+      enter(f, stack, child.get());
       g.children.push_back(std::move(child));
     } else if (k == "x") {
       auto child = std::make_unique<Group>();
@@ -252,7 +255,7 @@ class Parser {
       child->where = at(f, t);
       child->track = next(f, "a transform name").text;
       expect(f, "{");
-      stack.push_back(child.get());
+      enter(f, stack, child.get());
       g.children.push_back(std::move(child));
     } else if (k == "k") {
       keyframes(f, t);
@@ -260,6 +263,13 @@ class Parser {
       throw Error("unknown keyword '" + k + "'", at(f, t),
                   "AFF keywords read: v l b am f fm a p pp tt tpa c s m i xs x k { }");
     }
+  }
+
+  void enter(File& f, std::vector<Group*>& stack, Group* g) {
+    depth_++;
+    if (depth_ > kMaxBlockDepth)
+      throw Error("blocks nest deeper than " + std::to_string(kMaxBlockDepth) + " levels", at(f));
+    stack.push_back(g);
   }
 
   void view(File& f) {

@@ -224,6 +224,12 @@ TEST_F(Aff, MalformedFilesAreOneLineErrorsNamingFileAndLine) {
       {"xs 1 1 1 0 0 1 0 0 0 0\np 3\n", "bad.aff:2: expected '{', got 'p'"},
       {"i 0 missing.aff\n", "bad.aff:1: cannot open"},
       {"i 0 bad.aff\n", "includes nest deeper than 32 files"},
+      {[] {
+         static std::string deep;
+         for (int i = 0; i < 300; ++i) deep += "xs 1 1 1 0 0 1 0 0 0 0 {\n";
+         return deep.c_str();
+       }(),
+       "blocks nest deeper than 256 levels"},
       {"b 0 0 0\n", "the scene has no triangles"},
       {"k m\n{\n spin 1\n 0 0 0 0 0 0 0\n}\n", "bad.aff:3: expected transl, rot, scale or '}'"},
       {"v\nfrom 0 0 0\nat 0 0 1\nup 0 1 0\nangle 190\nhither 1\nresolution 2 2\n", "bad.aff:5: field of view"},
