@@ -55,6 +55,8 @@ VariantResult runExact(Frame& f, const ConeOptions& o, const std::string& what) 
 }
 
 // Every variant on one frame: exact, and the default's mask bit for bit. Returns pairs tested per variant.
+// The precise test has the bounding-sphere test ANDed in, so on the same tree it never keeps a pair the
+// sphere test drops: Precise visits at most Spheres' nodes, PreciseSorted at most SpheresSorted's.
 std::vector<uint64_t> allVariants(Frame& f, const std::string& what) {
   std::vector<uint64_t> pairs;
   std::vector<float> first;
@@ -64,6 +66,8 @@ std::vector<uint64_t> allVariants(Frame& f, const std::string& what) {
     else EXPECT_TRUE(sameBits(first, r.mask)) << what << ": " << v << "'s mask differs from PreciseSorted's";
     pairs.push_back(r.pairs);
   }
+  EXPECT_LE(pairs[1], pairs[2]) << what << ": Precise vs Spheres";
+  EXPECT_LE(pairs[0], pairs[3]) << what << ": PreciseSorted vs SpheresSorted";
   return pairs;
 }
 

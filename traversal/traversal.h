@@ -4,8 +4,9 @@
 // ---- How it works ---------------------------------------------------------------------------------
 // Pairs. A pair is (triangle, node index within its depth). Pass 0 tests every triangle against the root
 // (depth 0); pass k takes the pairs of depth k-1 and tests each against its node's (up to) four children
-// at depth k with the precise cone/triangle test (precise_test.h), or per frame the sphere test
-// (sphere_test.h; TraversalInput::test); with front-face culling, pass 0 drops the triangles that face the
+// at depth k with the precise cone/triangle test (precise_test.h) ANDed with the bounding-sphere test
+// (both conservative: the sphere's tighter margins reject small triangles the edge planes keep), or per
+// frame the sphere test alone (sphere_test.h; TraversalInput::test); with front-face culling, pass 0 drops the triangles that face the
 // light (002 §3.6; TraversalInput::frontFaceCulling). The survivors are compacted: the test
 // kernel writes a 4-bit child mask and its popcount per input pair, sort/'s exclusive Scan turns the
 // counts into offsets, and traverse_scatter.comp writes the surviving pairs, in input order. The pairs of

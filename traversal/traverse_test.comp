@@ -66,10 +66,13 @@ void main() {
     for (uint c = r.x; c < r.y; c++)
       if (sphereConeTriangle(nodes[p.childOffset + c], sphere, p.eps)) mask |= 1u << (c - r.x);
   } else {
+    // The precise test, with the sphere test ANDed in: both conservative, and the sphere's margins are
+    // the tighter ones for small triangles (traversal.h).
     PreciseTriangle t = preciseTriangle(v0, v1, v2);  // once for the (up to) four children
+    vec4 sphere = boundingSphere(v0, v1, v2);
     for (uint c = r.x; c < r.y; c++) {
       ConeNode node = nodes[p.childOffset + c];
-      if (!preciseConeTriangle(node, t, p.eps)) continue;
+      if (!sphereConeTriangle(node, sphere, p.eps) || !preciseConeTriangle(node, t, p.eps)) continue;
       if (p.earlyAccept != 0u && preciseConeCovered(node, t, p.eps)) acceptChild(c, light);
       else mask |= 1u << (c - r.x);
     }
