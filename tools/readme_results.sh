@@ -14,7 +14,10 @@ HEIGHT=${HEIGHT:-1024}
 FRAMES=${FRAMES:-5}
 OUT=${OUT:-build/readme-results}
 ENGINE=${ENGINE:-/usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb}
-MUSEUM=${MUSEUM-../shared/scenes/bart/museum/museum5.aff}
+if [ -z "${MUSEUM+set}" ]; then
+  MUSEUM=../shared/scenes/bart/museum/museum5.aff
+  [ -f shared/scenes/bart/museum/museum5.aff ] && MUSEUM=shared/scenes/bart/museum/museum5.aff
+fi
 CLI=build/app/coneshadow
 
 [ "${SKIP_BUILD:-0}" = 1 ] || ./tools/setup.sh
