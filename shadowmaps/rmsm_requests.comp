@@ -123,7 +123,8 @@ void main() {
   if (gl_LocalInvocationIndex == 0u) groupFaces = 0u;
   barrier();
   int face = analyse((gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * SM_PIXEL_THREADS + gl_LocalInvocationIndex);
-  if (face >= 0) atomicOr(groupFaces, 1u << uint(face));
+  // The faces in use: only a reduced analysis needs them (its backup level, rmsm.h).
+  if (pc.analysisStep > 1u && face >= 0) atomicOr(groupFaces, 1u << uint(face));
   barrier();
   if (gl_LocalInvocationIndex == 0u && groupFaces != 0u) atomicOr(counters[SM_COUNT_FACES], groupFaces);
 }
