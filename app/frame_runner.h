@@ -18,6 +18,7 @@
 #include "app/cli.h"
 #include "core/scene.h"
 #include "eval/method.h"
+#include "reference/epsilon.h"
 #include "vk/context.h"
 
 namespace cs {
@@ -131,9 +132,21 @@ inline std::string stageText(const MethodOutput& out) {
 }
 
 // The frame's light: --light, else the scene's first point light, else an automatic one (said in one line).
+// A light too far from the scene for fp32 ray lengths (reference/epsilon.h) is refused here, before any
+// work: a usage error for --light, a data error for the scene's own light.
 inline glm::vec3 chooseLight(const Scene& scene, const Options& o, std::ostream& log) {
-  if (o.light) return *o.light;
-  if (!scene.lights.empty()) return scene.lights.front().position;
+  if (o.light) {
+    if (std::string why = lightRangeProblem(*o.light, scene.boundsMin, scene.boundsMax); !why.empty())
+      throw UsageError("--light: " + why);
+    return *o.light;
+  }
+  if (!scene.lights.empty()) {
+    const glm::vec3 l = scene.lights.front().position;
+    if (std::string why = lightRangeProblem(l, scene.boundsMin, scene.boundsMax); !why.empty())
+      throw Error(why, "scene " + scene.name + ", light '" + scene.lights.front().name + "'",
+                  "give a closer one with --light X,Y,Z");
+    return l;
+  }
   glm::vec3 light = automaticLight(scene).position;
   log << "  no point light in the scene: using an automatic one at " << light.x << "," << light.y << ","
       << light.z << "\n";

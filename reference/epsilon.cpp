@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "core/scene.h"
 
@@ -27,6 +28,24 @@ EpsilonPolicy EpsilonPolicy::forScene(const Scene& scene) {
     hi = glm::max(hi, v);
   }
   return forBounds(lo, hi);
+}
+
+std::string lightRangeProblem(glm::vec3 light, glm::vec3 lo, glm::vec3 hi) {
+  if (!std::isfinite(light.x) || !std::isfinite(light.y) || !std::isfinite(light.z))
+    return "the light is not finite";
+  double far2 = 0;
+  for (int k = 0; k < 3; ++k) {
+    double d = std::max(std::abs(double(light[k]) - double(lo[k])), std::abs(double(light[k]) - double(hi[k])));
+    far2 += d * d;
+  }
+  if (!(std::sqrt(far2) > kMaxLightDistance)) return {};
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "the light at (%g, %g, %g) is %.3g from the farthest point of the scene, past the %.3g at which "
+                "fp32 shadow-ray lengths overflow; move it closer (at 1e6 scene diagonals its rays are "
+                "already parallel to 1e-6 rad)",
+                light.x, light.y, light.z, std::sqrt(far2), kMaxLightDistance);
+  return buf;
 }
 
 ShadowRay rayToward(glm::vec3 org, glm::vec3 target, float tnear, float endOffset) {

@@ -42,6 +42,7 @@
 #include <array>
 #include <cfloat>
 #include <cstdint>
+#include <string>
 
 #include <glm/glm.hpp>
 #include <nlohmann/json.hpp>
@@ -100,6 +101,19 @@ struct EpsilonPolicy {
   int bandFamily(glm::vec3 p, glm::vec3 n, glm::vec3 light, const BandOptions& options,
                  ShadowRay* out) const;
 };
+
+// How far a light may be from the scene. Every shadow ray's length L = |light - p| is an fp32 length
+// computed as sqrt(x^2 + y^2 + z^2): past sqrt(FLT_MAX / 3) ~ 1.06e19 the squares overflow and the ray
+// (Embree's and the cone path's alike) would silently count as lit. 2^62 ~ 4.6e18 leaves a factor 4 in L
+// (16 in the squares) for the leaf test's products of coordinates. Below it, the cone path's leaf test
+// measures from the end of the ray nearer the triangle (traversal/precise_test.h, leafHit) and stays exact
+// outside the band at any distance; the band itself widens with the distance (the light nudge's floor is
+// 4 ulp of the light's coordinates), which the reports show.
+constexpr double kMaxLightDistance = 4611686018427387904.0;  // 2^62
+
+// Empty when the light is finite and every point of the box [lo, hi] lies within kMaxLightDistance of
+// it; otherwise what is wrong and what to do, for an error message.
+std::string lightRangeProblem(glm::vec3 light, glm::vec3 lo, glm::vec3 hi);
 
 // A ray from `org` toward `target` counting hits in (tnear, |target - org| - endOffset).
 ShadowRay rayToward(glm::vec3 org, glm::vec3 target, float tnear, float endOffset);

@@ -47,6 +47,19 @@ TEST(Cli, UsageErrorsExitWithTwo) {
   }
 }
 
+TEST(Cli, ALightTooFarForFp32RayLengthsIsAUsageErrorBeforeAnyOutput) {
+  // 2^62 is the limit (reference/epsilon.h); 4e18 from the built-in scene is inside it, 5e18 past it.
+  fs::path out = tempDir("farlight");
+  CliRun r = cli("render --method cone --width 8 --height 8 --frames 1 --light 5e18,0,0 --out " + out.string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("--light: the light at (5e+18, 0, 0)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("move it closer"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(out));
+  r = cli("render --method cone --width 8 --height 8 --frames 1 --light 4e18,0,0 --out " + out.string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  fs::remove_all(out);
+}
+
 TEST(Cli, MalformedSceneIsOneLineNamingTheFileAndLeavesNoOutput) {
   fs::path out = tempDir("malformed");
   std::string file = kModels + "/IndexOutOfRange/IndexOutOfRange.gltf";

@@ -395,5 +395,116 @@ TEST(ConeHardCases, NonFiniteTrianglesAreDroppedAsEmbreeDropsThem) {
   EXPECT_EQ(r.stats["triangles_dropped"].get<uint64_t>(), 2u);
 }
 
+// ---- far lights (issue 14) ---------------------------------------------------------------------------------
+// A point light standing in for the sun: 10 to 10^5 scene diagonals away, from above, along a coordinate
+// axis and in the plane of the floor. Relative to the light, the vertices and the hit distance of a
+// triangle next to a sample round to an ulp of L, which passes eps from ~10^2 diagonals on: the leaf test
+// must measure from the sample's end there (precise_test.h, leafHit).
+
+vec3 farLight(vec3 centre, float diagonal, float k, vec3 dir) { return centre + (k * diagonal) * glm::normalize(dir); }
+
+TEST(ConeHardCases, FarLightsFromTenToATenThousandThousandDiagonals) {
+  Scene scene = soup(floorAndCasters(), "far-light");
+  const vec3 c = 0.5f * (scene.boundsMin + scene.boundsMax);
+  const float diag = glm::length(scene.boundsMax - scene.boundsMin);
+  const Camera cam = lookAt({5, 6, 8}, {0, 0.5f, 0});
+  for (float k : {10.0f, 1e2f, 1e3f, 1e4f, 1e5f}) {
+    const vec3 lights[] = {
+        farLight(c, diag, k, {0.3f, 1.0f, 0.2f}),                      // from above, off every axis
+        vec3(0.25f, k * diag, -0.5f),                                  // along the y axis
+        vec3(k * diag * 0.94f, 0.0f, k * diag * 0.34f),                // in the floor's plane (y = 0)
+        farLight(c, diag, k, {-0.7f, 0.35f, 0.6f}),                    // low, from the other side
+    };
+    for (vec3 light : lights) {
+      std::ostringstream what;
+      what << "far light " << k << " diagonals at (" << light.x << ", " << light.y << ", " << light.z << ")";
+      Harness::get().run(scene, cam, light, 96, 96, what.str());
+    }
+  }
+}
+
+TEST(ConeHardCases, FarLightsUpToTheDocumentedLimitAndAClearErrorPastIt) {
+  // Up to 2^62 from the scene (reference/epsilon.h, kMaxLightDistance): exact outside the band, however
+  // wide the band grows; past it, the cone path refuses the frame instead of a silently lit mask.
+  Scene scene = soup(floorAndCasters(), "far-light limit");
+  const vec3 c = 0.5f * (scene.boundsMin + scene.boundsMax);
+  const float diag = glm::length(scene.boundsMax - scene.boundsMin);
+  const Camera cam = lookAt({5, 6, 8}, {0, 0.5f, 0});
+  for (float k : {1e8f, 1e12f, 1e16f})
+    Harness::get().run(scene, cam, farLight(c, diag, k, {0.3f, 1.0f, 0.2f}), 64, 64,
+                       "far light 1e" + std::to_string(int(std::log10(k))) + " diagonals");
+  Harness::get().run(scene, cam, vec3(0.3f, 4.5e18f, 0.2f), 64, 64, "far light 4.5e18 (just inside 2^62)");
+
+  const vec3 tooFar(0.3f, 4.7e18f, 0.2f);
+  EXPECT_FALSE(lightRangeProblem(vec3(0.3f, 4.5e18f, 0.2f), scene.boundsMin, scene.boundsMax).size());
+  EXPECT_NE(lightRangeProblem(tooFar, scene.boundsMin, scene.boundsMax).find("move it closer"), std::string::npos);
+  EXPECT_NE(lightRangeProblem(vec3(0, INFINITY, 0), scene.boundsMin, scene.boundsMax), "");
+  test::ReferenceFrame near(scene, cam, c + vec3(0, 5, 0), 16);
+  near.input.light = tooFar;
+  try {
+    Harness::get().cones[0]->run(near.input);
+    ADD_FAILURE() << "a light past the limit was not refused";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("cone path: the light at"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ConeHardCases, FarLightOnTheBuiltinSceneAndAGltfModel) {
+  // The closed built-in room from outside (every sample behind a wall) and open: its casters alone.
+  Scene builtin = builtinScene();
+  const float bdiag = glm::length(builtin.boundsMax - builtin.boundsMin);
+  const vec3 bc = 0.5f * (builtin.boundsMin + builtin.boundsMax);
+  for (float k : {10.0f, 1e3f, 1e5f})
+    Harness::get().run(builtin, *builtin.findCamera("wall"), farLight(bc, bdiag, k, {0.2f, 1.0f, 0.4f}), 64, 64,
+                       "builtin/wall, far light " + std::to_string(int(k)) + " diagonals");
+  std::ostringstream warn;
+  Scene engine = onGround(loadGltf(std::string(CONESHADOW_ASSIMP_MODELS) + "/2CylinderEngine-glTF-Binary/2CylinderEngine.glb", warn));
+  const vec3 lo = engine.boundsMin, hi = engine.boundsMax, ec = 0.5f * (lo + hi);
+  const float ediag = glm::length(hi - lo);
+  const Camera cam = lookAt(ec + vec3(0.2f, 0.25f, 0.3f) * ediag, ec, 0.8f);
+  for (float k : {10.0f, 1e3f})
+    Harness::get().run(engine, cam, farLight(ec, ediag, k, {0.3f, 1.0f, 0.2f}), 64, 64,
+                       "2CylinderEngine, far light " + std::to_string(int(k)) + " diagonals");
+}
+
+TEST(ConeHardCases, SceneFarFromTheOriginLitFromFarAway) {
+  const vec3 offset(1e5f, -1e5f, 1e5f);
+  std::vector<vec3> p = floorAndCasters();
+  for (vec3& v : p) v += offset;
+  Scene scene = soup(p, "translated, far light");
+  const float diag = glm::length(scene.boundsMax - scene.boundsMin);
+  Camera cam = lookAt(offset + vec3(5, 6, 8), offset + vec3(0, 0.5f, 0));
+  for (float k : {1e2f, 1e4f})
+    Harness::get().run(scene, cam, farLight(offset, diag, k, {0.3f, 1.0f, 0.2f}), 96, 96,
+                       "translated 1e5, light " + std::to_string(int(k)) + " diagonals away");
+}
+
+TEST(ConeHardCases, LightExactlyOnAVertexAndOnAnEdge) {
+  // Box 2 of floorAndCasters spans (1, 0, 1)-(2.5, 3, 2): its top corner (1, 3, 1) and the midpoint of
+  // its top edge along x, (1.75, 3, 1), both exact in fp32.
+  Scene scene = soup(floorAndCasters(), "light-on-vertex");
+  for (vec3 light : {vec3(1.0f, 3.0f, 1.0f), vec3(1.75f, 3.0f, 1.0f), vec3(2.5f, 3.0f, 1.5f)})
+    for (vec3 eye : {vec3(5, 6, 8), vec3(-4, 5, -5)})
+      Harness::get().run(scene, lookAt(eye, {0, 0.5f, 0}), light, 96, 96, "light on a vertex / edge");
+}
+
+TEST(ConeHardCases, LightInsideAThinSlab) {
+  // Two parallel plates 10x10, 0.05 apart (4 times the band's largest normal offset, 1e-3 of the
+  // diagonal), the light between them, and cards standing between the plates: every lit sample's ray runs
+  // nearly in the plates' plane, the cones near hemispheres.
+  std::vector<vec3> p;
+  addQuad(p, {-5, 1.0f, -5}, {0, 0, 10}, {10, 0, 0});      // lower plate, facing up
+  addQuad(p, {-5, 1.05f, -5}, {10, 0, 0}, {0, 0, 10});     // upper plate, facing down
+  for (int i = 0; i < 6; ++i) {
+    float x = -3.0f + float(i), z = 0.5f * float(i % 3) - 0.5f;
+    addQuad(p, {x, 1.0f, z}, {0.9f, 0, 0.6f}, {0, 0.05f, 0});
+    addQuad(p, {x, 1.0f, z}, {0, 0.05f, 0}, {0.9f, 0, 0.6f});  // both sides
+  }
+  Scene scene = soup(p, "thin slab");
+  const vec3 light(0.1f, 1.025f, 0.2f);
+  Harness::get().run(scene, lookAt({4.0f, 1.025f, 4.0f}, {0, 1.025f, 0}, 1.2f), light, 96, 96, "light in a thin slab");
+  Harness::get().run(scene, lookAt({0.3f, 1.04f, 0.4f}, {-3, 1.01f, -1}, 1.2f), light, 96, 96, "light in a thin slab, near");
+}
+
 }  // namespace
 }  // namespace cs

@@ -96,9 +96,10 @@ TEST(EarlyAcceptCovered, NeverAcceptsAConeWithARayThatMissesTheTriangleInItsInte
       double th = k == 0 ? 0.0 : (k % 2 ? alpha : uni(0, alpha)), ph = uni(0, 2 * M_PI);
       dvec3 r = std::cos(th) * a + std::sin(th) * (std::cos(ph) * tu + std::sin(ph) * tw);
       double L = k % 3 == 0 ? lmin : (k % 3 == 1 ? lmax : uni(lmin, lmax));
-      vec4 ray = cone::leafRay(vec3(r * L), vec3(0));
-      if (ray.w < float(lmin)) ray = cone::leafRay(vec3(r * L * (1 + 1e-6)), vec3(0));
-      ASSERT_TRUE(cone::leafRayHitsTriangle(ray, float(eps), v[0], v[1], v[2]))
+      vec3 wf = vec3(r * L);
+      vec4 ray = cone::leafRay(wf, vec3(0));
+      if (ray.w < float(lmin)) ray = cone::leafRay(wf = vec3(r * L * (1 + 1e-6)), vec3(0));
+      ASSERT_TRUE(cone::leafHit(wf, vec3(0), ray, float(eps), v[0], v[1], v[2]))
           << "pair " << i << " (kind " << kind << ") accepted but the ray at theta " << th << " of alpha " << alpha
           << ", length " << L << " (Lmin " << lmin << ", Lmax " << lmax << ", eps " << eps << ") misses";
       // And in double: the plane crossing lies within (eps, L - eps).

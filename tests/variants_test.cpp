@@ -280,7 +280,7 @@ TEST(VariantSphereTest, NeverRejectsAPairWithAPointOrALeafHitInsideTheCone) {
       vec3 w = vec3(glm::normalize(x) * std::min(lmax, glm::length(x) * uni(1.0, 1.5)));
       vec4 ray = cone::leafRay(w, vec3(0));
       if (ray.w <= lmax && std::atan2(glm::length(glm::cross(dvec3(w), a)), glm::dot(dvec3(w), a)) <= alpha &&
-          cone::leafRayHitsTriangle(ray, eps, v[0], v[1], v[2]))
+          cone::leafHit(w, vec3(0), ray, eps, v[0], v[1], v[2]))
         hit = true;
     }
     if (hit) {

@@ -84,6 +84,9 @@ class ConeMethod : public ShadowMethod {
     auto t0 = Clock::now();
 
     double uploadMs = uploadTriangles(scene, frame.light);
+    // A light too far for fp32 ray lengths would give a silently wrong mask: refuse it (epsilon.h).
+    if (std::string why = lightRangeProblem(frame.light, boundsLo_, boundsHi_); !why.empty())
+      throw Error(why, "cone path", "the limit is reference/epsilon.h's kMaxLightDistance");
     if (!rays_ || raysWidth_ != g.width || raysHeight_ != g.height) {
       rays_.reset();
       rays_ = std::make_unique<sort::LitRays>(ctx_, g.width, g.height);
@@ -305,6 +308,7 @@ class ConeMethod : public ShadowMethod {
     std::vector<glm::vec4> tris;
     tris.reserve(scene.indices.size());
     droppedTriangles_ = 0;
+    glm::vec3 lo(INFINITY), hi(-INFINITY);
     for (size_t t = 0; t + 2 < scene.indices.size(); t += 3) {
       glm::vec3 v[3];
       bool finite = true;
@@ -319,8 +323,14 @@ class ConeMethod : public ShadowMethod {
         droppedTriangles_++;
         continue;
       }
-      for (auto& p : v) tris.emplace_back(p, 1.0f);
+      for (auto& p : v) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+        tris.emplace_back(p, 1.0f);
+      }
     }
+    boundsLo_ = tris.empty() ? glm::vec3(0) : lo;
+    boundsHi_ = tris.empty() ? glm::vec3(0) : hi;
     triangleCount_ = uint32_t(tris.size() / 3);
     if (options_.twoPass) orderBlockersFirst(tris, light);
     // One buffer per `perBinding` triangles: a scene larger than one storage binding of the device
@@ -392,6 +402,7 @@ class ConeMethod : public ShadowMethod {
   std::vector<glm::vec3> cachedPositions_;
   std::vector<uint32_t> cachedIndices_;
   glm::vec3 cachedLight_{0};
+  glm::vec3 boundsLo_{0}, boundsHi_{0};  // of the uploaded (finite) triangles
   // two-pass
   uint32_t blockerCount_ = 0;
   vk::Kernel unfinished_;

@@ -289,8 +289,39 @@ CONE_FN bool leafRayHitsTriangle(vec4 ray, float eps, vec3 v0, vec3 v1, vec3 v2)
   return tau > eps && tau < L - eps;
 }
 
+// Largest |coordinate| over three vectors (the max norm of a triangle's vertices in some frame).
+CONE_FN float maxAbs3(vec3 a, vec3 b, vec3 c) {
+  vec3 m = max(abs(a), max(abs(b), abs(c)));
+  return max(m.x, max(m.y, m.z));
+}
+
+// The leaf test of one sample against one triangle, from world coordinates: sample p, light, the leaf
+// ray = leafRay(p, light), triangle P0, P1, P2. The same geometry from whichever end of the ray the
+// triangle is nearer (in the max norm): relative to the light, the ray light -> p as above; relative to
+// the sample, the ray p -> light along -w = light - p (fl(light - p) = -fl(p - light) exactly: the same
+// line), hits at tau in (eps, L - eps) from the sample as the reference counts them.
+// Why both ends: the vertices' rounding is about an ulp of their distance from the origin of the frame,
+// and so is that of the hit distance. Relative to the light alone, a triangle next to a far light's
+// sample sits at tau ~ L, where ulp(L) can exceed eps (a light 10^5 scene diagonals away): the receiver
+// would shadow itself, or a blocker a hair above it be lost. Relative to the sample alone, a triangle a
+// hair from the light inherits ulp(L) the same way. From the nearer end, the error is an ulp of the
+// triangle's distance to that end, never more than relative to the light, so the traversal's margins
+// (relative to |P - light|) still cover every hit this test reports.
+CONE_FN bool leafHit(vec3 p, vec3 light, vec4 ray, float eps, vec3 P0, vec3 P1, vec3 P2) {
+  CONE_PRECISE vec3 a0 = P0 - light;
+  CONE_PRECISE vec3 a1 = P1 - light;
+  CONE_PRECISE vec3 a2 = P2 - light;
+  CONE_PRECISE vec3 b0 = P0 - p;
+  CONE_PRECISE vec3 b1 = P1 - p;
+  CONE_PRECISE vec3 b2 = P2 - p;
+  if (maxAbs3(b0, b1, b2) < maxAbs3(a0, a1, a2))
+    return leafRayHitsTriangle(vec4(-vec3(ray), ray.w), eps, b0, b1, b2);
+  return leafRayHitsTriangle(ray, eps, a0, a1, a2);
+}
+
 #ifdef __cplusplus
 }  // namespace glsl
+using glsl::leafHit;
 using glsl::leafRayHitsTriangle;
 using glsl::preciseConeCovered;
 using glsl::preciseConeTriangle;

@@ -32,11 +32,12 @@ void main() {
   }
   uint sampleIndex = samples[leaf];
   vec3 light = p.light.xyz;
-  vec4 ray = leafRay(positions[sampleIndex].xyz, light);
+  vec3 samplePos = positions[sampleIndex].xyz;
+  vec4 ray = leafRay(samplePos, light);
   if (!leafRayUsable(ray, p.minLength)) return;
-  precise vec3 v0 = tris[3u * pair.x].xyz - light;
-  precise vec3 v1 = tris[3u * pair.x + 1u].xyz - light;
-  precise vec3 v2 = tris[3u * pair.x + 2u].xyz - light;
-  if (leafRayHitsTriangle(ray, p.eps, v0, v1, v2) && visibility[sampleIndex] != 0u)
+  vec3 P0 = tris[3u * pair.x].xyz;
+  vec3 P1 = tris[3u * pair.x + 1u].xyz;
+  vec3 P2 = tris[3u * pair.x + 2u].xyz;
+  if (leafHit(samplePos, light, ray, p.eps, P0, P1, P2) && visibility[sampleIndex] != 0u)
     atomicAnd(visibility[sampleIndex], 0u);
 }
