@@ -1,7 +1,9 @@
 // The cube shadow map as a ShadowMethod: see cube_sm.h.
 #include "shadowmaps/cube_sm.h"
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <chrono>
 
 #include "core/error.h"
@@ -17,6 +19,48 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+// The window of face `face` that the scene's bounding box [lo, hi] can cover, seen from `light`: a square
+// of r x r texels at an effective resolution res >= r for the whole face, starting at texel (x0, y0)
+// (depth_pass.h recordWindow's terms). Every sample lies in the box, so every sample that picks this
+// face projects into the window, and so does every caster between it and the light. The full face when
+// the box reaches the face's apex plane (a light inside or beside the box: the standard cube map).
+// The zoom res / r is capped at kMaxFaceZoom: face coordinates are fp32 (relative error 2^-24 of
+// |u| <= 1), so texel coordinates st·res keep <= 0.12 texel of rounding at r = 2048 (2^-24·2^21); a far
+// light whose scene spans less than 2/kMaxFaceZoom of a face is resolution-limited from there on.
+constexpr double kMaxFaceZoom = 1024.0;
+
+struct FaceWindow {
+  double res = 0;
+  uint32_t x0 = 0, y0 = 0;
+};
+
+FaceWindow fitFace(uint32_t face, glm::vec3 light, glm::vec3 lo, glm::vec3 hi, uint32_t r) {
+  FaceWindow full{double(r), 0, 0};
+  double u0 = INFINITY, u1 = -INFINITY, v0 = INFINITY, v1 = -INFINITY;
+  for (int k = 0; k < 8; ++k) {
+    const glm::dvec3 corner((k & 1) ? hi.x : lo.x, (k & 2) ? hi.y : lo.y, (k & 4) ? hi.z : lo.z);
+    const glm::dvec3 d = corner - glm::dvec3(light);
+    const uint32_t axis = face >> 1;
+    glm::dvec3 f = axis == 0 ? glm::dvec3(d.y, d.z, d.x) : (axis == 1 ? glm::dvec3(d.z, d.x, d.y) : d);
+    if (face & 1) f.z = -f.z;
+    // The box reaches the apex plane (within a relative hair): its projection is unbounded.
+    if (!(f.z > 1e-6 * (std::abs(f.x) + std::abs(f.y)))) return full;
+    u0 = std::min(u0, f.x / f.z), u1 = std::max(u1, f.x / f.z);
+    v0 = std::min(v0, f.y / f.z), v1 = std::max(v1, f.y / f.z);
+  }
+  u0 = std::max(u0, -1.0), v0 = std::max(v0, -1.0), u1 = std::min(u1, 1.0), v1 = std::min(v1, 1.0);
+  if (!(u0 < u1 && v0 < v1)) return full;  // the box is not seen through this face: nothing to fit
+  const double span = std::max({u1 - u0, v1 - v0, 2.0 / kMaxFaceZoom});
+  // r texels hold the span with a texel to spare on each side (x0 is rounded down).
+  const double res = std::floor(2.0 * (double(r) - 2.0) / span);
+  if (!(res > double(r))) return full;
+  FaceWindow w;
+  w.res = res;
+  w.x0 = uint32_t(std::floor(0.5 * (u0 + 1.0) * res));
+  w.y0 = uint32_t(std::floor(0.5 * (v0 + 1.0) * res));
+  return w;
+}
 
 class CubeShadowMap : public ShadowMethod {
  public:
@@ -34,7 +78,8 @@ class CubeShadowMap : public ShadowMethod {
                   "--sm-resolution", "lower the resolution");
     CS_CHECK(options.constantBias >= 0 && options.slopeBias >= 0 && options.maxSlope >= 0,
              "cube shadow map biases must be >= 0");
-    lookup_ = vk::createKernel(ctx, "cube_lookup", spv_cube_lookup_comp, 9, sizeof(sm::CubeLookupPush));
+    lookup_ = vk::createKernel(ctx, "cube_lookup", spv_cube_lookup_comp, 10, sizeof(sm::CubeLookupPush));
+    windows_ = vk::createBuffer(ctx, 6 * sizeof(glm::vec4), vk::Memory::HostVisible);
   }
 
   std::string name() const override { return "cubesm"; }
@@ -60,6 +105,23 @@ class CubeShadowMap : public ShadowMethod {
       visibility_ = vk::createBuffer(ctx_, uint64_t(pixels) * 4);
     }
 
+    // Each face fitted to what it can see of the scene (fitFace): its effective resolution and window.
+    std::array<FaceWindow, 6> windows;
+    std::array<glm::vec4, 6> windowData;
+    if (uploadMs > 0 || !boundsValid_) {  // the geometry changed: its bounds (finite positions) with it
+      boundsLo_ = glm::vec3(INFINITY), boundsHi_ = glm::vec3(-INFINITY);
+      for (const glm::vec3& v : frame.scene->positions)
+        if (std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z))
+          boundsLo_ = glm::min(boundsLo_, v), boundsHi_ = glm::max(boundsHi_, v);
+      boundsValid_ = true;
+    }
+    const glm::vec3 lo = boundsLo_, hi = boundsHi_;
+    for (uint32_t f = 0; f < 6; ++f) {
+      windows[f] = options_.fitFaces && lo.x <= hi.x ? fitFace(f, frame.light, lo, hi, r) : FaceWindow{double(r), 0, 0};
+      windowData[f] = glm::vec4(float(windows[f].res), float(windows[f].x0), float(windows[f].y0), 0.0f);
+    }
+    vk::upload(ctx_, windows_, windowData.data(), sizeof(windowData));
+
     timer_.restart();
     {
       vk::Commands cmd(ctx_, &timer_);
@@ -68,7 +130,7 @@ class CubeShadowMap : public ShadowMethod {
       region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
       region.imageExtent = {r, r, 1};
       for (uint32_t f = 0; f < 6; ++f) {
-        pass_.recordWindow(cmd, f, r, 0, 0, r, r, frame.light, eps);
+        pass_.recordWindow(cmd, f, windows[f].res, windows[f].x0, windows[f].y0, r, r, frame.light, eps);
         pass_.recordCopy(cmd, {region}, faces_[f]);
       }
       cmd.barrier();
@@ -87,7 +149,7 @@ class CubeShadowMap : public ShadowMethod {
       vk::Grid grid = vk::gridFor(pixels, SM_PIXEL_THREADS, ctx_.maxWorkgroups());
       cmd.dispatch(lookup_,
                    {g.position, g.normal, faces_[0], faces_[1], faces_[2], faces_[3], faces_[4], faces_[5],
-                    visibility_},
+                    visibility_, windows_},
                    push, grid.x, grid.y);
       cmd.barrier();
       cmd.mark("lookup");
@@ -104,7 +166,11 @@ class CubeShadowMap : public ShadowMethod {
     for (auto& s : out.stages) gpuMs += s.ms;
     out.bytesAllocated = pass_.bytesAllocated() + 6 * faceBytes + visibility_.size;
     out.peakBytes = out.bytesAllocated;
+    nlohmann::json zoom = nlohmann::json::array();
+    for (const FaceWindow& w : windows) zoom.push_back(w.res / double(r));
     out.stats = {{"resolution", r},
+                 {"fit_faces", options_.fitFaces},
+                 {"face_zoom", zoom},
                  {"face_bytes", 6 * faceBytes},
                  {"target_bytes", pass_.targetBytes()},
                  {"geometry_passes", 6},
@@ -130,6 +196,9 @@ class CubeShadowMap : public ShadowMethod {
   vk::Kernel lookup_;
   std::array<vk::Buffer, 6> faces_;
   vk::Buffer visibility_;
+  vk::Buffer windows_;  // vec4 per face: effective resolution, x0, y0 (fitFace)
+  glm::vec3 boundsLo_{0}, boundsHi_{0};  // of the scene's finite positions, with the geometry uploaded
+  bool boundsValid_ = false;
 };
 
 }  // namespace

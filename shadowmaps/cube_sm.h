@@ -6,8 +6,15 @@
 // to the nearest surface (fp32; see depth_pass.h for why a distance and not a perspective depth), so
 // the six faces agree where they meet.
 //
+// Fitted faces: each face's R x R texels cover only the window of the face that the scene's bounding box
+// projects to (the whole face when the light is inside or beside the box), at an effective resolution
+// res >= R for the whole face, capped at 1024 R (fp32 face coordinates; cube_sm.cpp fitFace). For a light
+// far outside the scene the box is a few texels of a whole face, and a fixed 90° frustum would leave a
+// far light's shadows to a handful of texels and a slope bias of L·2/R, wider than the scene: with the
+// fit, the error comes from the resolution the window has. The bias's texel is the fitted one (2/res).
+//
 // Bias policy (both shadow maps share it; sm_shared.h slopeScaledBias): a sample at distance L is lit by
-// a tap when  stored >= L - bias,  bias = constantBias·eps + slopeBias · L·(2/R) · min(tanθ, maxSlope),
+// a tap when  stored >= L - bias,  bias = constantBias·eps + slopeBias · L·(2/res) · min(tanθ, maxSlope),
 // where eps is the shared epsilon policy's along-ray epsilon (reference/epsilon.h: the reference ignores
 // hits within eps of either end, so no map can resolve closer), θ the angle between the sample's normal
 // and the direction to the light, and L·2/R the widest a texel gets sideways at that distance. The
@@ -32,6 +39,7 @@ struct CubeSmOptions {
   bool pcf = true;             // bilinear 2x2 percentage-closer filter; false: nearest texel, 0/1
   bool planeBias = false;      // receiver-plane bias per tap instead of slope-scaled (sm_shared.h planeReach)
   bool cull = true;            // per-face frustum culling of triangle clusters (depth_pass.h); same result
+  bool fitFaces = true;        // each face's R x R texels over the part of it the scene's bounds cover
 };
 
 // MethodOutput: visibility per pixel in [0, 1] (PCF) or {0, 1} (nearest), 1 where the sample is not lit;
