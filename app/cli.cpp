@@ -78,6 +78,11 @@ compare options (defaults: all views, all methods, 256x256, 3 frames, --out comp
                       cannot run says "failed: <reason>"; writes scaling.md, scaling.json, scaling.csv,
                       scaling_resolution.svg/.png, scaling_triangles.svg/.png
   --scaling-max-triangles N   bound of the triangle sweep (default 10000000)
+  --light-distances D1,D2,...   light sweep instead: one view (the first of --views) at --width x --height,
+                      the light (--light, the scene's or the automatic one) moved out along its direction
+                      from the scene's centre to D scene diagonals (e.g. 1,100,1000,10000); every method
+                      against Embree at each distance;
+                      writes light_distances.md/.json/.csv, light_distances.svg/.png
   --animate N         dynamic scene instead: N frames over the scene's motion (the built-in motion's cycle,
                       a glTF file's node animation: translation/rotation/scale channels, or a BART file's
                       keyframes and animated triangles over its `a` range, its `animated` view riding the
@@ -242,6 +247,15 @@ Options parseArgs(int argc, char** argv) {
       o.movingCamera = true;
     } else if (a == "--scaling") {
       o.scaling = true;
+    } else if (a == "--light-distances") {
+      for (const std::string& item : list(a, value(a))) {
+        char* end = nullptr;
+        double d = std::strtod(item.c_str(), &end);
+        if (item.empty() || *end != '\0' || !(d > 0) || !(d <= 1e15))
+          throw UsageError("--light-distances wants distances in scene diagonals in (0, 1e15] separated by "
+                           "commas, got '" + item + "'");
+        o.lightDistances.push_back(d);
+      }
     } else if (a == "--scaling-max-triangles") {
       o.scalingMaxTriangles = parseUint(a, value(a), 1, 200000000u);
     } else if (a == "--validation") {
@@ -266,6 +280,10 @@ Options parseArgs(int argc, char** argv) {
   if (o.movingCamera && !o.animateFrames) throw UsageError("--moving-camera needs --animate N");
   if (o.animateFrames && o.command != "compare") throw UsageError("--animate is an option of compare");
   if (o.animateFrames && o.scaling) throw UsageError("--animate and --scaling are separate runs; give one of them");
+  if (!o.lightDistances.empty() && (o.animateFrames || o.scaling))
+    throw UsageError("--light-distances is a run of its own; give it without --animate and --scaling");
+  if (!o.lightDistances.empty() && o.command != "compare") throw UsageError("--light-distances is an option of compare");
+
   if (o.command == "info" && o.scene.empty()) throw UsageError("info needs a SCENE (a .gltf/.glb file, or builtin)");
   return o;
 }

@@ -49,6 +49,7 @@ struct Options {
   // scaling runs (compare --scaling): resolution and triangle-count sweeps, behind the flag
   bool scaling = false;              // --scaling
   uint64_t scalingMaxTriangles = 0;  // --scaling-max-triangles N (0 = the sweep's default)
+  std::vector<double> lightDistances;  // compare --light-distances D1,D2: the light sweep, in scene diagonals
   std::vector<std::string> methods;  // compare --methods a,b (empty = all registered)
   std::vector<std::string> views;    // compare --views v1,v2 (empty = all views of the scene)
   std::vector<std::string> extra;    // method-specific --key=value settings, passed through

@@ -327,7 +327,7 @@ std::string speedVsErrorSvg(const std::vector<Row>& rows) {
 
 int runCompare(const Options& o) {
   if (o.animateFrames) return runDynamicCompare(o);
-  if (o.scaling) return runScaling(o);
+  if (o.scaling || !o.lightDistances.empty()) return runScaling(o);
   ProgressLog progressLog(o.quiet);
   std::ostream& log = progressLog.stream();
 

@@ -61,8 +61,11 @@ namespace {
 
 // One method at one point of a sweep; failed points carry the reason and no numbers.
 struct ScalingRow {
-  std::string sweep;  // "resolution" | "triangles"
+  std::string sweep;  // "resolution" | "triangles" | "light_distance"
   uint32_t width = 0, height = 0, copies = 1;
+  double lightDiagonals = 0;  // light_distance: the light's distance from the scene's centre, in diagonals
+  glm::vec3 light{0};
+  uint64_t pairsTested = 0;   // the cone path's (triangle, node) pairs, when the method reports them
   uint64_t triangles = 0;
   std::string method;
   std::string status = "ok";  // "ok" or "failed: <reason>"
@@ -75,7 +78,8 @@ struct ScalingRow {
 
 // Columns of scaling.csv, in order; scaling.json rows carry the same keys (numbers null when failed).
 const std::vector<std::string> kColumns = {
-    "sweep", "width", "height", "pixels", "copies", "triangles", "method", "status", "ms_median", "ms_min", "ms_max",
+    "sweep", "width", "height", "pixels", "copies", "triangles", "light_distance_diagonals", "light_x", "light_y",
+    "light_z", "method", "status", "ms_median", "ms_min", "ms_max", "pairs_tested",
     "bytes_allocated", "peak_bytes", "lit_samples", "band_samples", "misclassified", "misclassified_pct",
     "misclassified_outside_band", "misclassified_outside_band_pct"};
 
@@ -87,6 +91,11 @@ nlohmann::ordered_json toJson(const ScalingRow& r) {
   j["pixels"] = uint64_t(r.width) * r.height;
   j["copies"] = r.copies;
   j["triangles"] = r.triangles;
+  const bool distance = r.sweep == "light_distance";
+  j["light_distance_diagonals"] = distance ? nlohmann::ordered_json(r.lightDiagonals) : nlohmann::ordered_json();
+  j["light_x"] = r.light.x;
+  j["light_y"] = r.light.y;
+  j["light_z"] = r.light.z;
   j["method"] = r.method;
   j["status"] = r.status;
   const bool ok = r.ok();
@@ -94,6 +103,7 @@ nlohmann::ordered_json toJson(const ScalingRow& r) {
   num("ms_median", r.msMedian);
   num("ms_min", r.msMin);
   num("ms_max", r.msMax);
+  j["pairs_tested"] = ok && r.pairsTested ? nlohmann::ordered_json(r.pairsTested) : nlohmann::ordered_json();
   num("bytes_allocated", r.bytes);
   num("peak_bytes", r.peakBytes);
   num("lit_samples", r.lit);
@@ -141,6 +151,59 @@ std::string sweepSvg(const std::vector<ScalingRow>& rows, const std::string& swe
     bytes.series.push_back(bs);
   }
   return logPlotSvg({time, bytes});
+}
+
+// Light sweep: time (top) and misclassified samples outside the band (bottom, exact results on the
+// floor labelled 0) against the light's distance, one line per method.
+std::string distanceSvg(const std::vector<ScalingRow>& rows, const std::vector<std::string>& methods) {
+  LogPanel time{"light distance from the scene's centre, scene diagonals (log scale)",
+                "shadow time per frame, ms (median)", {}};
+  LogPanel error{"light distance from the scene's centre, scene diagonals (log scale)",
+                 "misclassified outside the band, % of lit samples", {}};
+  error.yFloor = 1e-4;
+  for (auto& m : methods) {
+    PlotSeries ts{m, {}, true}, es{m, {}, true};
+    for (auto& r : rows) {
+      if (r.sweep != "light_distance" || r.method != m || !r.ok()) continue;
+      const std::string where = m + " at " + fixed(r.lightDiagonals, 0) + " diagonals: ";
+      ts.points.push_back({r.lightDiagonals, std::max(r.msMedian, 1e-3), where + fixed(r.msMedian, 2) + " ms"});
+      es.points.push_back({r.lightDiagonals, std::max(r.misclassifiedOutsideBandPct, 1e-4),
+                           where + fixed(r.misclassifiedOutsideBandPct, 4) + " % (" +
+                               std::to_string(r.misclassifiedOutsideBand) + ")"});
+    }
+    time.series.push_back(ts);
+    error.series.push_back(es);
+  }
+  return logPlotSvg({time, error});
+}
+
+std::string distanceMd(const std::string& sceneName, const std::string& view, const std::string& device,
+                       const Options& o, const std::vector<ScalingRow>& rows) {
+  std::ostringstream os;
+  os << "# coneshadow light distances: " << sceneName << " / " << view << "\n\n"
+     << "device: " << device << "\n\n"
+     << o.width << "x" << o.height << ", median of " << o.frames << " frame(s) after one warm-up per point. The "
+     << "light moved out along its own direction from the centre of the scene's bounds to the given number of "
+     << "bounding-box diagonals; every method judged against Embree on the same samples. Band: samples whose "
+     << "reference answer flips under the epsilon policy's perturbations (its light nudge is floored at 4 ulp of "
+     << "the light's coordinates, so the band widens with the distance). Pairs: the cone path's (triangle, node) "
+     << "tests.\n\n"
+     << "| light distance (diagonals) | method | ms median (min-max) | misclassified outside band | misclassified "
+     << "(all) | band | pairs tested | status |\n"
+     << "| ---: | --- | ---: | ---: | ---: | ---: | ---: | --- |\n";
+  for (auto& r : rows) {
+    if (r.sweep != "light_distance") continue;
+    os << "| " << fixed(r.lightDiagonals, 0) << " | " << r.method << " | ";
+    if (r.ok())
+      os << fixed(r.msMedian, 2) << " (" << fixed(r.msMin, 2) << "-" << fixed(r.msMax, 2) << ") | "
+         << fixed(r.misclassifiedOutsideBandPct, 4) << " % (" << r.misclassifiedOutsideBand << ") | "
+         << fixed(r.misclassifiedPct, 4) << " % | " << r.band << " | "
+         << (r.pairsTested ? std::to_string(r.pairsTested) : std::string("-")) << " | ok |\n";
+    else
+      os << "- | - | - | - | - | " << r.status << " |\n";
+  }
+  os << "\n![light distance sweep](light_distances.png)\n\n(vector: light_distances.svg)\n";
+  return os.str();
 }
 
 std::string scalingMd(const std::string& sceneName, const std::string& view, const std::string& device,
@@ -220,6 +283,12 @@ int runScaling(const Options& base) {
   const Camera camera = selectViews(scene, viewOptions).front();  // the first of --views, else the first camera
   const std::string view = camera.name.empty() ? "auto" : camera.name;
   const glm::vec3 light = chooseLight(scene, o, log);
+  const bool distances = !o.lightDistances.empty();
+  // The light sweep's direction: from the scene's centre through the chosen light.
+  const glm::vec3 centre = 0.5f * (scene.boundsMin + scene.boundsMax);
+  const float diagonal = scene.diagonal();
+  glm::vec3 away = glm::vec3(light) - centre;
+  away = glm::length(away) > 1e-6f * diagonal ? glm::normalize(away) : glm::normalize(glm::vec3(0.3f, 1.0f, 0.2f));
   const EpsilonPolicy policy = EpsilonPolicy::forScene(scene);  // the original's, at every point
   const std::vector<uint32_t> copies = scalingCopies(scene.triangleCount(), maxTriangles);
 
@@ -240,15 +309,20 @@ int runScaling(const Options& base) {
       rows.push_back(r);
     }
   };
-  auto runPoint = [&](const std::string& sweep, const Scene& s, uint32_t k, uint32_t w, uint32_t h) {
+  auto runPoint = [&](const std::string& sweep, const Scene& s, uint32_t k, uint32_t w, uint32_t h,
+                      glm::vec3 pointLight, double lightDiagonals) {
     ScalingRow proto;
     proto.sweep = sweep;
     proto.width = w;
     proto.height = h;
     proto.copies = k;
     proto.triangles = s.triangleCount();
+    proto.light = pointLight;
+    proto.lightDiagonals = lightDiagonals;
     const std::string tag = "[" + sweep + " " + std::to_string(w) + "x" + std::to_string(h) + ", " +
-                            std::to_string(proto.triangles) + " triangles] ";
+                            std::to_string(proto.triangles) + " triangles" +
+                            (sweep == "light_distance" ? ", light " + fixed(lightDiagonals, 0) + " diagonals" : "") +
+                            "] ";
     // The shared part: raster, Embree reference, band. If it fails, every method fails at this point.
     GBuffer gb;
     DeviceGBuffer dev;
@@ -259,16 +333,16 @@ int runScaling(const Options& base) {
     try {
       log << tag << "raster, reference, band" << std::endl;
       raster = std::make_unique<Raster>(*ctx, s);
-      raster->render(camera, light, w, h, dev, &gb);  // warm-up
-      raster->render(camera, light, w, h, dev, &gb);
-      FrameInput frame = frameInput(s, gb, dev, *ctx, light, policy.eps);
+      raster->render(camera, pointLight, w, h, dev, &gb);  // warm-up
+      raster->render(camera, pointLight, w, h, dev, &gb);
+      FrameInput frame = frameInput(s, gb, dev, *ctx, pointLight, policy.eps);
       ref = runTimed(reference, frame, o.frames, quiet);
-      band = reference.ambiguityBand(s, gb, light, policy, {}, nullptr);
+      band = reference.ambiguityBand(s, gb, pointLight, policy, {}, nullptr);
     } catch (const std::exception& e) {
       failAll(proto, tag, e.what());
       return;
     }
-    FrameInput frame = frameInput(s, gb, dev, *ctx, light, policy.eps);
+    FrameInput frame = frameInput(s, gb, dev, *ctx, pointLight, policy.eps);
     for (auto& m : methods) {
       ScalingRow r = proto;
       r.method = m;
@@ -292,6 +366,9 @@ int runScaling(const Options& base) {
         r.misclassifiedPct = err.misclassifiedFraction * 100.0;
         r.misclassifiedOutsideBand = err.misclassifiedOutsideBand;
         r.misclassifiedOutsideBandPct = err.misclassifiedFractionOutsideBand * 100.0;
+        const auto& stats = t->output.stats;
+        if (stats.contains("pairs_tested") && stats["pairs_tested"].is_number_integer())
+          r.pairsTested = stats["pairs_tested"].get<uint64_t>();
         log << tag << m << ": " << fixed(r.msMedian, 2) << " ms, " << mib(r.bytes) << " MiB, "
             << r.misclassifiedOutsideBand << " misclassified outside band" << std::endl;
       } catch (const std::exception& e) {
@@ -302,10 +379,20 @@ int runScaling(const Options& base) {
     }
   };
 
-  for (uint32_t n : sizes) runPoint("resolution", scene, 1, n, n);
+  for (double d : o.lightDistances) {
+    const glm::vec3 far = centre + float(d * double(diagonal)) * away;
+    if (std::string why = lightRangeProblem(far, scene.boundsMin, scene.boundsMax); !why.empty())
+      throw UsageError("--light-distances: " + fixed(d, 0) + " diagonals: " + why);
+    runPoint("light_distance", scene, 1, o.width, o.height, far, d);
+  }
+  for (uint32_t n : sizes) {
+    if (distances) break;
+    runPoint("resolution", scene, 1, n, n, light, 0);
+  }
   for (uint32_t k : copies) {
+    if (distances) break;
     if (k == 1) {
-      runPoint("triangles", scene, 1, o.width, o.height);
+      runPoint("triangles", scene, 1, o.width, o.height, light, 0);
       continue;
     }
     Scene big;
@@ -321,7 +408,7 @@ int runScaling(const Options& base) {
       failAll(proto, "[triangles, " + std::to_string(k) + " copies] ", e.what());
       continue;
     }
-    runPoint("triangles", big, k, o.width, o.height);
+    runPoint("triangles", big, k, o.width, o.height, light, 0);
   }
 
   log << "writing scaling reports" << std::endl;
@@ -348,6 +435,22 @@ int runScaling(const Options& base) {
   doc["device"] = device;
   doc["frames"] = o.frames;
   doc["rows"] = json;
+  if (distances) {
+    doc["light_direction"] = {away.x, away.y, away.z};
+    doc["scene_centre"] = {centre.x, centre.y, centre.z};
+    doc["scene_diagonal"] = diagonal;
+    writeFileAtomic((dir / "light_distances.json").string(), doc.dump(2) + "\n");
+    writeFileAtomic((dir / "light_distances.csv").string(), csv);
+    writeFileAtomic((dir / "light_distances.md").string(), distanceMd(scene.name, view, device, o, rows));
+    writeFileAtomic((dir / "light_distances.svg").string(), distanceSvg(rows, methods));
+    svgToPng((dir / "light_distances.svg").string(), (dir / "light_distances.png").string());
+    out.commit();
+    size_t failed = size_t(std::count_if(rows.begin(), rows.end(), [](const ScalingRow& r) { return !r.ok(); }));
+    std::cout << "result: light distances of " << scene.name << " / " << view << ": " << rows.size()
+              << " point(s), " << failed << " failed; wrote " << o.out
+              << "/ (light_distances.md, .json, .csv, .svg, .png)\n";
+    return kExitOk;
+  }
   writeFileAtomic((dir / "scaling.json").string(), doc.dump(2) + "\n");
   writeFileAtomic((dir / "scaling.csv").string(), csv);
   writeFileAtomic((dir / "scaling.md").string(), scalingMd(scene.name, view, device, o, rows));

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include <glm/glm.hpp>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <sys/wait.h>
@@ -372,6 +373,59 @@ TEST(Scaling, TinySweepWritesFilesWithCsvMatchingJson) {
   EXPECT_NE(md.find("](scaling_triangles.png)"), std::string::npos);
   EXPECT_NE(md.find("| 4 / 30160 |"), std::string::npos) << md;
   fs::remove_all(out);
+}
+
+TEST(LightDistances, SweepWritesErrorAndTimeAgainstDistanceForEveryMethod) {
+  fs::path out = fs::temp_directory_path() / ("coneshadow_lightdist_" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  const std::string model = std::string(CONESHADOW_ASSIMP_MODELS) + "/ClearCoat-glTF/ClearCoatTest.gltf";
+  CliRun r = cli("compare " + model + " --light-distances 1,1000,100000 --width 32 --height 32 --frames 1 --quiet --out " +
+                 out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const char* f : {"light_distances.md", "light_distances.json", "light_distances.csv", "light_distances.svg",
+                        "light_distances.png"})
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  EXPECT_FALSE(fs::exists(out / "scaling.json"));
+  nlohmann::json doc = nlohmann::json::parse(readText(out / "light_distances.json"));
+  const nlohmann::json& rows = doc.at("rows");
+  ASSERT_EQ(rows.size() % 3, 0u);
+  const size_t methods = rows.size() / 3;
+  ASSERT_GE(methods, 4u);
+  std::map<double, int> perDistance;
+  const float diag = doc.at("scene_diagonal").get<float>();
+  const glm::vec3 centre(doc["scene_centre"][0].get<float>(), doc["scene_centre"][1].get<float>(),
+                         doc["scene_centre"][2].get<float>());
+  for (auto& row : rows) {
+    EXPECT_EQ(row.at("sweep"), "light_distance");
+    EXPECT_EQ(row.at("status"), "ok") << row.dump();
+    const double k = row.at("light_distance_diagonals").get<double>();
+    perDistance[k]++;
+    const glm::vec3 light(row["light_x"].get<float>(), row["light_y"].get<float>(), row["light_z"].get<float>());
+    EXPECT_NEAR(glm::length(light - centre) / diag, k, 1e-3 * k) << row.dump();
+    if (row.at("method") == "cone" || row.at("method") == "embree") {
+      EXPECT_EQ(row.at("misclassified_outside_band"), 0) << row.dump();
+      EXPECT_GT(row.at("lit_samples").get<uint64_t>(), 100u) << row.dump();
+    }
+    if (row.at("method") == "cone") {
+      EXPECT_GT(row.at("pairs_tested").get<uint64_t>(), 0u);
+    }
+  }
+  EXPECT_EQ(perDistance.size(), 3u);
+  auto csv = parseCsv(readText(out / "light_distances.csv"));
+  ASSERT_EQ(csv.size(), rows.size() + 1);
+  for (size_t i = 0; i < rows.size(); ++i)
+    for (size_t c = 0; c < csv[0].size(); ++c)
+      expectCellEquals(csv[i + 1][c], rows[i].at(csv[0][c]), "row " + std::to_string(i) + " " + csv[0][c]);
+  const std::string md = readText(out / "light_distances.md");
+  EXPECT_NE(md.find("| light distance (diagonals) | method |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| 100000 | cone |"), std::string::npos) << md;
+  fs::remove_all(out);
+
+  for (const char* args : {"compare --light-distances 0", "compare --light-distances 1,x", "render --light-distances 1",
+                           "compare --scaling --light-distances 1", "compare --light-distances 1e16"}) {
+    CliRun bad = cli(args);
+    EXPECT_EQ(bad.code, 2) << args << "\n" << bad.out;
+  }
 }
 
 nlohmann::json resultRow(const std::string& view, const std::string& method, const std::string& setting, double ms,
