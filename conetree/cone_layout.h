@@ -20,17 +20,45 @@
 
 #define CONE_BUILD_THREADS 64
 
+// Division in the shared GLSL/C++ code is written CONE_DIV(a, b): a / b in both languages. Vulkan lets a
+// GPU round a division to 2.5 ulp, so tests/gpu_arithmetic_test.cpp compiles the same source again with
+// its own CONE_DIV (and its own sqrt, length, normalize, atan, cos, sin through CONE_CPU_MATH, into its
+// own CONE_CPU_NAMESPACE) to check the margins under the worst a GPU may do.
+#ifndef CONE_DIV
+#define CONE_DIV(a, b) ((a) / (b))
+#endif
+
 #ifdef __cplusplus
 #include <cstddef>
 #include <cstdint>
 
 #include <glm/glm.hpp>
-namespace cs::cone {
+#ifndef CONE_CPU_NAMESPACE
+#define CONE_CPU_NAMESPACE cs::cone
+#endif
+// The C++ names of the GLSL built-ins the shared headers call, one list for all of them.
+#ifndef CONE_CPU_MATH
+#define CONE_CPU_MATH \
+  using glm::abs;     \
+  using glm::atan;    \
+  using glm::cos;     \
+  using glm::cross;   \
+  using glm::dot;     \
+  using glm::length;  \
+  using glm::max;     \
+  using glm::min;     \
+  using glm::normalize; \
+  using glm::sin;     \
+  using glm::sqrt;
+#endif
+namespace CONE_CPU_NAMESPACE {
 namespace glsl {  // the code below is GLSL; these names let C++ read it as written
 using uint = uint32_t;
-using glm::min;
 using glm::uvec2;
+using glm::vec2;
+using glm::vec3;
 using glm::vec4;
+CONE_CPU_MATH
 #define CONE_FN inline
 #else
 #define CONE_FN
@@ -106,7 +134,7 @@ static_assert(sizeof(BuildPush) == 48 && offsetof(BuildPush, count) == 16 && off
               "BuildPush layout");
 // Leaf ranges are 32-bit: 4^D must fit, i.e. D <= 15 (n <= 2^30 rays).
 constexpr uint32_t kMaxLeaves = 1u << 30;
-}  // namespace cs::cone
+}  // namespace CONE_CPU_NAMESPACE
 #endif
 #undef CONE_FN
 #endif

@@ -25,20 +25,8 @@
 
 #ifdef __cplusplus
 #include <cmath>
-namespace cs::cone {
-namespace glsl {
-using glm::abs;
-using glm::atan;
-using glm::cos;
-using glm::cross;
-using glm::dot;
-using glm::length;
-using glm::max;
-using glm::normalize;
-using glm::sin;
-using glm::sqrt;
-using glm::vec2;
-using glm::vec3;
+namespace CONE_CPU_NAMESPACE {
+namespace glsl {  // the built-ins' C++ names: CONE_CPU_MATH (cone_layout.h)
 #define CONE_FN inline
 #define CONE_PRECISE
 #else
@@ -69,7 +57,7 @@ CONE_FN bool coneIsEmpty(ConeNode c) { return !(c.sinLen.z >= 0.0f); }
 // The cone of one usable leaf ray: half-angle 0 (the parent's padding absorbs the normalisation).
 CONE_FN ConeNode rayCone(vec4 ray) {
   ConeNode c;
-  c.axisCos = vec4(vec3(ray) / ray.w, 1.0f);
+  c.axisCos = vec4(CONE_DIV(vec3(ray), ray.w), 1.0f);
   c.sinLen = vec4(0.0f, ray.w, ray.w, 0.0f);
   return c;
 }
@@ -110,10 +98,10 @@ CONE_FN ConeNode coneMergeApprox(ConeNode A, ConeNode B) {
   }
   float beta = alpha - al1;  // rotate a1 towards a2 by beta
   float pl = length(perp);
-  vec3 dir = pl > 1e-12f ? perp / pl : anyPerpendicular(a1);
+  vec3 dir = pl > 1e-12f ? CONE_DIV(perp, pl) : anyPerpendicular(a1);
   vec3 axis = cos(beta) * a1 + sin(beta) * dir;
   float al = length(axis);
-  r.axisCos = vec4(al > 0.5f ? axis / al : a1, 1.0f);
+  r.axisCos = vec4(al > 0.5f ? CONE_DIV(axis, al) : a1, 1.0f);
   r.sinLen.w = alpha;
   return r;
 }
@@ -161,7 +149,7 @@ CONE_FN ConeNode coneEnclose(ConeNode node, ConeNode c0, ConeNode c1, ConeNode c
     node.sinLen.w = CONE_PI;
     return node;
   }
-  w = w / len;
+  w = CONE_DIV(w, len);
   node.axisCos.w = w.x;
   node.sinLen.x = w.y;
   node.sinLen.w = atan(w.y, w.x);
@@ -203,7 +191,7 @@ using glsl::emptyCone;
 using glsl::leafRay;
 using glsl::leafRayUsable;
 using glsl::rayCone;
-}  // namespace cs::cone
+}  // namespace CONE_CPU_NAMESPACE
 #endif
 #undef CONE_FN
 #undef CONE_PRECISE

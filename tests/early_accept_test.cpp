@@ -13,6 +13,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/cone_property_support.h"
+
 #include "eval/metrics.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
@@ -90,16 +92,11 @@ TEST(EarlyAcceptCovered, NeverAcceptsAConeWithARayThatMissesTheTriangleInItsInte
     if (kind == 1 || kind == 2 || kind == 4) nearMissAccepted++;
     // Every ray of the cone -- on its boundary, inside, along the axis -- of length Lmin, Lmax or between
     // hits the triangle within (eps, L - eps), through the leaf test itself.
-    dvec3 tu = glm::normalize(glm::cross(a, std::abs(a.x) < 0.5 ? dvec3(1, 0, 0) : dvec3(0, 1, 0)));
-    dvec3 tw = glm::cross(a, tu);
     for (int k = 0; k < 200; ++k) {
-      double th = k == 0 ? 0.0 : (k % 2 ? alpha : uni(0, alpha)), ph = uni(0, 2 * M_PI);
-      dvec3 r = std::cos(th) * a + std::sin(th) * (std::cos(ph) * tu + std::sin(ph) * tw);
-      double L = k % 3 == 0 ? lmin : (k % 3 == 1 ? lmax : uni(lmin, lmax));
-      vec3 wf = vec3(r * L);
-      vec4 ray = cone::leafRay(wf, vec3(0));
-      if (ray.w < float(lmin)) ray = cone::leafRay(wf = vec3(r * L * (1 + 1e-6)), vec3(0));
-      ASSERT_TRUE(cone::leafHit(wf, vec3(0), ray, float(eps), v[0], v[1], v[2]))
+      const test::ProbeRay probe = test::probeRay(k, a, alpha, lmin, lmax, uni, [](vec3 x, vec3 l) { return cone::leafRay(x, l); });
+      const dvec3 r = probe.r;
+      const double L = probe.L, th = probe.theta;
+      ASSERT_TRUE(cone::leafHit(probe.w, vec3(0), probe.ray, float(eps), v[0], v[1], v[2]))
           << "pair " << i << " (kind " << kind << ") accepted but the ray at theta " << th << " of alpha " << alpha
           << ", length " << L << " (Lmin " << lmin << ", Lmax " << lmax << ", eps " << eps << ") misses";
       // And in double: the plane crossing lies within (eps, L - eps).

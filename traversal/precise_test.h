@@ -54,7 +54,7 @@
 #define CONE_ULP2 1.1920928955078125e-07f   // 2 ulp = 2^-23
 
 #ifdef __cplusplus
-namespace cs::cone {
+namespace CONE_CPU_NAMESPACE {
 namespace glsl {
 #define CONE_FN inline
 #define CONE_PRECISE
@@ -127,11 +127,11 @@ CONE_FN bool tangentSeparates(vec3 vi, float li, PreciseTriangle t, vec3 a, floa
   float pl = length(p);
   if (!(pl * 4096.0f > li)) return false;           // vertex (nearly) on the axis
   // Widen the cone by gamma >= the tilt of b = p / |p| off the plane normal to a (~10 ulp |v| / |p|).
-  float gamma = CONE_TEST_MARGIN + CONE_ULP16 * li / pl;
+  float gamma = CONE_TEST_MARGIN + CONE_DIV(CONE_ULP16 * li, pl);
   float c2 = c - gamma * s;
   float s2 = s + gamma * c;
   if (!(c2 > 0.0f)) return false;                   // widened past pi/2: no tangent plane
-  vec3 n = (c2 / pl) * p - s2 * a;                  // angle(n, a) >= pi/2 + alpha: cone on n.r <= 0
+  vec3 n = CONE_DIV(c2, pl) * p - s2 * a;                  // angle(n, a) >= pi/2 + alpha: cone on n.r <= 0
   float m = CONE_TEST_MARGIN * length(n);  // >=: a vertex at the apex (l = 0) may touch the plane, as in coneOutside
   return dot(n, t.v0) >= m * t.len.x && dot(n, t.v1) >= m * t.len.y && dot(n, t.v2) >= m * t.len.z;
 }
@@ -221,7 +221,7 @@ CONE_FN bool preciseConeCovered(ConeNode cone, PreciseTriangle t, float eps) {
   float hi = nu * c - mu * s <= CONE_TEST_MARGIN * nl ? nl : mu * c + nu * s + 4.0f * CONE_TEST_MARGIN * nl;
   const float k = 1.0f + 4.0f * CONE_TEST_MARGIN;
   // farthest crossing dfar / lo < Lmin - eps; nearest crossing dnear / hi > eps (margins both ways)
-  return dfar * k < lo * (lmin / k - eps * k) && dnear > hi * eps * k * k;
+  return dfar * k < lo * (CONE_DIV(lmin, k) - eps * k) && dnear > hi * eps * k * k;
 }
 
 CONE_FN bool preciseConeTriangle(ConeNode cone, vec3 v0, vec3 v1, vec3 v2, float eps) {
@@ -253,9 +253,9 @@ CONE_FN bool leafRayHitsTriangle(vec4 ray, float eps, vec3 v0, vec3 v1, vec3 v2)
   vec3 A = shearOrder(v0, kz, flip);
   vec3 B = shearOrder(v1, kz, flip);
   vec3 C = shearOrder(v2, kz, flip);
-  CONE_PRECISE float Sx = d.x / d.z;
-  CONE_PRECISE float Sy = d.y / d.z;
-  CONE_PRECISE float Sz = 1.0f / d.z;
+  CONE_PRECISE float Sx = CONE_DIV(d.x, d.z);
+  CONE_PRECISE float Sy = CONE_DIV(d.y, d.z);
+  CONE_PRECISE float Sz = CONE_DIV(1.0f, d.z);
   CONE_PRECISE float Ax = A.x - Sx * A.z;
   CONE_PRECISE float Ay = A.y - Sy * A.z;
   CONE_PRECISE float Bx = B.x - Sx * B.z;
@@ -285,7 +285,7 @@ CONE_FN bool leafRayHitsTriangle(vec4 ray, float eps, vec3 v0, vec3 v1, vec3 v2)
                  eB * bA + eA * bB + 2.0f * eA * eB + CONE_ULP2 * (bA * bB + abs(W));
   if (!(abs(det) > 2.0f * errDet)) return false;
   CONE_PRECISE float T = U * (Sz * A.z) + V * (Sz * B.z) + W * (Sz * C.z);
-  float tau = (T / det) * L;  // T / det: the hit as a fraction of w
+  float tau = CONE_DIV(T, det) * L;  // T / det: the hit as a fraction of w
   return tau > eps && tau < L - eps;
 }
 
@@ -327,7 +327,7 @@ using glsl::preciseConeCovered;
 using glsl::preciseConeTriangle;
 using glsl::preciseTriangle;
 using glsl::PreciseTriangle;
-}  // namespace cs::cone
+}  // namespace CONE_CPU_NAMESPACE
 #endif
 #undef CONE_FN
 #undef CONE_PRECISE

@@ -19,7 +19,7 @@
 #include "traversal/precise_test.h"
 
 #ifdef __cplusplus
-namespace cs::cone {
+namespace CONE_CPU_NAMESPACE {
 namespace glsl {
 #define SPHERE_FN inline
 #else
@@ -78,7 +78,7 @@ SPHERE_FN bool facesLight(vec3 v0, vec3 v1, vec3 v2) {
 using glsl::boundingSphere;
 using glsl::facesLight;
 using glsl::sphereConeTriangle;
-}  // namespace cs::cone
+}  // namespace CONE_CPU_NAMESPACE
 #endif
 #undef SPHERE_FN
 #endif

@@ -1,0 +1,228 @@
+// Random and adversarial (cone, triangle) pairs and a brute-force search for an intersection, shared by
+// the property tests of the traversal's tests (tests/traversal_test.cpp) and of the same source under the
+// arithmetic a GPU is allowed (tests/gpu_arithmetic_test.cpp).
+#pragma once
+#include <algorithm>
+#include <cfloat>
+#include <cmath>
+#include <functional>
+#include <random>
+
+#include <glm/glm.hpp>
+
+#include "reference/epsilon.h"
+#include "traversal/precise_test.h"
+
+namespace cs::test {
+
+using cone::ConeNode;
+using glm::dvec3;
+using glm::vec3;
+using glm::vec4;
+
+// ---- random (cone, triangle) pairs ------------------------------------------------------------------
+
+struct Pair {
+  ConeNode cone;
+  vec3 v[3];  // relative to the apex
+  int kind;
+  float eps;  // hits count at distances in (eps, Lmax - eps) from the apex
+};
+inline constexpr int kKinds = 14;
+inline const char* kindName(int k) {
+  static const char* names[kKinds] = {"random",          "near the boundary", "touching the boundary",
+                                      "vertex at apex",  "apex in plane",     "apex on an edge line",
+                                      "repeated vertex", "collinear",         "a point",
+                                      "sliver",          "in the complement", "around Lmax",
+                                      "huge",            "edge just outside"};
+  return names[k];
+}
+
+struct PairGenerator {
+  std::mt19937_64 rng;
+  explicit PairGenerator(uint64_t seed) : rng(seed) {}
+  double uni(double a = 0, double b = 1) { return std::uniform_real_distribution<double>(a, b)(rng); }
+  double logUni(double lo, double hi) { return std::exp(uni(std::log(lo), std::log(hi))); }
+  dvec3 unit() {
+    for (;;) {
+      dvec3 p(uni(-1, 1), uni(-1, 1), uni(-1, 1));
+      double l = glm::length(p);
+      if (l > 1e-3 && l <= 1) return p / l;
+    }
+  }
+  // Half-angles that matter: zero, tiny, around pi/2 (both sides of the pi/2 - eps switch), past it, pi.
+  double angle() {
+    static const double table[] = {0,        1e-7,   1e-6,          1e-5,           1e-4,           1e-3,
+                                   0.01,     0.1,    0.3,           0.7,            1.2,            1.5,
+                                   M_PI / 2 - 2e-3, M_PI / 2 - 9e-4, M_PI / 2 - 1e-5, M_PI / 2, M_PI / 2 + 1e-5,
+                                   M_PI / 2 + 1e-3, 2.0,  2.5,  3.0,  M_PI - 1e-3,  M_PI - 1e-6,  M_PI};
+    size_t k = rng() % 30;
+    return k < std::size(table) ? table[k] : uni(0, M_PI);
+  }
+  dvec3 at(dvec3 a, double theta) {  // a direction at angle theta from unit a
+    dvec3 t = std::abs(a.x) < 0.5 ? dvec3(1, 0, 0) : dvec3(0, 1, 0);
+    dvec3 u = glm::normalize(glm::cross(a, t)), v = glm::cross(a, u);
+    double phi = uni(0, 2 * M_PI);
+    return std::cos(theta) * a + std::sin(theta) * (std::cos(phi) * u + std::sin(phi) * v);
+  }
+  static ConeNode cone(dvec3 a, double alpha, double lmax) {
+    ConeNode c;
+    c.axisCos = vec4(vec3(a), float(std::cos(alpha)));
+    c.sinLen = vec4(float(std::sin(alpha)), float(lmax * 0.5), float(lmax), float(alpha));
+    if (alpha >= M_PI) c.axisCos.w = -1, c.sinLen.x = 0;
+    return c;
+  }
+  Pair make() {
+    Pair p;
+    dvec3 a = unit();
+    double alpha = angle();
+    double lmax = logUni(1e-2, 1e3);
+    p.cone = cone(a, alpha, lmax);
+    p.kind = int(rng() % kKinds);
+    p.eps = rng() % 2 ? 0.0f : float(lmax * logUni(1e-5, 0.3));
+    double sc = logUni(1e-3, 1e3);
+    auto rnd = [&] { return unit() * sc * uni(0, 1.5); };
+    dvec3 v[3];
+    switch (p.kind) {
+      case 0: for (auto& x : v) x = rnd(); break;
+      case 1: {
+        double d = (rng() % 2 ? 1 : -1) * logUni(1e-9, 1e-1);
+        dvec3 x = at(a, std::min(std::max(alpha + d, 0.0), M_PI)) * lmax * uni(0.2, 1.5);
+        double r = logUni(1e-6, 1) * lmax;
+        v[0] = x, v[1] = x + unit() * r, v[2] = x + unit() * r;
+        break;
+      }
+      case 2: {
+        dvec3 x = at(a, alpha) * lmax * uni(0.1, 1.2), e1 = unit() * sc, e2 = unit() * sc;
+        v[0] = x - uni(0, 0.5) * e1 - uni(0, 0.5) * e2, v[1] = v[0] + e1, v[2] = v[0] + e2;
+        break;
+      }
+      case 3: v[0] = dvec3(0), v[1] = rnd(), v[2] = rnd(); break;
+      case 4: v[0] = rnd(), v[1] = rnd(), v[2] = uni(-2, 2) * v[0] + uni(-2, 2) * v[1]; break;
+      case 5: v[0] = rnd(), v[1] = -v[0] * uni(0.1, 3), v[2] = rnd(); break;
+      case 6: v[0] = rnd(), v[1] = v[0], v[2] = rnd(); break;
+      case 7: {
+        v[0] = rnd();
+        dvec3 d = unit();
+        v[1] = v[0] + d * uni(0, sc), v[2] = v[0] + d * uni(-sc, sc);
+        break;
+      }
+      case 8: v[0] = v[1] = v[2] = rnd(); break;
+      case 9: v[0] = rnd(), v[1] = rnd(), v[2] = v[1] + (v[1] - v[0]) * 1e-6 + unit() * sc * 1e-7; break;
+      case 10: for (auto& x : v) x = at(-a, uni(0, std::max(0.0, M_PI - alpha))) * sc; break;
+      case 11: {
+        dvec3 x = a * lmax * uni(0.9, 1.1);
+        for (auto& y : v) y = x + unit() * lmax * uni(0, 3);
+        break;
+      }
+      case 12: {
+        dvec3 c = a * uni(-1, 1) * sc;
+        for (auto& y : v) y = c + unit() * sc * 100.0;
+        break;
+      }
+      default: {
+        dvec3 x = at(a, alpha + logUni(1e-7, 1e-2)) * lmax * uni(0.1, 1);
+        dvec3 t = glm::normalize(glm::cross(x, unit()));
+        v[0] = x, v[1] = x + t * sc, v[2] = x + t * sc * uni(-1, 1) + x * uni(0, 1e-3);
+        break;
+      }
+    }
+    for (int i = 0; i < 3; ++i) p.v[i] = vec3(v[i]);
+    return p;
+  }
+};
+
+// Brute force: does some ray of the (fp32-stored) cone, up to Lmax, meet the (fp32) triangle? Searched
+// three ways: points of the triangle inside the cone (exact, double), rays of the cone against the
+// triangle (double Moller-Trumbore), and fp32 leaf rays of the cone through the very leaf test the
+// traversal runs. Returns the ray found (xyz, length) in `ray` for the GPU check.
+struct BruteForce {
+  std::mt19937_64 rng{7};
+  double uni(double a = 0, double b = 1) { return std::uniform_real_distribution<double>(a, b)(rng); }
+  // x on a ray of the cone at a distance where hits count: eps < |x| < Lmax - eps.
+  static bool inCone(dvec3 x, dvec3 a, double alpha, double lmax, double eps) {
+    double l = glm::length(x);
+    if (!(l > 0) || !(l > eps) || !(l < lmax - eps)) return false;
+    return std::atan2(glm::length(glm::cross(x, a)), glm::dot(x, a)) <= alpha;
+  }
+  // The leaf test is run with eps at least the epsilon policy's floor (32 ulp of the largest coordinate,
+  // here the triangle's and the cone's length): below it, which no frame passes, a hit at the end of the
+  // ray far from the frame the test picks is rounding (the pair's eps may be 0: the whole cone).
+  static float leafEps(const Pair& p) {
+    float m = p.cone.sinLen.z;
+    for (const vec3& v : p.v) m = std::max(m, std::max(std::abs(v.x), std::max(std::abs(v.y), std::abs(v.z))));
+    return std::max(p.eps, EpsilonPolicy::kFloorUlps * FLT_EPSILON * m);
+  }
+  // The fp32 leaf test the search runs on the cone's rays: sample w (the apex at the origin), its leaf
+  // ray, eps, the triangle. By default the traversal's own (cone::leafHit); the GPU-arithmetic tests
+  // pass their emulated twin.
+  std::function<bool(vec3, vec4, float, const vec3*)> leaf = [](vec3 w, vec4 ray, float eps, const vec3* v) {
+    return cone::leafHit(w, vec3(0), ray, eps, v[0], v[1], v[2]);
+  };
+  bool hit(const Pair& p, vec4* leafHit = nullptr) {
+    dvec3 a = glm::normalize(dvec3(vec3(p.cone.axisCos)));
+    double alpha = std::atan2(double(p.cone.sinLen.x), double(p.cone.axisCos.w));
+    double lmax = p.cone.sinLen.z, eps = p.eps;
+    dvec3 v0(p.v[0]), v1(p.v[1]), v2(p.v[2]);
+    const int G = 20;
+    for (int i = 0; i <= G; ++i)
+      for (int j = 0; i + j <= G; ++j)
+        if (inCone(v0 + (double(i) / G) * (v1 - v0) + (double(j) / G) * (v2 - v0), a, alpha, lmax, eps)) return true;
+    for (int k = 0; k < 300; ++k) {
+      double b1 = uni(), b2 = uni();
+      if (b1 + b2 > 1) b1 = 1 - b1, b2 = 1 - b2;
+      if (k < 100) b2 = 0;
+      else if (k < 150) b1 = 1 - b2;
+      else if (k < 200) b1 = 0;
+      if (inCone(v0 + b1 * (v1 - v0) + b2 * (v2 - v0), a, alpha, lmax, eps)) return true;
+    }
+    dvec3 t = std::abs(a.x) < 0.5 ? dvec3(1, 0, 0) : dvec3(0, 1, 0);
+    dvec3 u = glm::normalize(glm::cross(a, t)), w = glm::cross(a, u);
+    for (int k = 0; k < 400; ++k) {
+      double th = k == 1 ? 0.0 : (k % 3 == 0 ? alpha : uni(0, alpha)), phi = uni(0, 2 * M_PI);
+      dvec3 r = std::cos(th) * a + std::sin(th) * (std::cos(phi) * u + std::sin(phi) * w);
+      dvec3 e1 = v1 - v0, e2 = v2 - v0, pv = glm::cross(r, e2);
+      double det = glm::dot(e1, pv);
+      if (det != 0) {
+        dvec3 tv = -v0, qv = glm::cross(tv, e1);
+        double bu = glm::dot(tv, pv) / det, bv = glm::dot(r, qv) / det, tt = glm::dot(e2, qv) / det;
+        if (bu >= 0 && bv >= 0 && bu + bv <= 1 && tt > eps && tt < lmax - eps) return true;
+      }
+      vec3 wf = vec3(r * (lmax * (k % 5 == 0 ? 1.0 : uni(0.01, 1))));
+      vec4 ray = cone::leafRay(wf, vec3(0));
+      if (ray.w <= lmax && std::atan2(glm::length(glm::cross(dvec3(wf), a)), glm::dot(dvec3(wf), a)) <= alpha &&
+          leaf(wf, ray, leafEps(p), p.v)) {
+        if (leafHit) *leafHit = ray;
+        return true;
+      }
+    }
+    return false;
+  }
+};
+
+// One of the rays an early-accept check probes in the cone (axis a, half-angle alpha, lengths [lmin, lmax]):
+// the k-th -- along the axis first, then on the boundary and inside in turn, at Lmin, Lmax or between.
+// The sample w (the apex at the origin) and its leaf ray as `leafRayFn` (the twin's leafRay) computes
+// it, lengthened by a hair when its fp32 length rounds below Lmin.
+struct ProbeRay {
+  dvec3 r;  // unit direction
+  double L, theta;
+  vec3 w;
+  vec4 ray;
+};
+template <class Uni, class LeafRay>
+ProbeRay probeRay(int k, dvec3 a, double alpha, double lmin, double lmax, Uni&& uni, LeafRay&& leafRayFn) {
+  const dvec3 tu = glm::normalize(glm::cross(a, std::abs(a.x) < 0.5 ? dvec3(1, 0, 0) : dvec3(0, 1, 0)));
+  const dvec3 tw = glm::cross(a, tu);
+  const double th = k == 0 ? 0.0 : (k % 2 ? alpha : uni(0.0, alpha)), ph = uni(0.0, 2 * M_PI);
+  ProbeRay p;
+  p.r = std::cos(th) * a + std::sin(th) * (std::cos(ph) * tu + std::sin(ph) * tw);
+  p.L = k % 3 == 0 ? lmin : (k % 3 == 1 ? lmax : uni(lmin, lmax));
+  p.theta = th;
+  p.w = vec3(p.r * p.L);
+  p.ray = leafRayFn(p.w, vec3(0));
+  if (p.ray.w < float(lmin)) p.ray = leafRayFn(p.w = vec3(p.r * p.L * (1 + 1e-6)), vec3(0));
+  return p;
+}
+
+}  // namespace cs::test
