@@ -149,6 +149,7 @@ namespace {
 struct Row {
   FrameResult result;
   std::string setting;
+  std::string stem;  // the view's file-name stem (fileStem, unique in the run)
   double msMin = 0, msMax = 0;
 };
 
@@ -177,7 +178,7 @@ std::string num(double v, int prec) {
 std::string pct(double fraction) { return num(fraction * 100.0, 4) + "%"; }
 
 std::string imageName(const Row& r, const std::string& kind) {
-  return r.result.view + "_" + r.setting + "_" + kind + ".png";
+  return r.stem + "_" + r.setting + "_" + kind + ".png";
 }
 
 // "name ms, ..." of a row's stages, in execution order.
@@ -351,11 +352,18 @@ int runCompare(const Options& o) {
   StagedDir out(o.out);
   std::vector<Row> rows;
   std::vector<Closeup> closeups;
+  std::vector<std::string> stems;
   Raster raster(*ctx, scene);
   EpsilonPolicy policy = EpsilonPolicy::forScene(scene);
   for (size_t vi = 0; vi < cameras.size(); ++vi) {
     const Camera& camera = cameras[vi];
     std::string view = camera.name.empty() ? "auto" : camera.name;
+    // File names from the view's name, made safe (a camera named "../../x" writes nothing outside --out)
+    // and unique (two views that differ only in unsafe characters do not overwrite each other).
+    std::string stem = fileStem(view);
+    for (int k = 2; std::find(stems.begin(), stems.end(), stem) != stems.end(); ++k)
+      stem = fileStem(view) + "-" + std::to_string(k);
+    stems.push_back(stem);
     std::string tag = "[view " + std::to_string(vi + 1) + "/" + std::to_string(cameras.size()) + "] " + view + ": ";
 
     log << tag << "raster" << std::endl;
@@ -383,6 +391,7 @@ int runCompare(const Options& o) {
       ErrorStats err = compareVisibility(gb, t.output.visibility, ref.output.visibility, band);
       Row row;
       row.setting = s.label;
+      row.stem = stem;
       row.result = makeFrameResult(scene.name, view, s.method, gb, s.method == "embree" ? "cpu (embree)" : device,
                                    t.output, err);
       row.msMin = *std::min_element(t.totals.begin(), t.totals.end());
@@ -397,13 +406,13 @@ int runCompare(const Options& o) {
       st["raster_ms"] = rt.gpuMs;
       st["lit_samples"] = lit;
       st["band_samples"] = bandCount;
-      writeFrameImages(out.path(), view + "_" + s.label, gb, t.output.visibility, ref.output.visibility, band);
+      writeFrameImages(out.path(), stem + "_" + s.label, gb, t.output.visibility, ref.output.visibility, band);
       rows.push_back(std::move(row));
     };
 
     Closeup closeup;
     closeup.view = view;
-    closeup.file = view + "_closeups.png";
+    closeup.file = stem + "_closeups.png";
     closeup.order.push_back("embree");
     std::vector<std::vector<uint8_t>> shaded = {shadedImage(gb, ref.output.visibility)};
     for (auto& s : settings) {

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <bit>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -16,6 +17,18 @@
 #include "core/error.h"
 
 namespace cs {
+
+std::string fileStem(const std::string& name) {
+  std::string out;
+  for (unsigned char c : name) {
+    if (out.size() >= 64) break;
+    const bool keep = std::isalnum(c) || c == '-' || c == '_' || c == '.' || c == '@' || c == ',' || c == '+';
+    out += keep && c < 0x80 ? char(c) : '_';
+  }
+  if (out.empty()) return "unnamed";
+  if (out[0] == '.') out[0] = '_';
+  return out;
+}
 
 namespace {
 

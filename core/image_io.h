@@ -9,6 +9,11 @@
 
 namespace cs {
 
+// A file-name component made from a name that comes from data (a camera's name in a glTF or BART file):
+// names are data, never paths. Letters, digits and "-_.@,+" are kept, every other byte becomes '_', a
+// leading '.' becomes '_' (no ".", "..", hidden files), at most 64 bytes; empty gives "unnamed".
+std::string fileStem(const std::string& name);
+
 // Writes `bytes` to `path` via `path.tmp.<pid>` + rename. Does not create directories.
 void writeFileAtomic(const std::string& path, std::string_view bytes);
 

@@ -16,6 +16,8 @@
 
 #include "core/error.h"
 #include "core/scene.h"
+#include "core/image_io.h"
+#include "tests/cli_support.h"
 
 #ifndef CONESHADOW_ASSIMP_MODELS
 #define CONESHADOW_ASSIMP_MODELS "/usr/share/assimp/models/glTF2"
@@ -337,6 +339,52 @@ class TinyGltf : public ::testing::Test {
     return path;
   }
 };
+
+// Camera names are data, never paths (issue 17): compare names its files after the views through
+// fileStem, so a camera called "../../escape" or "/tmp/..." writes nothing outside --out, a name with a
+// slash still renders, and two names that differ only in unsafe characters keep their own files.
+TEST_F(TinyGltf, CameraNamesNeverBecomePathsOutsideTheOutputFolder) {
+  EXPECT_EQ(fileStem("../../escape"), "_._.._escape");
+  EXPECT_EQ(fileStem("/etc/passwd"), "_etc_passwd");
+  EXPECT_EQ(fileStem(""), "unnamed");
+  EXPECT_EQ(fileStem(".."), "_.");
+  EXPECT_EQ(fileStem("cam 1@2x"), "cam_1@2x");
+  EXPECT_EQ(fileStem(std::string(200, 'a')).size(), 64u);
+  json doc = tinyDocument();
+  const std::string absolute = (dir / "absolute_target").string();
+  const std::vector<std::string> names = {"../../escape", absolute, "a/b", "a_b"};
+  for (size_t i = 0; i < names.size(); ++i) {
+    doc["cameras"].push_back({{"type", "perspective"}, {"name", names[i]}, {"perspective", {{"yfov", 0.6}, {"znear", 0.1}}}});
+    doc["nodes"].push_back({{"camera", int(i + 1)}, {"translation", {0.2 * double(i), 1, 8}}});
+    doc["scenes"][0]["nodes"].push_back(int(doc["nodes"].size()) - 1);
+  }
+  const fs::path out = dir / "nested" / "out";
+  fs::create_directories(out.parent_path());
+  const std::string file = write(doc);
+  test::CliRun r = test::cli("compare " + file + " --methods embree,cone --width 16 --height 16 --frames 1 --quiet --out " +
+                             out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  // Nothing beside or above the output folder, no folder inside it, and no file named after a path.
+  for (auto& e : fs::directory_iterator(out.parent_path())) EXPECT_EQ(e.path(), out) << "written outside --out";
+  for (auto& e : fs::directory_iterator(dir))
+    EXPECT_TRUE(e.path() == out.parent_path() || e.path().filename() == "tiny.gltf") << e.path();
+  EXPECT_FALSE(fs::exists(absolute + "_embree_shaded.png"));
+  EXPECT_FALSE(fs::exists(dir.parent_path() / "escape_embree_shaded.png"));
+  size_t images = 0;
+  for (auto& e : fs::directory_iterator(out)) {
+    EXPECT_TRUE(e.is_regular_file()) << e.path();
+    images += e.path().extension() == ".png";
+  }
+  EXPECT_TRUE(fs::exists(out / "a_b_embree_shaded.png"));
+  EXPECT_TRUE(fs::exists(out / "a_b-2_embree_shaded.png"));  // "a/b" and "a_b" keep their own files
+  EXPECT_TRUE(fs::exists(out / "_._.._escape_cone@64M_mask.png"));
+  // The report and results keep the names as they are.
+  const json results = json::parse(std::ifstream(out / "results.json"));
+  std::vector<std::string> views;
+  for (auto& row : results) views.push_back(row.at("view").get<std::string>());
+  for (const std::string& n : names) EXPECT_NE(std::find(views.begin(), views.end(), n), views.end()) << n;
+  EXPECT_GT(images, 4 * names.size());
+}
 
 TEST_F(TinyGltf, NodeTransformsPlaceTrianglesInWorldSpace) {
   std::ostringstream warn;

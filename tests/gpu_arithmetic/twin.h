@@ -14,6 +14,7 @@
 //   denormals         flushed (FTZ and DAZ) when ftz is set
 #pragma once
 #include <cstdint>
+#include <ostream>
 
 #include <glm/glm.hpp>
 
@@ -30,6 +31,9 @@ struct Mode {
   bool ftz = false;     // flush denormals (inputs and results) to zero
   const char* name = "exact";
 };
+
+// gtest prints a mode by its name.
+inline void PrintTo(const Mode& mode, std::ostream* os) { *os << mode.name; }
 
 // Sets the mode of this thread's emulated arithmetic (and its FTZ/DAZ state).
 void setMode(const Mode& mode);
