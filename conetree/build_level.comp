@@ -1,7 +1,8 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 // One depth of the cone tree (002 §3.1, §3.5): node j of this depth encloses its (up to) four children,
-// four consecutive elements of the depth below -- sorted rays when fromLeaves, else nodes.
+// four consecutive elements of the depth below -- sorted rays when fromLeaves, else nodes. In the
+// far-light frame (cone_layout.h, ConeFrame) the rays are in frame coordinates and their cones widened.
 // bindings: 0 = positions (vec4 per pixel, the G-buffer), 1 = samples (uint pixel index per sorted ray),
 //           2 = nodes (ConeNode, the whole tree; this depth written, the one below read)
 #include "conetree/cone_math.h"
@@ -14,7 +15,12 @@ layout(push_constant) uniform Push { BuildPush p; };
 
 ConeNode child(uint c) {
   if (p.fromLeaves != 0u) {
-    vec4 ray = leafRay(positions[samples[c]].xyz, p.light.xyz);
+    vec3 position = positions[samples[c]].xyz;
+    if (p.frame.rowX.w != 0.0f) {  // far frame: the ray in frame coordinates, its cone widened
+      vec4 ray = leafRay(toConeFrame(position, p.frame), p.frame.lightFrame.xyz);
+      return leafRayUsable(ray, p.minLength) ? rayConeWidened(ray, p.beta, p.sigma) : emptyCone();
+    }
+    vec4 ray = leafRay(position, p.light.xyz);
     return leafRayUsable(ray, p.minLength) ? rayCone(ray) : emptyCone();
   }
   return nodes[p.childOffset + c];
@@ -29,5 +35,6 @@ void main() {
   ConeNode c1 = n > 1u ? child(r.x + 1u) : emptyCone();
   ConeNode c2 = n > 2u ? child(r.x + 2u) : emptyCone();
   ConeNode c3 = n > 3u ? child(r.x + 3u) : emptyCone();
-  nodes[p.nodeOffset + j] = coneParent(c0, c1, c2, c3, n);
+  // Widened by CONE_PAD times the frame's angular scale (1 in the world frame).
+  nodes[p.nodeOffset + j] = coneParent(c0, c1, c2, c3, n, CONE_PAD * p.frame.centre.w);
 }

@@ -70,6 +70,19 @@ struct ConeNode {
                  //    (approximate: it steers the next merge's axis, never a cull decision)
 };
 
+// The far-light frame (traversal/traversal.h, "Far-light frame"): for a light well outside the scene's
+// bounds, the cones and the pass tests work in coordinates rotated so that z points from the light at
+// the scene's centre C: x_f = R (x - C), the light at lightFrame = R (light - C). Every ray and every
+// vertex is then within Θ of z, and the tests' rounding is relative to the cones' own angular size.
+// In the world frame (far == 0) the build and the tests see light-relative world coordinates as before.
+struct ConeFrame {
+  vec4 rowX;        // xyz: the first row of R; w: 1 in the far frame, 0 in the world frame
+  vec4 rowY;        // xyz: the second row of R
+  vec4 rowZ;        // xyz: the third row of R (the direction from the light to C)
+  vec4 centre;      // xyz: C (world); w: the frame's angular scale (1 in the world frame; precise_test.h)
+  vec4 lightFrame;  // xyz: R (light - C); w: unused
+};
+
 // Push constants of conetree/build_level.comp: one dispatch builds one depth of the tree.
 struct BuildPush {
   vec4 light;         // xyz: the point light
@@ -79,7 +92,9 @@ struct BuildPush {
   uint childOffset;   // levelOffset of depth + 1 (unused when fromLeaves)
   uint fromLeaves;    // 1: the children are the sorted rays, else interior nodes
   float minLength;    // rays not longer than this are degenerate (2 * eps: an empty interval), skipped
-  uint pad0, pad1;
+  float sigma;        // far frame: a leaf cone's lengths widened to L -+ sigma (0 in the world frame)
+  float beta;         // far frame: a leaf cone's half-angle (0 in the world frame)
+  ConeFrame frame;
 };
 
 // ---- implicit indexing (pure; unit-tested on the CPU in tests/conetree_test.cpp) -----------------
@@ -122,6 +137,7 @@ CONE_FN uvec2 leafRange(uint j, uint n, uint depth, uint d) {
 #ifdef __cplusplus
 }  // namespace glsl
 using glsl::BuildPush;
+using glsl::ConeFrame;
 using glsl::ConeNode;
 using glsl::childRange;
 using glsl::countAtHeight;
@@ -130,7 +146,9 @@ using glsl::levelCount;
 using glsl::levelOffset;
 using glsl::treeDepth;
 static_assert(sizeof(ConeNode) == 32 && offsetof(ConeNode, sinLen) == 16, "ConeNode layout");
-static_assert(sizeof(BuildPush) == 48 && offsetof(BuildPush, count) == 16 && offsetof(BuildPush, minLength) == 36,
+static_assert(sizeof(ConeFrame) == 80, "ConeFrame layout");
+static_assert(sizeof(BuildPush) == 128 && offsetof(BuildPush, count) == 16 && offsetof(BuildPush, minLength) == 36 &&
+                  offsetof(BuildPush, frame) == 48,
               "BuildPush layout");
 // Leaf ranges are 32-bit: 4^D must fit, i.e. D <= 15 (n <= 2^30 rays).
 constexpr uint32_t kMaxLeaves = 1u << 30;

@@ -42,6 +42,12 @@ CONE_FN vec4 leafRay(vec3 samplePosition, vec3 light) {
   return vec4(w, L);
 }
 
+// A world point in the cone frame (cone_layout.h, ConeFrame): R (x - C).
+CONE_FN vec3 toConeFrame(vec3 x, ConeFrame f) {
+  vec3 d = x - vec3(f.centre);
+  return vec3(dot(vec3(f.rowX), d), dot(vec3(f.rowY), d), dot(vec3(f.rowZ), d));
+}
+
 // A ray is degenerate (never tested, in no cone) unless its length is finite and above minLength.
 CONE_FN bool leafRayUsable(vec4 ray, float minLength) { return ray.w > minLength && ray.w <= CONE_FLT_MAX; }
 
@@ -127,8 +133,11 @@ CONE_FN bool angleGreater(vec2 p, vec2 q) {
 }
 
 // Sets the exact (cos, sin) of `node` (whose axis is chosen) so that it contains each child cone,
-// widened by CONE_PAD; the whole sphere when a reach passes pi or anything is not finite.
-CONE_FN ConeNode coneEnclose(ConeNode node, ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, uint n) {
+// widened by `pad` (CONE_PAD, or CONE_PAD times the far-light frame's angular scale: there every axis is
+// within Θ of the frame's z, the cross products and (cos, sin) sums above round to ~ulp·scale instead of
+// ~ulp, and the padding keeps its 256-fold cover of that); the whole sphere when a reach passes pi or
+// anything is not finite.
+CONE_FN ConeNode coneEnclose(ConeNode node, ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, uint n, float pad) {
   vec3 axis = vec3(node.axisCos);
   vec2 best = vec2(1.0f, 0.0f);
   bool whole = false;
@@ -140,8 +149,8 @@ CONE_FN ConeNode coneEnclose(ConeNode node, ConeNode c0, ConeNode c1, ConeNode c
     if (!(p.y >= 0.0f) || !(abs(p.x) <= CONE_FLT_MAX)) whole = true;  // past pi, or NaN/inf
     if (angleGreater(p, best)) best = p;
   }
-  // Widen: rotate by (1, CONE_PAD), i.e. by atan(2^-16).
-  vec2 w = vec2(best.x - CONE_PAD * best.y, best.y + CONE_PAD * best.x);
+  // Widen: rotate by (1, pad), i.e. by atan(pad).
+  vec2 w = vec2(best.x - pad * best.y, best.y + pad * best.x);
   float len = length(w);
   if (whole || !(w.y >= 0.0f) || !(len > 0.0f) || !(len <= CONE_FLT_MAX)) {
     node.axisCos.w = -1.0f;
@@ -156,8 +165,9 @@ CONE_FN ConeNode coneEnclose(ConeNode node, ConeNode c0, ConeNode c1, ConeNode c
   return node;
 }
 
-// The parent of up to four children (n = 1..4; entries past n are ignored; empty children skipped).
-CONE_FN ConeNode coneParent(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, uint n) {
+// The parent of up to four children (n = 1..4; entries past n are ignored; empty children skipped),
+// widened by `pad` (coneEnclose).
+CONE_FN ConeNode coneParent(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, uint n, float pad) {
   ConeNode left = c0;
   if (n > 1u) left = coneMergeApprox(c0, c1);
   ConeNode right = emptyCone();
@@ -176,7 +186,23 @@ CONE_FN ConeNode coneParent(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, 
   }
   merged.sinLen.y = lmin;
   merged.sinLen.z = lmax;
-  return coneEnclose(merged, c0, c1, c2, c3, n);
+  return coneEnclose(merged, c0, c1, c2, c3, n, pad);
+}
+
+CONE_FN ConeNode coneParent(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, uint n) {
+  return coneParent(c0, c1, c2, c3, n, CONE_PAD);
+}
+
+// The cone of a leaf ray in the far-light frame: half-angle beta and lengths L -+ sigma, so that it also
+// holds the ray to the same sample as the world-space leaf test sees it (traversal.h, "Far-light frame").
+CONE_FN ConeNode rayConeWidened(vec4 ray, float beta, float sigma) {
+  ConeNode c = rayCone(ray);
+  c.axisCos.w = 1.0f;
+  c.sinLen.x = beta;
+  c.sinLen.y = ray.w - sigma;
+  c.sinLen.z = ray.w + sigma;
+  c.sinLen.w = beta;
+  return c;
 }
 
 #ifdef __cplusplus
@@ -191,6 +217,8 @@ using glsl::emptyCone;
 using glsl::leafRay;
 using glsl::leafRayUsable;
 using glsl::rayCone;
+using glsl::rayConeWidened;
+using glsl::toConeFrame;
 }  // namespace CONE_CPU_NAMESPACE
 #endif
 #undef CONE_FN

@@ -1,6 +1,9 @@
 // conetree/: the cone tree build (see conetree.h).
 #include "conetree/conetree.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include "conetree/build_level.comp.h"
 #include "conetree/cone_math.h"
 #include "core/error.h"
@@ -22,8 +25,66 @@ TreeShape treeShape(uint32_t leaves) {
 ConeTree::ConeTree(vk::Context& ctx)
     : ctx_(ctx), build_(vk::createKernel(ctx, "cone tree build", spv_build_level_comp, 3, sizeof(BuildPush))) {}
 
+FrameChoice worldFrame(glm::vec3 light) {
+  FrameChoice f;
+  f.frame.rowX = glm::vec4(1, 0, 0, 0);
+  f.frame.rowY = glm::vec4(0, 1, 0, 0);
+  f.frame.rowZ = glm::vec4(0, 0, 1, 0);
+  f.frame.centre = glm::vec4(0, 0, 0, 1);
+  f.frame.lightFrame = glm::vec4(light, 0);
+  return f;
+}
+
+FrameChoice chooseFrame(glm::vec3 light, glm::vec3 lo, glm::vec3 hi) {
+  FrameChoice world = worldFrame(light);
+  if (!(lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z)) return world;
+  const glm::dvec3 C = 0.5 * (glm::dvec3(lo) + glm::dvec3(hi)), L(light);
+  const double r = 0.5 * glm::length(glm::dvec3(hi) - glm::dvec3(lo));
+  const double D = glm::length(C - L);
+  if (!(r > 0) || !(D >= kFarFrameRatio * r) || !std::isfinite(D)) return world;
+  FrameChoice f;
+  f.far = true;
+  f.distance = D;
+  // z from the light to C; x, y completing a right-handed orthonormal basis (Duff et al. 2017).
+  const glm::dvec3 z = (C - L) / D;
+  const double sign = std::copysign(1.0, z.z), a = -1.0 / (sign + z.z), b = z.x * z.y * a;
+  glm::dvec3 x(1.0 + sign * z.x * z.x * a, sign * b, -sign * z.x);
+  glm::dvec3 y = glm::cross(z, x);
+  f.frame.rowX = glm::vec4(glm::vec3(x), 1.0f);
+  f.frame.rowY = glm::vec4(glm::vec3(y), 0.0f);
+  f.frame.rowZ = glm::vec4(glm::vec3(z), 0.0f);
+  const glm::vec3 Cf(C);
+  // The rows as stored (fp32) define the map; the light goes through it in double.
+  const glm::dmat3 Rt(glm::dvec3(glm::vec3(f.frame.rowX)), glm::dvec3(glm::vec3(f.frame.rowY)),
+                      glm::dvec3(glm::vec3(f.frame.rowZ)));  // columns = rows of R
+  auto toFrame = [&](glm::dvec3 p) { return glm::transpose(Rt) * (p - glm::dvec3(Cf)); };
+  const glm::dvec3 lf = toFrame(L);
+  f.frame.lightFrame = glm::vec4(glm::vec3(lf), 0.0f);
+  const double tanTheta = r / std::sqrt(D * D - r * r);
+  f.scale = float(std::min(1.0, 4.0 * tanTheta));
+  f.frame.centre = glm::vec4(Cf, f.scale);
+  // Slack between frame and world geometry: the transform's rounding (a few ulp of |x - C| <= r) and the
+  // world leaf test's (a few ulp of the triangle's distance to the sample, <= 2r), 2^-16 (256 ulp) of the
+  // diagonal over both; as an angle from the light, over the nearest distance to the bounds.
+  f.sigma = float(std::ldexp(2.0 * r, -16));
+  f.beta = float(double(f.sigma) / (D - r - double(f.sigma)) * (1.0 + std::ldexp(1.0, -10)));
+  // Ray keys over the bounds' projection onto z = 1 in the frame.
+  double u0 = INFINITY, u1 = -INFINITY, v0 = INFINITY, v1 = -INFINITY;
+  for (int k = 0; k < 8; ++k) {
+    const glm::dvec3 corner((k & 1) ? hi.x : lo.x, (k & 2) ? hi.y : lo.y, (k & 4) ? hi.z : lo.z);
+    const glm::dvec3 d = toFrame(corner) - lf;
+    u0 = std::min(u0, d.x / d.z), u1 = std::max(u1, d.x / d.z);
+    v0 = std::min(v0, d.y / d.z), v1 = std::max(v1, d.y / d.z);
+  }
+  const double pu = 1e-3 * (u1 - u0) + 1e-30, pv = 1e-3 * (v1 - v0) + 1e-30;
+  u0 -= pu, u1 += pu, v0 -= pv, v1 += pv;
+  f.keyRect = glm::vec4(float(u0), float(v0), float(1.0 / (u1 - u0)), float(1.0 / (v1 - v0)));
+  return f;
+}
+
 void ConeTree::record(vk::Commands& cmd, const vk::BufferRange& positions, const vk::BufferRange& samples,
-                      uint32_t count, glm::vec3 light, float minLength) {
+                      uint32_t count, glm::vec3 light, float minLength, const FrameChoice* frame) {
+  const FrameChoice fc = frame ? *frame : worldFrame(light);
   shape_ = treeShape(count);
   const uint64_t bytes = uint64_t(shape_.nodes()) * sizeof(ConeNode);
   CS_CHECK(bytes <= ctx_.maxStorageBufferRange(),
@@ -42,6 +103,9 @@ void ConeTree::record(vk::Commands& cmd, const vk::BufferRange& positions, const
     p.childOffset = d + 1 < shape_.depth ? shape_.offsets[d + 1] : 0;
     p.fromLeaves = d + 1 == shape_.depth ? 1u : 0u;
     p.minLength = minLength;
+    p.sigma = fc.sigma;
+    p.beta = fc.beta;
+    p.frame = fc.frame;
     vk::Grid g = vk::gridFor(p.count, CONE_BUILD_THREADS, ctx_.maxWorkgroups());
     cmd.dispatch(build_, {positions, samples, nodes_}, p, g.x, g.y);
     cmd.barrier();
@@ -49,14 +113,20 @@ void ConeTree::record(vk::Commands& cmd, const vk::BufferRange& positions, const
 }
 
 std::vector<ConeNode> buildTreeOnHost(const std::vector<glm::vec4>& positions, const std::vector<uint32_t>& samples,
-                                      glm::vec3 light, float minLength) {
+                                      glm::vec3 light, float minLength, const FrameChoice* frame) {
+  const FrameChoice fc = frame ? *frame : worldFrame(light);
   const TreeShape s = treeShape(uint32_t(samples.size()));
   std::vector<ConeNode> nodes(s.nodes());
   for (uint32_t d = s.depth; d-- > 0;) {
     const bool fromLeaves = d + 1 == s.depth;
     auto child = [&](uint32_t c) {
       if (fromLeaves) {
-        glm::vec4 ray = leafRay(glm::vec3(positions[samples[c]]), light);
+        const glm::vec3 position(positions[samples[c]]);
+        if (fc.far) {
+          glm::vec4 ray = leafRay(toConeFrame(position, fc.frame), glm::vec3(fc.frame.lightFrame));
+          return leafRayUsable(ray, minLength) ? rayConeWidened(ray, fc.beta, fc.sigma) : emptyCone();
+        }
+        glm::vec4 ray = leafRay(position, light);
         return leafRayUsable(ray, minLength) ? rayCone(ray) : emptyCone();
       }
       return nodes[s.offsets[d + 1] + c];
@@ -66,7 +136,7 @@ std::vector<ConeNode> buildTreeOnHost(const std::vector<glm::vec4>& positions, c
       uint32_t n = r.y - r.x;
       nodes[s.offsets[d] + j] = coneParent(child(r.x), n > 1 ? child(r.x + 1) : emptyCone(),
                                            n > 2 ? child(r.x + 2) : emptyCone(),
-                                           n > 3 ? child(r.x + 3) : emptyCone(), n);
+                                           n > 3 ? child(r.x + 3) : emptyCone(), n, CONE_PAD * fc.frame.centre.w);
     }
   }
   return nodes;

@@ -25,6 +25,24 @@ struct TreeShape {
 };
 TreeShape treeShape(uint32_t leaves);
 
+// The frame the cones are built and tested in (cone_layout.h, ConeFrame; traversal/traversal.h,
+// "Far-light frame"), with the slack that covers the difference between the frame's geometry and the
+// world geometry the leaf test sees.
+struct FrameChoice {
+  ConeFrame frame;          // the world frame: identity rows, C = 0, scale 1, lightFrame = the light
+  bool far = false;
+  float scale = 1.0f;       // the frame's angular scale, min(1, 4 tan Θ) (frame.centre.w)
+  float sigma = 0.0f;       // lateral slack: 2^-16 of the scene's bounding diagonal (far frame)
+  float beta = 0.0f;        // sigma over the nearest distance from the light to the bounds, as an angle
+  glm::vec4 keyRect{0};     // far frame: the bounds' projection (u0, v0, 1/(u1-u0), 1/(v1-v0)) for ray keys
+  double distance = 0;      // from the light to the centre of the bounds
+};
+// The far-light frame when the light is at least kFarFrameRatio half-diagonals from the centre of the
+// bounds [lo, hi] (Θ <= 7.2 degrees), else the world frame.
+constexpr double kFarFrameRatio = 8.0;
+FrameChoice chooseFrame(glm::vec3 light, glm::vec3 lo, glm::vec3 hi);
+FrameChoice worldFrame(glm::vec3 light);
+
 class ConeTree {
  public:
   explicit ConeTree(vk::Context& ctx);
@@ -34,7 +52,7 @@ class ConeTree {
   // Rays not longer than minLength (2 eps: an empty hit interval) or not finite are in no cone.
   // Grows the node buffer when needed; count must be >= 1 and <= kMaxLeaves.
   void record(vk::Commands& cmd, const vk::BufferRange& positions, const vk::BufferRange& samples, uint32_t count,
-              glm::vec3 light, float minLength);
+              glm::vec3 light, float minLength, const FrameChoice* frame = nullptr);
 
   const TreeShape& shape() const { return shape_; }
   const vk::Buffer& nodes() const { return nodes_; }
@@ -50,6 +68,6 @@ class ConeTree {
 // CPU reference of the same build (tests): the whole node array for rays from `light` to
 // positions[samples[i]], computed by the same source as the kernel (cone_math.h).
 std::vector<ConeNode> buildTreeOnHost(const std::vector<glm::vec4>& positions, const std::vector<uint32_t>& samples,
-                                      glm::vec3 light, float minLength);
+                                      glm::vec3 light, float minLength, const FrameChoice* frame = nullptr);
 
 }  // namespace cs::cone

@@ -41,6 +41,7 @@ using glm::clamp;
 using glm::floor;
 using glm::uvec2;
 using glm::vec3;
+using glm::vec4;
 #define CS_SHARED inline
 #else
 #define CS_SHARED
@@ -105,6 +106,23 @@ CS_SHARED uint rayKey(vec3 d) {
   return (face << uint(RAY_KEY_FACE_SHIFT)) | hilbertIndex(c.x, c.y, uint(RAY_KEY_HILBERT_ORDER));
 }
 
+// The ray key in a rotated frame (the cone path's far-light frame, traversal/traversal.h): d_f = the ray
+// in frame coordinates, all rays within a few degrees of +z. Hilbert index (order 15, 30 bits) of the
+// cell of (d_f.x / d_f.z, d_f.y / d_f.z) mapped by rect = (u0, v0, 1 / (u1 - u0), 1 / (v1 - v0)) onto
+// [0, 1]^2 (values outside clamped to the edge cells): the whole grid spans the scene's projection, where
+// the face grid of rayKey would give a far light's rays a handful of cells. Degenerate (d_f.z <= 0 or not
+// finite): RAY_KEY_DEGENERATE.
+CS_SHARED uint frameRayKey(vec3 d, vec4 rect) {
+  if (!(d.z > 0.0f) || !(abs(d.x) <= SORT_FLT_MAX && abs(d.y) <= SORT_FLT_MAX && d.z <= SORT_FLT_MAX))
+    return RAY_KEY_DEGENERATE;
+  float u = (d.x / d.z - rect.x) * rect.z;
+  float v = (d.y / d.z - rect.y) * rect.w;
+  float n = 32768.0f;  // 2^15
+  uint x = uint(clamp(floor(u * n), 0.0f, n - 1.0f));
+  uint y = uint(clamp(floor(v * n), 0.0f, n - 1.0f));
+  return hilbertIndex(x, y, 15u);
+}
+
 // Morton (Z) order: the even bits of i give x, the odd bits y.
 CS_SHARED uint mortonEvenBits(uint v) {
   v &= 0x55555555u;
@@ -132,6 +150,7 @@ using glsl::mortonEvenBits;
 using glsl::rayCell;
 using glsl::rayFace;
 using glsl::rayKey;
+using glsl::frameRayKey;
 using glsl::screenOrderPixel;
 constexpr uint32_t kRayKeyDegenerate = RAY_KEY_DEGENERATE;
 constexpr uint32_t kRayKeyBits = RAY_KEY_BITS;

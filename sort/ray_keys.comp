@@ -1,6 +1,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
-// The Hilbert ray key (sort/hilbert.h) of every compacted sample: ray = light -> position[sample].
+// The Hilbert ray key (sort/hilbert.h) of every compacted sample: ray = light -> position[sample], in the
+// world (rayKey) or in a rotated frame (frameRayKey, KeysPush::framed).
 // bindings: 0 = position (vec4[] per pixel), 1 = samples (uint[] pixel indices), 2 = keys (uint[]),
 //           3 = countWords (device count)
 #include "sort/sort_layout.h"
@@ -16,5 +17,12 @@ layout(push_constant) uniform Push { KeysPush pc; };
 void main() {
   uint i = flatWorkgroup() * PIXEL_THREADS + gl_LocalInvocationIndex;
   if (i >= countOf(pc.count, pc.countIndex, pc.flags)) return;
-  keys[i] = rayKey(position[samples[i]].xyz - pc.light.xyz);
+  vec3 x = position[samples[i]].xyz;
+  if (pc.framed != 0u) {  // R (x - origin) - lightFrame: the ray in the rotated frame
+    vec3 d = x - pc.origin.xyz;
+    vec3 f = vec3(dot(pc.rowX.xyz, d), dot(pc.rowY.xyz, d), dot(pc.rowZ.xyz, d));
+    keys[i] = frameRayKey(f - pc.lightFrame.xyz, pc.rect);
+  } else {
+    keys[i] = rayKey(x - pc.light.xyz);
+  }
 }

@@ -76,9 +76,17 @@ void LitRays::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, RayOrd
 }
 
 void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, Count count) {
+  KeysPush push{};
+  push.light = glm::vec4(light, 1.0f);
+  recordKeys(cmd, g, push, count);
+}
+
+void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& frame, Count count) {
   CS_CHECK(count.max <= maxPixels_, "ray keys for " << count.max << " samples, capacity " << maxPixels_);
-  KeysPush push{glm::vec4(light, 1.0f), count.max, count.word.index,
-                count.onDevice() ? FLAG_COUNT_FROM_BUFFER : 0u, 0};
+  KeysPush push = frame;
+  push.count = count.max;
+  push.countIndex = count.word.index;
+  push.flags = count.onDevice() ? FLAG_COUNT_FROM_BUFFER : 0u;
   vk::BufferRange countBinding = count.onDevice() ? vk::BufferRange() : vk::BufferRange(count_);
   if (count.onDevice()) {
     countBinding.buffer = count.word.buffer;

@@ -47,6 +47,8 @@ class LitRays {
   // The steps, for callers that want to time them or read the count in between.
   void recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, RayOrder order);  // -> samples(), count
   void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, Count count);  // -> keys()
+  // The keys in a rotated frame (frameRayKey): `frame` holds KeysPush's rowX .. rect (framed = 1).
+  void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& frame, Count count);
   void recordSort(vk::Commands& cmd, Count count);  // sorts (keys(), samples()) by key
 
   const vk::Buffer& samples() const { return samples_; }

@@ -97,14 +97,19 @@ struct KeysPush {
   uint count;       // rays, or their upper bound when FLAG_COUNT_FROM_BUFFER is set
   uint countIndex;
   uint flags;
-  uint pad0;
+  uint framed;      // 1: keys in a rotated frame (frameRayKey), the rows, origin, light and rect below
+  vec4 rowX, rowY, rowZ;  // the frame's rotation, rows (world -> frame)
+  vec4 origin;            // xyz: the frame's origin (world)
+  vec4 lightFrame;        // xyz: the light in the frame
+  vec4 rect;              // (u0, v0, 1 / (u1 - u0), 1 / (v1 - v0)): what the keys' grid covers of z = 1
 };
 
 #ifdef __cplusplus
 static_assert(sizeof(ScanPush) == 32 && offsetof(ScanPush, totalIndex) == 16, "ScanPush layout");
 static_assert(sizeof(RadixPush) == 32 && offsetof(RadixPush, tiles) == 20, "RadixPush layout");
 static_assert(sizeof(LitPush) == 32 && offsetof(LitPush, domain) == 16, "LitPush layout");
-static_assert(sizeof(KeysPush) == 32 && offsetof(KeysPush, count) == 16, "KeysPush layout");
+static_assert(sizeof(KeysPush) == 128 && offsetof(KeysPush, count) == 16 && offsetof(KeysPush, rowX) == 32,
+              "KeysPush layout");
 static_assert(SORT_TILE < 65536, "packed 16-bit rank counters would carry");
 static_assert(SORT_THREADS % SORT_RAKE == 0 && SCAN_THREADS % SCAN_RAKE == 0, "rake segments");
 static_assert(RADIX_BITS >= 1 && RADIX_BITS <= 8, "radix digit width");

@@ -11,6 +11,7 @@
 #include "raster/raster.h"
 #include "reference/epsilon.h"
 #include "sort/rays.h"
+#include "traversal/frame_triangles.comp.h"
 #include "traversal/unfinished_rays.comp.h"
 #include "vk/context.h"
 
@@ -67,6 +68,8 @@ class ConeMethod : public ShadowMethod {
         traversal_(options.arena.pairCapacity > 0 ? traversal::Traversal(ctx, options.arena)
                                                    : traversal::Traversal(ctx, options.traversalMemoryBytes)),
         timer_(vk::createTimer(ctx, 64)) {
+    frameTris_ = vk::createKernel(ctx, "frame triangles", spv_frame_triangles_comp, 2,
+                                  sizeof(traversal::FrameTrianglesPush));
     if (options_.twoPass) unfinished_ = vk::createKernel(ctx, "unfinished rays", spv_unfinished_rays_comp, 3,
                                                          sizeof(traversal::TraversePush));
   }
@@ -130,8 +133,21 @@ class ConeMethod : public ShadowMethod {
       cmd.fill(visibility_, kOne, 0, uint64_t(pixels) * 4);
       rays_->recordCompaction(cmd, g, order);
     });
+    // The frame of the cones: world, or for a light far outside the triangles' bounds the far-light frame
+    // (traversal.h): the keys, the tree and the pass tests in it, the leaves in the world.
+    frame_ = cone::chooseFrame(frame.light, boundsLo_, boundsHi_);
     if (options_.sorted) {
-      stage("keys", [&](vk::Commands& cmd) { rays_->recordKeys(cmd, g, frame.light, rays_->count()); });
+      stage("keys", [&](vk::Commands& cmd) {
+        if (!frame_.far) return rays_->recordKeys(cmd, g, frame.light, rays_->count());
+        sort::KeysPush k{};
+        k.light = glm::vec4(frame.light, 1.0f);
+        k.framed = 1u;
+        k.rowX = frame_.frame.rowX, k.rowY = frame_.frame.rowY, k.rowZ = frame_.frame.rowZ;
+        k.origin = frame_.frame.centre;
+        k.lightFrame = frame_.frame.lightFrame;
+        k.rect = frame_.keyRect;
+        rays_->recordKeys(cmd, g, k, rays_->count());
+      });
       stage("sort", [&](vk::Commands& cmd) { rays_->recordSort(cmd, rays_->count()); });
     } else {
       stages.push_back({"keys", 0.0});
@@ -152,11 +168,20 @@ class ConeMethod : public ShadowMethod {
                             {"epsilon", eps},
                             {"traversal_memory_bytes", options_.traversalMemoryBytes},
                             {"pair_capacity", traversal_.plan().pairCapacity},
-                            {"chunk_capacity", traversal_.plan().chunkCapacity}};
+                            {"chunk_capacity", traversal_.plan().chunkCapacity},
+                            {"frame", frame_.far ? "far" : "world"},
+                            {"frame_scale", frame_.scale}};
+    if (frame_.far) {
+      stats["frame_sigma"] = frame_.sigma;
+      stats["frame_beta"] = frame_.beta;
+      stats["light_distance_half_diagonals"] =
+          frame_.distance / std::max(1e-30, 0.5 * double(glm::length(boundsHi_ - boundsLo_)));
+    }
     traversal::TraversalStats ts;
     if (lit > 0 && triangleCount_ > 0) {
       stage("build", [&](vk::Commands& cmd) {
-        tree_.record(cmd, g.position, rays_->samples(), lit, frame.light, 2.0f * eps);
+        tree_.record(cmd, g.position, rays_->samples(), lit, frame.light, 2.0f * eps, &frame_);
+        if (frame_.far) recordFrameTriangles(cmd);
       });
       traversal::TraversalInput in;
       in.tree = &tree_;
@@ -211,9 +236,32 @@ class ConeMethod : public ShadowMethod {
   uint64_t bytesAllocated() const {
     uint64_t triangleBytes = 0;
     for (const vk::Buffer& b : triangles_) triangleBytes += b.size;
+    for (const vk::Buffer& b : frameTriangles_) triangleBytes += b.size;
     return triangleBytes + (rays_ ? rays_->bytesAllocated() : 0) + visibility_.size + tree_.bytesAllocated() +
            traversal_.bytesAllocated() + traversal_.flagBytes() + (compact_ ? compact_->bytesAllocated() : 0) +
            rayFlags_.size + remaining_.size + kept_.size;
+  }
+
+  // The far-light frame's copy of every triangle buffer (frame_triangles.comp), for the pass tests.
+  void recordFrameTriangles(vk::Commands& cmd) {
+    frameTriangles_.resize(triangles_.size());
+    for (size_t c = 0; c < triangles_.size(); ++c) {
+      if (frameTriangles_[c].size < triangles_[c].size) {
+        frameTriangles_[c].reset();
+        frameTriangles_[c] = vk::createBuffer(ctx_, triangles_[c].size);
+      }
+      const uint64_t first = uint64_t(c) * chunkTriangles_;
+      const uint32_t count = uint32_t(std::min<uint64_t>(chunkTriangles_, triangleCount_ - std::min<uint64_t>(first, triangleCount_)));
+      if (count == 0) continue;
+      traversal::FrameTrianglesPush p{};
+      p.rowX = frame_.frame.rowX, p.rowY = frame_.frame.rowY, p.rowZ = frame_.frame.rowZ;
+      p.centre = frame_.frame.centre;
+      p.lightFrame = frame_.frame.lightFrame;
+      p.count = count;
+      vk::Grid grid = vk::gridFor(count, TRAVERSE_THREADS, ctx_.maxWorkgroups());
+      cmd.dispatch(frameTris_, {triangles_[c], frameTriangles_[c]}, p, grid.x, grid.y);
+    }
+    cmd.barrier();
   }
 
   // Triangles [first, first + count) through the tree of `in`, one traversal per triangle buffer they
@@ -227,6 +275,8 @@ class ConeMethod : public ShadowMethod {
       const uint64_t hi = std::min<uint64_t>(end, (c + 1) * uint64_t(chunkTriangles_));
       if (lo >= hi) continue;
       in.triangles = &triangles_[c];
+      in.frameTriangles = frame_.far ? &frameTriangles_[c] : nullptr;
+      in.coneScale = frame_.scale;
       in.firstTriangle = uint32_t(lo - c * chunkTriangles_);
       in.triangleCount = uint32_t(hi - lo);
       traversal::TraversalStats ts = traversal_.run(in, &timer_);
@@ -284,7 +334,7 @@ class ConeMethod : public ShadowMethod {
       tp["update"] = "rebuilt";
       const float eps = in.eps;
       stage("rebuild", [&](vk::Commands& cmd) {
-        tree_.record(cmd, g.position, remaining_, remaining, in.light, 2.0f * eps);
+        tree_.record(cmd, g.position, remaining_, remaining, in.light, 2.0f * eps, &frame_);
       });
       tp["tree_depth_pass_two"] = tree_.shape().depth;
       tp["tree_nodes_pass_two"] = tree_.shape().nodes();
@@ -403,6 +453,9 @@ class ConeMethod : public ShadowMethod {
   std::vector<uint32_t> cachedIndices_;
   glm::vec3 cachedLight_{0};
   glm::vec3 boundsLo_{0}, boundsHi_{0};  // of the uploaded (finite) triangles
+  cone::FrameChoice frame_;              // this frame's cone frame (world or far)
+  std::vector<vk::Buffer> frameTriangles_;  // far frame: the triangles relative to the light in the frame
+  vk::Kernel frameTris_;
   // two-pass
   uint32_t blockerCount_ = 0;
   vk::Kernel unfinished_;

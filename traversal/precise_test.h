@@ -83,16 +83,24 @@ struct PreciseTriangle {
 };
 
 // Edge plane through the apex and (vj, vk), oriented towards vi; zero when |det| does not clear its error.
-CONE_FN vec4 edgePlane(vec3 vi, vec3 vj, vec3 vk, float li, float lj, float lk) {
+// `scale` (in (0, 1]) is the frame's angular scale: 1 for directions anywhere (the light among the
+// geometry); in the far-light frame (traversal.h, "Far-light frame") every vertex and every ray lies
+// within an angle Θ of the frame's z axis and scale = min(1, 4 tan Θ) bounds the lateral components
+// of unit directions. There the rounding of n = vj x vk is ~ulp·lj·lk·scale in its components across z
+// (products of an axial ~|v| and a lateral ~|v|·scale component) and ~ulp·lj·lk·scale² along z, so the
+// error of n.r for any ray r of a cone is ~ulp·lj·lk·scale² and that of det = n.vi ~ulp·li·lj·lk·scale²:
+// the margins below are those bounds times 2^-16 / ulp = 256, as everywhere in this file.
+CONE_FN vec4 edgePlane(vec3 vi, vec3 vj, vec3 vk, float li, float lj, float lk, float scale) {
   vec3 n = cross(vj, vk);
   float o = dot(n, vi);                             // = det, the same for all three edges when exact
-  if (!(abs(o) > CONE_TEST_MARGIN * li * lj * lk)) return vec4(0.0f);
+  if (!(abs(o) > CONE_TEST_MARGIN * li * lj * lk * scale * scale)) return vec4(0.0f);
   if (o < 0.0f) n = -n;
-  // The edge normal's own error is ~ulp * lj * lk, an angle of that over |n|.
-  return vec4(n, CONE_TEST_MARGIN * (lj * lk + length(n)));
+  // The edge normal's own error is ~ulp * lj * lk (times scale^2 across the cone in the far frame),
+  // an angle of that over |n|; plus the rounding of n.r itself (~ulp |n| scale).
+  return vec4(n, CONE_TEST_MARGIN * scale * (lj * lk * scale + length(n)));
 }
 
-CONE_FN PreciseTriangle preciseTriangle(vec3 v0, vec3 v1, vec3 v2) {
+CONE_FN PreciseTriangle preciseTriangle(vec3 v0, vec3 v1, vec3 v2, float scale) {
   PreciseTriangle t;
   t.v0 = v0;
   t.v1 = v1;
@@ -106,11 +114,14 @@ CONE_FN PreciseTriangle preciseTriangle(vec3 v0, vec3 v1, vec3 v2) {
   float h2 = dot(N, v2);
   float herr = CONE_TEST_MARGIN * nl * max(t.len.x, max(t.len.y, t.len.z));
   t.slab = vec2(min(h0, min(h1, h2)) - herr, max(h0, max(h1, h2)) + herr);
-  t.edge0 = edgePlane(v0, v1, v2, t.len.x, t.len.y, t.len.z);
-  t.edge1 = edgePlane(v1, v2, v0, t.len.y, t.len.z, t.len.x);
-  t.edge2 = edgePlane(v2, v0, v1, t.len.z, t.len.x, t.len.y);
+  t.edge0 = edgePlane(v0, v1, v2, t.len.x, t.len.y, t.len.z, scale);
+  t.edge1 = edgePlane(v1, v2, v0, t.len.y, t.len.z, t.len.x, scale);
+  t.edge2 = edgePlane(v2, v0, v1, t.len.z, t.len.x, t.len.y, scale);
   return t;
 }
+
+// Directions anywhere (scale 1).
+CONE_FN PreciseTriangle preciseTriangle(vec3 v0, vec3 v1, vec3 v2) { return preciseTriangle(v0, v1, v2, 1.0f); }
 
 // The cone lies strictly on the far side of the (oriented) edge plane e, beyond its margin: the angle
 // phi between its normal and the axis exceeds pi/2 + alpha, evaluated as |n| cos(phi - alpha) < -margin.

@@ -26,18 +26,24 @@ namespace glsl {
 #define SPHERE_FN
 #endif
 
-// xyz: centre relative to the apex; w: radius, padded so the sphere holds the three vertices.
-SPHERE_FN vec4 boundingSphere(vec3 v0, vec3 v1, vec3 v2) {
+// xyz: centre relative to the apex; w: radius, padded so the sphere holds the three vertices. `scale`:
+// the frame's angular scale (precise_test.h, edgePlane): the radius is measured from the rounded centre,
+// so what it must cover is the rounding of v_i - c, a few ulp of the components across z (~|v| scale in
+// the far frame; the components along z are within a factor 2 of each other and subtract exactly).
+SPHERE_FN vec4 boundingSphere(vec3 v0, vec3 v1, vec3 v2, float scale) {
   vec3 c = (v0 + v1 + v2) * (1.0f / 3.0f);
   float r = max(length(v0 - c), max(length(v1 - c), length(v2 - c)));
   float big = max(length(v0), max(length(v1), length(v2)));
-  // The centre's rounding (a few ulp of the largest vertex) and the radius's own rounding.
-  return vec4(c, r * (1.0f + CONE_TEST_MARGIN) + CONE_TEST_MARGIN * big);
+  return vec4(c, r * (1.0f + CONE_TEST_MARGIN) + CONE_TEST_MARGIN * big * scale);
 }
 
+SPHERE_FN vec4 boundingSphere(vec3 v0, vec3 v1, vec3 v2) { return boundingSphere(v0, v1, v2, 1.0f); }
+
 // False only when no ray of the cone can meet the sphere (and so the triangle) at a distance tau from the
-// apex with eps < tau < Lmax - eps.
-SPHERE_FN bool sphereConeTriangle(ConeNode cone, vec4 sphere, float eps) {
+// apex with eps < tau < Lmax - eps. `scale`: the frame's angular scale. The distances along the ray keep
+// their margin relative to |c|; the distance across it (|c x a| cos - (c.a) sin) rounds to ~ulp |c| scale
+// in the far frame (the axis and the centre both within Θ of z), its margin scaled with it.
+SPHERE_FN bool sphereConeTriangle(ConeNode cone, vec4 sphere, float eps, float scale) {
   if (coneIsEmpty(cone)) return false;
   vec3 a = vec3(cone.axisCos);
   float c = cone.axisCos.w;
@@ -54,8 +60,10 @@ SPHERE_FN bool sphereConeTriangle(ConeNode cone, vec4 sphere, float eps) {
   float sinOff = across * c - along * s;  // |c| sin(theta - alpha): <= 0 with the centre inside the cone
   float cosOff = along * c + across * s;  // |c| cos(theta - alpha): <= 0 past pi/2, the apex is nearest
   float dist = sinOff <= 0.0f ? 0.0f : (cosOff <= 0.0f ? lc : sinOff);
-  return !(dist > r + pad);
+  return !(dist > r + CONE_TEST_MARGIN * (lc * scale + r));
 }
+
+SPHERE_FN bool sphereConeTriangle(ConeNode cone, vec4 sphere, float eps) { return sphereConeTriangle(cone, sphere, eps, 1.0f); }
 
 SPHERE_FN bool sphereConeTriangle(ConeNode cone, vec3 v0, vec3 v1, vec3 v2, float eps) {
   return sphereConeTriangle(cone, boundingSphere(v0, v1, v2), eps);

@@ -169,6 +169,9 @@ bool Traversal::expandChunk(Frame& f, uint32_t child, bool fromTriangles, uint64
   p.leafCount = f.shape->leaves;
   p.leafShift = 2u * (f.depth - child);
   p.inputOffset = fromTriangles ? 0u : f.shape->offsets[child - 1];
+  p.frameVertices = f.in->frameTriangles ? 1u : 0u;
+  p.coneScale = f.in->frameTriangles ? f.in->coneScale : 1.0f;
+  const vk::Buffer& tris = f.in->frameTriangles ? *f.in->frameTriangles : *f.in->triangles;
 
   if (f.timer) f.timer->restart();
   vk::Commands cmd(ctx_, f.timer);
@@ -178,10 +181,10 @@ bool Traversal::expandChunk(Frame& f, uint32_t child, bool fromTriangles, uint64
   cmd.mark("start");
   vk::Grid g = vk::gridFor(count, TRAVERSE_THREADS, ctx_.maxWorkgroups());
   if (early)
-    cmd.dispatch(test_, {*f.in->triangles, f.in->tree->nodes(), chunk_, masks_, counts_, stats_, f.in->samples,
+    cmd.dispatch(test_, {tris, f.in->tree->nodes(), chunk_, masks_, counts_, stats_, f.in->samples,
                          f.in->positions, *f.in->visibility, flags_}, p, g.x, g.y);
   else  // bindings 6-9 unused: any valid buffer
-    cmd.dispatch(test_, {*f.in->triangles, f.in->tree->nodes(), chunk_, masks_, counts_, stats_, stats_, stats_,
+    cmd.dispatch(test_, {tris, f.in->tree->nodes(), chunk_, masks_, counts_, stats_, stats_, stats_,
                          stats_, stats_}, p, g.x, g.y);
   cmd.barrier();
   scan_->record(cmd, counts_, counts_, sort::Count(count), sort::GpuWord(stats_, STAT_TOTAL));

@@ -114,6 +114,10 @@ struct TraversalStats {
 // What one traversal reads. Buffers stay owned by the caller.
 struct TraversalInput {
   const vk::Buffer* triangles = nullptr;  // vec4 x 3 per triangle, world space (w ignored)
+  // The far-light frame (see "Far-light frame" above): the same triangles relative to the light in the
+  // frame (frame_triangles.comp), for the pass tests; the tree is built in the frame too. Null: world.
+  const vk::Buffer* frameTriangles = nullptr;
+  float coneScale = 1.0f;                 // the frame's angular scale (1 in the world frame)
   uint32_t triangleCount = 0;
   uint32_t firstTriangle = 0;             // the triangles traversed: [firstTriangle, firstTriangle + triangleCount)
   const cone::ConeTree* tree = nullptr;   // built over the rays below

@@ -45,11 +45,24 @@ struct TraversePush {
   uint leafCount;     // test, early accept: the tree's leaves (sorted rays)
   uint leafShift;     // test, early accept: 2 (D - d) for the child depth d: leaves under a child = 4^(D-d)
   uint inputOffset;   // test, early accept: node-array offset of the input pairs' depth (their flags)
-  uint pad0;
+  uint frameVertices; // test: 1 = binding 0 holds the vertices relative to the light in the far-light frame
+                      // (frame_triangles.comp), used as they are; 0 = world positions, the light subtracted
+  float coneScale;    // test: the frame's angular scale (1 in the world frame; precise_test.h)
+  uint pad0, pad1, pad2;
+};
+
+// frame_triangles.comp: the triangles' vertices relative to the light in the far-light frame.
+struct FrameTrianglesPush {
+  vec4 rowX, rowY, rowZ;  // the rotation's rows (conetree/cone_layout.h, ConeFrame)
+  vec4 centre;            // xyz: its origin C
+  vec4 lightFrame;        // xyz: the light in the frame
+  uint count;             // triangles
+  uint pad0, pad1, pad2;
 };
 
 #ifdef __cplusplus
-static_assert(sizeof(TraversePush) == 80 && offsetof(TraversePush, first) == 16 &&
+static_assert(sizeof(FrameTrianglesPush) == 96, "FrameTrianglesPush layout");
+static_assert(sizeof(TraversePush) == 96 && offsetof(TraversePush, frameVertices) == 76 && offsetof(TraversePush, first) == 16 &&
                   offsetof(TraversePush, minLength) == 44 && offsetof(TraversePush, outLimit) == 48 &&
                   offsetof(TraversePush, test) == 52 && offsetof(TraversePush, frontFaceCulling) == 56,
               "TraversePush layout");

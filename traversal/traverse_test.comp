@@ -11,7 +11,7 @@
 // AND as the leaves, on the leaf range the implicit tree gives -- is marked in the flags (one word per
 // interior node, cleared per frame) and does not continue (no pair written). An input pair whose node is
 // flagged is dropped: its samples are all shadowed already (its children's tests go to STAT_MISSING).
-// bindings: 0 = triangles (vec4 x 3 per triangle, world space), 1 = nodes (ConeNode), 2 = chunk (uvec2
+// bindings: 0 = triangles (vec4 x 3 per triangle, world space; in the far-light frame relative to the light), 1 = nodes (ConeNode), 2 = chunk (uvec2
 //           input pairs), 3 = masks (uint per input), 4 = counts (uint per input), 5 = stats (uint[STAT_WORDS]),
 //           6 = samples (uint pixel per sorted ray), 7 = positions (vec4 per pixel), 8 = visibility (uint per
 //           pixel), 9 = flags (uint per interior node); 6-9 used with early accept only
@@ -49,10 +49,17 @@ void main() {
   if (i >= p.count) return;
   uvec2 pair = p.fromTriangles != 0u ? uvec2(p.first + i, 0u) : pairs[p.first + i];
   vec3 light = p.light.xyz;
-  // Relative to the light, exactly as the leaf test computes them.
-  precise vec3 v0 = tris[3u * pair.x].xyz - light;
-  precise vec3 v1 = tris[3u * pair.x + 1u].xyz - light;
-  precise vec3 v2 = tris[3u * pair.x + 2u].xyz - light;
+  // Relative to the light, exactly as the leaf test computes them from the light's end; in the far-light
+  // frame, as frame_triangles.comp wrote them.
+  precise vec3 v0 = tris[3u * pair.x].xyz;
+  precise vec3 v1 = tris[3u * pair.x + 1u].xyz;
+  precise vec3 v2 = tris[3u * pair.x + 2u].xyz;
+  if (p.frameVertices == 0u) {
+    v0 -= light;
+    v1 -= light;
+    v2 -= light;
+  }
+  float scale = p.coneScale;
   uvec2 r = p.fromTriangles != 0u ? uvec2(0u, 1u) : childRange(pair.y, p.childCount);
   uint mask = 0u;
   if (p.earlyAccept != 0u && p.fromTriangles == 0u && flags[p.inputOffset + pair.y] != 0u) {
@@ -62,17 +69,17 @@ void main() {
   } else if (p.frontFaceCulling != 0u && p.fromTriangles != 0u && facesLight(v0, v1, v2)) {
     // 002 §3.6: a triangle facing the light casts no shadow in a closed mesh; dropped at the root.
   } else if (p.test == TRAVERSE_TEST_SPHERE) {
-    vec4 sphere = boundingSphere(v0, v1, v2);
+    vec4 sphere = boundingSphere(v0, v1, v2, scale);
     for (uint c = r.x; c < r.y; c++)
-      if (sphereConeTriangle(nodes[p.childOffset + c], sphere, p.eps)) mask |= 1u << (c - r.x);
+      if (sphereConeTriangle(nodes[p.childOffset + c], sphere, p.eps, scale)) mask |= 1u << (c - r.x);
   } else {
     // The precise test, with the sphere test ANDed in: both conservative, and the sphere's margins are
     // the tighter ones for small triangles (traversal.h).
-    PreciseTriangle t = preciseTriangle(v0, v1, v2);  // once for the (up to) four children
-    vec4 sphere = boundingSphere(v0, v1, v2);
+    PreciseTriangle t = preciseTriangle(v0, v1, v2, scale);  // once for the (up to) four children
+    vec4 sphere = boundingSphere(v0, v1, v2, scale);
     for (uint c = r.x; c < r.y; c++) {
       ConeNode node = nodes[p.childOffset + c];
-      if (!sphereConeTriangle(node, sphere, p.eps) || !preciseConeTriangle(node, t, p.eps)) continue;
+      if (!sphereConeTriangle(node, sphere, p.eps, scale) || !preciseConeTriangle(node, t, p.eps)) continue;
       if (p.earlyAccept != 0u && preciseConeCovered(node, t, p.eps)) acceptChild(c, light);
       else mask |= 1u << (c - r.x);
     }
