@@ -35,6 +35,8 @@ void main() {
   ConeNode c1 = n > 1u ? child(r.x + 1u) : emptyCone();
   ConeNode c2 = n > 2u ? child(r.x + 2u) : emptyCone();
   ConeNode c3 = n > 3u ? child(r.x + 3u) : emptyCone();
-  // Widened by CONE_PAD times the frame's angular scale (1 in the world frame).
-  nodes[p.nodeOffset + j] = coneParent(c0, c1, c2, c3, n, CONE_PAD * p.frame.centre.w);
+  // In the far frame the axis from the children's sum and the widening CONE_PAD times the frame's angular
+  // scale; in the world frame the approximate minimal merge and CONE_PAD.
+  nodes[p.nodeOffset + j] = p.frame.rowX.w != 0.0f ? coneParentCentroid(c0, c1, c2, c3, n, CONE_PAD * p.frame.centre.w)
+                                                   : coneParent(c0, c1, c2, c3, n, CONE_PAD);
 }

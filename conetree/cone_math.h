@@ -193,6 +193,29 @@ CONE_FN ConeNode coneParent(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, 
   return coneParent(c0, c1, c2, c3, n, CONE_PAD);
 }
 
+// The parent in the far-light frame: its axis the normalised sum of the children's axes -- inside their
+// hull, so within Θ of the frame's z like every ray below it, which the padding CONE_PAD * scale and the
+// tests' scaled margins rely on. The approximate merge's atan/cos/sin (which Vulkan lets err by 2^-11)
+// could steer an axis 5e-4 rad off a cone a millionth of a radian wide. A sum that cancels (children in
+// opposite directions, which the far frame never has) is not finite after normalising: the whole sphere.
+CONE_FN ConeNode coneParentCentroid(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, uint n, float pad) {
+  vec3 sum = vec3(0.0f);
+  float lmin = CONE_FLT_MAX, lmax = -1.0f;
+  for (uint i = 0u; i < 4u; i++) {
+    if (i >= n) break;
+    ConeNode c = i == 0u ? c0 : (i == 1u ? c1 : (i == 2u ? c2 : c3));
+    if (coneIsEmpty(c)) continue;
+    sum += vec3(c.axisCos);
+    lmin = min(lmin, c.sinLen.y);
+    lmax = max(lmax, c.sinLen.z);
+  }
+  if (!(lmax >= 0.0f)) return emptyCone();
+  ConeNode merged;
+  merged.axisCos = vec4(normalize(sum), 1.0f);
+  merged.sinLen = vec4(0.0f, lmin, lmax, 0.0f);
+  return coneEnclose(merged, c0, c1, c2, c3, n, pad);
+}
+
 // The cone of a leaf ray in the far-light frame: half-angle beta and lengths L -+ sigma, so that it also
 // holds the ray to the same sample as the world-space leaf test sees it (traversal.h, "Far-light frame").
 CONE_FN ConeNode rayConeWidened(vec4 ray, float beta, float sigma) {
@@ -212,6 +235,7 @@ using glsl::coneEnclose;
 using glsl::coneIsEmpty;
 using glsl::coneMergeApprox;
 using glsl::coneParent;
+using glsl::coneParentCentroid;
 using glsl::coneReach;
 using glsl::emptyCone;
 using glsl::leafRay;

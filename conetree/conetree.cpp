@@ -134,9 +134,10 @@ std::vector<ConeNode> buildTreeOnHost(const std::vector<glm::vec4>& positions, c
     for (uint32_t j = 0; j < s.counts[d]; ++j) {
       glm::uvec2 r = childRange(j, s.counts[d + 1]);
       uint32_t n = r.y - r.x;
-      nodes[s.offsets[d] + j] = coneParent(child(r.x), n > 1 ? child(r.x + 1) : emptyCone(),
-                                           n > 2 ? child(r.x + 2) : emptyCone(),
-                                           n > 3 ? child(r.x + 3) : emptyCone(), n, CONE_PAD * fc.frame.centre.w);
+      const ConeNode c0 = child(r.x), c1 = n > 1 ? child(r.x + 1) : emptyCone(),
+                     c2 = n > 2 ? child(r.x + 2) : emptyCone(), c3 = n > 3 ? child(r.x + 3) : emptyCone();
+      nodes[s.offsets[d] + j] = fc.far ? coneParentCentroid(c0, c1, c2, c3, n, CONE_PAD * fc.frame.centre.w)
+                                       : coneParent(c0, c1, c2, c3, n, CONE_PAD);
     }
   }
   return nodes;

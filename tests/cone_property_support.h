@@ -200,6 +200,77 @@ struct BruteForce {
   }
 };
 
+// Pairs as the far-light frame sees them (traversal/traversal.h): every vertex and every ray within an
+// angle theta (1e-6 .. 0.12 rad) of +z, at distances around D (1 .. 1e6) from the apex; the cone's axis
+// inside that range, its half-angle from 0 to a fraction of theta; vertices scattered over the range,
+// gathered near the cone, or placed just outside its boundary or its edge planes. `scale` is the frame's
+// angular scale for theta, min(1, 4 tan theta), as chooseFrame computes it.
+struct FarPair {
+  Pair pair;
+  float scale;
+};
+struct FarPairGenerator {
+  PairGenerator g;
+  explicit FarPairGenerator(uint64_t seed) : g(seed) {}
+  // A unit direction within `theta` of +z (uniform in the projected disc).
+  dvec3 within(double theta) {
+    for (;;) {
+      double x = g.uni(-1, 1), y = g.uni(-1, 1);
+      if (x * x + y * y > 1) continue;
+      return glm::normalize(dvec3(x * std::tan(theta), y * std::tan(theta), 1.0));
+    }
+  }
+  FarPair make() {
+    const double theta = g.logUni(1e-6, 0.12), D = g.logUni(1.0, 1e6);
+    FarPair f;
+    f.scale = float(std::min(1.0, 4.0 * std::tan(theta)));
+    Pair& p = f.pair;
+    const dvec3 a = within(0.5 * theta);
+    const int kind = int(g.rng() % 5);
+    const double alpha = kind == 4 ? 0.0 : theta * g.logUni(1e-4, 0.4);
+    const double lmax = D * g.uni(0.8, 1.2);
+    p.cone = PairGenerator::cone(a, alpha, lmax);
+    p.eps = float(g.rng() % 2 ? 0.0 : D * g.logUni(1e-9, 1e-4));
+    p.kind = kind;
+    auto keep = [&](dvec3 d) {  // stays within theta of +z
+      return std::atan2(std::hypot(d.x, d.y), d.z) <= theta ? d : a;
+    };
+    dvec3 v[3];
+    switch (kind) {
+      case 0:  // anywhere in the range
+        for (auto& x : v) x = within(theta) * D * g.uni(0.5, 1.3);
+        break;
+      case 1: {  // around the cone: its footprint times a few
+        for (auto& x : v) x = keep(g.at(a, alpha * g.uni(0, 4) + theta * 1e-3 * g.uni(0, 1))) * D * g.uni(0.6, 1.2);
+        break;
+      }
+      case 2: {  // a vertex just outside the boundary, the others beyond it
+        const double off = alpha + std::max(alpha, theta * 1e-4) * g.logUni(1e-7, 1e-2);
+        v[0] = keep(g.at(a, off)) * D * g.uni(0.7, 1.1);
+        const dvec3 out = glm::normalize(v[0] - glm::dot(v[0], a) * a);
+        for (int k = 1; k < 3; ++k) v[k] = keep(glm::normalize(v[0] / glm::length(v[0]) + out * alpha * g.uni(0.1, 2) +
+                                                               g.unit() * alpha * 0.2)) * D * g.uni(0.7, 1.1);
+        break;
+      }
+      case 3: {  // an edge just outside: two vertices on a line tangent to the cone's boundary
+        const dvec3 side = glm::normalize(glm::cross(a, g.unit()));
+        const dvec3 along = glm::cross(a, side);
+        const double off = alpha * (1 + g.logUni(1e-7, 1e-2)) + theta * 1e-7;
+        const double t = D * g.uni(0.7, 1.1);
+        v[0] = t * (a + side * off + along * alpha * g.uni(1, 3));
+        v[1] = t * (a + side * off - along * alpha * g.uni(1, 3));
+        v[2] = t * (a + side * (off + alpha * g.uni(0.5, 3)));
+        break;
+      }
+      default:  // a ray cone (alpha 0) and a small triangle around or beside it
+        for (auto& x : v) x = keep(g.at(a, theta * g.logUni(1e-6, 1e-2))) * D * g.uni(0.9, 1.0);
+        break;
+    }
+    for (int i = 0; i < 3; ++i) p.v[i] = vec3(v[i]);
+    return f;
+  }
+};
+
 // One of the rays an early-accept check probes in the cone (axis a, half-angle alpha, lengths [lmin, lmax]):
 // the k-th -- along the axis first, then on the boundary and inside in turn, at Lmin, Lmax or between.
 // The sample w (the apex at the origin) and its leaf ray as `leafRayFn` (the twin's leafRay) computes

@@ -17,6 +17,7 @@
 #include "traversal/cone_method.h"
 #include "traversal/precise_probe.comp.h"
 #include "traversal/precise_test.h"
+#include "traversal/sphere_test.h"
 #include "traversal/traversal.h"
 #include "tests/cone_property_support.h"
 #include "conetree/cone_layout.h"
@@ -59,6 +60,45 @@ TEST(PreciseConeTriangle, NeverRejectsAPairThatABruteForceSearchFindsIntersectin
   EXPECT_GT(hits, n / 4);
   EXPECT_GT(rejected, misses / 2) << rejected << " of " << misses;
   for (int k : {0, 3, 7, 8, 10, 12}) EXPECT_GT(rejectedByKind[k], missesByKind[k] / 2) << kindName(k);
+}
+
+// The far-light frame (traversal.h): with the margins scaled by the frame's angular scale, the precise
+// and sphere tests still never reject a pair a brute-force search finds intersecting, and they reject
+// more of the others than with scale 1 (the point of the frame: there narrow cones far from the apex keep
+// everything within 2^-16 of their distance).
+TEST(PreciseConeTriangle, FarFrameMarginsStayConservativeAndReject) {
+  const char* pairsEnv = std::getenv("CONE_PROPERTY_PAIRS");
+  test::FarPairGenerator gen(20261204);
+  BruteForce brute;
+  const int n = pairsEnv ? std::atoi(pairsEnv) : 12000;
+  int hits = 0, misses = 0, rejected = 0, rejectedUnscaled = 0;
+  int missesByKind[5] = {}, rejectedByKind[5] = {};
+  for (int i = 0; i < n; ++i) {
+    test::FarPair f = gen.make();
+    const Pair& p = f.pair;
+    const bool keep = cone::preciseConeTriangle(p.cone, cone::preciseTriangle(p.v[0], p.v[1], p.v[2], f.scale), p.eps);
+    const bool keepSphere = cone::sphereConeTriangle(p.cone, cone::boundingSphere(p.v[0], p.v[1], p.v[2], f.scale),
+                                                     p.eps, f.scale);
+    if (brute.hit(p)) {
+      hits++;
+      ASSERT_TRUE(keep) << "far pair " << i << " (kind " << p.kind << ") intersects but the precise test rejected it";
+      ASSERT_TRUE(keepSphere) << "far pair " << i << " (kind " << p.kind << ") intersects but the sphere test rejected it";
+    } else {
+      misses++, missesByKind[p.kind]++;
+      rejected += !(keep && keepSphere);
+      rejectedByKind[p.kind] += !(keep && keepSphere);
+      rejectedUnscaled += !(cone::preciseConeTriangle(p.cone, p.v[0], p.v[1], p.v[2], p.eps) &&
+                            cone::sphereConeTriangle(p.cone, p.v[0], p.v[1], p.v[2], p.eps));
+    }
+  }
+  std::printf("  far frame: %d pairs, %d intersecting; of the %d others %d rejected (%d with scale 1)\n", n, hits, misses,
+              rejected, rejectedUnscaled);
+  for (int k = 0; k < 5; ++k) std::printf("    kind %d: %d of %d rejected\n", k, rejectedByKind[k], missesByKind[k]);
+  // The scattered pairs (kind 0) are nearly all rejected; kinds 1-4 are near misses by design.
+  EXPECT_GT(hits, n / 10);
+  EXPECT_GT(rejectedByKind[0], missesByKind[0] * 9 / 10);
+  EXPECT_GT(rejected, misses / 3);
+  EXPECT_GT(rejected, rejectedUnscaled);
 }
 
 TEST(PreciseConeTriangle, RejectsTheClearCasesOfEachTest) {

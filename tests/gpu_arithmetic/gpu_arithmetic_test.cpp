@@ -108,6 +108,33 @@ TEST_P(GpuArithmetic, PreciseAndSphereTestsNeverRejectAPairTheLeafTestHits) {
   EXPECT_GT(rejected, misses / 2) << "conservative, but not trivially so";
 }
 
+TEST_P(GpuArithmetic, FarFrameMarginsStayConservative) {
+  test::FarPairGenerator gen(20261205);
+  BruteForce brute;
+  brute.leaf = [](vec3 w, vec4 ray, float eps, const vec3* v) {
+    return gpuemu::leafHit(w, vec3(0), ray, eps, v[0], v[1], v[2]);
+  };
+  const int n = pairsToRun(4000);
+  int hits = 0, rejected = 0, misses = 0;
+  for (int i = 0; i < n; ++i) {
+    test::FarPair f = gen.make();
+    const Pair& p = f.pair;
+    const bool keep = gpuemu::preciseConeTriangle(emu(p.cone), p.v[0], p.v[1], p.v[2], p.eps, f.scale) &&
+                      gpuemu::sphereConeTriangle(emu(p.cone), p.v[0], p.v[1], p.v[2], p.eps, f.scale);
+    if (brute.hit(p)) {
+      hits++;
+      ASSERT_TRUE(keep) << GetParam().name << ": far pair " << i << " (kind " << p.kind
+                        << ") intersects but was rejected (scale " << f.scale << ")";
+    } else {
+      misses++;
+      rejected += !keep;
+    }
+  }
+  std::printf("  %s far frame: %d pairs, %d intersecting, %d of %d others rejected\n", GetParam().name, n, hits,
+              rejected, misses);
+  EXPECT_GT(rejected, misses / 3);  // most others are near misses by design (cone_property_support.h)
+}
+
 TEST_P(GpuArithmetic, EarlyAcceptNeverAcceptsAConeWithARayTheLeafTestMisses) {
   std::mt19937_64 rng(20261202);
   auto uni = [&](double a, double b) { return std::uniform_real_distribution<double>(a, b)(rng); };
@@ -199,6 +226,41 @@ TEST_P(GpuArithmetic, ParentConesHoldEveryLeafRayTheLeafKernelComputes) {
     }
   }
   EXPECT_GT(checked, n * 16);
+}
+
+// The tree's enclosure in the far-light frame: rays within theta of +z, the axis from the children's
+// sum, the padding CONE_PAD times the frame's angular scale, every leaf ray inside its parent and
+// grandparent. (With the world frame's approximate merge, the emulated 2^-11 sin/cos steered an axis
+// 5e-4 rad off cones a millionth of a radian wide, past what the scaled padding covers.)
+TEST_P(GpuArithmetic, FarFrameParentConesHoldEveryLeafRay) {
+  test::FarPairGenerator gen(20261206);
+  const int n = pairsToRun(4000) / 4;
+  int checked = 0;
+  for (int i = 0; i < n; ++i) {
+    const double theta = gen.g.logUni(1e-6, 0.12), D = gen.g.logUni(1.0, 1e6);
+    const float scale = float(std::min(1.0, 4.0 * std::tan(theta)));
+    const dvec3 centre = gen.within(0.5 * theta);
+    const double spread = theta * gen.g.logUni(1e-6, 0.5);
+    vec4 rays[16];
+    gpuemu::Cone leaves[16];
+    for (int k = 0; k < 16; ++k) {
+      dvec3 d = glm::normalize(centre + spread * dvec3(gen.g.uni(-1, 1), gen.g.uni(-1, 1), 0.0));
+      rays[k] = gpuemu::leafRay(vec3(d * D * gen.g.uni(0.9, 1.1)), vec3(0));
+      leaves[k] = gpuemu::rayCone(rays[k]);
+    }
+    gpuemu::Cone mid[4];
+    for (int m = 0; m < 4; ++m) mid[m] = gpuemu::coneParentCentroid(leaves + 4 * m, 4, 1.52587890625e-05f * scale);
+    const gpuemu::Cone root = gpuemu::coneParentCentroid(mid, 4, 1.52587890625e-05f * scale);
+    for (int k = 0; k < 16; ++k)
+      for (const gpuemu::Cone* c : {static_cast<const gpuemu::Cone*>(&mid[k / 4]), &root}) {
+        const double alpha = std::atan2(double(c->sinLen.x), double(c->axisCos.w));
+        const double th = angleBetween(dvec3(vec3(c->axisCos)), dvec3(vec3(rays[k])));
+        ASSERT_LE(th, alpha) << GetParam().name << ": case " << i << " ray " << k << " outside (theta " << theta
+                             << ", spread " << spread << ")";
+        checked++;
+      }
+  }
+  EXPECT_EQ(checked, n * 32);
 }
 
 INSTANTIATE_TEST_SUITE_P(Modes, GpuArithmetic, ::testing::ValuesIn(modes()),

@@ -99,24 +99,29 @@ bool fused() {
 #endif
 }
 
-bool preciseConeTriangle(const Cone& c, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2, float eps) {
-  return twin::preciseConeTriangle(node(c), v0, v1, v2, eps);
+bool preciseConeTriangle(const Cone& c, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2, float eps, float scale) {
+  return twin::preciseConeTriangle(node(c), twin::preciseTriangle(v0, v1, v2, scale), eps);
 }
 bool preciseConeCovered(const Cone& c, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2, float eps) {
   return twin::preciseConeCovered(node(c), twin::preciseTriangle(v0, v1, v2), eps);
 }
-bool sphereConeTriangle(const Cone& c, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2, float eps) {
-  return twin::sphereConeTriangle(node(c), v0, v1, v2, eps);
+bool sphereConeTriangle(const Cone& c, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2, float eps, float scale) {
+  return twin::sphereConeTriangle(node(c), twin::boundingSphere(v0, v1, v2, scale), eps, scale);
 }
 bool leafHit(glm::vec3 p, glm::vec3 light, glm::vec4 ray, float eps, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2) {
   return twin::leafHit(p, light, ray, eps, v0, v1, v2);
 }
 glm::vec4 leafRay(glm::vec3 p, glm::vec3 light) { return twin::leafRay(p, light); }
 Cone rayCone(glm::vec4 ray) { return cone(twin::rayCone(ray)); }
-Cone coneParent(const Cone* c, uint32_t n) {
+Cone coneParent(const Cone* c, uint32_t n, float pad) {
   twin::ConeNode k[4];
   for (uint32_t i = 0; i < 4; ++i) k[i] = i < n ? node(c[i]) : twin::emptyCone();
-  return cone(twin::coneParent(k[0], k[1], k[2], k[3], n));
+  return cone(twin::coneParent(k[0], k[1], k[2], k[3], n, pad));
+}
+Cone coneParentCentroid(const Cone* c, uint32_t n, float pad) {
+  twin::ConeNode k[4];
+  for (uint32_t i = 0; i < 4; ++i) k[i] = i < n ? node(c[i]) : twin::emptyCone();
+  return cone(twin::coneParentCentroid(k[0], k[1], k[2], k[3], n, pad));
 }
 
 }  // namespace cs::gpuemu
