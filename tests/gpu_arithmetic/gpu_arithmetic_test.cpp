@@ -73,12 +73,18 @@ int pairsToRun(int byDefault) {
   return env ? std::atoi(env) : byDefault;
 }
 
-TEST_P(GpuArithmetic, PreciseAndSphereTestsNeverRejectAPairTheLeafTestHits) {
-  PairGenerator gen(20261201);
+// The brute-force search with the emulated leaf test (what the GPU's leaf kernel would report).
+BruteForce emulatedSearch() {
   BruteForce brute;
   brute.leaf = [](vec3 w, vec4 ray, float eps, const vec3* v) {
     return gpuemu::leafHit(w, vec3(0), ray, eps, v[0], v[1], v[2]);
   };
+  return brute;
+}
+
+TEST_P(GpuArithmetic, PreciseAndSphereTestsNeverRejectAPairTheLeafTestHits) {
+  PairGenerator gen(20261201);
+  BruteForce brute = emulatedSearch();
   const int n = pairsToRun(4000);
   int hits = 0, rejected = 0, misses = 0;
   for (int i = 0; i < n; ++i) {
@@ -110,10 +116,7 @@ TEST_P(GpuArithmetic, PreciseAndSphereTestsNeverRejectAPairTheLeafTestHits) {
 
 TEST_P(GpuArithmetic, FarFrameMarginsStayConservative) {
   test::FarPairGenerator gen(20261205);
-  BruteForce brute;
-  brute.leaf = [](vec3 w, vec4 ray, float eps, const vec3* v) {
-    return gpuemu::leafHit(w, vec3(0), ray, eps, v[0], v[1], v[2]);
-  };
+  BruteForce brute = emulatedSearch();
   const int n = pairsToRun(4000);
   int hits = 0, rejected = 0, misses = 0;
   for (int i = 0; i < n; ++i) {
