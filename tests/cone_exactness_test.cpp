@@ -22,6 +22,7 @@
 #include "tests/cone_test_support.h"
 #include "tests/test_context.h"
 #include "traversal/cone_method.h"
+#include "traversal/traversal.h"
 
 namespace cs {
 namespace {
@@ -471,6 +472,46 @@ TEST(ConeHardCases, FarLightOnTheBuiltinSceneAndAGltfModel) {
   for (float k : {10.0f, 1e3f})
     Harness::get().run(engine, cam, farLight(ec, ediag, k, {0.3f, 1.0f, 0.2f}), 64, 64,
                        "2CylinderEngine, far light " + std::to_string(int(k)) + " diagonals");
+}
+
+TEST(ConeHardCases, FarLightMaskIsBitIdenticalAtEveryArenaSize) {
+  // The far-light frame under bounded memory: the minimal arena (one node's children per depth, chunks of
+  // one pair) and a small one give the default's mask bit for bit, for the default and two-pass variants.
+  Scene scene = soup(floorAndCasters(), "far-light arena");
+  const vec3 c = 0.5f * (scene.boundsMin + scene.boundsMax);
+  const float diag = glm::length(scene.boundsMax - scene.boundsMin);
+  test::ReferenceFrame f(scene, lookAt({5, 6, 8}, {0, 0.5f, 0}), farLight(c, diag, 1e3f, {0.3f, 1.0f, 0.2f}), 64);
+  for (const char* variant : {"PreciseSorted", "PreciseSEATP", "Spheres"}) {
+    ConeOptions base;
+    ASSERT_TRUE(applyConeVariant(variant, base));
+    test::ConeRun plain = test::runExactCone(f, base, std::string("far light 1e3 ") + variant);
+    EXPECT_EQ(plain.stats["frame"].get<std::string>(), "far");
+    const uint32_t depth = cone::treeDepth(uint32_t(f.host.litCount()));
+    ConeOptions small = base, least = base;
+    small.traversalMemoryBytes = 9000;
+    least.arena = {traversal::minimumPairs(depth), 1,
+                   traversal::minimumPairs(depth) * 8 + traversal::chunkScratchBytes(1)};
+    least.traversalMemoryBytes = least.arena.bytes;
+    for (const ConeOptions& o : {small, least}) {
+      test::ConeRun r = test::runExactCone(f, o, std::string("far light 1e3 ") + variant + " " +
+                                                     std::to_string(o.traversalMemoryBytes) + " B");
+      EXPECT_TRUE(test::sameBits(plain.mask, r.mask)) << variant << " at " << o.traversalMemoryBytes << " bytes";
+    }
+  }
+}
+
+TEST(ConeHardCases, FarLightOnTheBartMuseum) {
+  const std::string bart = CONESHADOW_BART_SCENES;
+  if (!std::filesystem::exists(bart + "/museum/museum5.aff")) GTEST_SKIP() << "no BART scenes at " << bart;
+  std::ostringstream warn;
+  Scene scene = loadAff(bart + "/museum/museum5.aff", warn, 2.0);
+  scene.computeBounds();
+  const vec3 c = 0.5f * (scene.boundsMin + scene.boundsMax);
+  const float diag = glm::length(scene.boundsMax - scene.boundsMin);
+  ASSERT_FALSE(scene.cameras.empty());
+  for (float k : {10.0f, 1e3f, 1e5f})
+    Harness::get().run(scene, scene.cameras.front(), farLight(c, diag, k, {0.2f, 1.0f, 0.35f}), 64, 64,
+                       "museum5, far light " + std::to_string(int(k)) + " diagonals");
 }
 
 TEST(ConeHardCases, SceneFarFromTheOriginLitFromFarAway) {

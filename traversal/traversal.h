@@ -33,6 +33,32 @@
 // `chunkCapacity` inputs. The host reads back one word per chunk (the survivor count) to place the next
 // chunk; each chunk is one submit, and so is each batch of leaf tests.
 //
+// Far-light frame (conetree/cone_layout.h ConeFrame, conetree.h chooseFrame). The tests' rounding margins
+// are relative to the magnitudes they compare: 2^-16 (256 ulp) of |P - light| for a distance across a
+// cone, an angle of 2^-16 rad added to each parent. In world coordinates a direction's components are all
+// of its length, so those are what the rounding really is -- but a light 10^3 scene diagonals away sends
+// cones narrower than 2^-16 rad, every margin passes and every triangle reaches every leaf. When the light
+// is at least 8 half-diagonals from the centre C of the triangles' bounds (the bounds within Θ <= 7.2
+// degrees of the direction to C), the cone path works in a rotated frame instead: z from the light to C,
+// x_f = R (x - C), the light at R (light - C) computed in double. There every vertex and every ray is
+// within Θ of z, their components across z are <= |v| tan Θ, and the rounding of the tests' cross and dot
+// products is that much smaller: the margins of the quantities measured across the cones -- the edge
+// planes' orientation and normal error, the bounding sphere's radius and its distance across the cone,
+// the parents' padding -- are multiplied by the frame's angular scale min(1, 4 tan Θ) (precise_test.h
+// edgePlane, sphere_test.h, cone_math.h coneEnclose), those along the rays (Lmax, eps, the plane slab)
+// keep theirs. Parent axes come from the children's sum (coneParentCentroid), inside the hull of the rays
+// below, never steered off by a GPU's approximate sin/cos. The ray keys cover the bounds' projection
+// (sort/hilbert.h frameRayKey) instead of six cube faces. The frame's geometry is the world's through an
+// fp32 rotation: the leaves stay in world coordinates (leafHit, as the reference), and the difference --
+// the transform's rounding, a few ulp of |x - C|, and the leaf test's, a few ulp of a triangle's distance
+// to the sample -- is covered by widening every leaf cone by sigma = 2^-16 of the bounds' diagonal across
+// (as the angle beta = sigma / (nearest distance to the bounds)) and along (Lmin - sigma, Lmax + sigma).
+// Bit-identical masks across variants and arena sizes hold in both frames (tests/cone_exactness_test.cpp,
+// far lights from 10 to 10^16 diagonals); the margins' conservativeness in the far frame is checked by
+// tests/traversal_test.cpp (FarFrame*) and, under the arithmetic a GPU is allowed, tests/gpu_arithmetic.
+// The pass tests read the triangles relative to the light in the frame from a copy frame_triangles.comp
+// writes once per frame (48 bytes a triangle, counted in the method's bytes).
+//
 // Memory budget. `memoryBytes` (ConeOptions::traversalMemoryBytes, --traversal-memory) bounds the arena
 // plus the chunk scratch: planArena() splits it (arena 2/3, chunk capacity = arena / 4), caps each array
 // at one storage binding (maxStorageBufferRange) and reports what it allocates. peakBytes in the stats is
