@@ -37,6 +37,6 @@ void main() {
   ConeNode c3 = n > 3u ? child(r.x + 3u) : emptyCone();
   // In the far frame the axis from the children's sum and the widening CONE_PAD times the frame's angular
   // scale; in the world frame the approximate minimal merge and CONE_PAD.
-  nodes[p.nodeOffset + j] = p.frame.rowX.w != 0.0f ? coneParentCentroid(c0, c1, c2, c3, n, CONE_PAD * p.frame.centre.w)
+  nodes[p.nodeOffset + j] = p.frame.rowX.w != 0.0f ? coneParentFar(c0, c1, c2, c3, n, CONE_PAD * p.frame.centre.w)
                                                    : coneParent(c0, c1, c2, c3, n, CONE_PAD);
 }

@@ -193,12 +193,38 @@ CONE_FN ConeNode coneParent(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, 
   return coneParent(c0, c1, c2, c3, n, CONE_PAD);
 }
 
-// The parent in the far-light frame: its axis the normalised sum of the children's axes -- inside their
-// hull, so within Θ of the frame's z like every ray below it, which the padding CONE_PAD * scale and the
-// tests' scaled margins rely on. The approximate merge's atan/cos/sin (which Vulkan lets err by 2^-11)
-// could steer an axis 5e-4 rad off a cone a millionth of a radian wide. A sum that cancels (children in
-// opposite directions, which the far frame never has) is not finite after normalising: the whole sphere.
-CONE_FN ConeNode coneParentCentroid(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, uint n, float pad) {
+// A cone of the far-light frame as a disc on the plane z = 1 (its axis's point there, the tangent of its
+// half-angle): the approximate merges of coneParentFar work on these. w = 0: empty; w = -1: not a
+// disc (axis not in front, or not finite).
+CONE_FN vec4 coneDisc(ConeNode c) {
+  if (coneIsEmpty(c)) return vec4(0.0f);
+  vec3 a = vec3(c.axisCos);
+  if (!(a.z > 0.0f) || !(c.axisCos.w > 0.0f)) return vec4(0.0f, 0.0f, 0.0f, -1.0f);
+  return vec4(CONE_DIV(a.x, a.z), CONE_DIV(a.y, a.z), CONE_DIV(c.sinLen.x, c.axisCos.w), 1.0f);
+}
+
+// The smallest disc holding discs p and q (xy centre, z radius; w as coneDisc).
+CONE_FN vec4 discMerge(vec4 p, vec4 q) {
+  if (p.w == 0.0f) return q;
+  if (q.w == 0.0f || p.w < 0.0f) return p;
+  if (q.w < 0.0f) return q;
+  vec2 d = vec2(q) - vec2(p);
+  float l = length(d);
+  if (l + q.z <= p.z) return p;
+  if (l + p.z <= q.z) return q;
+  float r = 0.5f * (l + p.z + q.z);
+  return vec4(vec2(p) + d * CONE_DIV(r - p.z, l), r, 1.0f);
+}
+
+// The parent in the far-light frame. Its axis steers only how tight the cone is (coneEnclose then makes it
+// hold every child exactly), but it must stay near the cones below: the padding CONE_PAD * scale and the
+// tests' scaled margins assume every axis within Θ of the frame's z, and the world frame's approximate
+// merge, through atan/cos/sin that Vulkan lets err by 2^-11, can steer an axis 5e-4 rad off cones a
+// millionth of a radian wide. Here the children are discs on z = 1 (coneDisc), merged pairwise as the
+// world merge does, with + * / sqrt only; the axis through the merged disc's centre. When a child is no
+// disc (never in the far frame), the normalised sum of the axes instead, inside their hull; a sum that
+// is not finite after normalising gives the whole sphere through coneEnclose.
+CONE_FN ConeNode coneParentFar(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, uint n, float pad) {
   vec3 sum = vec3(0.0f);
   float lmin = CONE_FLT_MAX, lmax = -1.0f;
   for (uint i = 0u; i < 4u; i++) {
@@ -210,8 +236,16 @@ CONE_FN ConeNode coneParentCentroid(ConeNode c0, ConeNode c1, ConeNode c2, ConeN
     lmax = max(lmax, c.sinLen.z);
   }
   if (!(lmax >= 0.0f)) return emptyCone();
+  vec4 d0 = coneDisc(c0);
+  vec4 d1 = n > 1u ? coneDisc(c1) : vec4(0.0f);
+  vec4 d2 = n > 2u ? coneDisc(c2) : vec4(0.0f);
+  vec4 d3 = n > 3u ? coneDisc(c3) : vec4(0.0f);
+  vec4 disc = discMerge(discMerge(d0, d1), discMerge(d2, d3));
+  vec3 axis = disc.w > 0.0f && d0.w >= 0.0f && d1.w >= 0.0f && d2.w >= 0.0f && d3.w >= 0.0f
+                  ? vec3(disc.x, disc.y, 1.0f)
+                  : sum;
   ConeNode merged;
-  merged.axisCos = vec4(normalize(sum), 1.0f);
+  merged.axisCos = vec4(normalize(axis), 1.0f);
   merged.sinLen = vec4(0.0f, lmin, lmax, 0.0f);
   return coneEnclose(merged, c0, c1, c2, c3, n, pad);
 }
@@ -235,7 +269,7 @@ using glsl::coneEnclose;
 using glsl::coneIsEmpty;
 using glsl::coneMergeApprox;
 using glsl::coneParent;
-using glsl::coneParentCentroid;
+using glsl::coneParentFar;
 using glsl::coneReach;
 using glsl::emptyCone;
 using glsl::leafRay;

@@ -46,7 +46,7 @@
 // planes' orientation and normal error, the bounding sphere's radius and its distance across the cone,
 // the parents' padding -- are multiplied by the frame's angular scale min(1, 4 tan Θ) (precise_test.h
 // edgePlane, sphere_test.h, cone_math.h coneEnclose), those along the rays (Lmax, eps, the plane slab)
-// keep theirs. Parent axes come from the children's sum (coneParentCentroid), inside the hull of the rays
+// keep theirs. Parent axes come from merging the children as discs on z = 1 (coneParentFar), near the rays
 // below, never steered off by a GPU's approximate sin/cos. The ray keys cover the bounds' projection
 // (sort/hilbert.h frameRayKey) instead of six cube faces. The frame's geometry is the world's through an
 // fp32 rotation: the leaves stay in world coordinates (leafHit, as the reference), and the difference --

@@ -252,8 +252,8 @@ TEST_P(GpuArithmetic, FarFrameParentConesHoldEveryLeafRay) {
       leaves[k] = gpuemu::rayCone(rays[k]);
     }
     gpuemu::Cone mid[4];
-    for (int m = 0; m < 4; ++m) mid[m] = gpuemu::coneParentCentroid(leaves + 4 * m, 4, 1.52587890625e-05f * scale);
-    const gpuemu::Cone root = gpuemu::coneParentCentroid(mid, 4, 1.52587890625e-05f * scale);
+    for (int m = 0; m < 4; ++m) mid[m] = gpuemu::coneParentFar(leaves + 4 * m, 4, 1.52587890625e-05f * scale);
+    const gpuemu::Cone root = gpuemu::coneParentFar(mid, 4, 1.52587890625e-05f * scale);
     for (int k = 0; k < 16; ++k)
       for (const gpuemu::Cone* c : {static_cast<const gpuemu::Cone*>(&mid[k / 4]), &root}) {
         const double alpha = std::atan2(double(c->sinLen.x), double(c->axisCos.w));

@@ -53,6 +53,6 @@ bool leafHit(glm::vec3 p, glm::vec3 light, glm::vec4 ray, float eps, glm::vec3 v
 glm::vec4 leafRay(glm::vec3 p, glm::vec3 light);
 Cone rayCone(glm::vec4 ray);
 Cone coneParent(const Cone* children, uint32_t n, float pad = 1.52587890625e-05f);
-Cone coneParentCentroid(const Cone* children, uint32_t n, float pad);  // the far frame's
+Cone coneParentFar(const Cone* children, uint32_t n, float pad);  // the far frame's
 
 }  // namespace cs::gpuemu
