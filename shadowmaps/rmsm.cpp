@@ -1,6 +1,8 @@
 // Resolution-matched shadow maps over six cube faces: see rmsm.h for the algorithm and its steps.
 #include "shadowmaps/rmsm.h"
 
+#include <array>
+
 #include <algorithm>
 #include <chrono>
 #include <cstring>
@@ -198,6 +200,42 @@ struct Analysis {
   std::vector<uint32_t> unique;  // sorted unique page keys
 };
 
+// RMSM's fitted faces (rmsm.h): per face (s0, t0, zoom, 0), the window of the face the quadtree covers --
+// the square of side 1 / zoom holding what the scene's bounding box [lo, hi] projects to; zoom a power of
+// two, s0 and t0 multiples of 1 / (page * zoom) so that every level's window starts on a whole texel. The
+// whole face (0, 0, 1, 0) when the box reaches the face's apex plane (a light inside or beside it). zoom *
+// maxRes stays <= 2^22: (s, t) are fp32 (2^-24 of 1), a quarter texel at the finest level.
+std::array<glm::vec4, 6> fitWindows(glm::vec3 light, glm::vec3 lo, glm::vec3 hi, uint32_t page, uint32_t maxRes) {
+  std::array<glm::vec4, 6> w;
+  w.fill(glm::vec4(0, 0, 1, 0));
+  if (!(lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z)) return w;
+  const double maxZoom = std::max(1.0, std::ldexp(1.0, 22) / double(maxRes));
+  for (uint32_t face = 0; face < 6; ++face) {
+    double s0 = INFINITY, s1 = -INFINITY, t0 = INFINITY, t1 = -INFINITY;
+    bool whole = false;
+    for (int k = 0; k < 8 && !whole; ++k) {
+      const glm::dvec3 d = glm::dvec3((k & 1) ? hi.x : lo.x, (k & 2) ? hi.y : lo.y, (k & 4) ? hi.z : lo.z) -
+                           glm::dvec3(light);
+      const uint32_t axis = face >> 1;
+      glm::dvec3 f = axis == 0 ? glm::dvec3(d.y, d.z, d.x) : (axis == 1 ? glm::dvec3(d.z, d.x, d.y) : d);
+      if (face & 1) f.z = -f.z;
+      if (!(f.z > 1e-6 * (std::abs(f.x) + std::abs(f.y)))) whole = true;
+      const double s = 0.5 + 0.5 * f.x / f.z, t = 0.5 + 0.5 * f.y / f.z;
+      s0 = std::min(s0, s), s1 = std::max(s1, s), t0 = std::min(t0, t), t1 = std::max(t1, t);
+    }
+    if (whole) continue;
+    s0 = std::max(s0, 0.0), t0 = std::max(t0, 0.0), s1 = std::min(s1, 1.0), t1 = std::min(t1, 1.0);
+    if (!(s0 < s1 && t0 < t1)) continue;
+    const double span = std::max(s1 - s0, t1 - t0);
+    double zoom = 1;
+    while (zoom * 2 <= maxZoom && span * zoom * 2 * (1.0 + 2.0 / page) <= 1.0) zoom *= 2;
+    if (zoom == 1) continue;
+    const double grid = double(page) * zoom;
+    w[face] = glm::vec4(float(std::floor(s0 * grid) / grid), float(std::floor(t0 * grid) / grid), float(zoom), 0.0f);
+  }
+  return w;
+}
+
 }  // namespace
 
 struct Rmsm::State {
@@ -208,6 +246,10 @@ struct Rmsm::State {
   vk::Timer timer;
   vk::Kernel requests, prune, unique, tables, lookup, probe;
   vk::Buffer tableBuf, pool, counters, updates;  // persistent across frames
+  vk::Buffer windowBuf;                          // the faces' windows (fitWindows), vec4 per face
+  std::array<glm::vec4, 6> windows;
+  glm::vec3 boundsLo{0}, boundsHi{0};            // of the scene's finite positions, with the geometry
+  bool boundsValid = false;
   // Per G-buffer size.
   uint32_t width = 0, height = 0;
   vk::Buffer requestBuf, flags, compacted, uniqueBuf, lod, visibility;
@@ -225,12 +267,15 @@ struct Rmsm::State {
       : ctx(c), opt(o), layout(sm::rmsmLayout(o, c.maxStorageBufferRange())), pass(c, o.cull), timer(vk::createTimer(c, 64)) {
     CS_CHECK(o.constantBias >= 0 && o.slopeBias >= 0 && o.maxSlope >= 0, "rmsm biases must be >= 0");
     const uint32_t push = sizeof(sm::RmsmPush);
-    requests = vk::createKernel(c, "rmsm_requests", spv_rmsm_requests_comp, 6, push);
+    requests = vk::createKernel(c, "rmsm_requests", spv_rmsm_requests_comp, 7, push);
     prune = vk::createKernel(c, "rmsm_prune", spv_rmsm_prune_comp, 3, push);
     unique = vk::createKernel(c, "rmsm_unique", spv_rmsm_unique_comp, 3, push);
     tables = vk::createKernel(c, "rmsm_tables", spv_rmsm_tables_comp, 2, push);
-    lookup = vk::createKernel(c, "rmsm_lookup", spv_rmsm_lookup_comp, 7, push);
-    probe = vk::createKernel(c, "rmsm_probe", spv_rmsm_probe_comp, 4, push);
+    lookup = vk::createKernel(c, "rmsm_lookup", spv_rmsm_lookup_comp, 8, push);
+    probe = vk::createKernel(c, "rmsm_probe", spv_rmsm_probe_comp, 5, push);
+    windows.fill(glm::vec4(0, 0, 1, 0));
+    windowBuf = vk::createBuffer(c, sizeof(windows), vk::Memory::HostVisible);
+    vk::upload(c, windowBuf, windows.data(), sizeof(windows));
     tableBuf = vk::createBuffer(c, layout.tableBytes);
     pool = vk::createBuffer(c, layout.poolBytes);
     counters = vk::createBuffer(c, SM_COUNT_WORDS * 4);
@@ -306,7 +351,7 @@ struct Rmsm::State {
       cmd.barrier();
       cmd.mark("start");
       vk::Grid grid = vk::gridFor(pixels, SM_PIXEL_THREADS, ctx.maxWorkgroups());
-      cmd.dispatch(requests, {g.position, g.normal, tableBuf, lod, requestBuf, counters}, p, grid.x, grid.y);
+      cmd.dispatch(requests, {g.position, g.normal, tableBuf, lod, requestBuf, counters, windowBuf}, p, grid.x, grid.y);
       cmd.barrier();
       cmd.mark("requests");
       cmd.dispatch(prune, {requestBuf, flags, counters}, p, grid.x, grid.y);
@@ -408,6 +453,19 @@ MethodOutput Rmsm::run(const FrameInput& frame) {
   s.ensurePixels(g.width, g.height);
   const uint32_t pixels = g.width * g.height;
 
+  // Each face fitted to what it can see of the scene (fitWindows), before anything asks for a page.
+  if (uploadMs > 0 || !s.boundsValid) {
+    s.boundsLo = glm::vec3(INFINITY), s.boundsHi = glm::vec3(-INFINITY);
+    for (const glm::vec3& v : frame.scene->positions)
+      if (std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z))
+        s.boundsLo = glm::min(s.boundsLo, v), s.boundsHi = glm::max(s.boundsHi, v);
+    s.boundsValid = true;
+  }
+  s.windows = s.opt.fitFaces ? fitWindows(frame.light, s.boundsLo, s.boundsHi, page, s.opt.maxResolution)
+                             : std::array<glm::vec4, 6>{};
+  if (!s.opt.fitFaces) s.windows.fill(glm::vec4(0, 0, 1, 0));
+  vk::upload(s.ctx, s.windowBuf, s.windows.data(), sizeof(s.windows));
+
   // Cached mode: the resident pages stay valid while the light and the geometry stay put.
   bool flushTables = false;
   uint64_t flushesBefore = s.cacheFlushes;
@@ -462,8 +520,11 @@ MethodOutput Rmsm::run(const FrameInput& frame) {
     const uint32_t stride = (page + 1) * (page + 1);
     std::vector<VkBufferImageCopy> regions;
     for (const sm::Superpage& sp : superpages) {
-      s.pass.recordWindow(cmd, sp.face, double(page) * double(1u << sp.level), sp.x0, sp.y0, sp.w, sp.h,
-                          frame.light, eps);
+      // The level's texels over the whole face, and the superpage's first texel there (fitted faces).
+      const glm::vec4 fw = s.windows[sp.face];
+      const double faceRes = double(page) * double(1u << sp.level) * double(fw.z);
+      s.pass.recordWindow(cmd, sp.face, faceRes, uint32_t(double(fw.x) * faceRes) + sp.x0,
+                          uint32_t(double(fw.y) * faceRes) + sp.y0, sp.w, sp.h, frame.light, eps);
       regions.clear();
       for (uint32_t i = sp.first; i < sp.first + sp.count; ++i) {
         VkBufferImageCopy r{};
@@ -481,8 +542,8 @@ MethodOutput Rmsm::run(const FrameInput& frame) {
     cmd.mark("superpages");
     sm::RmsmPush p = s.push(frame.light, eps, frameLimit);
     vk::Grid grid = vk::gridFor(pixels, SM_PIXEL_THREADS, s.ctx.maxWorkgroups());
-    cmd.dispatch(s.lookup, {g.position, g.normal, s.lod, s.tableBuf, s.pool, s.visibility, s.counters}, p, grid.x,
-                 grid.y);
+    cmd.dispatch(s.lookup, {g.position, g.normal, s.lod, s.tableBuf, s.pool, s.visibility, s.counters, s.windowBuf}, p,
+                 grid.x, grid.y);
     cmd.barrier();
     cmd.mark("lookup");
     cmd.submit();
@@ -521,6 +582,8 @@ MethodOutput Rmsm::run(const FrameInput& frame) {
                {"page_size", page},
                {"superpage_size", L.superpageSize},
                {"pool_pages", L.poolPages},
+               {"face_zoom", nlohmann::json::array({s.windows[0].z, s.windows[1].z, s.windows[2].z, s.windows[3].z,
+                                                    s.windows[4].z, s.windows[5].z})},
                {"pool_bytes", L.poolBytes},
                {"page_table_bytes", L.tableBytes},
                {"max_resolution", page << L.maxLevel},
@@ -604,7 +667,7 @@ std::vector<glm::uvec4> Rmsm::debugProbe(const std::vector<Probe>& probes) {
   p.count = uint32_t(queries.size());
   vk::Commands cmd(s.ctx);
   vk::Grid grid = vk::gridFor(queries.size(), SM_LIST_THREADS, s.ctx.maxWorkgroups());
-  cmd.dispatch(s.probe, {in, s.tableBuf, s.pool, out}, p, grid.x, grid.y);
+  cmd.dispatch(s.probe, {in, s.tableBuf, s.pool, out, s.windowBuf}, p, grid.x, grid.y);
   cmd.barrier();
   cmd.submit();
   return vk::download<glm::uvec4>(s.ctx, out, queries.size());

@@ -1,6 +1,7 @@
 // RMSM lookups shared by rmsm_lookup.comp and the test kernel rmsm_probe.comp: the page-table walk and
 // the 2x2 percentage-closer filter inside one page. Include after the bindings: it reads `tables`
-// (uint per entry), `pool` (float per texel) and the push constants `pc` (RmsmPush).
+// (uint per entry), `pool` (float per texel), `windows` (vec4 per face) and the push constants `pc` (RmsmPush).
+// (s, t) are window coordinates (sm_shared.h windowST: the whole face unless the faces are fitted).
 //
 // Page tables hold each resident page at its own level only. findTexel() starts at the level asked for
 // and walks toward coarser levels until a table has the footprint's page: the finest resident page at or
@@ -50,14 +51,16 @@ float pcfAtLevel(uint face, vec2 st, uint level, float dist, float cosTheta, vec
   uvec2 texel;
   if (!findTexel(face, st, level, found, base, f, texel)) return -1.0;
   float res = float(pageSide() << found);
-  float reach = dist - slopeScaledBias(dist, cosTheta, 2.0f / res, pc.constantBias, pc.slopeBias, pc.maxSlope);
-  float slack = 0.25 * dist * 2.0f / res;
+  vec4 window = windows[face];
+  float faceRes = res * window.z;  // the whole face's texels a side at this level
+  float reach = dist - slopeScaledBias(dist, cosTheta, 2.0f / faceRes, pc.constantBias, pc.slopeBias, pc.maxSlope);
+  float slack = 0.25 * dist * 2.0f / faceRes;
   uint row = pageSide() + 1u;
   float l[4];
   for (uint k = 0u; k < 4u; ++k) {
     uvec2 o = uvec2(k & 1u, k >> 1u);
     float r = pc.planeBias != 0u
-                  ? planeReach(dF, nF, 2.0 * (vec2(texel + o) + 0.5) / res - 1.0, reach, pc.constantBias, slack)
+                  ? planeReach(dF, nF, windowFaceUV(vec2(texel + o) + 0.5, res, window), reach, pc.constantBias, slack)
                   : reach;
     l[k] = pool[base + o.y * row + o.x] >= r ? 1.0 : 0.0;
   }

@@ -7,6 +7,12 @@
 // P·2^maxLevel = maxResolution. Each face has its own mip hierarchy of page tables; all six share ONE
 // physical page pool. A sample picks its face by the major axis of its direction from the light, so the
 // faces never overlap and a page key (face, level, page x, page y) names a page once.
+// Fitted faces (RmsmOptions::fitFaces): a face's quadtree covers the window of the face that the scene's
+// bounding box projects to -- a square of side 1/zoom, zoom a power of two up to 2^22 / maxResolution
+// (fp32 (s, t)) -- and (s, t) are taken in that window (sm_shared.h windowST); with the light inside or
+// beside the box every window is the whole face, as before. A far light's scene spans a few texels of a
+// whole face: its finest level would be resolution-limited at once, and the slope bias (a texel of the
+// whole face) wider than the scene.
 //
 // One frame, Algorithm 2 of the paper (every step on the GPU except 8 and 10, as in the paper):
 //   1-3  rmsm_requests.comp  per lit sample: face, (s, t), LOD ℓ = log2 sqrt|dX × dY| (eq. 1) from the
@@ -67,6 +73,8 @@ struct RmsmOptions {
                                       //   their aprons, they take (P+1)²/P² of that (+6% at P = 32)
   uint32_t superpageSize = 1024;      // texels a superpage side (power of two, >= pageSize)
   bool cached = false;                // --rmsm-cached: keep pages across frames (static scenes)
+  bool fitFaces = true;               // each face's quadtree over the window of it the scene's bounds cover
+                                      //   (rmsm.cpp fitWindows; the whole face with the light among them)
   float minOccupancy = 0.5f;          // split a superpage's box while its pages fill less (binSuperpages)
   bool cull = true;                   // per-superpage frustum culling of triangle clusters (depth_pass.h)
   uint32_t analysisStep = 1;          // --rmsm-analysis: pages requested by every k-th pixel in x and y

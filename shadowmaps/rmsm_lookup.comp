@@ -5,7 +5,7 @@
 // with no resident page at any level counts as a miss and is lit (never with full-resolution analysis;
 // at a reduced one the backup level makes it rare: rmsm.h).
 // bindings: 0 = position, 1 = normal, 2 = lod (float per pixel), 3 = tables, 4 = pool (float per texel),
-//           5 = visibility (float per pixel), 6 = counters
+//           5 = visibility (float per pixel), 6 = counters, 7 = the faces' windows (vec4, rmsm.h)
 #include "shadowmaps/sm_shared.h"
 layout(local_size_x = SM_PIXEL_THREADS) in;
 layout(std430, binding = 0) readonly buffer Position { vec4 position[]; };
@@ -15,6 +15,7 @@ layout(std430, binding = 3) readonly buffer Tables { uint tables[]; };
 layout(std430, binding = 4) readonly buffer Pool { float pool[]; };
 layout(std430, binding = 5) writeonly buffer Visibility { float visibility[]; };
 layout(std430, binding = 6) buffer Counters { uint counters[]; };
+layout(std430, binding = 7) readonly buffer Windows { vec4 windows[]; };  // per face (sm_shared.h windowST)
 layout(push_constant) uniform Push { RmsmPush pc; };
 #include "shadowmaps/rmsm.glsl"
 
@@ -33,7 +34,7 @@ void main() {
   uint face = cubeFace(d);
   vec3 dF = faceSpace(face, d);
   vec3 nF = faceSpace(face, normal[i].xyz);
-  vec2 st = faceST(dF);
+  vec2 st = windowST(faceST(dF), windows[face]);
   lambda = frameLevel(lambda, pc.levelLimit);
   uint level = uint(floor(lambda));
   float w = lambda - float(level);

@@ -4,13 +4,14 @@
 // query (found ? 1 : 0, found level, the raw bits of the footprint's lower texel, of its diagonal
 // neighbour).
 // bindings: 0 = queries (uvec4: face, level, floatBits(s), floatBits(t)), 1 = tables, 2 = pool,
-//           3 = results (uvec4)
+//           3 = results (uvec4), 4 = the faces' windows (s, t are window coordinates)
 #include "shadowmaps/sm_shared.h"
 layout(local_size_x = SM_LIST_THREADS) in;
 layout(std430, binding = 0) readonly buffer Queries { uvec4 queries[]; };
 layout(std430, binding = 1) readonly buffer Tables { uint tables[]; };
 layout(std430, binding = 2) readonly buffer Pool { float pool[]; };
 layout(std430, binding = 3) writeonly buffer Results { uvec4 results[]; };
+layout(std430, binding = 4) readonly buffer Windows { vec4 windows[]; };  // per face (sm_shared.h windowST)
 layout(push_constant) uniform Push { RmsmPush pc; };
 #include "shadowmaps/rmsm.glsl"
 

@@ -18,7 +18,7 @@
 //   analysisStep grid request pages, and the others find their neighbours' pages or coarser ones.
 // bindings: 0 = position (vec4 per pixel), 1 = normal (vec4 per pixel), 2 = tables (uint per entry),
 //           3 = lod (float per pixel: λ, -1 where none), 4 = requests (2 uint per pixel),
-//           5 = counters (uint[SM_COUNT_WORDS])
+//           5 = counters (uint[SM_COUNT_WORDS]), 6 = the faces' windows (vec4, rmsm.h: fitted faces)
 #include "shadowmaps/sm_shared.h"
 layout(local_size_x = SM_PIXEL_THREADS) in;
 layout(std430, binding = 0) readonly buffer Position { vec4 position[]; };
@@ -27,6 +27,7 @@ layout(std430, binding = 2) readonly buffer Tables { uint tables[]; };
 layout(std430, binding = 3) writeonly buffer Lod { float lod[]; };
 layout(std430, binding = 4) writeonly buffer Requests { uint requests[]; };
 layout(std430, binding = 5) buffer Counters { uint counters[]; };
+layout(std430, binding = 6) readonly buffer Windows { vec4 windows[]; };  // per face (sm_shared.h windowST)
 layout(push_constant) uniform Push { RmsmPush pc; };
 
 const float kPlaneTolerance = 0.25;  // |n·e| <= 0.25 |e|: the neighbour is within ~14° of the tangent plane
@@ -44,7 +45,7 @@ bool neighbourST(int j, vec3 p, vec3 n, uint face, bool anySurface, out vec2 st,
   if (!(dist2 > 0.0) || (!anySurface && abs(dot(n, e)) > kPlaneTolerance * sqrt(dist2))) return false;
   vec3 f = faceSpace(face, q.xyz - pc.light.xyz);
   if (!(f.z > 0.0)) return false;
-  st = faceST(f);
+  st = windowST(faceST(f), windows[face]);
   return true;
 }
 
@@ -82,7 +83,7 @@ int analyse(uint i) {
   vec3 d = p.xyz - pc.light.xyz;
   if (!(p.w > 0.5 && n.w > 0.0) || length(d) <= pc.minDistance) return -1;
   uint face = cubeFace(d);
-  vec2 st = faceST(faceSpace(face, d));
+  vec2 st = windowST(faceST(faceSpace(face, d)), windows[face]);
 
   int x = int(i % pc.width), y = int(i / pc.width), w = int(pc.width), h = int(pc.height);
   int ii = int(i);

@@ -71,6 +71,12 @@ SM_FN vec3 faceSpace(uint face, vec3 d) {
 // (s, t) in [0, 1]² of a face-space point with z_f > 0.
 SM_FN vec2 faceST(vec3 f) { return vec2(0.5f + 0.5f * f.x / f.z, 0.5f + 0.5f * f.y / f.z); }
 
+// RMSM's fitted faces: window w = (s0, t0, zoom, 0) maps the part [s0, s0 + 1/zoom] x [t0, t0 + 1/zoom]
+// of a face onto the quadtree's [0, 1]² (rmsm.h); (0, 0, 1, 0) is the whole face.
+SM_FN vec2 windowST(vec2 st, vec4 w) { return (st - vec2(w.x, w.y)) * w.z; }
+// The face coordinate (u, v in [-1, 1]) of window coordinate x (texels of a level with `res` a side).
+SM_FN vec2 windowFaceUV(vec2 x, float res, vec4 w) { return 2.0f * (vec2(w.x, w.y) + x / (res * w.z)) - 1.0f; }
+
 // ---- level of detail (paper 000, eq. 1) -----------------------------------------------------------
 // dX, dY: the screen-space derivatives of (s, t). ℓ = log2(sqrt(|dX × dY|)): the log2 of the side of a
 // texel that matches the pixel's footprint, in units of the face. -inf (here: -1e30) when the footprint

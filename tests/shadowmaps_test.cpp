@@ -180,18 +180,28 @@ TEST(CubeSm, ErrorAgainstEmbreeIsSmallAndShrinksWithResolution) {
   EXPECT_LT(err[0], 0.01) << "64² faces";
 }
 
+// The square-above-plane scene's light moved out along its own direction to k scene diagonals.
+glm::vec3 farSquareLight(float k) {
+  Scene scene = squareAbovePlane();
+  const glm::vec3 c = 0.5f * (scene.boundsMin + scene.boundsMax);
+  return c + k * glm::length(scene.boundsMax - scene.boundsMin) * glm::normalize(kSquareLight - c);
+}
+
+// A fitted shadow map's misclassified fraction on the frame and the largest zoom of its faces.
+std::pair<double, double> errorAndZoom(Frame& f, ShadowMethod& m) {
+  MethodOutput out = m.run(f.input());
+  double zoom = 0;
+  for (const auto& z : out.stats["face_zoom"]) zoom = std::max(zoom, z.get<double>());
+  return {f.compare(out.visibility).misclassifiedFraction, zoom};
+}
+
 // A far light (issue 14): the square-above-plane scene lit from 10^2 to 10^4 scene diagonals away along
 // the light's own direction. With fixed 90° faces the scene shrinks to a few texels of one face and the
 // slope bias (L·2/R) outgrows the square's height: light leaks everywhere. Fitted faces keep the error
 // to what the window's resolution gives: under 1 % up to 10^3 diagonals, always below the fixed faces'.
 TEST(CubeSm, FittedFacesKeepAFarLightsErrorToTheirResolution) {
-  Scene scene = squareAbovePlane();
-  scene.computeBounds();
-  const glm::vec3 c = 0.5f * (scene.boundsMin + scene.boundsMax);
-  const float diag = glm::length(scene.boundsMax - scene.boundsMin);
-  const glm::vec3 dir = glm::normalize(kSquareLight - c);
   for (float k : {1e2f, 1e3f, 1e4f}) {
-    Frame f = renderFrame(scene, squareCamera(), c + k * diag * dir, 128, 96);
+    Frame f = renderFrame(squareAbovePlane(), squareCamera(), farSquareLight(k), 128, 96);
     size_t shadowed = 0;
     for (size_t i = 0; i < f.host.size(); ++i) shadowed += f.host.isLit(i) && f.reference[i] < 0.5f;
     ASSERT_GT(shadowed, 500u) << k << " diagonals: the view must hold the square's shadow";
@@ -200,11 +210,8 @@ TEST(CubeSm, FittedFacesKeepAFarLightsErrorToTheirResolution) {
     auto fitted = makeCubeShadowMap(test::context(), o);
     o.fitFaces = false;
     auto fixed = makeCubeShadowMap(test::context(), o);
-    MethodOutput out = fitted->run(f.input());
-    const double eFit = f.compare(out.visibility).misclassifiedFraction;
+    const auto [eFit, zoom] = errorAndZoom(f, *fitted);
     const double eFixed = misclassified(f, *fixed);
-    double zoom = 0;
-    for (const auto& z : out.stats["face_zoom"]) zoom = std::max(zoom, z.get<double>());
     std::printf("far light %g diagonals: cubesm 1024² misclassified fitted %.5f (zoom %.0f), fixed faces %.5f\n", k,
                 eFit, zoom, eFixed);
     // Past 10^3 diagonals the square spans under 2/1024 of a face: the zoom cap (fp32 face coordinates)
@@ -216,8 +223,34 @@ TEST(CubeSm, FittedFacesKeepAFarLightsErrorToTheirResolution) {
     EXPECT_GT(eFixed, 2 * eFit) << k << " diagonals";
   }
   // A light inside the scene's bounds: every face whole, as the standard cube map.
-  Frame near = renderFrame(scene, squareCamera(), kSquareLight, 64, 48);
+  Frame near = renderFrame(squareAbovePlane(), squareCamera(), kSquareLight, 64, 48);
   MethodOutput out = makeCubeShadowMap(test::context())->run(near.input());
+  for (const auto& z : out.stats["face_zoom"]) EXPECT_EQ(z.get<double>(), 1.0);
+}
+
+// RMSM's fitted faces, the same far light: each face's quadtree over the window the scene covers, so its
+// resolution-matched levels reach the square's shadow; unfitted, the finest level (32768²) spans the
+// scene with a few texels at 10^3 diagonals and the shadow is lost.
+TEST(Rmsm, FittedFacesKeepAFarLightsErrorToTheirResolution) {
+  for (float k : {1e2f, 1e3f, 1e4f}) {
+    Frame f = renderFrame(squareAbovePlane(), squareCamera(), farSquareLight(k), 128, 96);
+    RmsmOptions o;
+    auto fitted = makeRmsm(test::context(), o);
+    o.fitFaces = false;
+    auto whole = makeRmsm(test::context(), o);
+    const auto [eFit, zoom] = errorAndZoom(f, *fitted);
+    const double eWhole = misclassified(f, *whole);
+    std::printf("far light %g diagonals: rmsm misclassified fitted %.5f (zoom %.0f), whole faces %.5f\n", k, eFit,
+                zoom, eWhole);
+    EXPECT_LT(eFit, 0.01) << k << " diagonals";
+    EXPECT_GT(zoom, 8.0) << k << " diagonals";
+    if (k >= 1e3f) {
+      EXPECT_GT(eWhole, 2 * eFit) << k << " diagonals";
+    }
+  }
+  // A light inside the scene's bounds: every face whole.
+  Frame near = renderFrame(squareAbovePlane(), squareCamera(), kSquareLight, 64, 48);
+  MethodOutput out = makeRmsm(test::context())->run(near.input());
   for (const auto& z : out.stats["face_zoom"]) EXPECT_EQ(z.get<double>(), 1.0);
 }
 
