@@ -80,6 +80,7 @@ struct PreciseTriangle {
   vec4 edge0;       // edge planes through the apex: xyz = normal oriented towards the opposite vertex
   vec4 edge1;       //   (zero when that orientation is not reliable: light in or near the plane),
   vec4 edge2;       //   w = the margin a separation must clear (normal's own error + rounding)
+  float scale;      // the frame's angular scale (edgePlane): 1 in the world frame
 };
 
 // Edge plane through the apex and (vj, vk), oriented towards vi; zero when |det| does not clear its error.
@@ -114,6 +115,7 @@ CONE_FN PreciseTriangle preciseTriangle(vec3 v0, vec3 v1, vec3 v2, float scale) 
   float h2 = dot(N, v2);
   float herr = CONE_TEST_MARGIN * nl * max(t.len.x, max(t.len.y, t.len.z));
   t.slab = vec2(min(h0, min(h1, h2)) - herr, max(h0, max(h1, h2)) + herr);
+  t.scale = scale;
   t.edge0 = edgePlane(v0, v1, v2, t.len.x, t.len.y, t.len.z, scale);
   t.edge1 = edgePlane(v1, v2, v0, t.len.y, t.len.z, t.len.x, scale);
   t.edge2 = edgePlane(v2, v0, v1, t.len.z, t.len.x, t.len.y, scale);
@@ -132,18 +134,25 @@ CONE_FN bool edgeSeparates(vec4 e, vec3 a, float c, float s) {
 
 // Separating plane tangent to the cone on vertex vi's side: true when all three vertices are
 // strictly beyond it.
+// In the far-light frame (t.scale < 1) p, the part of vi across the axis, comes from a x (vi x a): vi - (vi.a) a
+// cancels along z (both ~|v|) to an error of ~ulp |v|, a tilt of ulp |v| / |p| that can exceed the cones;
+// the cross products round to ~ulp |v| scale, so the tilt, the on-axis guard and the margin of n.v scale
+// with the frame (the world frame keeps the subtraction and its bounds as they were).
 CONE_FN bool tangentSeparates(vec3 vi, float li, PreciseTriangle t, vec3 a, float c, float s) {
+  bool far = t.scale < 1.0f;
   float z = dot(vi, a);
-  vec3 p = vi - z * a;
+  vec3 p = far ? cross(a, cross(vi, a)) : vi - z * a;
   float pl = length(p);
-  if (!(pl * 4096.0f > li)) return false;           // vertex (nearly) on the axis
-  // Widen the cone by gamma >= the tilt of b = p / |p| off the plane normal to a (~10 ulp |v| / |p|).
-  float gamma = CONE_TEST_MARGIN + CONE_DIV(CONE_ULP16 * li, pl);
+  float fine = far ? t.scale : 1.0f;
+  if (!(pl * 4096.0f > li * fine)) return false;    // vertex (nearly) on the axis
+  // Widen the cone by gamma >= the tilt of b = p / |p| off the plane normal to a (~10 ulp |v| / |p|, times
+  // the scale in the far frame).
+  float gamma = CONE_TEST_MARGIN * fine + CONE_DIV(CONE_ULP16 * li * fine, pl);
   float c2 = c - gamma * s;
   float s2 = s + gamma * c;
   if (!(c2 > 0.0f)) return false;                   // widened past pi/2: no tangent plane
   vec3 n = CONE_DIV(c2, pl) * p - s2 * a;                  // angle(n, a) >= pi/2 + alpha: cone on n.r <= 0
-  float m = CONE_TEST_MARGIN * length(n);  // >=: a vertex at the apex (l = 0) may touch the plane, as in coneOutside
+  float m = CONE_TEST_MARGIN * length(n) * fine;  // >=: a vertex at the apex (l = 0) may touch the plane, as in coneOutside
   return dot(n, t.v0) >= m * t.len.x && dot(n, t.v1) >= m * t.len.y && dot(n, t.v2) >= m * t.len.z;
 }
 
