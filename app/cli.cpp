@@ -1,5 +1,6 @@
 // Command-line parsing for the coneshadow CLI.
 #include "app/cli.h"
+#include "app/methods.h"
 
 #include <cerrno>
 #include <cmath>
@@ -145,7 +146,7 @@ uint64_t parseBytes(const std::string& flag, const std::string& v) {
   else if (suffix == "M" || suffix == "MiB") mult = 1024.0 * 1024;
   else if (suffix == "G" || suffix == "GiB") mult = 1024.0 * 1024 * 1024;
   else if (!suffix.empty()) x = -1;
-  if (v.empty() || errno || !(x > 0) || x * mult > 1e15)
+  if (v.empty() || errno || !(x * mult >= 1) || x * mult > 1e15)  // >= 1: "0.5" is no size (0 would mean the default)
     throw UsageError(flag + " wants a positive size in bytes (e.g. 64M, 512K, 4096), got '" + v + "'");
   return uint64_t(x * mult);
 }
@@ -285,6 +286,7 @@ Options parseArgs(int argc, char** argv) {
   if (!o.lightDistances.empty() && o.command != "compare") throw UsageError("--light-distances is an option of compare");
 
   if (o.command == "info" && o.scene.empty()) throw UsageError("info needs a SCENE (a .gltf/.glb file, or builtin)");
+  checkSettings(o);  // the size settings' own limits, before any work
   return o;
 }
 

@@ -2,11 +2,13 @@
 #include "app/methods.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <cstdlib>
 
 #include "reference/embree_reference.h"
 #ifdef CONESHADOW_HAS_CONE
 #include "traversal/cone_method.h"
+#include "traversal/traversal.h"
 #endif
 #ifdef CONESHADOW_HAS_SHADOWMAPS
 #include "shadowmaps/cube_sm.h"
@@ -89,6 +91,43 @@ ConeOptions coneOptions(const Options& options) {
 
 }  // namespace
 
+#ifdef CONESHADOW_HAS_SHADOWMAPS
+namespace {
+RmsmOptions rmsmOptions(const Options& options) {
+  RmsmOptions rm;
+  if (options.rmsmPool) rm.poolBytes = options.rmsmPool;
+  if (options.rmsmPage) rm.pageSize = options.rmsmPage;
+  if (options.rmsmMaxRes) rm.maxResolution = options.rmsmMaxRes;
+  rm.lodBias = options.rmsmLodBias;
+  rm.analysisStep = options.rmsmAnalysis;
+  rm.cached = options.rmsmCached;
+  rm.planeBias = options.smPlaneBias;
+  return rm;
+}
+}  // namespace
+#endif
+
+void checkSettings(const Options& options) {
+#ifdef CONESHADOW_HAS_CONE
+  if (options.traversalMemory) {
+    // The smallest arena the traversal can make progress in: 4 pairs and one chunk's scratch.
+    const uint64_t least = traversal::kMinPairs * sizeof(glm::uvec2) + traversal::chunkScratchBytes(1);
+    if (options.traversalMemory < least)
+      throw UsageError("--traversal-memory " + std::to_string(options.traversalMemory) + " is too small: the traversal needs at least " +
+                       std::to_string(least) + " bytes (4 pairs and one chunk's scratch)");
+  }
+#endif
+#ifdef CONESHADOW_HAS_SHADOWMAPS
+  if (options.rmsmPool || options.rmsmPage || options.rmsmMaxRes) {
+    try {
+      (void)sm::rmsmLayout(rmsmOptions(options), UINT64_MAX);  // no device limit: only the settings' own
+    } catch (const Error& e) {
+      throw UsageError(e.what());
+    }
+  }
+#endif
+}
+
 void checkMethod(const std::string& name, const Options& options) {
   auto names = methodNames();
   if (std::find(names.begin(), names.end(), name) == names.end()) makeMethod(name, nullptr, options);  // throws
@@ -123,15 +162,7 @@ std::unique_ptr<ShadowMethod> makeMethod(const std::string& name, vk::Context* c
   }
   if (name == "rmsm") {
     CS_CHECK(ctx, "the rmsm method needs a Vulkan device");
-    RmsmOptions rm;
-    if (options.rmsmPool) rm.poolBytes = options.rmsmPool;
-    if (options.rmsmPage) rm.pageSize = options.rmsmPage;
-    if (options.rmsmMaxRes) rm.maxResolution = options.rmsmMaxRes;
-    rm.lodBias = options.rmsmLodBias;
-    rm.analysisStep = options.rmsmAnalysis;
-    rm.cached = options.rmsmCached;
-    rm.planeBias = options.smPlaneBias;
-    return makeRmsm(*ctx, rm);
+    return makeRmsm(*ctx, rmsmOptions(options));
   }
 #endif
   std::string all;

@@ -40,10 +40,15 @@ TEST(Cli, UsageErrorsExitWithTwo) {
                            "render --traversal-memory -5", "render --method cone --test=sphere --early-accept=on",
                            "render --method cone --variant=Nope", "render --method cone --front-face-culling=maybe",
                            "render --rmsm-lod-bias x", "render --rmsm-lod-bias 9", "render --rmsm-analysis 3",
-                           "render --rmsm-analysis 32", "render --rmsm-analysis 0"}) {
+                           "render --rmsm-analysis 32", "render --rmsm-analysis 0",
+                           // size settings past their own limits, refused before any work (issue 17)
+                           "render --traversal-memory 1", "render --traversal-memory 0.5", "render --rmsm-page 33",
+                           "render --rmsm-pool 1", "compare --rmsm-pool 1K", "compare --rmsm-max-res 100"}) {
     CliRun r = cli(args);
     EXPECT_EQ(r.code, 2) << "args: " << args << "\n" << r.out;
     EXPECT_NE(r.out.find("coneshadow: "), std::string::npos) << args;
+    EXPECT_EQ(r.out.find(".cpp:"), std::string::npos) << args << ": a usage error names the flag, not the source";
+    EXPECT_EQ(r.out.find("[1/5]"), std::string::npos) << args << ": refused before any work\n" << r.out;
   }
 }
 
