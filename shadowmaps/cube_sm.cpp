@@ -108,14 +108,7 @@ class CubeShadowMap : public ShadowMethod {
     // Each face fitted to what it can see of the scene (fitFace): its effective resolution and window.
     std::array<FaceWindow, 6> windows;
     std::array<glm::vec4, 6> windowData;
-    if (uploadMs > 0 || !boundsValid_) {  // the geometry changed: its bounds (finite positions) with it
-      boundsLo_ = glm::vec3(INFINITY), boundsHi_ = glm::vec3(-INFINITY);
-      for (const glm::vec3& v : frame.scene->positions)
-        if (std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z))
-          boundsLo_ = glm::min(boundsLo_, v), boundsHi_ = glm::max(boundsHi_, v);
-      boundsValid_ = true;
-    }
-    const glm::vec3 lo = boundsLo_, hi = boundsHi_;
+    const glm::vec3 lo = pass_.boundsLo(), hi = pass_.boundsHi();
     for (uint32_t f = 0; f < 6; ++f) {
       windows[f] = options_.fitFaces && lo.x <= hi.x ? fitFace(f, frame.light, lo, hi, r) : FaceWindow{double(r), 0, 0};
       windowData[f] = glm::vec4(float(windows[f].res), float(windows[f].x0), float(windows[f].y0), 0.0f);
@@ -197,8 +190,6 @@ class CubeShadowMap : public ShadowMethod {
   std::array<vk::Buffer, 6> faces_;
   vk::Buffer visibility_;
   vk::Buffer windows_;  // vec4 per face: effective resolution, x0, y0 (fitFace)
-  glm::vec3 boundsLo_{0}, boundsHi_{0};  // of the scene's finite positions, with the geometry uploaded
-  bool boundsValid_ = false;
 };
 
 }  // namespace

@@ -52,6 +52,10 @@ double DepthPass::setGeometry(const Scene& scene) {
     CS_CHECK(scene.indices[i] < scene.positions.size(), "scene '" << scene.name << "': index " << i << " = "
                                                                    << scene.indices[i] << " is past the "
                                                                    << scene.positions.size() << " vertices");
+  boundsLo_ = glm::vec3(INFINITY), boundsHi_ = glm::vec3(-INFINITY);
+  for (const glm::vec3& v : scene.positions)
+    if (std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z))
+      boundsLo_ = glm::min(boundsLo_, v), boundsHi_ = glm::max(boundsHi_, v);
   const uint64_t vbytes = scene.positions.size() * sizeof(glm::vec3);
   const uint64_t ibytes = scene.indices.size() * sizeof(uint32_t);
   if (!vertices_ || vertices_.size < vbytes)

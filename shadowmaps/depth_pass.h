@@ -8,6 +8,7 @@
 // and every level; fp32 distance keeps 24 bits of relative precision at any range, where a
 // perspective depth would spend them near the light.
 #pragma once
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -56,6 +57,10 @@ class DepthPass {
   void recordCopy(vk::Commands& cmd, const std::vector<VkBufferImageCopy>& regions, const vk::Buffer& dst);
 
   uint32_t triangleCount() const { return indexCount_ / 3; }
+  // Bounds of the uploaded geometry's finite positions (computed with each upload; lo > hi when none):
+  // what the shadow maps fit their faces to.
+  glm::vec3 boundsLo() const { return boundsLo_; }
+  glm::vec3 boundsHi() const { return boundsHi_; }
   // Triangles drawn by the passes recorded since the last call (culling's effect); resets the count.
   uint64_t takeTrianglesDrawn() { uint64_t n = drawn_; drawn_ = 0; return n; }
   uint64_t geometryBytes() const { return vertices_.size + indices_.size; }
@@ -79,6 +84,7 @@ class DepthPass {
   vk::Buffer vertices_, indices_;
   uint32_t indexCount_ = 0;
   std::vector<glm::vec3> cachedPositions_;
+  glm::vec3 boundsLo_{INFINITY}, boundsHi_{-INFINITY};
   std::vector<uint32_t> cachedIndices_;
   VkRenderPass renderPass_ = VK_NULL_HANDLE;
   VkPipelineLayout layout_ = VK_NULL_HANDLE;

@@ -248,8 +248,6 @@ struct Rmsm::State {
   vk::Buffer tableBuf, pool, counters, updates;  // persistent across frames
   vk::Buffer windowBuf;                          // the faces' windows (fitWindows), vec4 per face
   std::array<glm::vec4, 6> windows;
-  glm::vec3 boundsLo{0}, boundsHi{0};            // of the scene's finite positions, with the geometry
-  bool boundsValid = false;
   // Per G-buffer size.
   uint32_t width = 0, height = 0;
   vk::Buffer requestBuf, flags, compacted, uniqueBuf, lod, visibility;
@@ -454,14 +452,7 @@ MethodOutput Rmsm::run(const FrameInput& frame) {
   const uint32_t pixels = g.width * g.height;
 
   // Each face fitted to what it can see of the scene (fitWindows), before anything asks for a page.
-  if (uploadMs > 0 || !s.boundsValid) {
-    s.boundsLo = glm::vec3(INFINITY), s.boundsHi = glm::vec3(-INFINITY);
-    for (const glm::vec3& v : frame.scene->positions)
-      if (std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z))
-        s.boundsLo = glm::min(s.boundsLo, v), s.boundsHi = glm::max(s.boundsHi, v);
-    s.boundsValid = true;
-  }
-  s.windows = s.opt.fitFaces ? fitWindows(frame.light, s.boundsLo, s.boundsHi, page, s.opt.maxResolution)
+  s.windows = s.opt.fitFaces ? fitWindows(frame.light, s.pass.boundsLo(), s.pass.boundsHi(), page, s.opt.maxResolution)
                              : std::array<glm::vec4, 6>{};
   if (!s.opt.fitFaces) s.windows.fill(glm::vec4(0, 0, 1, 0));
   vk::upload(s.ctx, s.windowBuf, s.windows.data(), sizeof(s.windows));
