@@ -1,121 +1,29 @@
-// Command-line parsing for the coneshadow CLI.
+// Command-line parsing for the coneshadow CLI: see cli.h.
 #include "app/cli.h"
-#include "app/methods.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <map>
 #include <sstream>
+
+#include <CLI/CLI.hpp>
 
 namespace cs {
 
-std::string usageText() {
-  return R"(coneshadow — alias-free hard shadows from point lights, judged against an Embree reference
-
-usage:
-  coneshadow render [SCENE] [options]   render one frame with a shadow method, compare it with Embree
-  coneshadow compare [SCENE] [options]  every method (and a small quality/memory sweep) on every view,
-                                        against one Embree reference; writes a report
-  coneshadow info SCENE                 triangles (flattened over node instances), bounds, cameras, lights
-  coneshadow results-table DIR...       markdown table of the compare results in each DIR (the README's)
-  coneshadow devices                    list the Vulkan devices
-  coneshadow help                       this text
-
-SCENE is a glTF 2.0 file (.gltf or .glb) or a BART scene (.aff, with the files it includes; e.g. the
-museum, robots and kitchen of the BART benchmark). Without SCENE, render uses the built-in scene (a lit
-room with clutter and a furball; views: wall, fur, room, ceiling), and `info builtin` describes it.
-
-render options:
-  --method M          shadow method: embree (the reference), cone (the cone hierarchy), cubesm, rmsm
-  --width W --height H   resolution of the camera pass (default 512x512)
-  --view NAME         camera by name (default: the scene's first camera; automatic when it has none)
-  --light X,Y,Z       point light position (default: the scene's first point light; automatic if none)
-  --time T            a BART .aff scene at scene time T (default: the start of its animation range); its
-                      views: view (the file's v) and animated (its camera track at T)
-  --out DIR           write shaded_<m>.png, mask_<m>.png, diff_<m>.png, results.json, results.csv (default out)
-  --dump DIR          also write position.pfm, normal.pfm, visibility_<m>.pfm, band.pfm, meta.json
-  --traversal-memory BYTES   cone path: bound on the traversal's pair buffers (e.g. 64M, 256K)
-  --variant=NAME      cone path, paper 002 Table 1: PreciseSorted (default), Precise, SpheresSorted, Spheres,
-                      PreciseSEA (early accept), PreciseEATP, PreciseSEATP (early accept + two-pass)
-  --test=T, --early-accept=on|off, --two-pass=on|off   cone path switches, applied after --variant:
-                      T = precise or sphere; early accept needs the precise test
-  --blocker-solid-angle=SR, --blocker-max-fraction=F, --update-min-finished=F   two-pass: blockers are
-                      triangles subtending >= SR at the light (default 1/4096 of the sphere), the largest
-                      F of all at most (0.125); the update is skipped below F finished rays (0.1)
-  --front-face-culling=on   cone path: only triangles facing away from the light cast; exact only when
-                      every caster is a closed mesh with consistent winding (wrong on the built-in fur)
-  --ray-order O       cone path: hilbert (sorted rays, default) or screen (2x2 Morton screen order)
-  --sm-resolution N   cubesm: texels per cube face side (default 2048)
-  --sm-no-pcf         cubesm: one depth tap instead of 2x2 PCF
-  --plane-bias        cubesm, rmsm: receiver-plane depth bias instead of slope-scaled
-  --rmsm-pool BYTES   rmsm: physical page pool (default 16M; too small -> coarser finest LOD, reported)
-  --rmsm-page N       rmsm: page side in texels (default 32)
-  --rmsm-max-res N    rmsm: finest effective resolution per face side (default 32768)
-  --rmsm-lod-bias L   rmsm: request pages L levels finer than the resolution-matched level (default 0;
-                      1 = texels half a pixel's footprint, 4x the pages)
-  --rmsm-analysis K   rmsm: analysis resolution, pages requested by every K-th pixel in x and y (1, 2, 4,
-                      8, 16; default 1); K > 1 also keeps a 256² backup level resident on the faces in use
-  --rmsm-cached       rmsm: keep pages across frames (static scenes)
-  --frames N          timed frames after one warm-up; medians are reported (default 3)
-  --device D          Vulkan device by index or name substring (see `coneshadow devices`);
-                      default: a discrete GPU if there is one, else lavapipe
-  --validation        enable VK_LAYER_KHRONOS_validation (slow; for debugging)
-  --quiet             print only errors and the final summary line
-
-compare options (defaults: all views, all methods, 256x256, 3 frames, --out compare):
-  --methods A,B       methods to compare (default: all registered); each runs a small sweep:
-                      cubesm@512, @1024, @2048 (face resolution); rmsm@4M and @16M (page pool),
-                      @16M,max4096 (finest LOD capped at 4096²), @16M,lod+1 (pages one level finer than
-                      resolution-matched), @16M,analysis2x and 8x (analysis down-sampled: pages requested
-                      by every 2nd, 8th pixel); cone at its default traversal memory, 1/64 and 1/1000 of it
-  --views V1,V2       cameras by name (default: every camera of the scene; the automatic one if none)
-  --width, --height, --frames, --device, --validation, --quiet: as for render
-  writes into --out DIR: results.json, results.csv (one row per view and method setting, "setting" in
-  stats), <view>_<setting>_{shaded,mask,diff}.png, <view>_closeups.png (the same crop of every setting,
-  Embree first, enlarged nearest-neighbour), report.md, report.html, speed_vs_error.svg/.png
-  --scaling           scaling runs instead: one view (the first of --views) at 256², 512², 1024², 2048², then
-                      at --width x --height with the scene as 1, 4, 16, ... translated copies side by side;
-                      methods embree, cone, cubesm, rmsm at their defaults (or --methods); a point a method
-                      cannot run says "failed: <reason>"; writes scaling.md, scaling.json, scaling.csv,
-                      scaling_resolution.svg/.png, scaling_triangles.svg/.png
-  --scaling-max-triangles N   bound of the triangle sweep (default 10000000)
-  --light-distances D1,D2,...   light sweep instead: one view (the first of --views) at --width x --height,
-                      the light (--light, the scene's or the automatic one) moved out along its direction
-                      from the scene's centre to D scene diagonals (e.g. 1,100,1000,10000); every method
-                      against Embree at each distance;
-                      writes light_distances.md/.json/.csv, light_distances.svg/.png
-  --animate N         dynamic scene instead: N frames over the scene's motion (the built-in motion's cycle,
-                      a glTF file's node animation: translation/rotation/scale channels, or a BART file's
-                      keyframes and animated triangles over its `a` range, its `animated` view riding the
-                      camera track), each method kept
-                      across frames so every frame pays its per-frame cost (Embree BVH build, cone upload +
-                      tree, rmsm pages); writes dynamic.md, results.json, results.csv (one row per method
-                      and frame, with frame and time in stats)
-  --moving-camera     with --animate: the camera orbits its target (a swing inside the built-in room); a
-                      file without animation needs it, and then rmsm also runs cached, as the row rmsm (cached)
-
-exit codes:
-  0  success
-  1  failure: a malformed scene, an unusable device, a write error (one line on stderr says which)
-  2  usage error: an unknown command or option, a bad value
-
-examples:
-  coneshadow render --view fur --width 1024 --height 1024
-  coneshadow render /usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb --out engine
-  coneshadow info /usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb
-)";
-}
-
 namespace {
 
-uint32_t parseUint(const std::string& flag, const std::string& v, uint32_t lo, uint32_t hi) {
-  errno = 0;
-  char* end = nullptr;
-  long long x = std::strtoll(v.c_str(), &end, 10);
-  if (v.empty() || *end != '\0' || errno || x < lo || x > hi)
-    throw UsageError(flag + " wants a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) +
-                     "], got '" + v + "'");
-  return uint32_t(x);
+const std::vector<std::string> kCommands = {"render", "compare", "info", "results-table", "devices", "help"};
+
+std::vector<std::string> splitList(const std::string& flag, const std::string& v) {
+  std::vector<std::string> items;
+  std::stringstream ss(v);
+  std::string part;
+  while (std::getline(ss, part, ','))
+    if (!part.empty()) items.push_back(part);
+  if (items.empty()) throw UsageError(flag + " wants a comma-separated list, got '" + v + "'");
+  return items;
 }
 
 glm::vec3 parseVec3(const std::string& flag, const std::string& v) {
@@ -126,7 +34,7 @@ glm::vec3 parseVec3(const std::string& flag, const std::string& v) {
   while (std::getline(ss, part, ',')) {
     char* end = nullptr;
     errno = 0;
-    float x = std::strtof(part.c_str(), &end);
+    const float x = std::strtof(part.c_str(), &end);
     if (i >= 3 || part.empty() || *end != '\0' || errno || !std::isfinite(x))
       throw UsageError(flag + " wants three finite numbers X,Y,Z, got '" + v + "'");
     out[i++] = x;
@@ -135,158 +43,321 @@ glm::vec3 parseVec3(const std::string& flag, const std::string& v) {
   return out;
 }
 
-// "64M", "4096", "1.5G", "512K": bytes, with an optional binary suffix.
-uint64_t parseBytes(const std::string& flag, const std::string& v) {
+double parseNumber(const std::string& flag, const std::string& v, double lo, double hi, const std::string& what) {
   char* end = nullptr;
   errno = 0;
-  double x = std::strtod(v.c_str(), &end);
-  double mult = 1;
-  std::string suffix = end ? std::string(end) : "";
-  if (suffix == "K" || suffix == "KiB" || suffix == "k") mult = 1024.0;
-  else if (suffix == "M" || suffix == "MiB") mult = 1024.0 * 1024;
-  else if (suffix == "G" || suffix == "GiB") mult = 1024.0 * 1024 * 1024;
-  else if (!suffix.empty()) x = -1;
-  if (v.empty() || errno || !(x * mult >= 1) || x * mult > 1e15)  // >= 1: "0.5" is no size (0 would mean the default)
-    throw UsageError(flag + " wants a positive size in bytes (e.g. 64M, 512K, 4096), got '" + v + "'");
-  return uint64_t(x * mult);
+  const double x = std::strtod(v.c_str(), &end);
+  if (v.empty() || *end != '\0' || errno || !std::isfinite(x) || !(x >= lo && x <= hi))
+    throw UsageError(flag + " wants " + what + ", got '" + v + "'");
+  return x;
+}
+
+// Every setting the registered methods declare, once, with the methods that take it.
+struct SettingEntry {
+  SettingSpec spec;
+  std::vector<std::string> methods;
+};
+
+std::vector<SettingEntry> settingEntries() {
+  std::vector<SettingEntry> entries;
+  for (const MethodInfo& m : registeredMethods())
+    for (const SettingSpec& s : m.settings) {
+      auto it = std::find_if(entries.begin(), entries.end(), [&](const SettingEntry& e) { return e.spec.name == s.name; });
+      if (it == entries.end()) entries.push_back({s, {m.name}});
+      else it->methods.push_back(m.name);
+    }
+  return entries;
+}
+
+std::string joined(const std::vector<std::string>& items, const std::string& sep = ", ") {
+  std::string out;
+  for (const std::string& i : items) out += (out.empty() ? "" : sep) + i;
+  return out;
+}
+
+// The raw text of the options converted after parsing (so a bad value is our one-line error).
+struct Raw {
+  std::string light, time, lightDistances, scalingSizes, methods, views, method;
+  std::vector<std::string> extras;  // what CLI11 did not recognise
+};
+
+void addFrameOptions(CLI::App& sub, Options& o, Raw& raw) {
+  sub.add_option("--width", o.width, "camera pass width (render default 512, compare 256)")->type_name("W")->check(CLI::Range(1u, 16384u));
+  sub.add_option("--height", o.height, "camera pass height (render default 512, compare 256)")->type_name("H")->check(CLI::Range(1u, 16384u));
+  sub.add_option("--light", raw.light, "point light position X,Y,Z (default: the scene's first point light; automatic if none)")->type_name("X,Y,Z");
+  sub.add_option("--time", raw.time, "a BART .aff scene at scene time T (default: the start of its animation range)")->type_name("T");
+  sub.add_option("--out", o.out, "output folder")->type_name("DIR");
+  sub.add_option("--frames", o.frames, "timed frames after one warm-up; medians are reported (default 3)")
+      ->type_name("N")
+      ->check(CLI::Range(1u, 1000u));
+  sub.add_option("--device", o.device, "Vulkan device by index or name substring (see `coneshadow devices`)")->type_name("D");
+  sub.add_flag("--validation", o.validation, "enable VK_LAYER_KHRONOS_validation (slow; for debugging)");
+  sub.add_flag("--quiet", o.quiet, "print only errors and the final summary line");
+  sub.add_option("--methods", raw.methods, "shadow methods A,B,... (see `coneshadow help`)")->type_name("A,B");
+}
+
+void addMethodSettings(CLI::App& sub, Options& o) {
+  for (const SettingEntry& e : settingEntries()) {
+    const std::string name = e.spec.name;
+    std::string help = joined(e.methods) + ": " + e.spec.help;
+    if (!e.spec.choices.empty()) help += " {" + joined(e.spec.choices, ", ") + "}";
+    const std::string group = e.methods.size() == 1 ? e.methods.front() + " settings" : "shared method settings";
+    if (e.spec.value.empty()) {
+      sub.add_flag_callback("--" + name, [&o, name] { o.settings.emplace_back(name, ""); }, help)->group(group);
+    } else {
+      sub.add_option_function<std::string>("--" + name, [&o, name](const std::string& v) { o.settings.emplace_back(name, v); },
+                                           help)
+          ->type_name(e.spec.value)
+          ->group(group)
+          ->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
+    }
+  }
+}
+
+std::string methodsText() {
+  std::string out;
+  for (const MethodInfo& m : registeredMethods()) {
+    out += "  " + m.name + std::string(m.name.size() < 10 ? 10 - m.name.size() : 1, ' ') + m.summary + "\n";
+    if (m.sweep) {
+      std::vector<std::string> labels;
+      for (const SweepPoint& p : sweepOf(m, Settings(m.name))) labels.push_back(p.label);
+      out += std::string(12, ' ') + "compare's sweep: " + joined(labels) + "\n";
+    }
+  }
+  return out;
+}
+
+std::vector<std::string> flagsOf(const CLI::App& sub) {
+  std::vector<std::string> flags;
+  for (const CLI::Option* opt : sub.get_options())
+    for (const std::string& n : opt->get_lnames()) flags.push_back("--" + n);
+  return flags;
+}
+
+void refuseUnknown(const std::vector<std::string>& extras, const CLI::App& sub, const CLI::App& other) {
+  const std::vector<std::string> flags = flagsOf(sub), others = flagsOf(other);
+  for (const std::string& a : extras) {
+    if (a.rfind("-", 0) == 0) {
+      const std::string flag = a.substr(0, a.find('='));
+      if (std::find(others.begin(), others.end(), flag) != others.end())
+        throw UsageError(flag + " is an option of " + other.get_name() + ", not of " + sub.get_name());
+      throw UsageError("unknown option '" + flag + "'" + didYouMean(flag, flags) + " (try: coneshadow " + sub.get_name() +
+                       " --help)");
+    }
+    throw UsageError("unexpected argument '" + a + "' (one SCENE at most)");
+  }
 }
 
 }  // namespace
 
-Options parseArgs(int argc, char** argv) {
-  Options o;
-  std::vector<std::string> args(argv + 1, argv + argc);
-  if (args.empty()) throw UsageError("no command given (try: coneshadow help)");
-  o.command = args[0];
-  if (o.command == "--help" || o.command == "-h") o.command = "help";
-  if (o.command != "render" && o.command != "compare" && o.command != "info" && o.command != "devices" &&
-      o.command != "help")
-    throw UsageError("unknown command '" + o.command + "' (commands: render, compare, info, devices, help)");
-  bool widthSet = false, heightSet = false, outSet = false;
-  auto list = [](const std::string& flag, const std::string& v) {
-    std::vector<std::string> items;
-    std::stringstream ss(v);
-    std::string part;
-    while (std::getline(ss, part, ','))
-      if (!part.empty()) items.push_back(part);
-    if (items.empty()) throw UsageError(flag + " wants a comma-separated list, got '" + v + "'");
-    return items;
-  };
-  for (size_t i = 1; i < args.size(); ++i) {
-    std::string a = args[i];
-    auto value = [&](const std::string& flag) -> std::string {
-      if (i + 1 >= args.size()) throw UsageError(flag + " needs a value");
-      return args[++i];
-    };
-    if (a == "--help" || a == "-h") {
-      o.command = "help";
-    } else if (a == "--method") {
-      o.method = value(a);
-    } else if (a == "--width") {
-      o.width = parseUint(a, value(a), 1, 16384);
-      widthSet = true;
-    } else if (a == "--height") {
-      o.height = parseUint(a, value(a), 1, 16384);
-      heightSet = true;
-    } else if (a == "--view") {
-      o.view = value(a);
-    } else if (a == "--light") {
-      o.light = parseVec3(a, value(a));
-    } else if (a == "--out") {
-      o.out = value(a);
-      outSet = true;
-    } else if (a == "--methods") {
-      o.methods = list(a, value(a));
-    } else if (a == "--views") {
-      o.views = list(a, value(a));
-    } else if (a == "--dump") {
-      o.dump = value(a);
-    } else if (a == "--frames") {
-      o.frames = parseUint(a, value(a), 1, 1000);
-    } else if (a == "--device") {
-      o.device = value(a);
-    } else if (a == "--traversal-memory") {
-      o.traversalMemory = parseBytes(a, value(a));
-    } else if (a == "--ray-order") {
-      std::string v = value(a);
-      if (v != "hilbert" && v != "screen") throw UsageError("--ray-order wants hilbert or screen, got '" + v + "'");
-      o.unsorted = v == "screen";
-    } else if (a == "--sm-resolution") {
-      o.smResolution = parseUint(a, value(a), 16, 16384);
-    } else if (a == "--sm-no-pcf") {
-      o.smNoPcf = true;
-    } else if (a == "--plane-bias") {
-      o.smPlaneBias = true;
-    } else if (a == "--rmsm-pool") {
-      o.rmsmPool = parseBytes(a, value(a));
-    } else if (a == "--rmsm-page") {
-      o.rmsmPage = parseUint(a, value(a), 4, 4096);
-    } else if (a == "--rmsm-max-res") {
-      o.rmsmMaxRes = parseUint(a, value(a), 64, 1u << 20);
-    } else if (a == "--rmsm-lod-bias") {
-      const std::string v = value(a);
-      char* end = nullptr;
-      const float bias = std::strtof(v.c_str(), &end);
-      if (v.empty() || *end != '\0' || !(bias >= -4.0f && bias <= 4.0f))
-        throw UsageError("--rmsm-lod-bias wants a number of levels in [-4, 4], got '" + v + "'");
-      o.rmsmLodBias = bias;
-    } else if (a == "--time") {
-      const std::string v = value(a);
-      char* end = nullptr;
-      const double t = std::strtod(v.c_str(), &end);
-      if (v.empty() || *end != '\0' || !std::isfinite(t)) throw UsageError("--time wants a finite number (scene time), got '" + v + "'");
-      o.sceneTime = t;
-    } else if (a == "--rmsm-analysis") {
-      const uint32_t k = parseUint(a, value(a), 1, 16);
-      if (k & (k - 1)) throw UsageError("--rmsm-analysis wants 1, 2, 4, 8 or 16 (every k-th pixel), got " + std::to_string(k));
-      o.rmsmAnalysis = k;
-    } else if (a == "--rmsm-cached") {
-      o.rmsmCached = true;
-    } else if (a == "--animate") {
-      o.animateFrames = parseUint(a, value(a), 1, 100000);
-    } else if (a == "--moving-camera") {
-      o.movingCamera = true;
-    } else if (a == "--scaling") {
-      o.scaling = true;
-    } else if (a == "--light-distances") {
-      for (const std::string& item : list(a, value(a))) {
-        char* end = nullptr;
-        double d = std::strtod(item.c_str(), &end);
-        if (item.empty() || *end != '\0' || !(d > 0) || !(d <= 1e15))
-          throw UsageError("--light-distances wants distances in scene diagonals in (0, 1e15] separated by "
-                           "commas, got '" + item + "'");
-        o.lightDistances.push_back(d);
-      }
-    } else if (a == "--scaling-max-triangles") {
-      o.scalingMaxTriangles = parseUint(a, value(a), 1, 200000000u);
-    } else if (a == "--validation") {
-      o.validation = true;
-    } else if (a == "--quiet") {
-      o.quiet = true;
-    } else if (a.rfind("--", 0) == 0 && a.find('=') != std::string::npos) {
-      o.extra.push_back(a.substr(2));
-    } else if (a.rfind("-", 0) == 0) {
-      throw UsageError("unknown option '" + a + "' (try: coneshadow help)");
-    } else if (o.scene.empty()) {
-      o.scene = a;
-    } else {
-      throw UsageError("unexpected argument '" + a + "' (one SCENE at most)");
-    }
+std::string versionText() {
+  std::string v = std::string("coneshadow ") + CONESHADOW_VERSION;
+  if (std::string(CONESHADOW_GIT_REVISION).size()) v += " (git " + std::string(CONESHADOW_GIT_REVISION) + ")";
+  return v;
+}
+
+std::string usageText() {
+  return "coneshadow — alias-free hard shadows from point lights, judged against an Embree reference\n"
+         "\n"
+         "usage:\n"
+         "  coneshadow render [SCENE] [options]   one frame with one or more methods, each against Embree\n"
+         "  coneshadow compare [SCENE] [options]  every method's sweep on every view, against one Embree\n"
+         "                                        reference per view; writes a report (also --animate N,\n"
+         "                                        --scaling, --light-distances D1,D2: separate runs)\n"
+         "  coneshadow info SCENE                 triangles (flattened over node instances), bounds, cameras, lights\n"
+         "  coneshadow results-table DIR...       markdown table of the compare results in each DIR (the README's)\n"
+         "  coneshadow devices                    list the Vulkan devices\n"
+         "  coneshadow help [COMMAND]             this text, or a command's options (also COMMAND --help)\n"
+         "  coneshadow --version\n"
+         "\n"
+         "SCENE is a glTF 2.0 file (.gltf or .glb) or a BART scene (.aff, with the files it includes; e.g. the\n"
+         "museum, robots and kitchen of the BART benchmark). Without SCENE the built-in scene is used (a lit\n"
+         "room with clutter and a furball; views: wall, fur, room, ceiling); `info builtin` describes it.\n"
+         "\n"
+         "methods (--methods A,B; each method's settings are listed in `coneshadow render --help`):\n" +
+         methodsText() +
+         "\n"
+         "Options take their value as --opt V or --opt=V; method names and enumerated values are matched\n"
+         "without regard to case. A method setting that no chosen method takes is a usage error.\n"
+         "\n"
+         "exit codes:\n"
+         "  0  success\n"
+         "  1  failure: a malformed scene, an unusable device, a write error (one line on stderr says which)\n"
+         "  2  usage error: an unknown command or option, a bad value, a setting no chosen method takes\n"
+         "\n"
+         "examples:\n"
+         "  coneshadow render --view fur --width 1024 --height 1024 --methods cone,rmsm,cubesm\n"
+         "  coneshadow render /usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb "
+         "--methods cone --out engine\n"
+         "  coneshadow compare --views fur,room --methods cone,cubesm\n";
+}
+
+Settings settingsFor(const Options& o, const MethodInfo& m) {
+  Settings s(m.name);
+  for (const auto& [name, value] : o.settings)
+    if (std::any_of(m.settings.begin(), m.settings.end(), [&](const SettingSpec& spec) { return spec.name == name; }))
+      s.set(name, value);
+  return s;
+}
+
+std::vector<const MethodInfo*> chosenMethods(const Options& o) {
+  std::vector<const MethodInfo*> out;
+  if (o.methods.empty()) {
+    for (const MethodInfo& m : registeredMethods()) out.push_back(&m);
+    return out;
   }
-  if (o.command == "compare") {
-    if (!widthSet) o.width = 256;
-    if (!heightSet) o.height = 256;
-    if (!outSet) o.out = "compare";
+  for (const std::string& name : o.methods) {
+    const MethodInfo* m = &methodOrUsageError(name);
+    if (std::find(out.begin(), out.end(), m) == out.end()) out.push_back(m);
+  }
+  return out;
+}
+
+Options parseArgs(int argc, char** argv) {
+  registerBuiltinMethods();
+  Options o;
+  Raw raw;
+  if (argc < 2) throw UsageError("no command given (try: coneshadow help)");
+
+  CLI::App app{"coneshadow — alias-free hard shadows from point lights", "coneshadow"};
+  app.set_help_flag("-h,--help", "this text");
+  app.set_version_flag("--version", versionText(), "the version and the git revision it was built from");
+  app.allow_extras();
+  app.require_subcommand(0, 1);
+
+  CLI::App* render = app.add_subcommand("render", "one frame with one or more methods, each judged against Embree");
+  CLI::App* compare = app.add_subcommand("compare", "every method's sweep on every view, against one Embree reference");
+  CLI::App* info = app.add_subcommand("info", "triangles, bounds, cameras and lights of a scene");
+  CLI::App* table = app.add_subcommand("results-table", "markdown table of the compare results in each folder");
+  CLI::App* devices = app.add_subcommand("devices", "list the Vulkan devices");
+  CLI::App* help = app.add_subcommand("help", "the overview, or a command's options");
+  std::string helpTopic;
+  help->add_option("command", helpTopic, "a command");
+
+  for (CLI::App* sub : {render, compare}) {
+    sub->allow_extras();
+    sub->add_option("scene", o.scene, "a .gltf/.glb or BART .aff file (default: the built-in scene)");
+    addFrameOptions(*sub, o, raw);
+    addMethodSettings(*sub, o);
+  }
+  render->add_option("--method", raw.method, "a shadow method (the same as --methods M)")->type_name("M");
+  render->add_option("--view", o.view, "camera by name (default: the scene's first camera; automatic when it has none)")->type_name("NAME");
+  render->add_option("--dump", o.dump,
+                     "also write position.pfm, normal.pfm, visibility_<m>.pfm, band.pfm, meta.json to this folder")->type_name("DIR");
+  render->footer("writes into --out DIR (default out): <m>_shaded.png, <m>_mask.png, <m>_diff.png for Embree and each\n"
+                 "method, results.json and results.csv (one row per method, all on the same samples)");
+
+  compare->add_option("--views", raw.views, "cameras by name V1,V2 (default: every camera of the scene)")->type_name("V1,V2");
+  compare->add_option("--animate", o.animateFrames,
+                      "dynamic scene instead: N frames over the scene's motion, each method kept across frames; "
+                      "writes dynamic.md, results.json, results.csv")
+      ->type_name("N")
+      ->check(CLI::Range(1u, 100000u));
+  compare->add_flag("--moving-camera", o.movingCamera, "with --animate: the camera orbits its target");
+  compare->add_flag("--scaling", o.scaling,
+                    "scaling runs instead: one view at 256², 512², 1024², 2048², then the scene as 1, 4, 16, ... "
+                    "copies; writes scaling.md/.json/.csv and plots");
+  compare->add_option("--scaling-max-triangles", o.scalingMaxTriangles, "bound of the triangle sweep (default 10000000)")
+      ->type_name("N")
+      ->check(CLI::Range(1ull, 200000000ull));
+  compare->add_option("--scaling-sizes", raw.scalingSizes, "the resolution sweep's sizes N1,N2 (quick runs)")->group("");
+  compare->add_option("--light-distances", raw.lightDistances,
+                      "light sweep instead: the light moved out to D1,D2,... scene diagonals from the scene's centre; "
+                      "writes light_distances.md/.json/.csv and plots")->type_name("D1,D2");
+  compare->footer("writes into --out DIR (default compare, 256x256): results.json, results.csv, per-setting images,\n"
+                  "<view>_closeups.png, report.md, report.html, speed_vs_error.svg/.png");
+
+  info->add_option("scene", o.scene, "a .gltf/.glb or BART .aff file, or builtin");
+  table->add_option("folders", o.folders, "folders written by coneshadow compare");
+  (void)devices;
+
+  std::vector<std::string> args(argv + 1, argv + argc);
+  std::reverse(args.begin(), args.end());  // CLI11 takes the arguments back to front
+  try {
+    app.parse(args);
+  } catch (const CLI::CallForHelp&) {
+    o.command = "help";
+    o.text = app.get_subcommands().empty() ? usageText() : app.help();
+    return o;
+  } catch (const CLI::CallForAllHelp&) {
+    o.command = "help";
+    o.text = usageText();
+    return o;
+  } catch (const CLI::CallForVersion&) {
+    o.command = "version";
+    o.text = versionText() + "\n";
+    return o;
+  } catch (const CLI::ParseError& e) {
+    const std::vector<CLI::App*> subs = app.get_subcommands();
+    throw UsageError(std::string(e.what()) + " (try: coneshadow " + (subs.empty() ? "help" : subs.front()->get_name() + " --help") + ")");
+  }
+
+  if (app.get_subcommands().empty()) {
+    const std::vector<std::string> extras = app.remaining();
+    const std::string first = extras.empty() ? "" : extras.front();
+    throw UsageError("unknown command '" + first + "'" + didYouMean(first, kCommands) + " (commands: " + joined(kCommands) + ")");
+  }
+  CLI::App* sub = app.get_subcommands().front();
+  o.command = sub->get_name();
+  if (sub == help) {
+    o.text = usageText();
+    if (!helpTopic.empty()) {
+      CLI::App* topic = nullptr;
+      for (CLI::App* s : {render, compare, info, table, devices})
+        if (s->get_name() == helpTopic) topic = s;
+      if (!topic) throw UsageError("help: unknown command '" + helpTopic + "'" + didYouMean(helpTopic, kCommands));
+      o.text = topic->help("coneshadow");
+    }
+    return o;
+  }
+  if (sub == render || sub == compare) refuseUnknown(sub->remaining(), *sub, sub == render ? *compare : *render);
+  if (sub == info && o.scene.empty()) throw UsageError("info needs a SCENE (a .gltf/.glb file, or builtin)");
+  if (sub == table && o.folders.empty()) throw UsageError("results-table needs one or more folders written by coneshadow compare");
+  if (sub != render && sub != compare) return o;
+
+  // Values converted here, so each bad one is a one-line error naming its flag.
+  if (!raw.light.empty()) o.light = parseVec3("--light", raw.light);
+  if (!raw.time.empty()) o.sceneTime = parseNumber("--time", raw.time, -1e300, 1e300, "a finite number (scene time)");
+  if (!raw.views.empty()) o.views = splitList("--views", raw.views);
+  if (!raw.method.empty()) o.methods.push_back(raw.method);
+  if (!raw.methods.empty())
+    for (const std::string& m : splitList("--methods", raw.methods)) o.methods.push_back(m);
+  if (!raw.lightDistances.empty())
+    for (const std::string& item : splitList("--light-distances", raw.lightDistances))
+      o.lightDistances.push_back(
+          parseNumber("--light-distances", item, 1e-300, 1e15, "distances in scene diagonals in (0, 1e15] separated by commas"));
+  if (!raw.scalingSizes.empty())
+    for (const std::string& item : splitList("--scaling-sizes", raw.scalingSizes))
+      o.scalingSizes.push_back(uint32_t(parseNumber("--scaling-sizes", item, 1, 16384, "whole sizes in [1, 16384] separated by commas")));
+  if (sub == compare) {
+    if (compare->count("--width") == 0) o.width = 256;
+    if (compare->count("--height") == 0) o.height = 256;
+    if (compare->count("--out") == 0) o.out = "compare";
   }
   if (o.movingCamera && !o.animateFrames) throw UsageError("--moving-camera needs --animate N");
-  if (o.animateFrames && o.command != "compare") throw UsageError("--animate is an option of compare");
   if (o.animateFrames && o.scaling) throw UsageError("--animate and --scaling are separate runs; give one of them");
   if (!o.lightDistances.empty() && (o.animateFrames || o.scaling))
     throw UsageError("--light-distances is a run of its own; give it without --animate and --scaling");
-  if (!o.lightDistances.empty() && o.command != "compare") throw UsageError("--light-distances is an option of compare");
 
-  if (o.command == "info" && o.scene.empty()) throw UsageError("info needs a SCENE (a .gltf/.glb file, or builtin)");
-  checkSettings(o);  // the size settings' own limits, before any work
+  // Methods: render runs Embree alone when none is named.
+  if (sub == render && o.methods.empty()) o.methods = {"embree"};
+  std::vector<const MethodInfo*> chosen = chosenMethods(o);
+  o.methods.clear();
+  for (const MethodInfo* m : chosen) o.methods.push_back(m->name);
+  for (const auto& [name, value] : o.settings) {
+    const bool taken = std::any_of(chosen.begin(), chosen.end(), [&](const MethodInfo* m) {
+      return std::any_of(m->settings.begin(), m->settings.end(), [&](const SettingSpec& s) { return s.name == name; });
+    });
+    if (taken) continue;
+    std::vector<std::string> owners;
+    for (const MethodInfo& m : registeredMethods())
+      for (const SettingSpec& s : m.settings)
+        if (s.name == name) owners.push_back(m.name);
+    throw UsageError("--" + name + " is a setting of " + joined(owners, " and ") + ", which this run does not use (methods: " +
+                     joined(o.methods) + "; add one with --methods)");
+  }
+  for (const MethodInfo* m : chosen)
+    if (m->check) m->check(settingsFor(o, *m));
   return o;
 }
 

@@ -1,28 +1,32 @@
-// Command-line parsing for the coneshadow CLI: plain data in, a usage error (exit 2) out.
+// Command-line parsing for the coneshadow CLI (CLI11): plain data in, a usage error (exit 2) out. The
+// methods' own settings come from the method registry (eval/registry.h): the CLI offers every registered
+// setting on render and compare, refuses one no chosen method takes, and lets each chosen method check
+// its own before any work.
 #pragma once
 #include <cstdint>
 #include <optional>
-#include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <glm/glm.hpp>
 
+#include "core/error.h"
+#include "eval/registry.h"
+
 namespace cs {
 
-// Exit codes, documented in --help and the README.
+// Exit codes, documented in help and the README.
 enum ExitCode : int { kExitOk = 0, kExitFailure = 1, kExitUsage = 2 };
 
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
-
 struct Options {
-  std::string command;               // info | render | compare | devices | help
+  std::string command;               // info | render | compare | results-table | devices | help | version
+  std::string text;                  // help and version: what to print
   std::string scene;                 // empty = built-in scene
-  std::string method = "embree";
+  std::vector<std::string> methods;  // registry names; render: embree when none given; compare: all when none
   uint32_t width = 512, height = 512;
-  std::string view;                  // camera name; empty = scene's first camera
+  std::string view;                  // render: camera name; empty = scene's first camera
+  std::vector<std::string> views;    // compare: cameras by name (empty = all views of the scene)
   std::optional<glm::vec3> light;    // overrides the scene's first point light
   std::optional<double> sceneTime;   // --time T: where a BART (.aff) scene is placed in its animation
   std::string out = "out";
@@ -31,31 +35,27 @@ struct Options {
   uint32_t frames = 3;               // timed frames (after one warm-up); the median is reported
   bool validation = false;           // --validation: VK_LAYER_KHRONOS_validation on
   bool quiet = false;
-  bool unsorted = false;             // --ray-order screen: cone tree over screen order (paper 002's unsorted variants)
-  uint64_t traversalMemory = 0;
-  // shadow maps (0 / false = the method's default)
-  uint32_t smResolution = 0;         // --sm-resolution: cube SM texels per face side
-  bool smNoPcf = false;              // --sm-no-pcf: cube SM single tap
-  bool smPlaneBias = false;          // --plane-bias: receiver-plane bias instead of slope-scaled (cubesm, rmsm)
-  uint64_t rmsmPool = 0;             // --rmsm-pool BYTES
-  uint32_t rmsmPage = 0;             // --rmsm-page N
-  uint32_t rmsmMaxRes = 0;           // --rmsm-max-res N
-  float rmsmLodBias = 0.0f;          // --rmsm-lod-bias L: levels finer than the resolution-matched one
-  uint32_t rmsmAnalysis = 1;         // --rmsm-analysis K: pages requested by every K-th pixel in x and y
-  bool rmsmCached = false;           // --rmsm-cached
-  // dynamic scenes (compare): N animation frames, each a new scene state every method pays for (0 = static)
-  uint32_t animateFrames = 0;        // --animate N
-  bool movingCamera = false;         // --moving-camera: static scene, the camera moves (rmsm cached vs rebuilt)
-  // scaling runs (compare --scaling): resolution and triangle-count sweeps, behind the flag
+  // compare's separate runs
+  uint32_t animateFrames = 0;        // --animate N (0 = static)
+  bool movingCamera = false;         // --moving-camera
   bool scaling = false;              // --scaling
   uint64_t scalingMaxTriangles = 0;  // --scaling-max-triangles N (0 = the sweep's default)
-  std::vector<double> lightDistances;  // compare --light-distances D1,D2: the light sweep, in scene diagonals
-  std::vector<std::string> methods;  // compare --methods a,b (empty = all registered)
-  std::vector<std::string> views;    // compare --views v1,v2 (empty = all views of the scene)
-  std::vector<std::string> extra;    // method-specific --key=value settings, passed through
+  std::vector<uint32_t> scalingSizes;  // --scaling-sizes N1,N2 (hidden): the resolution sweep's sizes
+  std::vector<double> lightDistances;  // --light-distances D1,D2: the light sweep, in scene diagonals
+  std::vector<std::string> folders;  // results-table DIR...
+  // The methods' settings as given, in order: name without the dashes, value ("" for a switch).
+  std::vector<std::pair<std::string, std::string>> settings;
 };
 
-Options parseArgs(int argc, char** argv);  // throws UsageError
+// The given settings that `method` declares (the value given last wins).
+Settings settingsFor(const Options& options, const MethodInfo& method);
+// The chosen methods' registry entries (all registered when none were chosen).
+std::vector<const MethodInfo*> chosenMethods(const Options& options);
+
+// Registers the built-in methods, then parses; throws UsageError. help/--help and --version come back as
+// command "help"/"version" with `text` to print.
+Options parseArgs(int argc, char** argv);
 std::string usageText();
+std::string versionText();
 
 }  // namespace cs

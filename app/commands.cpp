@@ -8,13 +8,15 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <sstream>
 #include <unistd.h>
 
 #include "app/frame_runner.h"
-#include "app/methods.h"
+#include "core/image_io.h"
 #include "eval/frame_output.h"
 #include "eval/metrics.h"
+#include "harness/harness.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
 #include "reference/epsilon.h"
@@ -78,21 +80,15 @@ int runInfo(const Options& options) {
 }
 
 int runRender(const Options& o) {
-  NullBuffer nullBuf;
-  std::ostream quiet(&nullBuf);
-  std::ostream& log = o.quiet ? quiet : std::cout;
-  auto wall = [] { return std::chrono::steady_clock::now(); };
-  auto msSince = [&](auto t0) { return std::chrono::duration<double, std::milli>(wall() - t0).count(); };
-
-  // Validate what can be validated before any heavy work.
-  checkMethod(o.method, o);
+  ProgressLog progressLog(o.quiet);
+  std::ostream& log = progressLog.stream();
+  std::vector<const MethodInfo*> methods = chosenMethods(o);  // parseArgs checked them and their settings
 
   log << "[1/5] scene" << std::endl;
   Scene scene = loadSceneArg(o, std::cerr);
   log << "  " << scene.name << ": " << scene.triangleCount() << " triangles, diagonal " << scene.diagonal() << "\n";
 
-  Camera camera;
-  std::string view;
+  FrameSpec spec;
   if (!o.view.empty()) {
     const Camera* c = scene.findCamera(o.view);
     if (!c) {
@@ -101,107 +97,77 @@ int runRender(const Options& o) {
       throw UsageError("scene " + scene.name + " has no view '" + o.view + "'" +
                        (all.empty() ? " (it has no cameras)" : " (views: " + all + ")"));
     }
-    camera = *c;
+    spec.camera = *c;
   } else if (!scene.cameras.empty()) {
-    camera = scene.cameras.front();
+    spec.camera = scene.cameras.front();
   } else {
-    camera = automaticCamera(scene);
-    log << "  no camera in the scene: using an automatic one (eye " << vec3Text(camera.eye) << ")\n";
+    spec.camera = automaticCamera(scene);
+    log << "  no camera in the scene: using an automatic one (eye " << vec3Text(spec.camera.eye) << ")\n";
   }
-  view = camera.name.empty() ? "auto" : camera.name;
-  glm::vec3 light = chooseLight(scene, o, log);
-  log << "  view " << view << ", light " << vec3Text(light) << ", " << o.width << "x" << o.height << "\n";
+  spec.view = spec.camera.name.empty() ? "auto" : spec.camera.name;
+  spec.light = chooseLight(scene, o, log);
+  spec.width = o.width;
+  spec.height = o.height;
+  spec.frames = o.frames;
+  log << "  view " << spec.view << ", light " << vec3Text(spec.light) << ", " << o.width << "x" << o.height << "\n";
 
   log << "[2/5] device" << std::endl;
-  vk::ContextOptions co;
-  co.device = o.device;
-  co.validation = o.validation;
-  co.quiet = true;
-  auto ctx = vk::createContext(co);
-  std::string device = ctx->driverDescription();
-  log << "  device: " << device << "\n";
+  auto ctx = commandContext(o);
+  log << "  device: " << ctx->driverDescription() << "\n";
 
-  log << "[3/5] raster" << std::endl;
+  log << "[3/5] raster, [4/5] reference (embree) and band" << std::endl;
   Raster raster(*ctx, scene);
-  DeviceGBuffer dev;
-  GBuffer gb;
-  raster.render(camera, light, o.width, o.height, dev, &gb);  // warm-up: pipeline compile
-  std::vector<double> rasterMs;
-  RasterTiming rt;
-  for (uint32_t i = 0; i < o.frames; ++i) {
-    rt = raster.render(camera, light, o.width, o.height, dev, &gb);
-    rasterMs.push_back(rt.gpuMs);
-  }
-  size_t lit = gb.litCount();
-  log << "  " << std::fixed << std::setprecision(2) << median(rasterMs) << " ms (GPU), readback " << rt.readbackMs
-      << " ms; " << lit << " lit samples of " << gb.size() << "\n";
+  std::unique_ptr<PreparedFrame> frame = prepareFrame(*ctx, raster, scene, spec);
+  log << "  raster " << std::fixed << std::setprecision(2) << frame->rasterMs << " ms (GPU), readback "
+      << frame->readbackMs << " ms; " << frame->litSamples << " lit samples of " << frame->gbuffer.size() << "\n"
+      << "  embree: " << frame->reference.medianMs << " ms (" << stageText(frame->reference.output) << "), band "
+      << frame->bandSamples << " samples in " << frame->bandMs << " ms\n";
 
-  EpsilonPolicy policy = EpsilonPolicy::forScene(scene);
-  FrameInput frame = frameInput(scene, gb, dev, *ctx, light, policy.eps);
-
-  log << "[4/5] reference (embree) and band" << std::endl;
-  EmbreeReference reference;
-  Timed ref = runTimed(reference, frame, o.frames, log);
-  StageTime bandTime;
-  std::vector<uint8_t> band = reference.ambiguityBand(scene, gb, light, policy, {}, &bandTime);
-  size_t bandCount = size_t(std::count_if(band.begin(), band.end(), [](uint8_t b) { return b != 0; }));
-  log << "  embree: " << ref.output.totalMs << " ms (" << stageText(ref.output) << "), band " << bandCount
-      << " samples in " << bandTime.ms << " ms\n";
+  // Embree's row first (the reference), then each chosen method on the same samples.
+  const MethodInfo* reference = &referenceMethod();
+  std::vector<const MethodInfo*> rows = {reference};
+  for (const MethodInfo* m : methods)
+    if (!m->reference) rows.push_back(m);
 
   std::vector<FrameResult> results;
-  auto addRow = [&](const std::string& name, Timed& t, const ErrorStats& err) {
-    FrameResult r = makeFrameResult(scene.name, view, name, gb, name == "embree" ? "cpu (embree)" : device,
-                                    t.output, err);
-    r.stats["frames"] = o.frames;
-    r.stats["total_ms_min"] = *std::min_element(t.totals.begin(), t.totals.end());
-    r.stats["total_ms_max"] = *std::max_element(t.totals.begin(), t.totals.end());
-    r.stats["deterministic"] = t.deterministic;
-    r.stats["raster_ms"] = median(rasterMs);
-    r.stats["lit_samples"] = lit;
-    r.stats["band_samples"] = bandCount;
-    results.push_back(std::move(r));
-  };
-  ErrorStats refErr = compareVisibility(gb, ref.output.visibility, ref.output.visibility, band);
-  addRow("embree", ref, refErr);
-
   std::map<std::string, std::vector<float>> visibility;
-  visibility["embree"] = ref.output.visibility;
-  const std::vector<float>* shown = &ref.output.visibility;
-  Timed method;
-  if (o.method != "embree") {
-    log << "[5/5] method " << o.method << std::endl;
-    auto m = makeMethod(o.method, ctx.get(), o);
-    method = runTimed(*m, frame, o.frames, log);
-    ErrorStats err = compareVisibility(gb, method.output.visibility, ref.output.visibility, band);
-    addRow(o.method, method, err);
-    visibility[o.method] = method.output.visibility;
-    shown = &visibility[o.method];
-    log << "  " << o.method << ": " << method.output.totalMs << " ms (" << stageText(method.output) << ")\n";
-  } else {
-    log << "[5/5] output" << std::endl;
+  log << "[5/5] methods" << std::endl;
+  for (const MethodInfo* m : rows) {
+    FrameProgress progress = [&](uint32_t f, uint32_t n) {
+      log << (f == 0 ? "  " + m->name + ": warm-up" : ", frame " + std::to_string(f) + "/" + std::to_string(n))
+          << (f == n ? "\n" : "") << std::flush;
+    };
+    Judged j = judge(*m, settingsFor(o, *m), *ctx, *frame, o.frames, progress);
+    if (!m->reference)
+      log << "  " << m->name << ": " << j.runs.medianMs << " ms (" << stageText(j.runs.output) << ")\n";
+    FrameResult r = resultRow(*m, m->name, *frame, j);
+    visibility[m->name] = std::move(j.runs.output.visibility);
+    results.push_back(std::move(r));
   }
 
   // Output: staged, then moved into place.
   {
     StagedDir out(o.out);
-    writeFrameImages(out.path(), o.method, gb, *shown, ref.output.visibility, band);
+    const std::vector<float>& ref = visibility[reference->name];
+    for (const FrameResult& r : results) writeFrameImages(out.path(), fileStem(r.method), frame->gbuffer, visibility[r.method], ref, frame->band);
     writeResults(out.path(), results);
     out.commit();
   }
   if (!o.dump.empty()) {
     StagedDir dump(o.dump);
-    writeDump(dump.path(), scene, gb, camera, light, policy, visibility, band);
+    writeDump(dump.path(), scene, frame->gbuffer, spec.camera, spec.light, frame->policy, visibility, frame->band);
     dump.commit();
   }
 
-  const FrameResult& row = results.back();
-  std::cout << std::fixed << std::setprecision(3) << "result: " << row.method << " on " << scene.name << "/" << view
-            << " " << o.width << "x" << o.height << ": " << row.totalMs << " ms (median of " << o.frames
-            << "), embree " << ref.output.totalMs << " ms, misclassified " << std::setprecision(6)
-            << row.error.misclassifiedFraction << " (outside band " << row.error.misclassifiedOutsideBand
-            << " samples), raster " << std::setprecision(3) << median(rasterMs) << " ms; wrote " << o.out
-            << "/" << (o.dump.empty() ? "" : " and " + o.dump + "/") << "\n";
-  (void)msSince;
+  for (const FrameResult& row : results) {
+    if (row.method == reference->name && results.size() > 1) continue;
+    std::cout << std::fixed << std::setprecision(3) << "result: " << row.method << " on " << scene.name << "/" << spec.view
+              << " " << o.width << "x" << o.height << ": " << row.totalMs << " ms (median of " << o.frames << "), "
+              << reference->name << " " << frame->reference.medianMs << " ms, misclassified " << std::setprecision(6)
+              << row.error.misclassifiedFraction << " (outside band " << row.error.misclassifiedOutsideBand
+              << " samples), raster " << std::setprecision(3) << frame->rasterMs << " ms; wrote " << o.out << "/"
+              << (o.dump.empty() ? "" : " and " + o.dump + "/") << "\n";
+  }
   return kExitOk;
 }
 

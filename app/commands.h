@@ -5,6 +5,8 @@
 
 namespace cs {
 
+// The whole CLI: parses argv, runs the command, prints errors; returns the exit code.
+int runMain(int argc, char** argv);
 int runInfo(const Options& options);
 int runRender(const Options& options);
 int runDevices(const Options& options);

@@ -12,83 +12,25 @@
 #include "app/commands.h"
 #include "app/dynamic.h"
 #include "app/frame_runner.h"
-#include "app/methods.h"
 #include "app/scaling.h"
 #include "app/svg_plot.h"
 #include "core/image_io.h"
 #include "eval/frame_output.h"
 #include "eval/metrics.h"
+#include "harness/harness.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
 #include "reference/epsilon.h"
 #include "vk/context.h"
-#ifdef CONESHADOW_HAS_CONE
-#include "traversal/traversal.h"
-#endif
 
 namespace fs = std::filesystem;
 
 namespace cs {
 
-std::string bytesLabel(uint64_t bytes) {
-  auto fmt = [](double v, const char* suffix) {
-    std::ostringstream os;
-    if (v == std::floor(v)) os << uint64_t(v) << suffix;
-    else os << std::fixed << std::setprecision(1) << v << suffix;
-    return os.str();
-  };
-  if (bytes >= (1ull << 30) && bytes % (1ull << 30) == 0) return fmt(double(bytes >> 30), "G");
-  if (bytes >= (1ull << 20)) return fmt(std::round(double(bytes) / (1 << 20) * 10) / 10, "M");
-  if (bytes >= 1024) return fmt(std::round(double(bytes) / 1024 * 10) / 10, "K");
-  return std::to_string(bytes);
-}
-
-std::vector<CompareSetting> compareSettings(const std::vector<std::string>& methods, const Options& base) {
+std::vector<CompareSetting> compareSettings(const Options& o) {
   std::vector<CompareSetting> out;
-  for (auto& m : methods) {
-    if (m == "cubesm") {
-      for (uint32_t r : {512u, 1024u, 2048u}) {
-        Options o = base;
-        o.smResolution = r;
-        out.push_back({m, m + "@" + std::to_string(r), o});
-      }
-    } else if (m == "rmsm") {
-      // Pool size, then at the default pool the finest LOD (a 4096² cap per face), the analysis's
-      // matching (one level finer than resolution-matched: texels half a pixel's footprint) and the
-      // analysis resolution (every 2nd and 8th pixel in x and y: 000 §3.3.5).
-      for (uint64_t pool : {4ull << 20, 16ull << 20}) {
-        Options o = base;
-        o.rmsmPool = pool;
-        out.push_back({m, m + "@" + bytesLabel(pool), o});
-      }
-      Options coarse = base, fine = base;
-      coarse.rmsmPool = fine.rmsmPool = 16ull << 20;
-      coarse.rmsmMaxRes = 4096;
-      fine.rmsmLodBias = 1.0f;
-      out.push_back({m, m + "@16M,max4096", coarse});
-      out.push_back({m, m + "@16M,lod+1", fine});
-      for (uint32_t k : {2u, 8u}) {
-        Options sparse = base;
-        sparse.rmsmPool = 16ull << 20;
-        sparse.rmsmAnalysis = k;
-        out.push_back({m, m + "@16M,analysis" + std::to_string(k) + "x", sparse});
-      }
-#ifdef CONESHADOW_HAS_CONE
-    } else if (m == "cone") {
-      uint64_t def = base.traversalMemory ? base.traversalMemory : traversal::kDefaultMemoryBytes;
-      // The default, 1/64 of it, and 1/1000 of it, kept well above the smallest budget planArena accepts
-      // (kMinPairs pairs plus one chunk's scratch).
-      uint64_t low = std::max<uint64_t>(def / 1000, 4096);
-      for (uint64_t mem : {def, std::max<uint64_t>(def / 64, 4096), low}) {
-        Options o = base;
-        o.traversalMemory = mem;
-        out.push_back({m, m + "@" + bytesLabel(mem), o});
-      }
-#endif
-    } else {
-      out.push_back({m, m, base});
-    }
-  }
+  for (const MethodInfo* m : chosenMethods(o))
+    for (SweepPoint& p : sweepOf(*m, settingsFor(o, *m))) out.push_back({m, p.label, std::move(p.settings)});
   return out;
 }
 
@@ -188,27 +130,10 @@ std::string stagesCell(const Row& r) {
   return out;
 }
 
-// The method's own measure of its work: nodes visited (pairs tested) for the cone path, pages for RMSM,
-// texels for the cube map, rays for Embree.
+// The method's own measure of its work (MethodOutput::work): nodes visited, pages, faces, rays.
 std::string workCell(const Row& r) {
   const nlohmann::json& s = r.result.stats;
-  auto has = [&](const char* k) { return s.contains(k) && s[k].is_number(); };
-  if (has("pairs_tested")) {
-    std::string out = std::to_string(s["pairs_tested"].get<uint64_t>()) + " nodes visited";
-    if (has("leaf_tests")) out += ", " + std::to_string(s["leaf_tests"].get<uint64_t>()) + " leaf tests";
-    return out;
-  }
-  if (has("pages_rendered")) {
-    std::string out = std::to_string(s["pages_rendered"].get<uint64_t>()) + " pages";
-    if (s.contains("fallback") && s["fallback"].is_boolean() && s["fallback"].get<bool>() && has("effective_resolution"))
-      out += " (fallback to " + std::to_string(s["effective_resolution"].get<uint64_t>()) + "²)";
-    return out;
-  }
-  if (has("resolution")) {
-    const uint64_t res = s["resolution"].get<uint64_t>();
-    return "6 faces of " + std::to_string(res) + "²";
-  }
-  return std::to_string(r.result.error.litSamples) + " rays";
+  return s.contains("work") && s["work"].is_string() ? s["work"].get<std::string>() : "—";
 }
 
 // The table cells of one row, shared by report.md and report.html.
@@ -232,7 +157,7 @@ const std::vector<std::string> kHeader = {"method/setting",
                                           "false shadow / false light (outside band)",
                                           "MAE (outside band)",
                                           "MiB",
-                                          "nodes or pages"};
+                                          "work"};
 
 std::vector<std::string> viewOrder(const std::vector<Row>& rows) {
   std::vector<std::string> views;
@@ -248,8 +173,8 @@ std::string reportMd(const std::string& sceneName, const std::string& device, ui
      << "device: " << device << "\n\n"
      << w << "x" << h << ", median of " << frames
      << " frame(s) after one warm-up; misclassified over lit samples against Embree (in parentheses: outside "
-        "the ambiguity band); false shadow / false light in samples; MiB allocated by the method; nodes visited = "
-        "(triangle, cone) pairs tested, pages = RMSM pages rendered.\n";
+        "the ambiguity band); false shadow / false light in samples; MiB allocated by the method; work: the method's own "
+        "measure of what it did (for the cone path, nodes visited = (triangle, cone) pairs tested).\n";
   for (auto& v : viewOrder(rows)) {
     os << "\n## " << v << "\n\n|";
     for (auto& hcell : kHeader) os << " " << hcell << " |";
@@ -332,12 +257,7 @@ int runCompare(const Options& o) {
   ProgressLog progressLog(o.quiet);
   std::ostream& log = progressLog.stream();
 
-  // Validate the method list before any heavy work (makeMethod throws UsageError naming an unknown one).
-  auto registered = methodNames();
-  std::vector<std::string> methods = o.methods.empty() ? registered : o.methods;
-  for (auto& m : methods)
-    if (std::find(registered.begin(), registered.end(), m) == registered.end()) makeMethod(m, nullptr, o);
-  std::vector<CompareSetting> settings = compareSettings(methods, o);
+  std::vector<CompareSetting> settings = compareSettings(o);  // parseArgs checked the methods and settings
 
   Scene scene = loadSceneArg(o, std::cerr);
   std::vector<Camera> cameras = selectViews(scene, o);
@@ -354,10 +274,15 @@ int runCompare(const Options& o) {
   std::vector<Closeup> closeups;
   std::vector<std::string> stems;
   Raster raster(*ctx, scene);
-  EpsilonPolicy policy = EpsilonPolicy::forScene(scene);
   for (size_t vi = 0; vi < cameras.size(); ++vi) {
-    const Camera& camera = cameras[vi];
-    std::string view = camera.name.empty() ? "auto" : camera.name;
+    FrameSpec spec;
+    spec.camera = cameras[vi];
+    spec.view = spec.camera.name.empty() ? "auto" : spec.camera.name;
+    spec.light = light;
+    spec.width = o.width;
+    spec.height = o.height;
+    spec.frames = o.frames;
+    const std::string& view = spec.view;
     // File names from the view's name, made safe (a camera named "../../x" writes nothing outside --out)
     // and unique (two views that differ only in unsafe characters do not overwrite each other).
     std::string stem = fileStem(view);
@@ -366,71 +291,47 @@ int runCompare(const Options& o) {
     stems.push_back(stem);
     std::string tag = "[view " + std::to_string(vi + 1) + "/" + std::to_string(cameras.size()) + "] " + view + ": ";
 
-    log << tag << "raster" << std::endl;
-    DeviceGBuffer dev;
-    GBuffer gb;
-    raster.render(camera, light, o.width, o.height, dev, &gb);  // warm-up: pipeline compile
-    RasterTiming rt = raster.render(camera, light, o.width, o.height, dev, &gb);
-    size_t lit = gb.litCount();
-
-    FrameInput frame = frameInput(scene, gb, dev, *ctx, light, policy.eps);
-
     auto progress = [&](const std::string& label) {
       return [&log, tag, label](uint32_t f, uint32_t n) {
         if (f == 0) log << tag << label << " warm-up" << std::endl;
         else log << tag << label << " frame " << f << "/" << n << std::endl;
       };
     };
-    EmbreeReference reference;
-    Timed ref = runTimed(reference, frame, o.frames, log, progress("embree (reference)"));
-    log << tag << "ambiguity band" << std::endl;
-    std::vector<uint8_t> band = reference.ambiguityBand(scene, gb, light, policy, {}, nullptr);
-    size_t bandCount = size_t(std::count_if(band.begin(), band.end(), [](uint8_t b) { return b != 0; }));
-
-    auto addRow = [&](const CompareSetting& s, Timed& t) {
-      ErrorStats err = compareVisibility(gb, t.output.visibility, ref.output.visibility, band);
-      Row row;
-      row.setting = s.label;
-      row.stem = stem;
-      row.result = makeFrameResult(scene.name, view, s.method, gb, s.method == "embree" ? "cpu (embree)" : device,
-                                   t.output, err);
-      row.msMin = *std::min_element(t.totals.begin(), t.totals.end());
-      row.msMax = *std::max_element(t.totals.begin(), t.totals.end());
-      nlohmann::json& st = row.result.stats;
-      st["setting"] = s.label;
-      st["gpu"] = device;
-      st["frames"] = o.frames;
-      st["total_ms_min"] = row.msMin;
-      st["total_ms_max"] = row.msMax;
-      st["deterministic"] = t.deterministic;
-      st["raster_ms"] = rt.gpuMs;
-      st["lit_samples"] = lit;
-      st["band_samples"] = bandCount;
-      writeFrameImages(out.path(), stem + "_" + s.label, gb, t.output.visibility, ref.output.visibility, band);
-      rows.push_back(std::move(row));
-    };
+    const std::string referenceName = referenceMethod().name;
+    std::unique_ptr<PreparedFrame> frame = prepareFrame(
+        *ctx, raster, scene, spec,
+        [&](const std::string& step) {
+          if (step != "reference") log << tag << (step == "band" ? "ambiguity band" : step) << std::endl;
+        },
+        progress(referenceName + " (reference)"));
+    const std::vector<float>& reference = frame->reference.output.visibility;
 
     Closeup closeup;
     closeup.view = view;
     closeup.file = stem + "_closeups.png";
-    closeup.order.push_back("embree");
-    std::vector<std::vector<uint8_t>> shaded = {shadedImage(gb, ref.output.visibility)};
-    for (auto& s : settings) {
-      if (s.method == "embree") {
-        addRow(s, ref);
-        continue;
-      }
-      auto method = makeMethod(s.method, ctx.get(), s.options);
-      Timed t = runTimed(*method, frame, o.frames, log, progress(s.label));
-      shaded.push_back(shadedImage(gb, t.output.visibility));
-      closeup.order.push_back(s.label);
-      addRow(s, t);
+    std::vector<std::vector<uint8_t>> shaded;
+    auto show = [&](const std::string& label, const std::vector<float>& visibility) {
+      shaded.push_back(shadedImage(frame->gbuffer, visibility));
+      closeup.order.push_back(label);
+    };
+    show(referenceName, reference);
+    for (const CompareSetting& s : settings) {
+      Judged j = judge(*s.method, s.settings, *ctx, *frame, o.frames, progress(s.label));
+      if (!s.method->reference) show(s.label, j.runs.output.visibility);
+      Row row;
+      row.setting = s.label;
+      row.stem = stem;
+      row.result = resultRow(*s.method, s.label, *frame, j);
+      row.msMin = j.runs.minMs;
+      row.msMax = j.runs.maxMs;
+      writeFrameImages(out.path(), stem + "_" + s.label, frame->gbuffer, j.runs.output.visibility, reference, frame->band);
+      rows.push_back(std::move(row));
     }
     // Enlarged to about 256 pixels a tile, at least 2x, so single-pixel aliasing is visible.
-    closeup.crop = boundaryWindow(gb, ref.output.visibility);
+    closeup.crop = boundaryWindow(frame->gbuffer, reference);
     closeup.scale = std::max(2u, (256 + closeup.crop.width - 1) / closeup.crop.width);
     uint32_t sw = 0, sh = 0;
-    std::vector<uint8_t> strip = closeupStrip(shaded, gb.width, closeup.crop, closeup.scale, 4, sw, sh);
+    std::vector<uint8_t> strip = closeupStrip(shaded, frame->gbuffer.width, closeup.crop, closeup.scale, 4, sw, sh);
     writePng((fs::path(out.path()) / closeup.file).string(), sw, sh, strip);
     closeups.push_back(std::move(closeup));
   }

@@ -12,17 +12,15 @@
 
 namespace cs {
 
-// One entry of the sweep: a registered method with the options for one of its settings.
+// One entry of compare's sweep: a registered method with the settings for one point of its sweep.
 struct CompareSetting {
-  std::string method;  // registry name
+  const MethodInfo* method = nullptr;
   std::string label;   // "cubesm@512", "rmsm@16M", "cone@64M", "embree"
-  Options options;     // the CLI options with this setting's knob applied
+  Settings settings;
 };
 
-// The settings `compare` runs for these methods (registry names, already validated).
-std::vector<CompareSetting> compareSettings(const std::vector<std::string>& methods, const Options& base);
-// "64M", "4M", "65.5K", "512": bytes with a binary suffix, for setting labels.
-std::string bytesLabel(uint64_t bytes);
+// The sweeps of the chosen methods (MethodInfo::sweep), in the registry's order.
+std::vector<CompareSetting> compareSettings(const Options& options);
 
 // A pixel rectangle of an image, row 0 at the top.
 struct CropWindow {

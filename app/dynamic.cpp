@@ -15,7 +15,6 @@
 
 #include "app/commands.h"
 #include "app/frame_runner.h"
-#include "app/methods.h"
 #include "core/animation.h"
 #include "core/image_io.h"
 #include "eval/frame_output.h"
@@ -28,17 +27,6 @@
 namespace fs = std::filesystem;
 
 namespace cs {
-
-bool isRebuildStage(const std::string& method, const std::string& stage) {
-  static const std::map<std::string, std::vector<std::string>> kRebuild = {
-      {"embree", {"bvh_build"}},
-      {"cone", {"upload", "build"}},
-      {"rmsm", {"upload", "allocate", "page_tables", "superpages"}},
-      {"cubesm", {"upload", "faces"}},
-  };
-  auto it = kRebuild.find(method);
-  return it != kRebuild.end() && std::find(it->second.begin(), it->second.end(), stage) != it->second.end();
-}
 
 Camera orbitCamera(const Camera& camera, uint32_t k, uint32_t n, bool enclosed) {
   if (n == 0) return camera;
@@ -107,11 +95,12 @@ std::string num(double v, int prec) {
   return os.str();
 }
 
-// One row of the report: a method (with its options) on one view, over every frame.
+// One row of the report: a method (with its settings) on one view, over every frame.
 struct Track {
-  std::string method, label;
-  Options options;
-  std::unique_ptr<ShadowMethod> object;  // null for embree: the reference's own run is its row
+  const MethodInfo* info = nullptr;
+  std::string label;
+  Settings settings;
+  std::unique_ptr<ShadowMethod> object;  // null for the reference: the reference's own run is its row
   std::vector<FrameResult> frames;
 };
 
@@ -120,21 +109,12 @@ struct ViewLog {
   std::vector<double> rasterMs, uploadMs;
 };
 
-std::vector<Track> makeTracks(const std::vector<std::string>& methods, const Options& o, bool staticScene) {
+// Each chosen method's rows (MethodInfo::dynamicRows).
+std::vector<Track> makeTracks(const Options& o, bool staticGeometry) {
   std::vector<Track> tracks;
-  for (const std::string& m : methods) {
-    if (m != "rmsm") {
-      tracks.push_back({m, m, o, nullptr, {}});
-      continue;
-    }
-    Options rebuilt = o, cached = o;
-    rebuilt.rmsmCached = false;
-    cached.rmsmCached = true;
-    tracks.push_back({m, "rmsm", rebuilt, nullptr, {}});
-    // A static scene seen by a moving camera is where cached pages pay; in a moving scene rmsm drops
-    // its cache whenever the geometry changes, so the cached row is only run when asked for.
-    if (staticScene || o.rmsmCached) tracks.push_back({m, "rmsm (cached)", cached, nullptr, {}});
-  }
+  for (const MethodInfo* m : chosenMethods(o))
+    for (SweepPoint& p : dynamicRowsOf(*m, settingsFor(o, *m), staticGeometry))
+      tracks.push_back({m, p.label, std::move(p.settings), nullptr, {}});
   return tracks;
 }
 
@@ -144,7 +124,7 @@ std::string rebuildText(const Track& t) {
   std::vector<std::string> names;
   for (const FrameResult& f : t.frames)
     for (const StageTime& s : f.stages)
-      if (isRebuildStage(t.method, s.name) && std::find(names.begin(), names.end(), s.name) == names.end())
+      if (s.kind == StageKind::Rebuild && std::find(names.begin(), names.end(), s.name) == names.end())
         names.push_back(s.name);
   if (names.empty()) return "—";
   std::string text;
@@ -217,9 +197,6 @@ int runDynamicCompare(const Options& o) {
   std::ostream& log = progress.stream();
   const uint32_t n = o.animateFrames;
 
-  std::vector<std::string> methods = o.methods.empty() ? methodNames() : o.methods;
-  for (const std::string& m : methods) checkMethod(m, o);
-
   if (o.sceneTime) throw UsageError("--time places a static scene; compare --animate plays the whole animation");
   Motion anim = loadMotion(o.scene);
   const bool animated = anim.animated;
@@ -240,7 +217,7 @@ int runDynamicCompare(const Options& o) {
   std::vector<Camera> cameras = selectViews(rest, o);
   const glm::vec3 light = chooseLight(rest, o, log);
   std::vector<std::vector<Track>> tracks;
-  for (size_t v = 0; v < cameras.size(); ++v) tracks.push_back(makeTracks(methods, o, !animated));
+  for (size_t v = 0; v < cameras.size(); ++v) tracks.push_back(makeTracks(o, !animated));
   log << "scene " << rest.name << ": " << rest.triangleCount() << " triangles, " << cameras.size() << " view(s), "
       << tracks.front().size() << " method row(s), " << n << " frame(s), " << o.width << "x" << o.height << "; "
       << motion << std::endl;
@@ -260,7 +237,7 @@ int runDynamicCompare(const Options& o) {
     const std::string tag = "[view " + std::to_string(vi + 1) + "/" + std::to_string(cameras.size()) + "] " + vl.view;
     EmbreeReference reference;
     for (Track& t : tracks[vi])
-      if (t.method != "embree") t.object = makeMethod(t.method, ctx.get(), t.options);
+      if (!t.info->reference) t.object = t.info->make(t.info->usesDevice ? ctx.get() : nullptr, t.settings);
 
     DeviceGBuffer dev;
     GBuffer gb;
@@ -285,7 +262,7 @@ int runDynamicCompare(const Options& o) {
       const double tw = animated ? 0.5 * (anim.frameTime(0, n) + anim.frameTime(std::min(1u, n - 1), n)) : 0.0;
       frameAt(tw, o.movingCamera ? orbitCamera(camera, 1, 2 * n, enclosed) : camera);
       const EpsilonPolicy policy = EpsilonPolicy::forScene(scene);
-      const FrameInput frame = frameInput(scene, gb, dev, *ctx, light, policy.eps);
+      const FrameInput frame = frameInputOf(scene, gb, dev, *ctx, light, policy.eps);
       reference.run(frame);
       for (Track& t : tracks[vi])
         if (t.object) t.object->run(frame);
@@ -297,7 +274,7 @@ int runDynamicCompare(const Options& o) {
       vl.rasterMs.push_back(rasterMs);
       if (animated) vl.uploadMs.push_back(uploadMs);
       const EpsilonPolicy policy = EpsilonPolicy::forScene(scene);
-      const FrameInput frame = frameInput(scene, gb, dev, *ctx, light, policy.eps);
+      const FrameInput frame = frameInputOf(scene, gb, dev, *ctx, light, policy.eps);
       const MethodOutput ref = reference.run(frame);
       const std::vector<uint8_t> band = reference.ambiguityBand(scene, gb, light, policy);
       const size_t lit = gb.litCount();
@@ -306,10 +283,10 @@ int runDynamicCompare(const Options& o) {
       for (Track& t : tracks[vi]) {
         const MethodOutput mo = t.object ? t.object->run(frame) : ref;
         const ErrorStats err = compareVisibility(gb, mo.visibility, ref.visibility, band);
-        FrameResult r = makeFrameResult(rest.name, vl.view, t.method, gb, t.object ? device : "cpu (embree)", mo, err);
+        FrameResult r = makeFrameResult(rest.name, vl.view, t.info->name, gb, methodDevice(*t.info, device), mo, err);
         double rebuildMs = 0;
         for (const StageTime& s : mo.stages)
-          if (isRebuildStage(t.method, s.name)) rebuildMs += s.ms;
+          if (s.kind == StageKind::Rebuild) rebuildMs += s.ms;
         nlohmann::json& st = r.stats;
         st["frame"] = k;
         st["time"] = time;
@@ -322,6 +299,7 @@ int runDynamicCompare(const Options& o) {
         st["geometry_upload_ms"] = uploadMs;
         st["lit_samples"] = lit;
         st["band_samples"] = err.bandSamples;
+        if (!mo.work.empty()) st["work"] = mo.work;
         t.frames.push_back(std::move(r));
         line << " " << t.label << " " << num(mo.totalMs, 1) << " ms (" << err.misclassifiedOutsideBand << " outside band)";
       }

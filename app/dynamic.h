@@ -15,11 +15,6 @@ namespace cs {
 
 int runDynamicCompare(const Options& options);
 
-// The stages of a method's frame that are per-frame rebuilds of its scene or shadow structure
-// (embree: bvh_build; cone: upload, build; rmsm: upload, allocate, page_tables, superpages;
-// cubesm: upload, faces).
-bool isRebuildStage(const std::string& method, const std::string& stage);
-
 // The camera of frame k of n: orbiting its target about `up` by 2π·k/n, or, when `enclosed` (a camera
 // inside a room), swinging by ±0.5 rad so that it stays inside.
 Camera orbitCamera(const Camera& camera, uint32_t k, uint32_t n, bool enclosed);

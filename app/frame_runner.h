@@ -1,4 +1,5 @@
-// Internal helpers shared by the render and compare commands: output staging, timed runs, medians.
+// Internal helpers shared by the commands: progress, the device, output staging, the light and the views.
+// (Frames are prepared and methods judged by the frame harness, harness/harness.h.)
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -18,6 +19,7 @@
 #include "app/cli.h"
 #include "core/scene.h"
 #include "eval/method.h"
+#include "harness/harness.h"
 #include "reference/epsilon.h"
 #include "vk/context.h"
 
@@ -45,13 +47,6 @@ inline std::unique_ptr<vk::Context> commandContext(const Options& o) {
   co.validation = o.validation;
   co.quiet = true;
   return vk::createContext(co);
-}
-
-inline double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 // Output goes to a staging folder inside the target and is moved into place only when the whole run
@@ -87,41 +82,6 @@ class StagedDir {
  private:
   std::string target_, staging_;
 };
-
-struct Timed {
-  MethodOutput output;   // the median frame's output
-  std::vector<double> totals;
-  bool deterministic = true;
-};
-
-// Called before each run: frame 0 is the warm-up, then 1..frames.
-using FrameProgress = std::function<void(uint32_t frame, uint32_t frames)>;
-
-// One warm-up frame (shader compiles, caches), then `frames` timed ones; the median frame is kept and
-// every frame's mask must equal the first (the cone path promises bit-identical results). Without a
-// `progress` callback, progress goes to `log` as "  <name>: warm-up, frame 1/N, ...".
-inline Timed runTimed(ShadowMethod& method, const FrameInput& frame, uint32_t frames, std::ostream& log,
-                      const FrameProgress& progress = {}) {
-  Timed t;
-  if (progress) progress(0, frames);
-  else log << "  " << method.name() << ": warm-up" << std::flush;
-  MethodOutput first = method.run(frame);
-  std::vector<MethodOutput> outs;
-  for (uint32_t i = 0; i < frames; ++i) {
-    if (progress) progress(i + 1, frames);
-    else log << ", frame " << (i + 1) << "/" << frames << std::flush;
-    outs.push_back(method.run(frame));
-    t.totals.push_back(outs.back().totalMs);
-    if (outs.back().visibility != first.visibility) t.deterministic = false;
-  }
-  if (!progress) log << "\n";
-  double m = median(t.totals);
-  size_t best = 0;
-  for (size_t i = 0; i < outs.size(); ++i)
-    if (std::abs(outs[i].totalMs - m) < std::abs(outs[best].totalMs - m)) best = i;
-  t.output = std::move(outs[best]);
-  return t;
-}
 
 inline std::string stageText(const MethodOutput& out) {
   std::ostringstream os;
@@ -169,19 +129,6 @@ inline std::vector<Camera> selectViews(const Scene& scene, const Options& o) {
   if (!cameras.empty()) return cameras;
   if (!scene.cameras.empty()) return scene.cameras;
   return {automaticCamera(scene)};
-}
-
-// What every method is fed for one frame: the same samples, light and epsilon.
-inline FrameInput frameInput(const Scene& scene, const GBuffer& gb, const DeviceGBuffer& dev, vk::Context& ctx,
-                             glm::vec3 light, float epsilon) {
-  FrameInput frame;
-  frame.scene = &scene;
-  frame.gbuffer = &gb;
-  frame.device = &dev;
-  frame.vk = &ctx;
-  frame.light = light;
-  frame.epsilon = epsilon;
-  return frame;
 }
 
 }  // namespace cs

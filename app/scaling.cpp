@@ -13,11 +13,11 @@
 
 #include "app/commands.h"
 #include "app/frame_runner.h"
-#include "app/methods.h"
 #include "app/svg_plot.h"
 #include "core/image_io.h"
 #include "eval/frame_output.h"
 #include "eval/metrics.h"
+#include "harness/harness.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
 #include "reference/epsilon.h"
@@ -241,40 +241,13 @@ std::string scalingMd(const std::string& sceneName, const std::string& view, con
 }  // namespace
 
 int runScaling(const Options& base) {
-  ProgressLog progressLog(base.quiet), silent(true);
+  ProgressLog progressLog(base.quiet);
   std::ostream& log = progressLog.stream();
-  std::ostream& quiet = silent.stream();  // per-frame progress of runTimed: one line per method instead
-
-  // The hidden --scaling-sizes=N1,N2 setting; everything else in `extra` goes to the methods.
-  Options o = base;
-  std::vector<uint32_t> sizes = {256, 512, 1024, 2048};
-  o.extra.clear();
-  for (auto& kv : base.extra) {
-    if (kv.rfind("scaling-sizes=", 0) != 0) {
-      o.extra.push_back(kv);
-      continue;
-    }
-    sizes.clear();
-    std::stringstream ss(kv.substr(14));
-    std::string part;
-    while (std::getline(ss, part, ',')) {
-      char* end = nullptr;
-      long v = std::strtol(part.c_str(), &end, 10);
-      if (part.empty() || *end != '\0' || v < 1 || v > 16384)
-        throw UsageError("--scaling-sizes wants sizes in [1, 16384] separated by commas, got '" + kv.substr(14) + "'");
-      sizes.push_back(uint32_t(v));
-    }
-    if (sizes.empty()) throw UsageError("--scaling-sizes wants at least one size");
-  }
-  auto registered = methodNames();
-  std::vector<std::string> methods;
-  if (!o.methods.empty()) {
-    methods = o.methods;
-  } else {
-    for (const char* m : {"embree", "cone", "cubesm", "rmsm"})
-      if (std::find(registered.begin(), registered.end(), m) != registered.end()) methods.push_back(m);
-  }
-  for (auto& m : methods) checkMethod(m, o);  // throws UsageError before any heavy work
+  const Options& o = base;
+  const std::vector<uint32_t> sizes = o.scalingSizes.empty() ? std::vector<uint32_t>{256, 512, 1024, 2048} : o.scalingSizes;
+  const std::vector<const MethodInfo*> methods = chosenMethods(o);  // parseArgs checked them and their settings
+  std::vector<std::string> methodNames;
+  for (const MethodInfo* m : methods) methodNames.push_back(m->name);
   const uint64_t maxTriangles = o.scalingMaxTriangles ? o.scalingMaxTriangles : kDefaultScalingMaxTriangles;
 
   Scene scene = loadSceneArg(o, std::cerr);
@@ -301,11 +274,11 @@ int runScaling(const Options& base) {
   StagedDir out(o.out);
   std::vector<ScalingRow> rows;
   auto failAll = [&](const ScalingRow& proto, const std::string& tag, const std::string& why) {
-    for (auto& m : methods) {
+    for (const MethodInfo* m : methods) {
       ScalingRow r = proto;
-      r.method = m;
+      r.method = m->name;
       r.status = "failed: " + why;
-      log << tag << m << " " << r.status << std::endl;
+      log << tag << m->name << " " << r.status << std::endl;
       rows.push_back(r);
     }
   };
@@ -324,56 +297,49 @@ int runScaling(const Options& base) {
                             (sweep == "light_distance" ? ", light " + fixed(lightDiagonals, 0) + " diagonals" : "") +
                             "] ";
     // The shared part: raster, Embree reference, band. If it fails, every method fails at this point.
-    GBuffer gb;
-    DeviceGBuffer dev;
     std::unique_ptr<Raster> raster;
-    EmbreeReference reference;
-    Timed ref;
-    std::vector<uint8_t> band;
+    std::unique_ptr<PreparedFrame> frame;
     try {
       log << tag << "raster, reference, band" << std::endl;
       raster = std::make_unique<Raster>(*ctx, s);
-      raster->render(camera, pointLight, w, h, dev, &gb);  // warm-up
-      raster->render(camera, pointLight, w, h, dev, &gb);
-      FrameInput frame = frameInput(s, gb, dev, *ctx, pointLight, policy.eps);
-      ref = runTimed(reference, frame, o.frames, quiet);
-      band = reference.ambiguityBand(s, gb, pointLight, policy, {}, nullptr);
+      FrameSpec spec;
+      spec.camera = camera;
+      spec.view = view;
+      spec.light = pointLight;
+      spec.width = w;
+      spec.height = h;
+      spec.frames = o.frames;
+      spec.policy = policy;
+      frame = prepareFrame(*ctx, *raster, s, spec);
     } catch (const std::exception& e) {
       failAll(proto, tag, e.what());
       return;
     }
-    FrameInput frame = frameInput(s, gb, dev, *ctx, pointLight, policy.eps);
-    for (auto& m : methods) {
+    for (const MethodInfo* m : methods) {
       ScalingRow r = proto;
-      r.method = m;
+      r.method = m->name;
       try {
-        Timed local;
-        const Timed* t = &ref;
-        if (m != "embree") {
-          auto method = makeMethod(m, ctx.get(), o);
-          local = runTimed(*method, frame, o.frames, quiet);
-          t = &local;
-        }
-        ErrorStats err = compareVisibility(gb, t->output.visibility, ref.output.visibility, band);
-        r.msMedian = median(t->totals);
-        r.msMin = *std::min_element(t->totals.begin(), t->totals.end());
-        r.msMax = *std::max_element(t->totals.begin(), t->totals.end());
-        r.bytes = t->output.bytesAllocated;
-        r.peakBytes = t->output.peakBytes;
+        const Judged j = judge(*m, settingsFor(o, *m), *ctx, *frame, o.frames);
+        const ErrorStats& err = j.error;
+        r.msMedian = j.runs.medianMs;
+        r.msMin = j.runs.minMs;
+        r.msMax = j.runs.maxMs;
+        r.bytes = j.runs.output.bytesAllocated;
+        r.peakBytes = j.runs.output.peakBytes;
         r.lit = err.litSamples;
         r.band = err.bandSamples;
         r.misclassified = err.misclassified;
         r.misclassifiedPct = err.misclassifiedFraction * 100.0;
         r.misclassifiedOutsideBand = err.misclassifiedOutsideBand;
         r.misclassifiedOutsideBandPct = err.misclassifiedFractionOutsideBand * 100.0;
-        const auto& stats = t->output.stats;
+        const auto& stats = j.runs.output.stats;
         if (stats.contains("pairs_tested") && stats["pairs_tested"].is_number_integer())
           r.pairsTested = stats["pairs_tested"].get<uint64_t>();
-        log << tag << m << ": " << fixed(r.msMedian, 2) << " ms, " << mib(r.bytes) << " MiB, "
+        log << tag << m->name << ": " << fixed(r.msMedian, 2) << " ms, " << mib(r.bytes) << " MiB, "
             << r.misclassifiedOutsideBand << " misclassified outside band" << std::endl;
       } catch (const std::exception& e) {
         r.status = std::string("failed: ") + e.what();
-        log << tag << m << " " << r.status << std::endl;
+        log << tag << m->name << " " << r.status << std::endl;
       }
       rows.push_back(r);
     }
@@ -442,7 +408,7 @@ int runScaling(const Options& base) {
     writeFileAtomic((dir / "light_distances.json").string(), doc.dump(2) + "\n");
     writeFileAtomic((dir / "light_distances.csv").string(), csv);
     writeFileAtomic((dir / "light_distances.md").string(), distanceMd(scene.name, view, device, o, rows));
-    writeFileAtomic((dir / "light_distances.svg").string(), distanceSvg(rows, methods));
+    writeFileAtomic((dir / "light_distances.svg").string(), distanceSvg(rows, methodNames));
     svgToPng((dir / "light_distances.svg").string(), (dir / "light_distances.png").string());
     out.commit();
     size_t failed = size_t(std::count_if(rows.begin(), rows.end(), [](const ScalingRow& r) { return !r.ok(); }));
@@ -455,9 +421,9 @@ int runScaling(const Options& base) {
   writeFileAtomic((dir / "scaling.csv").string(), csv);
   writeFileAtomic((dir / "scaling.md").string(), scalingMd(scene.name, view, device, o, rows));
   writeFileAtomic((dir / "scaling_resolution.svg").string(),
-                  sweepSvg(rows, "resolution", "pixels (log scale)", methods));
+                  sweepSvg(rows, "resolution", "pixels (log scale)", methodNames));
   writeFileAtomic((dir / "scaling_triangles.svg").string(),
-                  sweepSvg(rows, "triangles", "triangles (log scale)", methods));
+                  sweepSvg(rows, "triangles", "triangles (log scale)", methodNames));
   for (const char* name : {"scaling_resolution", "scaling_triangles"})
     svgToPng((dir / (std::string(name) + ".svg")).string(), (dir / (std::string(name) + ".png")).string());
   out.commit();

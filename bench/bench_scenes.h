@@ -1,8 +1,8 @@
 // What the scene benchmarks share: the views named on their command line ("builtin": every view of the
 // built-in scene; "engine": assimp's 2CylinderEngine with its automatic camera and light; "museum": the
 // BART museum paper 002 measured on, its view and its camera track at t = 0 and 2.5 with the scene at
-// that time, lit by its first light; or a .gltf/.glb/.aff path), one frame's input for a view, the median
-// of a method's frames after a warm-up, and list parsing.
+// that time, lit by its first light; or a .gltf/.glb/.aff path), a view prepared by the frame harness, and
+// list parsing.
 #pragma once
 #include <algorithm>
 #include <iostream>
@@ -13,16 +13,12 @@
 
 #include "core/scene.h"
 #include "eval/method.h"
+#include "harness/harness.h"
 #include "raster/raster.h"
 #include "reference/epsilon.h"
 #include "vk/context.h"
 
 namespace cs::bench {
-
-inline double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0 : (v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]));
-}
 
 inline std::vector<std::string> split(const std::string& s) {
   std::vector<std::string> out;
@@ -30,32 +26,6 @@ inline std::vector<std::string> split(const std::string& s) {
   for (std::string item; std::getline(ss, item, ',');)
     if (!item.empty()) out.push_back(item);
   return out;
-}
-
-struct Timed {
-  MethodOutput output;  // of the last frame
-  double medianMs = 0;
-  int frames = 0;       // timed frames: `frames`, or 1 when the warm-up alone was slower than slowMs
-};
-
-// One warm-up frame (pipeline compiles) then `frames` timed ones; a warm-up slower than `slowMs` is
-// itself the one timed frame (compiles are noise against it).
-inline Timed runTimed(ShadowMethod& m, const FrameInput& frame, int frames, double slowMs = 1e30) {
-  Timed t;
-  t.output = m.run(frame);
-  if (t.output.totalMs > slowMs) {
-    t.medianMs = t.output.totalMs;
-    t.frames = 1;
-    return t;
-  }
-  std::vector<double> ms;
-  for (int i = 0; i < frames; ++i) {
-    t.output = m.run(frame);
-    ms.push_back(t.output.totalMs);
-  }
-  t.medianMs = median(ms);
-  t.frames = frames;
-  return t;
 }
 
 struct View {
@@ -101,22 +71,21 @@ inline std::vector<View> loadViews(const std::string& list, std::vector<std::uni
   return views;
 }
 
-// A view rasterised at size x size, and the frame every method of a benchmark is fed.
+// A view prepared at size x size by the frame harness (samples, epsilon, the Embree reference timed over
+// `frames`, the band): what every method of a benchmark is judged on.
 struct ViewFrame {
-  Raster raster;
-  DeviceGBuffer dev;
-  GBuffer gb;
-  EpsilonPolicy policy;
-  FrameInput input;
-  ViewFrame(vk::Context& ctx, const View& v, uint32_t size)
-      : raster(ctx, *v.scene), policy(EpsilonPolicy::forScene(*v.scene)) {
-    raster.render(v.camera, v.light, size, size, dev, &gb);
-    input.scene = v.scene;
-    input.gbuffer = &gb;
-    input.device = &dev;
-    input.vk = &ctx;
-    input.light = v.light;
-    input.epsilon = policy.eps;
+  std::unique_ptr<Raster> raster;
+  std::unique_ptr<PreparedFrame> frame;
+  ViewFrame(vk::Context& ctx, const View& v, uint32_t size, uint32_t frames, double slowMs = kAlwaysTimeEveryFrame)
+      : raster(std::make_unique<Raster>(ctx, *v.scene)) {
+    FrameSpec spec;
+    spec.camera = v.camera;
+    spec.view = v.name;
+    spec.light = v.light;
+    spec.width = spec.height = size;
+    spec.frames = frames;
+    spec.singleFrameAboveMs = slowMs;
+    frame = prepareFrame(ctx, *raster, *v.scene, spec);
   }
 };
 

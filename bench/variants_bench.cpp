@@ -69,11 +69,10 @@ int main(int argc, char** argv) {
     }
   }
   try {
+    registerBuiltinMethods();
+    const MethodInfo& cone = methodOrUsageError("cone");
     std::vector<std::string> variants = variantsArg.empty() ? coneVariantNames() : split(variantsArg);
-    for (const std::string& v : variants) {
-      ConeOptions o;
-      if (!applyConeVariant(v, o)) throw Error("unknown variant '" + v + "'", "--variants", "Precise, PreciseSorted, ...");
-    }
+    for (const std::string& v : variants) cone.check(Settings("cone").with("variant", v));  // before any work
     std::vector<std::unique_ptr<Scene>> scenes;
     std::vector<bench::View> views = bench::loadViews(scenesArg, scenes);
     vk::ContextOptions co;
@@ -87,24 +86,14 @@ int main(int argc, char** argv) {
                 "misclassified outside band |\n|---|---|---:|---:|---:|---:|---:|---:|\n");
     std::fflush(stdout);
     for (const bench::View& v : views) {
-      bench::ViewFrame vf(*ctx, v, size);
-      const Scene& scene = *v.scene;
-      const GBuffer& gb = vf.gb;
-      const FrameInput& frame = vf.input;
-      const EpsilonPolicy& policy = vf.policy;
-      EmbreeReference reference;
-      bench::Timed ref = bench::runTimed(reference, frame, frames, slowMs);
-      std::vector<uint8_t> band = reference.ambiguityBand(scene, gb, v.light, policy);
-      std::printf("| %s | Embree (%zu lit samples) | | | | %.1f | 1.00 | |\n", v.name.c_str(), gb.litCount(),
-                  ref.medianMs);
+      bench::ViewFrame vf(*ctx, v, size, uint32_t(frames), slowMs);
+      const PreparedFrame& frame = *vf.frame;
+      std::printf("| %s | Embree (%zu lit samples) | | | | %.1f | 1.00 | |\n", v.name.c_str(), frame.litSamples,
+                  frame.reference.medianMs);
       std::fflush(stdout);
       for (const std::string& name : variants) {
-        ConeOptions o;
-        applyConeVariant(name, o);
-        auto method = makeConeMethod(*ctx, o);
-        bench::Timed t = bench::runTimed(*method, frame, frames, slowMs);
-        ErrorStats e = compareVisibility(gb, t.output.visibility, ref.output.visibility, band);
-        const nlohmann::json& s = t.output.stats;
+        const Judged j = judge(cone, Settings("cone").with("variant", name), *ctx, frame, uint32_t(frames), {}, slowMs);
+        const nlohmann::json& s = j.runs.output.stats;
         std::string finished = "–";
         if (s.contains("two_pass") && s["two_pass"].is_object()) {
           const nlohmann::json& tp = s["two_pass"];
@@ -114,9 +103,9 @@ int main(int argc, char** argv) {
         }
         std::printf("| %s | %s | %s | %s | %s | %.1f%s | %.2f | %llu |\n", v.name.c_str(), name.c_str(),
                     millions(s["pairs_tested"].get<uint64_t>()).c_str(),
-                    millions(s["early_accepted_nodes"].get<uint64_t>()).c_str(), finished.c_str(), t.medianMs,
-                    t.frames == 1 && frames > 1 ? "¹" : "", t.medianMs / ref.medianMs,
-                    (unsigned long long)e.misclassifiedOutsideBand);
+                    millions(s["early_accepted_nodes"].get<uint64_t>()).c_str(), finished.c_str(), j.runs.medianMs,
+                    j.runs.totals.size() == 1 && frames > 1 ? "¹" : "", j.runs.medianMs / frame.reference.medianMs,
+                    (unsigned long long)j.error.misclassifiedOutsideBand);
         std::fflush(stdout);
       }
     }

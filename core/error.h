@@ -22,6 +22,12 @@ struct Error : std::runtime_error {
   }
 };
 
+// Bad input on the command line (an unknown option, a value out of range, a setting no chosen method
+// takes): the CLI prints it as one line and exits 2, before any heavy work.
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
 // CHECK-style helper that prints both values; stays in release builds.
 #define CS_CHECK(cond, msg)                                                                  \
   do {                                                                                       \

@@ -229,7 +229,7 @@ FrameResult makeFrameResult(const std::string& scene, const std::string& view, c
 
 nlohmann::json toJson(const FrameResult& r) {
   nlohmann::json stages = nlohmann::json::array();
-  for (const StageTime& s : r.stages) stages.push_back({{"name", s.name}, {"ms", s.ms}});
+  for (const StageTime& s : r.stages) stages.push_back({{"name", s.name}, {"ms", s.ms}, {"kind", stageKindName(s.kind)}});
   return {{"scene", r.scene},       {"view", r.view},     {"method", r.method},
           {"width", r.width},       {"height", r.height}, {"device", r.device},
           {"total_ms", r.totalMs},  {"bytes", r.bytes},   {"peak_bytes", r.peakBytes},

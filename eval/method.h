@@ -25,10 +25,20 @@ struct FrameInput {
   float epsilon = 0;                         // along-ray epsilon of the shared policy (reference/epsilon.h)
 };
 
+// What a stage is for, so reports can group stages without knowing the method: a rebuild of the
+// method's scene or shadow structure (an acceleration structure, uploaded triangles, a ray tree, shadow
+// map faces or pages), the per-sample lookup that answers visibility, or other per-frame work.
+enum class StageKind { PerFrame, Rebuild, Lookup };
+
 struct StageTime {
   std::string name;
   double ms = 0;
+  StageKind kind = StageKind::PerFrame;
 };
+
+inline const char* stageKindName(StageKind k) {
+  return k == StageKind::Rebuild ? "rebuild" : k == StageKind::Lookup ? "lookup" : "per-frame";
+}
 
 struct MethodOutput {
   std::vector<float> visibility;             // one per pixel, in [0,1], 1 = lit; 1 where the sample is not lit
@@ -36,6 +46,8 @@ struct MethodOutput {
   double totalMs = 0;                        // shadow work only (raster excluded)
   uint64_t bytesAllocated = 0;               // bytes this method allocated for the frame
   uint64_t peakBytes = 0;                    // peak working set
+  std::string work;                          // the method's own measure of its work, for reports:
+                                             //   "1234 nodes visited, 56 leaf tests", "812 pages", ...
   nlohmann::json stats = nlohmann::json::object();  // method-specific counters (pairs, pages, ...)
 };
 

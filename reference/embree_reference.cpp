@@ -240,8 +240,9 @@ MethodOutput EmbreeReference::run(const FrameInput& frame) {
   device_->check("rtcOccluded16");
   const double raysMs = msSince(t0);
 
-  out.stages = {{"bvh_build", buildMs}, {"rays", raysMs}};
+  out.stages = {{"bvh_build", buildMs, StageKind::Rebuild}, {"rays", raysMs, StageKind::Lookup}};
   out.totalMs = buildMs + raysMs;
+  out.work = std::to_string(rays.load()) + " rays";
   const uint64_t visBytes = out.visibility.size() * sizeof(float);
   // Embree's allocations this frame include its copies of the vertex and index buffers.
   out.bytesAllocated = (device_->allocatedBytes() - allocatedBefore) + visBytes;

@@ -148,8 +148,11 @@ class CubeShadowMap : public ShadowMethod {
       cmd.mark("lookup");
       cmd.submit();
     }
-    if (uploadMs > 0) out.stages.push_back({"upload", uploadMs});
-    for (auto& [n, ms] : timer_.intervals()) out.stages.push_back({n, ms});
+    // The faces are the cube map's shadow structure, drawn again every frame; the lookup answers the samples.
+    if (uploadMs > 0) out.stages.push_back({"upload", uploadMs, StageKind::Rebuild});
+    for (auto& [n, ms] : timer_.intervals())
+      out.stages.push_back({n, ms, n == "faces" ? StageKind::Rebuild : n == "lookup" ? StageKind::Lookup : StageKind::PerFrame});
+    out.work = "6 faces of " + std::to_string(r) + "²";
     out.totalMs = msSince(t0);
 
     auto t1 = Clock::now();

@@ -191,7 +191,13 @@ struct Stages {
         s.ms += ms;
         return;
       }
-    list.push_back({name, ms});
+    // Pages, their tables and the superpage passes are RMSM's shadow structure, rebuilt every frame (and
+    // the uploaded triangles when the geometry changes); the lookup answers the samples.
+    static const char* kRebuild[] = {"upload", "allocate", "page_tables", "superpages"};
+    StageKind kind = name == "lookup" ? StageKind::Lookup : StageKind::PerFrame;
+    for (const char* r : kRebuild)
+      if (name == r) kind = StageKind::Rebuild;
+    list.push_back({name, ms, kind});
   }
 };
 
@@ -559,6 +565,8 @@ MethodOutput Rmsm::run(const FrameInput& frame) {
   double gpuMs = 0;
   for (auto& st : stages.list) gpuMs += st.ms;
   out.stages = std::move(stages.list);
+  out.work = std::to_string(pages.size()) + " pages" +
+             (frameLimit < L.maxLevel ? " (fallback to " + std::to_string(page << frameLimit) + "²)" : "");
   out.bytesAllocated = s.bytesAllocated();
   out.peakBytes = out.bytesAllocated;
   const uint32_t effective = page << frameLimit;

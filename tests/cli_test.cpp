@@ -114,24 +114,98 @@ TEST(Cli, RenderWritesImagesResultsAndDump) {
   fs::remove_all(dump);
 }
 
-TEST(Cli, EveryMethodRendersTheBuiltinSceneAndTheConePathIsExact) {
-  for (const char* method : {"cone", "cubesm", "rmsm"}) {
-    fs::path out = tempDir(std::string("method_") + method);
-    CliRun r = cli(std::string("render --method ") + method +
-                   " --view room --width 48 --height 40 --frames 1 --sm-resolution 256 --out " + out.string());
-    ASSERT_EQ(r.code, 0) << method << "\n" << r.out;
-    for (auto f : {"_shaded.png", "_mask.png", "_diff.png"})
-      EXPECT_TRUE(fs::exists(out / (std::string(method) + f))) << method << f;
-    std::ifstream js(out / "results.json");
-    auto j = nlohmann::json::parse(js);
-    ASSERT_EQ(j.size(), 2u) << "embree row + the method's row";
-    EXPECT_EQ(j[1]["method"], method);
-    EXPECT_TRUE(j[1]["stats"]["deterministic"].get<bool>()) << method;
-    if (std::string(method) == "cone") {
-      EXPECT_EQ(j[1]["error"]["misclassified_outside_band"], 0) << r.out;
-    }
-    fs::remove_all(out);
+TEST(Cli, RenderRunsSeveralMethodsOnOneSetOfSamplesAndTheConePathIsExact) {
+  fs::path out = tempDir("methods");
+  CliRun r = cli("render --methods cone,cubesm,rmsm --view room --width 48 --height 40 --frames 1 --sm-resolution 256 --out " +
+                 out.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::ifstream js(out / "results.json");
+  auto j = nlohmann::json::parse(js);
+  ASSERT_EQ(j.size(), 4u) << "embree's row, then one per method";
+  const std::vector<std::string> order = {"embree", "cone", "cubesm", "rmsm"};
+  for (size_t i = 0; i < order.size(); ++i) {
+    const std::string method = order[i];
+    EXPECT_EQ(j[i]["method"], method);
+    for (auto f : {"_shaded.png", "_mask.png", "_diff.png"}) EXPECT_TRUE(fs::exists(out / (method + f))) << method << f;
+    EXPECT_TRUE(j[i]["stats"]["deterministic"].get<bool>()) << method;
+    // One set of samples: the same lit samples and band in every row.
+    EXPECT_EQ(j[i]["error"]["lit_samples"], j[0]["error"]["lit_samples"]) << method;
+    EXPECT_EQ(j[i]["stats"]["band_samples"], j[0]["stats"]["band_samples"]) << method;
+    EXPECT_TRUE(j[i]["stats"]["work"].is_string()) << method << ": every method reports its work";
+    for (const auto& stage : j[i]["stages"]) EXPECT_TRUE(stage["kind"].is_string()) << method;
   }
+  EXPECT_EQ(j[1]["error"]["misclassified_outside_band"], 0) << r.out;
+  EXPECT_EQ(j[2]["stats"]["resolution"], 256) << "--sm-resolution reached the cube map";
+  for (const char* m : {"result: cone", "result: cubesm", "result: rmsm"}) EXPECT_NE(r.out.find(m), std::string::npos) << r.out;
+  fs::remove_all(out);
+}
+
+TEST(Cli, BothOptionFormsAndAnyCaseGiveTheSameRun) {
+  fs::path a = tempDir("form_a"), b = tempDir("form_b");
+  CliRun ra = cli("render --methods cone --variant PreciseSEA --traversal-memory 256K --view wall --width 24 --height 16 "
+                  "--frames 1 --quiet --out " + a.string());
+  CliRun rb = cli("render --methods=Cone --variant=preciseSEA --traversal-memory=256k --view=wall --width=24 --height=16 "
+                  "--frames=1 --quiet --out=" + b.string());
+  ASSERT_EQ(ra.code, 0) << ra.out;
+  ASSERT_EQ(rb.code, 0) << rb.out;
+  std::ifstream ja(a / "results.json"), jb(b / "results.json");
+  auto x = nlohmann::json::parse(ja), y = nlohmann::json::parse(jb);
+  ASSERT_EQ(x.size(), 2u);
+  ASSERT_EQ(y.size(), 2u);
+  for (auto* j : {&x, &y}) {
+    EXPECT_EQ((*j)[1]["method"], "cone");
+    EXPECT_EQ((*j)[1]["stats"]["variant"], "PreciseSEA");
+    EXPECT_EQ((*j)[1]["stats"]["traversal_memory_bytes"], 256 * 1024);
+  }
+  EXPECT_EQ(x[1]["error"], y[1]["error"]);
+  fs::remove_all(a);
+  fs::remove_all(b);
+}
+
+TEST(Cli, VersionAndPerCommandHelp) {
+  CliRun v = cli("--version");
+  EXPECT_EQ(v.code, 0);
+  EXPECT_EQ(v.out.rfind("coneshadow ", 0), 0u) << v.out;
+  CliRun render = cli("render --help"), helpRender = cli("help render"), compare = cli("compare --help");
+  EXPECT_EQ(render.code, 0);
+  EXPECT_EQ(render.out, helpRender.out);
+  // Every registered method's settings, grouped by method; compare's own runs only on compare.
+  for (const char* flag : {"--variant", "--sm-resolution", "--rmsm-pool", "--plane-bias", "cone settings", "--methods"})
+    EXPECT_NE(render.out.find(flag), std::string::npos) << flag << "\n" << render.out;
+  EXPECT_EQ(render.out.find("--animate"), std::string::npos);
+  EXPECT_NE(compare.out.find("--animate"), std::string::npos) << compare.out;
+  EXPECT_EQ(cli("info --help").code, 0);
+  EXPECT_EQ(cli("help nosuch").code, 2);
+}
+
+TEST(Cli, ASettingNoChosenMethodTakesIsAUsageErrorNamingIt) {
+  struct Case {
+    const char* args;
+    const char* names;
+  };
+  for (const Case& c : {Case{"render --methods cone --sm-resolution 256", "--sm-resolution is a setting of cubesm"},
+                        Case{"render --sm-no-pcf", "--sm-no-pcf is a setting of cubesm"},
+                        Case{"render --methods cubesm --variant PreciseSEA", "--variant is a setting of cone"},
+                        Case{"compare --methods cone --rmsm-cached", "--rmsm-cached is a setting of rmsm"},
+                        Case{"render --methods rmsm --rmsm-analysis 3", "rmsm: --rmsm-analysis"},
+                        Case{"render --methods nosuch", "unknown method 'nosuch'"},
+                        Case{"render --methods rmsn", "did you mean rmsm?"},
+                        Case{"render --sm-resolutoin 4", "did you mean --sm-resolution?"},
+                        Case{"render --animate 2", "--animate is an option of compare"}}) {
+    CliRun r = cli(c.args);
+    EXPECT_EQ(r.code, 2) << c.args << "\n" << r.out;
+    EXPECT_NE(r.out.find(c.names), std::string::npos) << c.args << "\n" << r.out;
+    EXPECT_EQ(r.out.find("[1/5]"), std::string::npos) << c.args << ": refused before any work";
+  }
+  // A shared setting reaches every chosen method that takes it, and is fine when one of them does.
+  fs::path out = tempDir("shared");
+  CliRun r = cli("render --methods cone,cubesm --plane-bias --sm-resolution 64 --view wall --width 16 --height 16 "
+                 "--frames 1 --quiet --out " + out.string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  std::ifstream js(out / "results.json");
+  auto j = nlohmann::json::parse(js);
+  EXPECT_EQ(j[2]["stats"]["plane_bias"], true);
+  fs::remove_all(out);
 }
 
 TEST(Cli, BartSceneRendersAtASceneTimeFromItsCameraTrack) {

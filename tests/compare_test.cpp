@@ -195,7 +195,7 @@ TEST(Compare, TinyBuiltinRunWritesConsistentReports) {
   EXPECT_NE(md.find("## wall"), std::string::npos);
   EXPECT_NE(md.find("## room"), std::string::npos);
   // Every row carries its stages and its own measure of work; the sweep has RMSM's three knobs.
-  for (const char* column : {"| ms per stage |", "| false shadow / false light (outside band) |", "| nodes or pages |"})
+  for (const char* column : {"| ms per stage |", "| false shadow / false light (outside band) |", "| work |"})
     EXPECT_EQ(countOf(md, column), 2u) << column << ": once per view";
   for (auto& row : results) {
     const std::string setting = row.at("stats").at("setting");

@@ -15,6 +15,8 @@
 
 #include <gtest/gtest.h>
 
+#include "harness/harness.h"
+
 #include "eval/metrics.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
@@ -70,13 +72,7 @@ struct Harness {
     GBuffer host;
     raster.render(camera, light, w, h, dev, &host);
     const EpsilonPolicy policy = EpsilonPolicy::forScene(scene);
-    FrameInput frame;
-    frame.scene = &scene;
-    frame.gbuffer = &host;
-    frame.device = &dev;
-    frame.vk = &ctx;
-    frame.light = light;
-    frame.epsilon = policy.eps;
+    FrameInput frame = frameInputOf(scene, host, dev, ctx, light, policy.eps);
     MethodOutput ref = embree.run(frame);
     if (coneScene) frame.scene = coneScene;
     MethodOutput mine = cones[0]->run(frame);

@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "eval/metrics.h"
-
+#include "harness/harness.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
 #include "reference/epsilon.h"
@@ -38,26 +38,36 @@ inline void addQuad(Scene& s, glm::vec3 o, glm::vec3 du, glm::vec3 dv) {
   s.indices.insert(s.indices.end(), {b, b + 1, b + 2, b, b + 2, b + 3});
 }
 
+// One frame prepared by the frame harness (harness/harness.h: samples, epsilon, the Embree reference,
+// the band), untimed; the names the cone tests read it by.
 struct ReferenceFrame {
   Raster raster;
-  DeviceGBuffer dev;
-  GBuffer host;
-  EpsilonPolicy policy;
-  FrameInput input;
-  std::vector<float> reference;
-  std::vector<uint8_t> band;
+  std::unique_ptr<PreparedFrame> prepared;
+  GBuffer& host;
+  DeviceGBuffer& dev;
+  EpsilonPolicy& policy;
+  FrameInput& input;
+  std::vector<float>& reference;
+  std::vector<uint8_t>& band;
   ReferenceFrame(const Scene& scene, const Camera& camera, glm::vec3 light, uint32_t size)
-      : raster(context(), scene), policy(EpsilonPolicy::forScene(scene)) {
-    raster.render(camera, light, size, size, dev, &host);
-    input.scene = &scene;
-    input.gbuffer = &host;
-    input.device = &dev;
-    input.vk = &context();
-    input.light = light;
-    input.epsilon = policy.eps;
-    EmbreeReference embree;
-    reference = embree.run(input).visibility;
-    band = embree.ambiguityBand(scene, host, light, policy);
+      : raster(context(), scene),
+        prepared(prepareFrame(context(), raster, scene, spec(camera, light, size))),
+        host(prepared->gbuffer),
+        dev(prepared->device),
+        policy(prepared->policy),
+        input(prepared->input),
+        reference(prepared->reference.output.visibility),
+        band(prepared->band) {}
+
+ private:
+  static FrameSpec spec(const Camera& camera, glm::vec3 light, uint32_t size) {
+    FrameSpec s;
+    s.camera = camera;
+    s.view = camera.name;
+    s.light = light;
+    s.width = s.height = size;
+    s.frames = 0;  // one run each, untimed
+    return s;
   }
 };
 

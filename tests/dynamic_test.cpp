@@ -320,7 +320,7 @@ TEST(DynamicCompare, FlagsOutsideADynamicCompareAreUsageErrors) {
     const test::CliRun r = test::cli(args);
     EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
   }
-  const test::CliRun help = test::cli("help");
+  const test::CliRun help = test::cli("help compare");
   EXPECT_NE(help.out.find("--animate N"), std::string::npos);
   EXPECT_NE(help.out.find("--moving-camera"), std::string::npos);
 }

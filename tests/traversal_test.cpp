@@ -11,6 +11,8 @@
 
 #include <gtest/gtest.h>
 
+#include "harness/harness.h"
+
 #include "raster/raster.h"
 #include "reference/epsilon.h"
 #include "tests/test_context.h"
@@ -293,13 +295,7 @@ TEST(ConeMethod, MaskIsBitIdenticalAtAnyTraversalMemoryAndPeakStaysUnderTheBound
   DeviceGBuffer dev;
   GBuffer host;
   raster.render(cam, light, 96, 80, dev, &host);
-  FrameInput frame;
-  frame.scene = &scene;
-  frame.gbuffer = &host;
-  frame.device = &dev;
-  frame.vk = &ctx;
-  frame.light = light;
-  frame.epsilon = EpsilonPolicy::forScene(scene).eps;
+  FrameInput frame = frameInputOf(scene, host, dev, ctx, light, EpsilonPolicy::forScene(scene).eps);
 
   // The default bound, 1000x smaller, a few KiB, and the very least an arena can be: one node's children
   // per depth (traversal::minimumPairs) with chunks of a single pair.

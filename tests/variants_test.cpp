@@ -13,7 +13,7 @@
 #include <gtest/gtest.h>
 
 #include "app/cli.h"
-#include "app/methods.h"
+#include "eval/registry.h"
 #include "eval/metrics.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
@@ -83,37 +83,36 @@ TEST(VariantNames, MapToTheirOptionsAndTheSwitchesCombine) {
   EXPECT_FALSE(variant("PreciseSEA").twoPass);
   EXPECT_FALSE(variant("PreciseSorted").earlyAccept);
 
-  // The CLI: a variant, amended by switches in any order; bad values are usage errors.
-  auto optionsOf = [](std::vector<std::string> extra) {
-    Options opt;
-    opt.extra = std::move(extra);
-    checkMethod("cone", opt);
-    return opt;
+  // The registry's cone settings: a variant, amended by switches in any order; values matched without
+  // regard to case; bad values are usage errors naming the method.
+  registerBuiltinMethods();
+  const MethodInfo& cone = methodOrUsageError("Cone");
+  auto settingsOf = [](std::vector<std::pair<std::string, std::string>> kv) {
+    Settings s("cone");
+    for (auto& [k, v] : kv) s.set(k, v);
+    return s;
   };
-  EXPECT_NO_THROW(optionsOf({"two-pass=on", "variant=PreciseSorted"}));
-  for (std::vector<std::string> bad :
-       std::vector<std::vector<std::string>>{{"variant=Bogus"},
-                                             {"front-face-culling=maybe"},
-                                             {"no-such-key=1"},
-                                             {"two-pass=yes"},
-                                             {"test=cube"},
-                                             {"test=sphere", "early-accept=on"},
-                                             {"variant=PreciseSEA", "test=sphere"},
-                                             {"blocker-max-fraction=2"},
-                                             {"blocker-solid-angle=x"}}) {
-    Options opt;
-    opt.extra = bad;
-    EXPECT_THROW(checkMethod("cone", opt), UsageError) << bad.front();
+  EXPECT_NO_THROW(cone.check(settingsOf({{"two-pass", "on"}, {"variant", "PreciseSorted"}})));
+  EXPECT_NO_THROW(cone.check(settingsOf({{"variant", "preciseseatp"}, {"test", "PRECISE"}})));
+  for (std::vector<std::pair<std::string, std::string>> bad :
+       std::vector<std::vector<std::pair<std::string, std::string>>>{{{"variant", "Bogus"}},
+                                                                     {{"front-face-culling", "maybe"}},
+                                                                     {{"two-pass", "perhaps"}},
+                                                                     {{"test", "cube"}},
+                                                                     {{"test", "sphere"}, {"early-accept", "on"}},
+                                                                     {{"variant", "PreciseSEA"}, {"test", "sphere"}},
+                                                                     {{"blocker-max-fraction", "2"}},
+                                                                     {{"blocker-solid-angle", "x"}},
+                                                                     {{"variant", "PreciseSEATP"}, {"ray-order", "screen"}}}) {
+    try {
+      cone.check(settingsOf(bad));
+      ADD_FAILURE() << bad.front().first << "=" << bad.front().second << " was accepted";
+    } catch (const UsageError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind("cone: ", 0), 0u) << e.what();
+    }
   }
-  Options unsorted;
-  unsorted.unsorted = true;
-  unsorted.extra = {"variant=PreciseSEATP"};
-  EXPECT_THROW(checkMethod("cone", unsorted), UsageError);
-  unsorted.extra = {"variant=PreciseEATP"};
-  EXPECT_NO_THROW(checkMethod("cone", unsorted));
-  Options opt;
-  opt.extra = {"variant=Spheres", "front-face-culling=on", "two-pass=on"};
-  auto m = makeMethod("cone", &test::context(), opt);
+  EXPECT_NO_THROW(cone.check(settingsOf({{"variant", "PreciseEATP"}, {"ray-order", "screen"}})));
+  auto m = cone.make(&test::context(), settingsOf({{"variant", "Spheres"}, {"front-face-culling", "on"}, {"two-pass", "on"}}));
   EXPECT_EQ(m->name(), "cone");
   ConeOptions stp = variant("SpheresSorted");
   stp.twoPass = true;

@@ -114,7 +114,7 @@ class ConeMethod : public ShadowMethod {
     // timestamps land on the wrong side of dispatches (see cone_method.h). Timestamps go to the stats too.
     std::vector<StageTime> stages;
     nlohmann::json timestamps = nlohmann::json::object();
-    if (uploadMs > 0) stages.push_back({"upload", uploadMs});
+    if (uploadMs > 0) stages.push_back({"upload", uploadMs, StageKind::Rebuild});
     auto stage = [&](const char* name, auto&& record) {
       timer_.restart();
       vk::Commands cmd(ctx_, &timer_);
@@ -202,8 +202,11 @@ class ConeMethod : public ShadowMethod {
       stats["tree_depth"] = 0;
       stats["tree_nodes"] = 0;
     }
-    stages.push_back({"traversal", ts.traversalMs});
-    stages.push_back({"leaves", ts.leavesMs});
+    stages.push_back({"traversal", ts.traversalMs, StageKind::Lookup});
+    stages.push_back({"leaves", ts.leavesMs, StageKind::Lookup});
+    // The ray tree is the cone path's shadow structure, rebuilt every frame from the frame's samples.
+    for (StageTime& st : stages)
+      if (st.name == "build") st.kind = StageKind::Rebuild;
     timestamps["traversal"] = ts.traversalGpuMs;
     timestamps["leaves"] = ts.leavesGpuMs;
     stats["timestamp_ms"] = timestamps;
@@ -224,6 +227,7 @@ class ConeMethod : public ShadowMethod {
     stats["leaf_tests"] = ts.leafTests;
     stats["early_accepted_nodes"] = ts.earlyAccepted;
     stats["traversal_peak_bytes"] = ts.peakBytes;
+    out.work = std::to_string(ts.pairsTested()) + " nodes visited, " + std::to_string(ts.leafTests) + " leaf tests";
     out.stages = std::move(stages);
     out.stats = std::move(stats);
     out.bytesAllocated = bytesAllocated();

@@ -1,0 +1,132 @@
+// The frame harness: see harness.h.
+#include "harness/harness.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "vk/context.h"
+
+namespace cs {
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+TimedRuns timeRuns(ShadowMethod& method, const FrameInput& input, uint32_t frames, const FrameProgress& progress,
+                   double singleFrameAboveMs) {
+  TimedRuns t;
+  if (progress) progress(0, frames);
+  const MethodOutput first = method.run(input);
+  if (frames == 0 || first.totalMs > singleFrameAboveMs) {
+    t.output = first;
+    t.totals = {first.totalMs};
+    frames = 0;
+  }
+  std::vector<MethodOutput> outs;
+  for (uint32_t i = 0; i < frames; ++i) {
+    if (progress) progress(i + 1, frames);
+    outs.push_back(method.run(input));
+    t.totals.push_back(outs.back().totalMs);
+    if (outs.back().visibility != first.visibility) t.deterministic = false;
+  }
+  t.medianMs = median(t.totals);
+  t.minMs = *std::min_element(t.totals.begin(), t.totals.end());
+  t.maxMs = *std::max_element(t.totals.begin(), t.totals.end());
+  if (!outs.empty()) {
+    size_t best = 0;
+    for (size_t i = 0; i < outs.size(); ++i)
+      if (std::abs(outs[i].totalMs - t.medianMs) < std::abs(outs[best].totalMs - t.medianMs)) best = i;
+    t.output = std::move(outs[best]);
+  }
+  return t;
+}
+
+FrameInput frameInputOf(const Scene& scene, const GBuffer& gbuffer, const DeviceGBuffer& device, vk::Context& ctx,
+                        glm::vec3 light, float epsilon) {
+  FrameInput f;
+  f.scene = &scene;
+  f.gbuffer = &gbuffer;
+  f.device = &device;
+  f.vk = &ctx;
+  f.light = light;
+  f.epsilon = epsilon;
+  return f;
+}
+
+std::unique_ptr<PreparedFrame> prepareFrame(vk::Context& ctx, Raster& raster, const Scene& scene, const FrameSpec& spec,
+                                            const StepProgress& step, const FrameProgress& referenceProgress) {
+  auto f = std::make_unique<PreparedFrame>();
+  f->scene = &scene;
+  f->spec = spec;
+  f->deviceName = ctx.driverDescription();
+  if (step) step("raster");
+  raster.render(spec.camera, spec.light, spec.width, spec.height, f->device, &f->gbuffer);  // warm-up: pipeline compile
+  std::vector<double> rasterMs;
+  for (uint32_t i = 0; i < std::max(1u, spec.frames); ++i) {
+    const RasterTiming rt = raster.render(spec.camera, spec.light, spec.width, spec.height, f->device, &f->gbuffer);
+    rasterMs.push_back(rt.gpuMs);
+    f->readbackMs = rt.readbackMs;
+  }
+  f->rasterMs = median(rasterMs);
+  f->litSamples = f->gbuffer.litCount();
+  f->policy = spec.policy ? *spec.policy : EpsilonPolicy::forScene(scene);
+  f->input = frameInputOf(scene, f->gbuffer, f->device, ctx, spec.light, f->policy.eps);
+
+  if (step) step("reference");
+  f->embree = std::make_unique<EmbreeReference>();
+  f->reference = timeRuns(*f->embree, f->input, spec.frames, referenceProgress, spec.singleFrameAboveMs);
+  if (step) step("band");
+  StageTime bandTime;
+  f->band = f->embree->ambiguityBand(scene, f->gbuffer, spec.light, f->policy, {}, &bandTime);
+  f->bandMs = bandTime.ms;
+  f->bandSamples = size_t(std::count_if(f->band.begin(), f->band.end(), [](uint8_t b) { return b != 0; }));
+  return f;
+}
+
+Judged judge(const MethodInfo& info, ShadowMethod* method, const PreparedFrame& frame, uint32_t frames,
+             const FrameProgress& progress, double singleFrameAboveMs) {
+  Judged j;
+  if (info.reference) {
+    j.runs = frame.reference;
+  } else {
+    CS_CHECK(method, "judge: no method object for " << info.name);
+    j.runs = timeRuns(*method, frame.input, frames, progress, singleFrameAboveMs);
+  }
+  j.error = compareVisibility(frame.gbuffer, j.runs.output.visibility, frame.reference.output.visibility, frame.band);
+  return j;
+}
+
+Judged judge(const MethodInfo& info, const Settings& settings, vk::Context& ctx, const PreparedFrame& frame,
+             uint32_t frames, const FrameProgress& progress, double singleFrameAboveMs) {
+  if (info.reference) return judge(info, nullptr, frame, frames, progress, singleFrameAboveMs);
+  std::unique_ptr<ShadowMethod> method = info.make(info.usesDevice ? &ctx : nullptr, settings);
+  return judge(info, method.get(), frame, frames, progress, singleFrameAboveMs);
+}
+
+std::string methodDevice(const MethodInfo& info, const std::string& vulkanDevice) {
+  return info.usesDevice ? vulkanDevice : "cpu (" + info.name + ")";
+}
+
+FrameResult resultRow(const MethodInfo& info, const std::string& setting, const PreparedFrame& frame,
+                      const Judged& judged) {
+  FrameResult r = makeFrameResult(frame.scene->name, frame.spec.view, info.name, frame.gbuffer,
+                                  methodDevice(info, frame.deviceName), judged.runs.output, judged.error);
+  nlohmann::json& st = r.stats;
+  st["setting"] = setting;
+  st["gpu"] = frame.deviceName;
+  st["frames"] = judged.runs.totals.size();
+  st["total_ms_min"] = judged.runs.minMs;
+  st["total_ms_max"] = judged.runs.maxMs;
+  st["clock"] = "wall";
+  st["deterministic"] = judged.runs.deterministic;
+  st["raster_ms"] = frame.rasterMs;
+  st["lit_samples"] = frame.litSamples;
+  st["band_samples"] = frame.bandSamples;
+  if (!judged.runs.output.work.empty()) st["work"] = judged.runs.output.work;
+  return r;
+}
+
+}  // namespace cs

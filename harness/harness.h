@@ -1,0 +1,110 @@
+// One frame harness for every command, benchmark and test: prepare a frame once (the camera pass's
+// samples on the host and the device, the epsilon policy, the Embree reference and its ambiguity band),
+// then judge any method on it the same way (one warm-up, N timed frames, the median frame's mask against
+// the reference, the common statistics of a results row).
+//
+// Time: a method's totalMs is its shadow work as it measures it -- the host's wall clock around its
+// submissions and waits (lavapipe's timestamps are not trusted, docs/ARCHITECTURE.md), raster excluded;
+// the harness reports the median, min and max over the timed frames and names the clock ("wall").
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/scene.h"
+#include "eval/frame_output.h"
+#include "eval/method.h"
+#include "eval/metrics.h"
+#include "eval/registry.h"
+#include "raster/gbuffer.h"
+#include "raster/raster.h"
+#include "reference/embree_reference.h"
+#include "reference/epsilon.h"
+
+namespace cs {
+
+double median(std::vector<double> values);
+
+// Called before each run of a method: frame 0 is the warm-up, then 1..frames.
+using FrameProgress = std::function<void(uint32_t frame, uint32_t frames)>;
+
+// One warm-up run (shader compiles, caches), then `frames` timed ones -- except that a warm-up slower than
+// singleFrameAboveMs is itself the one timed frame (compiles are noise against it; long benchmark runs).
+struct TimedRuns {
+  MethodOutput output;         // the median frame's output
+  std::vector<double> totals;  // each timed frame's totalMs
+  double medianMs = 0, minMs = 0, maxMs = 0;
+  bool deterministic = true;   // every timed frame's mask equals the warm-up's (the cone path promises it)
+};
+inline constexpr double kAlwaysTimeEveryFrame = 1e300;
+TimedRuns timeRuns(ShadowMethod& method, const FrameInput& input, uint32_t frames, const FrameProgress& progress = {},
+                   double singleFrameAboveMs = kAlwaysTimeEveryFrame);
+
+struct FrameSpec {
+  Camera camera;
+  std::string view;  // the camera's name ("auto" for an automatic one)
+  glm::vec3 light{0};
+  uint32_t width = 0, height = 0;
+  uint32_t frames = 1;  // timed frames of the raster and the reference (after one warm-up each)
+  double singleFrameAboveMs = kAlwaysTimeEveryFrame;  // the reference's timeRuns
+  std::optional<EpsilonPolicy> policy;  // unset: the scene's own (EpsilonPolicy::forScene)
+};
+
+// What every method is fed for one frame: the same samples, light and epsilon.
+FrameInput frameInputOf(const Scene& scene, const GBuffer& gbuffer, const DeviceGBuffer& device, vk::Context& ctx,
+                        glm::vec3 light, float epsilon);
+
+// A prepared frame. Not movable: `input` points into it.
+struct PreparedFrame {
+  const Scene* scene = nullptr;
+  FrameSpec spec;
+  GBuffer gbuffer;
+  DeviceGBuffer device;
+  EpsilonPolicy policy;
+  FrameInput input;
+  std::string deviceName;  // the Vulkan device, as reports print it
+  double rasterMs = 0, readbackMs = 0;  // median GPU time of the camera pass; its last readback
+  size_t litSamples = 0;
+  std::unique_ptr<EmbreeReference> embree;
+  TimedRuns reference;
+  std::vector<uint8_t> band;
+  size_t bandSamples = 0;
+  double bandMs = 0;
+
+  PreparedFrame() = default;
+  PreparedFrame(const PreparedFrame&) = delete;
+  PreparedFrame& operator=(const PreparedFrame&) = delete;
+};
+
+// What prepare reports as it goes: "raster", "reference", "band".
+using StepProgress = std::function<void(const std::string& step)>;
+
+// Renders the view (one warm-up, spec.frames timed), runs the reference (timeRuns) and the band. The
+// raster must hold `scene`'s geometry.
+std::unique_ptr<PreparedFrame> prepareFrame(vk::Context& ctx, Raster& raster, const Scene& scene, const FrameSpec& spec,
+                                            const StepProgress& step = {}, const FrameProgress& referenceProgress = {});
+
+struct Judged {
+  TimedRuns runs;
+  ErrorStats error;
+};
+
+// The method on the prepared frame (a reference method's row is the reference run itself).
+Judged judge(const MethodInfo& info, ShadowMethod* method, const PreparedFrame& frame, uint32_t frames,
+             const FrameProgress& progress = {}, double singleFrameAboveMs = kAlwaysTimeEveryFrame);
+// judge(), making the method from its registry entry and settings first.
+Judged judge(const MethodInfo& info, const Settings& settings, vk::Context& ctx, const PreparedFrame& frame,
+             uint32_t frames, const FrameProgress& progress = {}, double singleFrameAboveMs = kAlwaysTimeEveryFrame);
+
+// The results row of a judged method: the method's output and error, and the statistics every row
+// carries (frames, min/max, the clock, determinism, raster time, lit and band samples, the device).
+FrameResult resultRow(const MethodInfo& info, const std::string& setting, const PreparedFrame& frame,
+                      const Judged& judged);
+
+// Where a method runs, as rows name it: the Vulkan device, or "cpu (<name>)".
+std::string methodDevice(const MethodInfo& info, const std::string& vulkanDevice);
+
+}  // namespace cs

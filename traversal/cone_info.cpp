@@ -1,0 +1,84 @@
+// The cone path in the method registry: its settings (paper 002's variants and switches, the traversal's
+// memory bound, the ray order), compare's sweep over the memory bound, and the factory.
+#include <algorithm>
+
+#include "eval/registry.h"
+#include "traversal/cone_method.h"
+#include "traversal/traversal.h"
+
+namespace cs {
+
+namespace {
+
+const char* kMethod = "cone";
+
+// --variant is applied first, then the switches, whatever their order on the command line, so a switch
+// amends a variant: --variant PreciseSorted --two-pass on is PreciseSTP.
+ConeOptions coneOptions(const Settings& s) {
+  ConeOptions cone;
+  const uint64_t least = traversal::kMinPairs * sizeof(glm::uvec2) + traversal::chunkScratchBytes(1);
+  cone.traversalMemoryBytes = s.bytes("traversal-memory", traversal::kDefaultMemoryBytes);
+  if (cone.traversalMemoryBytes < least)
+    throw UsageError("cone: --traversal-memory " + std::to_string(cone.traversalMemoryBytes) +
+                     " is too small: the traversal needs at least " + std::to_string(least) +
+                     " bytes (4 pairs and one chunk's scratch)");
+  const bool unsorted = s.choice("ray-order", {"hilbert", "screen"}, "hilbert") == "screen";
+  if (s.has("variant")) {
+    applyConeVariant(s.choice("variant", coneVariantNames(), ""), cone);
+    if (unsorted && cone.sorted)
+      throw UsageError("cone: variant '" + coneVariantName(cone) +
+                       "' is sorted, but --ray-order screen asks for unsorted rays");
+  }
+  if (unsorted) cone.sorted = false;
+  cone.frontFaceCulling = s.onOff("front-face-culling", cone.frontFaceCulling);
+  cone.earlyAccept = s.onOff("early-accept", cone.earlyAccept);
+  cone.twoPass = s.onOff("two-pass", cone.twoPass);
+  if (s.has("test"))
+    cone.test = s.choice("test", {"precise", "sphere"}, "precise") == "sphere" ? ConeTest::Sphere : ConeTest::Precise;
+  cone.blockerSolidAngle = float(s.number("blocker-solid-angle", 0.0, 12.5664, cone.blockerSolidAngle));
+  cone.blockerMaxFraction = float(s.number("blocker-max-fraction", 0.0, 1.0, cone.blockerMaxFraction));
+  cone.updateMinFinished = float(s.number("update-min-finished", 0.0, 1.0, cone.updateMinFinished));
+  if (cone.earlyAccept && cone.test == ConeTest::Sphere)
+    throw UsageError("cone: early accept needs the precise test (the sphere test cannot prove a cone covered)");
+  return cone;
+}
+
+}  // namespace
+
+MethodInfo coneMethodInfo() {
+  MethodInfo m;
+  m.name = kMethod;
+  m.summary = "the cone hierarchy over the light buffer's rays (exact)";
+  m.settings = {
+      {"variant", "NAME", "paper 002 Table 1, applied before the switches (default PreciseSorted)", coneVariantNames()},
+      {"test", "T", "the node test: precise or sphere", {"precise", "sphere"}},
+      {"early-accept", "on|off", "accept a cone every ray of which provably hits a triangle (precise test only)", {}},
+      {"two-pass", "on|off", "likely blockers first, then the tree rebuilt over the rays still lit", {}},
+      {"blocker-solid-angle", "SR", "two-pass: blockers subtend >= SR at the light (default 1/4096 of the sphere)", {}},
+      {"blocker-max-fraction", "F", "two-pass: at most the largest F of all triangles are blockers (0.125)", {}},
+      {"update-min-finished", "F", "two-pass: the update is skipped below F finished rays (0.1)", {}},
+      {"front-face-culling", "on|off",
+       "only triangles facing away from the light cast; exact only when every caster is a closed, consistently "
+       "wound mesh (wrong on the built-in fur)",
+       {}},
+      {"ray-order", "O", "hilbert (sorted rays, default) or screen (2x2 Morton screen order)", {"hilbert", "screen"}},
+      {"traversal-memory", "BYTES", "bound on the traversal's pair buffers (default 64M; e.g. 256K)", {}},
+  };
+  m.check = [](const Settings& s) { (void)coneOptions(s); };
+  m.make = [](vk::Context* ctx, const Settings& s) -> std::unique_ptr<ShadowMethod> {
+    CS_CHECK(ctx, "the cone method needs a Vulkan device");
+    return makeConeMethod(*ctx, coneOptions(s));
+  };
+  // The memory bound: the given (or default) one, 1/64 and 1/1000 of it, kept well above the smallest
+  // budget the arena planner accepts.
+  m.sweep = [](const Settings& s) {
+    const uint64_t def = s.bytes("traversal-memory", traversal::kDefaultMemoryBytes);
+    std::vector<SweepPoint> points;
+    for (uint64_t mem : {def, std::max<uint64_t>(def / 64, 4096), std::max<uint64_t>(def / 1000, 4096)})
+      points.push_back({std::string(kMethod) + "@" + byteSizeLabel(mem), s.with("traversal-memory", std::to_string(mem))});
+    return points;
+  };
+  return m;
+}
+
+}  // namespace cs
