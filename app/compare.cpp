@@ -20,7 +20,7 @@
 #include "harness/harness.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
-#include "reference/epsilon.h"
+#include "eval/epsilon.h"
 #include "vk/context.h"
 
 namespace fs = std::filesystem;

@@ -21,7 +21,7 @@
 #include "eval/metrics.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
-#include "reference/epsilon.h"
+#include "eval/epsilon.h"
 #include "vk/context.h"
 
 namespace fs = std::filesystem;

@@ -20,7 +20,7 @@
 #include "core/scene.h"
 #include "eval/method.h"
 #include "harness/harness.h"
-#include "reference/epsilon.h"
+#include "eval/epsilon.h"
 #include "vk/context.h"
 
 namespace cs {
@@ -92,7 +92,7 @@ inline std::string stageText(const MethodOutput& out) {
 }
 
 // The frame's light: --light, else the scene's first point light, else an automatic one (said in one line).
-// A light too far from the scene for fp32 ray lengths (reference/epsilon.h) is refused here, before any
+// A light too far from the scene for fp32 ray lengths (eval/epsilon.h) is refused here, before any
 // work: a usage error for --light, a data error for the scene's own light.
 inline glm::vec3 chooseLight(const Scene& scene, const Options& o, std::ostream& log) {
   if (o.light) {

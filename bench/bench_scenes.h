@@ -15,7 +15,7 @@
 #include "eval/method.h"
 #include "harness/harness.h"
 #include "raster/raster.h"
-#include "reference/epsilon.h"
+#include "eval/epsilon.h"
 #include "vk/context.h"
 
 namespace cs::bench {

@@ -24,7 +24,7 @@
 #include "eval/metrics.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
-#include "reference/epsilon.h"
+#include "eval/epsilon.h"
 #include "traversal/cone_method.h"
 #include "vk/context.h"
 

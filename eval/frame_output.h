@@ -25,7 +25,7 @@
 #include "eval/method.h"
 #include "eval/metrics.h"
 #include "raster/gbuffer.h"
-#include "reference/epsilon.h"
+#include "eval/epsilon.h"
 
 namespace cs {
 

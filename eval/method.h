@@ -22,7 +22,7 @@ struct FrameInput {
   const DeviceGBuffer* device = nullptr;     // the same samples, resident on the GPU (GPU methods)
   vk::Context* vk = nullptr;                 // null for CPU-only runs
   glm::vec3 light{0};
-  float epsilon = 0;                         // along-ray epsilon of the shared policy (reference/epsilon.h)
+  float epsilon = 0;                         // along-ray epsilon of the shared policy (eval/epsilon.h)
 };
 
 // What a stage is for, so reports can group stages without knowing the method: a rebuild of the

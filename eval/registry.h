@@ -36,6 +36,9 @@ struct MethodInfo {
   bool reference = false;
   // Runs on the Vulkan device (reports name the device); false: on the CPU.
   bool usesDevice = true;
+  // Claims the reference's answer on every lit sample outside the ambiguity band (at its default
+  // settings); the registry's contract test holds it to that on every view it runs.
+  bool exact = false;
   std::vector<SettingSpec> settings;
   // Parses every setting, throws UsageError naming the method and the setting. Runs before any work.
   std::function<void(const Settings&)> check;

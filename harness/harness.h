@@ -22,7 +22,7 @@
 #include "raster/gbuffer.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
-#include "reference/epsilon.h"
+#include "eval/epsilon.h"
 
 namespace cs {
 

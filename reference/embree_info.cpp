@@ -10,6 +10,7 @@ MethodInfo embreeMethodInfo() {
   m.name = "embree";
   m.summary = "Embree ray tracing on the CPU: the reference every method is judged against";
   m.reference = true;
+  m.exact = true;
   m.usesDevice = false;
   m.make = [](vk::Context*, const Settings&) -> std::unique_ptr<ShadowMethod> {
     return std::make_unique<EmbreeReference>();

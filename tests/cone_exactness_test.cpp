@@ -20,7 +20,7 @@
 #include "eval/metrics.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
-#include "reference/epsilon.h"
+#include "eval/epsilon.h"
 #include "tests/cone_test_support.h"
 #include "tests/test_context.h"
 #include "traversal/cone_method.h"
@@ -427,7 +427,7 @@ TEST(ConeHardCases, FarLightsFromTenToATenThousandThousandDiagonals) {
 }
 
 TEST(ConeHardCases, FarLightsUpToTheDocumentedLimitAndAClearErrorPastIt) {
-  // Up to 2^62 from the scene (reference/epsilon.h, kMaxLightDistance): exact outside the band, however
+  // Up to 2^62 from the scene (eval/epsilon.h, kMaxLightDistance): exact outside the band, however
   // wide the band grows; past it, the cone path refuses the frame instead of a silently lit mask.
   Scene scene = soup(floorAndCasters(), "far-light limit");
   const vec3 c = 0.5f * (scene.boundsMin + scene.boundsMax);

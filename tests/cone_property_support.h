@@ -10,7 +10,7 @@
 
 #include <glm/glm.hpp>
 
-#include "reference/epsilon.h"
+#include "eval/epsilon.h"
 #include "traversal/precise_test.h"
 
 namespace cs::test {

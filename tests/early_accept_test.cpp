@@ -18,7 +18,7 @@
 #include "eval/metrics.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
-#include "reference/epsilon.h"
+#include "eval/epsilon.h"
 #include "tests/cone_test_support.h"
 #include "tests/test_context.h"
 #include "traversal/cone_method.h"

@@ -13,7 +13,7 @@
 #include "core/scene.h"
 #include "raster/gbuffer.h"
 #include "reference/embree_reference.h"
-#include "reference/epsilon.h"
+#include "eval/epsilon.h"
 #include "reference/parallel.h"
 
 namespace cs {

@@ -14,7 +14,10 @@
 
 #include "app/commands.h"
 #include "eval/registry.h"
+#include "harness/harness.h"
 #include "raster/gbuffer.h"
+#include "raster/raster.h"
+#include "tests/test_context.h"
 
 namespace fs = std::filesystem;
 
@@ -176,6 +179,66 @@ TEST(Registry, AMethodRegisteredByATestRunsInRenderCompareAnimateAndScaling) {
   while ((at = scaling.find("| alllit |", at)) != std::string::npos) ++count, ++at;
   EXPECT_GE(count, 3u) << scaling;
   fs::remove_all(s);
+}
+
+}  // namespace
+}  // namespace cs
+
+namespace cs {
+namespace {
+
+// What every registered method owes, checked on every one of them without naming any: one visibility in
+// [0, 1] per pixel and 1 where the sample is not lit, stages with kinds and a work summary, the same mask
+// frame after frame, 0 misclassified outside the band when it claims to be exact; and its enumerated
+// settings refuse a value outside their choices, naming the method.
+TEST(Registry, EveryRegisteredMethodKeepsTheMethodContract) {
+  registerBuiltinMethods();
+  auto& ctx = test::context();
+  Scene scene = builtinScene();
+  Raster raster(ctx, scene);
+  for (const char* view : {"wall", "fur"}) {
+    FrameSpec spec;
+    spec.camera = *scene.findCamera(view);
+    spec.view = view;
+    spec.light = scene.lights.front().position;
+    spec.width = 40;
+    spec.height = 32;
+    spec.frames = 1;
+    std::unique_ptr<PreparedFrame> frame = prepareFrame(ctx, raster, scene, spec);
+    for (const MethodInfo& m : registeredMethods()) {
+      const std::string what = m.name + " on " + view;
+      Settings defaults(m.name);
+      if (m.check) {
+        EXPECT_NO_THROW(m.check(defaults)) << what;
+      }
+      const Judged j = judge(m, defaults, ctx, *frame, 2);
+      const MethodOutput& out = j.runs.output;
+      ASSERT_EQ(out.visibility.size(), frame->gbuffer.size()) << what;
+      for (size_t i = 0; i < out.visibility.size(); ++i) {
+        ASSERT_TRUE(out.visibility[i] >= 0.0f && out.visibility[i] <= 1.0f) << what << " pixel " << i;
+        if (!frame->gbuffer.isLit(i)) {
+          ASSERT_EQ(out.visibility[i], 1.0f) << what << ": pixel " << i << " is not lit";
+        }
+      }
+      EXPECT_FALSE(out.stages.empty()) << what;
+      EXPECT_FALSE(out.work.empty()) << what;
+      EXPECT_TRUE(j.runs.deterministic) << what;
+      EXPECT_EQ(j.error.litSamples, frame->litSamples) << what;
+      if (m.exact) {
+        EXPECT_EQ(j.error.misclassifiedOutsideBand, 0u) << what;
+      }
+    }
+  }
+  for (const MethodInfo& m : registeredMethods())
+    for (const SettingSpec& s : m.settings) {
+      if (s.choices.empty() || !m.check) continue;
+      try {
+        m.check(Settings(m.name).with(s.name, "no-such-choice"));
+        ADD_FAILURE() << m.name << " --" << s.name << " took a value outside its choices";
+      } catch (const UsageError& e) {
+        EXPECT_EQ(std::string(e.what()).rfind(m.name + ": --" + s.name, 0), 0u) << e.what();
+      }
+    }
 }
 
 }  // namespace

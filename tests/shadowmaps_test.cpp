@@ -16,7 +16,7 @@
 #include "eval/metrics.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
-#include "reference/epsilon.h"
+#include "eval/epsilon.h"
 #include "shadowmaps/cube_sm.h"
 #include "shadowmaps/depth_pass.h"
 #include "shadowmaps/rmsm.h"

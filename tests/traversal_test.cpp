@@ -14,7 +14,7 @@
 #include "harness/harness.h"
 
 #include "raster/raster.h"
-#include "reference/epsilon.h"
+#include "eval/epsilon.h"
 #include "tests/test_context.h"
 #include "traversal/cone_method.h"
 #include "traversal/precise_probe.comp.h"

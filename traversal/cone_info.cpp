@@ -49,6 +49,7 @@ MethodInfo coneMethodInfo() {
   MethodInfo m;
   m.name = kMethod;
   m.summary = "the cone hierarchy over the light buffer's rays (exact)";
+  m.exact = true;
   m.settings = {
       {"variant", "NAME", "paper 002 Table 1, applied before the switches (default PreciseSorted)", coneVariantNames()},
       {"test", "T", "the node test: precise or sphere", {"precise", "sphere"}},

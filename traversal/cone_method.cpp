@@ -9,7 +9,7 @@
 #include "conetree/conetree.h"
 #include "core/error.h"
 #include "raster/raster.h"
-#include "reference/epsilon.h"
+#include "eval/epsilon.h"
 #include "sort/rays.h"
 #include "traversal/frame_triangles.comp.h"
 #include "traversal/unfinished_rays.comp.h"
@@ -89,7 +89,7 @@ class ConeMethod : public ShadowMethod {
     double uploadMs = uploadTriangles(scene, frame.light);
     // A light too far for fp32 ray lengths would give a silently wrong mask: refuse it (epsilon.h).
     if (std::string why = lightRangeProblem(frame.light, boundsLo_, boundsHi_); !why.empty())
-      throw Error(why, "cone path", "the limit is reference/epsilon.h's kMaxLightDistance");
+      throw Error(why, "cone path", "the limit is eval/epsilon.h's kMaxLightDistance");
     if (!rays_ || raysWidth_ != g.width || raysHeight_ != g.height) {
       rays_.reset();
       rays_ = std::make_unique<sort::LitRays>(ctx_, g.width, g.height);
