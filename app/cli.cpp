@@ -91,6 +91,8 @@ void addFrameOptions(CLI::App& sub, Options& o, Raw& raw) {
       ->type_name("N")
       ->check(CLI::Range(1u, 1000u));
   sub.add_option("--device", o.device, "Vulkan device by index or name substring (see `coneshadow devices`)")->type_name("D");
+  sub.add_flag("--ground-plane", o.groundPlane,
+               "add a receiver under the scene's bounds (normal +y), so a single model's shadow has somewhere to fall");
   sub.add_flag("--validation", o.validation, "enable VK_LAYER_KHRONOS_validation (slow; for debugging)");
   sub.add_flag("--quiet", o.quiet, "print only errors and the final summary line");
   sub.add_option("--methods", raw.methods, "shadow methods A,B,... (see `coneshadow help`)")->type_name("A,B");
@@ -170,9 +172,11 @@ std::string usageText() {
          "  coneshadow help [COMMAND]             this text, or a command's options (also COMMAND --help)\n"
          "  coneshadow --version\n"
          "\n"
-         "SCENE is a glTF 2.0 file (.gltf or .glb) or a BART scene (.aff, with the files it includes; e.g. the\n"
-         "museum, robots and kitchen of the BART benchmark). Without SCENE the built-in scene is used (a lit\n"
+         "SCENE is a glTF 2.0 file (.gltf or .glb; point lights from KHR_lights_punctual), a BART scene (.aff, with\n"
+         "the files it includes; e.g. the museum, robots and kitchen of the BART benchmark), or any other format\n"
+         "assimp reads (.obj, .ply, .stl, .fbx, .dae, .3ds, ...). Without SCENE the built-in scene is used (a lit\n"
          "room with clutter and a furball; views: wall, fur, room, ceiling); `info builtin` describes it.\n"
+         "A single model has nothing to cast its shadow on: --ground-plane adds a floor under it.\n"
          "\n"
          "methods (--methods A,B; each method's settings are listed in `coneshadow render --help`):\n" +
          methodsText() +
@@ -217,6 +221,7 @@ Options parseArgs(int argc, char** argv) {
   registerBuiltinMethods();
   Options o;
   Raw raw;
+  for (int i = 0; i < argc; ++i) o.commandLine += (i ? " " : "") + std::string(argv[i]);
   if (argc < 2) throw UsageError("no command given (try: coneshadow help)");
 
   CLI::App app{"coneshadow — alias-free hard shadows from point lights", "coneshadow"};
@@ -236,7 +241,9 @@ Options parseArgs(int argc, char** argv) {
 
   for (CLI::App* sub : {render, compare}) {
     sub->allow_extras();
-    sub->add_option("scene", o.scene, "a .gltf/.glb or BART .aff file (default: the built-in scene)");
+    sub->add_option("scene", o.scene,
+                    "a glTF 2.0 (.gltf/.glb), BART (.aff) or other 3-D file assimp reads (.obj, .ply, .stl, .fbx, .dae, "
+                    "...); default: the built-in scene");
     addFrameOptions(*sub, o, raw);
     addMethodSettings(*sub, o);
   }
@@ -267,7 +274,7 @@ Options parseArgs(int argc, char** argv) {
   compare->footer("writes into --out DIR (default compare, 256x256): results.json, results.csv, per-setting images,\n"
                   "<view>_closeups.png, report.md, report.html, speed_vs_error.svg/.png");
 
-  info->add_option("scene", o.scene, "a .gltf/.glb or BART .aff file, or builtin");
+  info->add_option("scene", o.scene, "a .gltf/.glb, .aff or other file assimp reads, or builtin");
   table->add_option("folders", o.folders, "folders written by coneshadow compare");
   (void)devices;
 

@@ -23,6 +23,8 @@ struct Options {
   std::string command;               // info | render | compare | results-table | devices | help | version
   std::string text;                  // help and version: what to print
   std::string scene;                 // empty = built-in scene
+  bool groundPlane = false;          // --ground-plane: a receiver under the scene's bounds
+  std::string commandLine;           // the arguments as given, for the results' provenance
   std::vector<std::string> methods;  // registry names; render: embree when none given; compare: all when none
   uint32_t width = 512, height = 512;
   std::string view;                  // render: camera name; empty = scene's first camera

@@ -44,15 +44,17 @@ bool isAffFile(const std::string& path) {
 
 Scene loadSceneArg(const Options& o, std::ostream& log) {
   const std::string& arg = o.scene;
+  Scene scene;
   if (arg.empty() || arg == "builtin") {
     if (o.sceneTime) throw UsageError("--time places a BART (.aff) scene in time; the built-in scene has no time");
-    return builtinScene();
+    scene = builtinScene();
+  } else {
+    if (!fs::exists(arg))
+      throw Error("no such file", arg, "give a scene file (.gltf/.glb, .aff, .obj, .ply, ...), or omit SCENE for the built-in scene");
+    scene = loadSceneFile(arg, log, o.sceneTime);
   }
-  if (!fs::exists(arg))
-    throw Error("no such file", arg, "give a .gltf/.glb or BART .aff path, or omit SCENE for the built-in scene");
-  if (isAffFile(arg)) return loadAff(arg, log, o.sceneTime);
-  if (o.sceneTime) throw UsageError("--time places a BART (.aff) scene in time; " + arg + " is glTF (use compare --animate)");
-  return loadGltf(arg, log);
+  if (o.groundPlane) addGroundPlane(scene);
+  return scene;
 }
 
 int runDevices(const Options&) {
@@ -131,6 +133,7 @@ int runRender(const Options& o) {
 
   std::vector<FrameResult> results;
   std::map<std::string, std::vector<float>> visibility;
+  const nlohmann::json provenance = runProvenance(o, scene, spec.light, spec.camera);
   log << "[5/5] methods" << std::endl;
   for (const MethodInfo* m : rows) {
     FrameProgress progress = [&](uint32_t f, uint32_t n) {
@@ -141,6 +144,7 @@ int runRender(const Options& o) {
     if (!m->reference)
       log << "  " << m->name << ": " << j.runs.medianMs << " ms (" << stageText(j.runs.output) << ")\n";
     FrameResult r = resultRow(*m, m->name, *frame, j);
+    r.provenance = provenance;
     visibility[m->name] = std::move(j.runs.output.visibility);
     results.push_back(std::move(r));
   }

@@ -305,6 +305,7 @@ int runCompare(const Options& o) {
         },
         progress(referenceName + " (reference)"));
     const std::vector<float>& reference = frame->reference.output.visibility;
+    const nlohmann::json provenance = runProvenance(o, scene, light, spec.camera);
 
     Closeup closeup;
     closeup.view = view;
@@ -322,6 +323,7 @@ int runCompare(const Options& o) {
       row.setting = s.label;
       row.stem = stem;
       row.result = resultRow(*s.method, s.label, *frame, j);
+      row.result.provenance = provenance;
       row.msMin = j.runs.minMs;
       row.msMax = j.runs.maxMs;
       writeFrameImages(out.path(), stem + "_" + s.label, frame->gbuffer, j.runs.output.visibility, reference, frame->band);

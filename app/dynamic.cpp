@@ -2,6 +2,7 @@
 #include "app/dynamic.h"
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -9,6 +10,7 @@
 #include <iostream>
 #include <map>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -51,9 +53,14 @@ struct Motion {
   double start = 0, end = 0;
   std::unique_ptr<AnimatedScene> gltf;
   std::unique_ptr<AffAnimation> aff;
+  std::optional<glm::vec3> planeLo, planeHi;  // a BART scene's ground plane, from its start pose
   void pose(double t, Scene& scene) const {
-    if (gltf) gltf->pose(t, scene);
-    else if (aff) scene = aff->sceneAt(t);
+    if (gltf) {
+      gltf->pose(t, scene);
+    } else if (aff) {
+      scene = aff->sceneAt(t);
+      if (planeLo) addGroundPlane(scene, *planeLo, *planeHi);
+    }
   }
   double frameTime(uint32_t k, uint32_t n) const {
     if (gltf) return gltf->frameTime(k, n);
@@ -61,16 +68,27 @@ struct Motion {
   }
 };
 
-Motion loadMotion(const std::string& path) {
+Motion loadMotion(const Options& o) {
+  const std::string& path = o.scene;
   Motion m;
   if (path.empty() || path == "builtin") {
     m.gltf = std::make_unique<AnimatedScene>(builtinAnimatedScene());
   } else {
     if (!fs::exists(path))
-      throw Error("no such file", path, "give a .gltf/.glb or BART .aff path, or omit SCENE for the built-in scene");
-    if (isAffFile(path)) m.aff = std::make_unique<AffAnimation>(path, std::cerr);
-    else m.gltf = std::make_unique<AnimatedScene>(loadAnimatedGltf(path, std::cerr));
+      throw Error("no such file", path, "give a scene file (.gltf/.glb, .aff, .obj, .ply, ...), or omit SCENE for the built-in scene");
+    std::string ext = fs::path(path).extension().string();
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (isAffFile(path)) {
+      m.aff = std::make_unique<AffAnimation>(path, std::cerr);
+    } else if (ext == ".gltf" || ext == ".glb") {
+      m.gltf = std::make_unique<AnimatedScene>(loadAnimatedGltf(path, std::cerr));
+    } else {
+      m.gltf = std::make_unique<AnimatedScene>();  // a format without animation: the static scene
+      m.gltf->rest = loadSceneFile(path, std::cerr);
+    }
   }
+  // The ground plane of the rest pose, the same in every frame (it lies outside every animated range).
+  if (o.groundPlane && m.gltf) addGroundPlane(m.gltf->rest);
   if (m.gltf) {
     m.rest = m.gltf->rest;
     m.animated = m.gltf->animated();
@@ -79,9 +97,17 @@ Motion loadMotion(const std::string& path) {
     m.end = m.gltf->end;
   } else {
     m.rest = m.aff->sceneAt(m.aff->start());
+    if (o.groundPlane) {
+      m.planeLo = m.rest.boundsMin, m.planeHi = m.rest.boundsMax;
+      addGroundPlane(m.rest);
+    }
     m.animated = m.aff->animated();
     m.start = m.aff->start();
     m.end = m.aff->end();
+  }
+  if (!path.empty() && path != "builtin") {
+    m.rest.sourcePath = path;
+    m.rest.sourceHash = fileHash(path);
   }
   return m;
 }
@@ -198,7 +224,7 @@ int runDynamicCompare(const Options& o) {
   const uint32_t n = o.animateFrames;
 
   if (o.sceneTime) throw UsageError("--time places a static scene; compare --animate plays the whole animation");
-  Motion anim = loadMotion(o.scene);
+  Motion anim = loadMotion(o);
   const bool animated = anim.animated;
   if (!animated && !o.movingCamera)
     throw UsageError("scene " + anim.rest.name +
@@ -236,6 +262,7 @@ int runDynamicCompare(const Options& o) {
     vl.view = camera.name.empty() ? "auto" : camera.name;
     const std::string tag = "[view " + std::to_string(vi + 1) + "/" + std::to_string(cameras.size()) + "] " + vl.view;
     EmbreeReference reference;
+    const nlohmann::json provenance = runProvenance(o, rest, light, camera);
     for (Track& t : tracks[vi])
       if (!t.info->reference) t.object = t.info->make(t.info->usesDevice ? ctx.get() : nullptr, t.settings);
 
@@ -299,6 +326,7 @@ int runDynamicCompare(const Options& o) {
         st["geometry_upload_ms"] = uploadMs;
         st["lit_samples"] = lit;
         st["band_samples"] = err.bandSamples;
+        r.provenance = provenance;
         if (!mo.work.empty()) st["work"] = mo.work;
         t.frames.push_back(std::move(r));
         line << " " << t.label << " " << num(mo.totalMs, 1) << " ms (" << err.misclassifiedOutsideBand << " outside band)";

@@ -2,6 +2,7 @@
 // (Frames are prepared and methods judged by the frame harness, harness/harness.h.)
 #pragma once
 #include <algorithm>
+#include <ctime>
 #include <cmath>
 #include <filesystem>
 #include <functional>
@@ -18,6 +19,7 @@
 #include "core/error.h"
 #include "app/cli.h"
 #include "core/scene.h"
+#include "eval/frame_output.h"
 #include "eval/method.h"
 #include "harness/harness.h"
 #include "eval/epsilon.h"
@@ -107,10 +109,37 @@ inline glm::vec3 chooseLight(const Scene& scene, const Options& o, std::ostream&
                   "give a closer one with --light X,Y,Z");
     return l;
   }
+  if (!scene.unusableLights.empty())
+    throw Error("the scene's light " + scene.unusableLights.front() + " is not a point light; the methods shadow point lights",
+                "scene " + scene.name, "give one with --light X,Y,Z");
   glm::vec3 light = automaticLight(scene).position;
   log << "  no point light in the scene: using an automatic one at " << light.x << "," << light.y << ","
       << light.z << "\n";
   return light;
+}
+
+// Where a results row comes from (docs/RESULTS.md): the schema, the tool and its revision, the command
+// line, the time (UTC), the scene file and its hash, the light and the camera.
+inline nlohmann::json runProvenance(const Options& o, const Scene& scene, glm::vec3 light, const Camera& camera) {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char when[32];
+  std::strftime(when, sizeof when, "%Y-%m-%dT%H:%M:%SZ", &utc);
+  auto v3 = [](glm::vec3 v) { return nlohmann::json::array({v.x, v.y, v.z}); };
+  return {{"schema_version", kResultsSchemaVersion},
+          {"tool", versionText()},
+          {"command_line", o.commandLine},
+          {"time", when},
+          {"scene_path", scene.sourcePath.empty() ? std::string("builtin") : scene.sourcePath},
+          {"scene_hash", scene.sourceHash},
+          {"scene_time", o.sceneTime ? nlohmann::json(*o.sceneTime) : nlohmann::json()},
+          {"ground_plane", o.groundPlane},
+          {"triangles", scene.triangleCount()},
+          {"light", v3(light)},
+          {"camera",
+           {{"name", camera.name}, {"eye", v3(camera.eye)}, {"target", v3(camera.target)}, {"up", v3(camera.up)},
+            {"yfov", camera.yfov}}}};
 }
 
 // The views a compare run covers: --views by name, else every camera of the scene, else an automatic one.

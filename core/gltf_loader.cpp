@@ -437,7 +437,7 @@ tinygltf::Model parseFile(const std::string& path, std::ostream& warn) {
     return e;
   }();
   if (ext != ".gltf" && ext != ".glb")
-    throw Error("unknown file type '" + ext + "'", path, "coneshadow reads .gltf and .glb files");
+    throw Error("unknown file type '" + ext + "'", path, "the glTF loader reads .gltf and .glb files");
   const bool binary = ext == ".glb";
 
   const std::vector<unsigned char> bytes = readFile(path);
@@ -448,6 +448,17 @@ tinygltf::Model parseFile(const std::string& path, std::ostream& warn) {
     j = json::parse(text);
   } catch (const json::exception& e) {
     throw Error("not valid JSON: " + oneLine(e.what()), path, kMalformed);
+  }
+  // The version first: a glTF 1.0 file differs in structure, and would otherwise read as malformed.
+  if (j.is_object() && j.contains("asset") && j["asset"].is_object() && j["asset"].contains("version") &&
+      j["asset"]["version"].is_string()) {
+    const std::string version = j["asset"]["version"].get<std::string>();
+    if (version.rfind("1.", 0) == 0 || version == "1")
+      throw Error("this is a glTF " + version + " file; coneshadow reads glTF 2.0", path,
+                  "convert it, e.g. `assimp export in.gltf out.glb`");
+    if (version.rfind("2.", 0) != 0)
+      throw Error("glTF version '" + version + "' is not one coneshadow knows (it reads 2.x)", path,
+                  "re-export it as glTF 2.0");
   }
   SchemaCheck(path).root(j);
   if (const auto it = j.find("extensionsRequired"); it != j.end())

@@ -1,8 +1,14 @@
-// Scene helpers: bounds, camera lookup, and the automatic camera and light for scenes carrying none.
+// Scene helpers: bounds, camera lookup, the automatic camera and light for scenes carrying none, loading
+// a file by its extension, and the ground plane.
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <limits>
 
+#include "core/error.h"
 #include "core/scene.h"
 
 namespace cs {
@@ -64,6 +70,65 @@ PointLight automaticLight(const Scene& scene) {
   l.name = "auto";
   l.position = glm::vec3(centre.x + 0.2f * extent.x, scene.boundsMax.y + diagonal / 3, centre.z + 0.15f * extent.z);
   return l;
+}
+
+}  // namespace cs
+
+namespace cs {
+
+std::string fileHash(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error("cannot read the file", path, "check the path and permissions");
+  uint64_t h = 1469598103934665603ull;
+  char buf[1 << 16];
+  while (in) {
+    in.read(buf, sizeof buf);
+    for (std::streamsize i = 0; i < in.gcount(); ++i) {
+      h ^= static_cast<unsigned char>(buf[i]);
+      h *= 1099511628211ull;
+    }
+  }
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
+  return hex;
+}
+
+Scene loadSceneFile(const std::string& path, std::ostream& warn, std::optional<double> time) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  Scene scene;
+  if (ext == ".aff") {
+    scene = loadAff(path, warn, time);
+  } else if (time) {
+    throw UsageError("--time places a BART (.aff) scene in time; " + path + " is not one (use compare --animate)");
+  } else if (ext == ".gltf" || ext == ".glb") {
+    scene = loadGltf(path, warn);
+  } else if (assimpReads(path)) {
+    scene = loadAssimp(path, warn);
+  } else {
+    throw Error("unknown file type '" + ext + "'", path,
+                "coneshadow reads glTF 2.0 (.gltf, .glb), BART (.aff) and, through assimp, " + assimpFormats());
+  }
+  scene.sourcePath = path;
+  scene.sourceHash = fileHash(path);
+  return scene;
+}
+
+void addGroundPlane(Scene& scene) { addGroundPlane(scene, scene.boundsMin, scene.boundsMax); }
+
+void addGroundPlane(Scene& scene, glm::vec3 lo, glm::vec3 hi) {
+  const glm::vec3 centre = 0.5f * (lo + hi);
+  const float diagonal = glm::length(hi - lo);
+  const float d = diagonal > 0 && std::isfinite(diagonal) ? diagonal : 1.0f;
+  const float y = lo.y - 1e-3f * d;
+  const uint32_t b = uint32_t(scene.positions.size());
+  scene.positions.insert(scene.positions.end(), {{centre.x - d, y, centre.z - d},
+                                                 {centre.x - d, y, centre.z + d},
+                                                 {centre.x + d, y, centre.z + d},
+                                                 {centre.x + d, y, centre.z - d}});
+  scene.normals.insert(scene.normals.end(), 4, glm::vec3(0, 1, 0));
+  scene.indices.insert(scene.indices.end(), {b, b + 1, b + 2, b, b + 2, b + 3});  // counter-clockwise seen from +y
+  scene.computeBounds();
 }
 
 }  // namespace cs

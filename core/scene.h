@@ -38,6 +38,9 @@ struct Scene {
   std::vector<Camera> cameras;      // in file order (glTF: nodes that carry a camera, traversal order)
   std::vector<PointLight> lights;   // point lights only, world-space positions
   glm::vec3 boundsMin{0}, boundsMax{0};
+  std::string sourcePath;           // the file it was loaded from ("" for the built-in scene)
+  std::string sourceHash;           // FNV-1a 64 of that file's bytes, hex (the main file of a BART scene)
+  std::vector<std::string> unusableLights;  // lights the file has but no method can shadow ("sun (directional)")
 
   size_t triangleCount() const { return indices.size() / 3; }
   float diagonal() const { return glm::length(boundsMax - boundsMin); }
@@ -82,6 +85,29 @@ class AffAnimation {
   struct Data;
   std::unique_ptr<Data> d_;
 };
+
+// Every other format assimp reads (OBJ, PLY, STL, FBX, Collada, 3DS, ...), by the glTF path's rules:
+// finite positions, indices in range, at least one triangle, else one cs::Error naming the file. Point
+// lights as they are, spot lights as point lights (with a warning), directional lights in unusableLights.
+Scene loadAssimp(const std::string& path, std::ostream& warn);
+// True when the extension is one assimp reads and the glTF/BART loaders do not take.
+bool assimpReads(const std::string& path);
+// Assimp's extensions besides glTF, space-separated (".obj .ply .stl ...").
+std::string assimpFormats();
+
+// A scene file by its extension: .gltf/.glb (tinygltf), .aff (BART, at `time` or its start), any other
+// format assimp reads; an unknown extension is a cs::Error listing what is read. Fills sourcePath and
+// sourceHash.
+Scene loadSceneFile(const std::string& path, std::ostream& warn, std::optional<double> time = std::nullopt);
+// FNV-1a 64 of a file's bytes, 16 hex digits; cs::Error when it cannot be read.
+std::string fileHash(const std::string& path);
+
+// A receiver under a scene that has none (a single model): one square of two triangles, normal +y, just
+// below the bounds' lowest y (by 1e-3 of the diagonal), the diagonal wide on each side of the centre, so
+// the model's shadow from a light above has somewhere to fall. Bounds are recomputed. The second form
+// places it for the bounds lo..hi (a moving scene keeps the plane of its rest pose).
+void addGroundPlane(Scene& scene);
+void addGroundPlane(Scene& scene, glm::vec3 lo, glm::vec3 hi);
 
 // The built-in scene (needs no file): an enclosed room lit by a point light inside it, large wall and
 // floor triangles grazing the light, a clutter of small meshes and a furball of thin hair-like strips.

@@ -234,7 +234,8 @@ nlohmann::json toJson(const FrameResult& r) {
           {"width", r.width},       {"height", r.height}, {"device", r.device},
           {"total_ms", r.totalMs},  {"bytes", r.bytes},   {"peak_bytes", r.peakBytes},
           {"stages", stages},       {"stats", r.stats.is_null() ? nlohmann::json::object() : r.stats},
-          {"error", toJson(r.error)}};
+          {"error", toJson(r.error)},
+          {"provenance", r.provenance.is_null() ? nlohmann::json::object() : r.provenance}};
 }
 
 nlohmann::json resultsJson(const std::vector<FrameResult>& results) {
@@ -254,6 +255,7 @@ std::string resultsCsv(const std::vector<FrameResult>& results) {
     flatten(j.at("stages"), "stages", cells);
     flatten(j.at("error"), "error", cells);
     flatten(j.at("stats"), "stats", cells);
+    flatten(j.at("provenance"), "provenance", cells);
     rows.push_back(std::move(cells));
   }
   // Columns: union over rows in first-seen order (leading, stages, error, stats for the first row, then

@@ -72,14 +72,20 @@ struct FrameResult {
   uint64_t peakBytes = 0;
   nlohmann::json stats = nlohmann::json::object();
   ErrorStats error;
+  // Where the row comes from (docs/RESULTS.md): schema_version, tool, command_line, time, scene_path,
+  // scene_hash, light, camera; empty: not written.
+  nlohmann::json provenance = nlohmann::json::object();
 };
+
+// The results files' schema version (docs/RESULTS.md); bumped whenever a field changes meaning.
+inline constexpr int kResultsSchemaVersion = 2;
 
 FrameResult makeFrameResult(const std::string& scene, const std::string& view, const std::string& method,
                             const GBuffer& gbuffer, const std::string& device, const MethodOutput& output,
                             const ErrorStats& error);
 
 // {"scene", "view", "method", "width", "height", "device", "total_ms", "bytes", "peak_bytes",
-//  "stages": [{"name", "ms"}...], "stats": {...}, "error": toJson(ErrorStats)}
+//  "stages": [{"name", "ms", "kind"}...], "stats": {...}, "error": toJson(ErrorStats), "provenance": {...}}
 nlohmann::json toJson(const FrameResult& result);
 nlohmann::json resultsJson(const std::vector<FrameResult>& results);  // array of toJson rows
 // Header row, then one row per result. Columns: the scalar fields, then "stage.<name>.ms" (first-seen

@@ -255,3 +255,82 @@ TEST(Cli, UnwritableOutputIsAClearFailure) {
 }
 
 }  // namespace
+
+namespace {
+
+const std::string kAssimpModels = "/usr/share/assimp/models";
+
+// A user's own scene in another format: OBJ, PLY and STL through assimp, with a floor under the model
+// (--ground-plane) so there is a shadow to judge; the cone path exact, the provenance naming the file.
+TEST(Cli, UserScenesInObjPlyAndStlLoadAndRender) {
+  for (const char* rel : {"/OBJ/spider.obj", "/PLY/cube.ply", "/STL/Spider_binary.stl"}) {
+    const std::string file = kAssimpModels + rel;
+    if (!fs::exists(file)) GTEST_SKIP() << "no assimp test models at " << kAssimpModels;
+    fs::path out = tempDir("user_scene");
+    CliRun r = cli("render " + file + " --ground-plane --methods cone --width 40 --height 32 --frames 1 --quiet --out " +
+                   out.string());
+    ASSERT_EQ(r.code, 0) << file << "\n" << r.out;
+    std::ifstream js(out / "results.json");
+    auto j = nlohmann::json::parse(js);
+    ASSERT_EQ(j.size(), 2u) << file;
+    EXPECT_EQ(j[1]["error"]["misclassified_outside_band"], 0) << file;
+    EXPECT_GT(j[1]["error"]["lit_samples"].get<uint64_t>(), 0u) << file;
+    EXPECT_GT(j[0]["error"]["lit_samples"].get<uint64_t>() - j[0]["error"]["false_light"].get<uint64_t>(), 0u);
+    const auto& p = j[1]["provenance"];
+    EXPECT_EQ(p["scene_path"], file);
+    EXPECT_EQ(p["scene_hash"].get<std::string>().size(), 16u);
+    EXPECT_EQ(p["ground_plane"], true);
+    EXPECT_GT(p["triangles"].get<uint64_t>(), 2u) << "the model's triangles and the floor's two";
+    EXPECT_EQ(p["schema_version"], 2);
+    EXPECT_NE(p["tool"].get<std::string>().find("coneshadow "), std::string::npos);
+    EXPECT_NE(p["command_line"].get<std::string>().find("--ground-plane"), std::string::npos);
+    fs::remove_all(out);
+  }
+  CliRun info = cli("info " + kAssimpModels + "/PLY/cube.ply");
+  EXPECT_EQ(info.code, 0) << info.out;
+  EXPECT_NE(info.out.find("triangles: 12"), std::string::npos) << info.out;
+}
+
+// Bad user scenes: one line each naming the file, exit 1, nothing written.
+TEST(Cli, BadUserScenesAreOneLineEachAndWriteNothing) {
+  const fs::path dir = tempDir("bad_scenes");
+  fs::create_directories(dir);
+  auto write = [&](const std::string& name, const std::string& text) {
+    std::ofstream(dir / name) << text;
+    return (dir / name).string();
+  };
+  struct Case {
+    std::string file, says;
+  };
+  const std::vector<Case> cases = {
+      {write("garbage.ply", "ply\nformat nonsense\nthis is not a PLY file\n"), "garbage.ply"},
+      {write("points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\np 1 2 3\n"), "no triangles"},
+      {write("scene.xyz", "hello"), "unknown file type '.xyz'"},
+      {write("old.gltf", R"({"asset": {"version": "1.0"}, "meshes": {}})"), "glTF 1.0"},
+      {write("future.gltf", R"({"asset": {"version": "3.0"}})"), "glTF version '3.0'"},
+  };
+  for (const Case& c : cases) {
+    fs::path out = tempDir("bad_out");
+    CliRun r = cli("render " + c.file + " --frames 1 --out " + out.string());
+    EXPECT_EQ(r.code, 1) << c.file << "\n" << r.out;
+    EXPECT_NE(r.out.find(c.says), std::string::npos) << c.file << "\n" << r.out;
+    EXPECT_NE(r.out.find("coneshadow: error: "), std::string::npos) << r.out;
+    EXPECT_FALSE(fs::exists(out)) << c.file;
+  }
+  // A file whose only light is directional: refused with the way out, and fine with --light.
+  const std::string duck = kAssimpModels + "/Collada/duck.dae";
+  if (fs::exists(duck)) {
+    fs::path out = tempDir("duck");
+    CliRun r = cli("render " + duck + " --width 16 --height 16 --frames 1 --out " + out.string());
+    EXPECT_EQ(r.code, 1) << r.out;
+    EXPECT_NE(r.out.find("directional"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("--light"), std::string::npos) << r.out;
+    EXPECT_FALSE(fs::exists(out));
+    r = cli("render " + duck + " --light 0,400,0 --width 16 --height 16 --frames 1 --quiet --out " + out.string());
+    EXPECT_EQ(r.code, 0) << r.out;
+    fs::remove_all(out);
+  }
+  fs::remove_all(dir);
+}
+
+}  // namespace

@@ -94,7 +94,7 @@ std::map<std::string, nlohmann::json> flatRow(const nlohmann::json& row) {
     const std::string& k = it.key();
     if (k == "stages") {
       for (auto& s : it.value()) out["stage." + s.at("name").get<std::string>() + ".ms"] = s.at("ms");
-    } else if (k == "error" || k == "stats") {
+    } else if (k == "error" || k == "stats" || k == "provenance") {
       flattenJson(it.value(), k, out);
     } else {
       out[k] = it.value();
