@@ -104,10 +104,11 @@ int runRender(const Options& o) {
     spec.camera = scene.cameras.front();
   } else {
     spec.camera = automaticCamera(scene);
-    log << "  no camera in the scene: using an automatic one (eye " << vec3Text(spec.camera.eye) << ")\n";
+    std::cerr << "coneshadow: warning: no camera in the scene: using an automatic one (eye " << vec3Text(spec.camera.eye)
+              << ")\n";
   }
   spec.view = spec.camera.name.empty() ? "auto" : spec.camera.name;
-  spec.light = chooseLight(scene, o, log);
+  spec.light = chooseLight(scene, o);
   spec.width = o.width;
   spec.height = o.height;
   spec.frames = o.frames;

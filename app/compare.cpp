@@ -2,6 +2,7 @@
 #include "app/compare.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
@@ -249,6 +250,25 @@ std::string speedVsErrorSvg(const std::vector<Row>& rows) {
   return logPlotSvg({panel});
 }
 
+// Steps done of a known total, and the time left at the mean step so far.
+class Eta {
+ public:
+  explicit Eta(size_t total) : total_(total), start_(std::chrono::steady_clock::now()) {}
+  void step() { ++done_; }
+  // " (step k of N, about T left)", or "" before the first step is done.
+  std::string text() const {
+    if (done_ == 0 || done_ >= total_) return "";
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    const double left = elapsed / double(done_) * double(total_ - done_);
+    const std::string t = left < 90 ? std::to_string(int(std::ceil(left))) + " s" : std::to_string(int(std::ceil(left / 60))) + " min";
+    return " (step " + std::to_string(done_ + 1) + " of " + std::to_string(total_) + ", about " + t + " left)";
+  }
+
+ private:
+  size_t total_, done_ = 0;
+  std::chrono::steady_clock::time_point start_;
+};
+
 }  // namespace
 
 int runCompare(const Options& o) {
@@ -261,7 +281,7 @@ int runCompare(const Options& o) {
 
   Scene scene = loadSceneArg(o, std::cerr);
   std::vector<Camera> cameras = selectViews(scene, o);
-  glm::vec3 light = chooseLight(scene, o, log);
+  glm::vec3 light = chooseLight(scene, o);
   log << "scene " << scene.name << ": " << scene.triangleCount() << " triangles, " << cameras.size() << " view(s), "
       << settings.size() << " method setting(s), " << o.width << "x" << o.height << std::endl;
 
@@ -274,6 +294,7 @@ int runCompare(const Options& o) {
   std::vector<Closeup> closeups;
   std::vector<std::string> stems;
   Raster raster(*ctx, scene);
+  Eta eta(cameras.size() * (settings.size() + 1));  // per view: the reference, then each setting
   for (size_t vi = 0; vi < cameras.size(); ++vi) {
     FrameSpec spec;
     spec.camera = cameras[vi];
@@ -291,9 +312,10 @@ int runCompare(const Options& o) {
     stems.push_back(stem);
     std::string tag = "[view " + std::to_string(vi + 1) + "/" + std::to_string(cameras.size()) + "] " + view + ": ";
 
+    // Progress: the step, and from the second step on the estimated time left (the mean step so far).
     auto progress = [&](const std::string& label) {
-      return [&log, tag, label](uint32_t f, uint32_t n) {
-        if (f == 0) log << tag << label << " warm-up" << std::endl;
+      return [&log, &eta, tag, label](uint32_t f, uint32_t n) {
+        if (f == 0) log << tag << label << " warm-up" << eta.text() << std::endl;
         else log << tag << label << " frame " << f << "/" << n << std::endl;
       };
     };
@@ -304,6 +326,7 @@ int runCompare(const Options& o) {
           if (step != "reference") log << tag << (step == "band" ? "ambiguity band" : step) << std::endl;
         },
         progress(referenceName + " (reference)"));
+    eta.step();
     const std::vector<float>& reference = frame->reference.output.visibility;
     const nlohmann::json provenance = runProvenance(o, scene, light, spec.camera);
 
@@ -318,6 +341,7 @@ int runCompare(const Options& o) {
     show(referenceName, reference);
     for (const CompareSetting& s : settings) {
       Judged j = judge(*s.method, s.settings, *ctx, *frame, o.frames, progress(s.label));
+      eta.step();
       if (!s.method->reference) show(s.label, j.runs.output.visibility);
       Row row;
       row.setting = s.label;

@@ -241,7 +241,7 @@ int runDynamicCompare(const Options& o) {
 
   const Scene& rest = anim.rest;
   std::vector<Camera> cameras = selectViews(rest, o);
-  const glm::vec3 light = chooseLight(rest, o, log);
+  const glm::vec3 light = chooseLight(rest, o);
   std::vector<std::vector<Track>> tracks;
   for (size_t v = 0; v < cameras.size(); ++v) tracks.push_back(makeTracks(o, !animated));
   log << "scene " << rest.name << ": " << rest.triangleCount() << " triangles, " << cameras.size() << " view(s), "

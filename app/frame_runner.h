@@ -93,10 +93,11 @@ inline std::string stageText(const MethodOutput& out) {
   return os.str();
 }
 
-// The frame's light: --light, else the scene's first point light, else an automatic one (said in one line).
+// The frame's light: --light, else the scene's first point light, else an automatic one (a warning on
+// stderr, shown under --quiet too).
 // A light too far from the scene for fp32 ray lengths (eval/epsilon.h) is refused here, before any
 // work: a usage error for --light, a data error for the scene's own light.
-inline glm::vec3 chooseLight(const Scene& scene, const Options& o, std::ostream& log) {
+inline glm::vec3 chooseLight(const Scene& scene, const Options& o) {
   if (o.light) {
     if (std::string why = lightRangeProblem(*o.light, scene.boundsMin, scene.boundsMax); !why.empty())
       throw UsageError("--light: " + why);
@@ -113,8 +114,8 @@ inline glm::vec3 chooseLight(const Scene& scene, const Options& o, std::ostream&
     throw Error("the scene's light " + scene.unusableLights.front() + " is not a point light; the methods shadow point lights",
                 "scene " + scene.name, "give one with --light X,Y,Z");
   glm::vec3 light = automaticLight(scene).position;
-  log << "  no point light in the scene: using an automatic one at " << light.x << "," << light.y << ","
-      << light.z << "\n";
+  std::cerr << "coneshadow: warning: no point light in the scene: using an automatic one at " << light.x << ","
+            << light.y << "," << light.z << " (give one with --light X,Y,Z)\n";
   return light;
 }
 

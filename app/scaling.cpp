@@ -255,7 +255,7 @@ int runScaling(const Options& base) {
   if (viewOptions.views.empty() && !o.view.empty()) viewOptions.views = {o.view};
   const Camera camera = selectViews(scene, viewOptions).front();  // the first of --views, else the first camera
   const std::string view = camera.name.empty() ? "auto" : camera.name;
-  const glm::vec3 light = chooseLight(scene, o, log);
+  const glm::vec3 light = chooseLight(scene, o);
   const bool distances = !o.lightDistances.empty();
   // The light sweep's direction: from the scene's centre through the chosen light.
   const glm::vec3 centre = 0.5f * (scene.boundsMin + scene.boundsMax);

@@ -1,4 +1,4 @@
-// Persistent thread pool with dynamic chunking (atomic counter) for the Embree reference.
+// The CPU reference's threads on a TBB task arena: see parallel.h.
 #include "reference/parallel.h"
 
 #include <pmmintrin.h>
@@ -6,89 +6,70 @@
 
 #include <algorithm>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+#include <tbb/task_scheduler_observer.h>
+
 namespace cs {
 
 namespace {
-void setFlushToZero() {
-  _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
-  _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
-}
+
+// FTZ/DAZ on for whatever runs inside the scope, the thread's own mode back after it.
+class FlushToZero {
+ public:
+  FlushToZero() : saved_(_mm_getcsr()) {
+    _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
+    _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
+  }
+  ~FlushToZero() { _mm_setcsr(saved_); }
+  FlushToZero(const FlushToZero&) = delete;
+  FlushToZero& operator=(const FlushToZero&) = delete;
+
+ private:
+  unsigned saved_;
+};
+
+// Sets FTZ/DAZ on every worker that enters the arena (a worker thread's mode is its own).
+class FlushToZeroObserver : public tbb::task_scheduler_observer {
+ public:
+  explicit FlushToZeroObserver(tbb::task_arena& arena) : tbb::task_scheduler_observer(arena) { observe(true); }
+  ~FlushToZeroObserver() override { observe(false); }
+  void on_scheduler_entry(bool) override {
+    _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
+    _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
+  }
+};
+
 }  // namespace
 
-ThreadPool::ThreadPool(unsigned threads) {
-  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
-  workers_.reserve(threads - 1);
-  for (unsigned i = 1; i < threads; ++i) workers_.emplace_back([this] { workerLoop(); });
-}
-
-ThreadPool::~ThreadPool() {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    stop_ = true;
+struct ThreadPool::Arena {
+  tbb::task_arena arena;
+  std::unique_ptr<FlushToZeroObserver> observer;
+  explicit Arena(unsigned threads) : arena(threads ? int(threads) : tbb::task_arena::automatic) {
+    arena.initialize();
+    observer = std::make_unique<FlushToZeroObserver>(arena);
   }
-  wake_.notify_all();
-  for (std::thread& t : workers_) t.join();
-}
+};
 
-void ThreadPool::runChunks() {
-  for (;;) {
-    size_t begin = next_.fetch_add(grain_, std::memory_order_relaxed);
-    if (begin >= count_) return;
-    size_t end = std::min(count_, begin + grain_);
-    try {
-      (*fn_)(begin, end);
-    } catch (...) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (!error_) error_ = std::current_exception();
-      next_.store(count_, std::memory_order_relaxed);  // skip what is left
-      return;
-    }
-  }
-}
+ThreadPool::ThreadPool(unsigned threads) : arena_(std::make_unique<Arena>(threads)) {}
 
-void ThreadPool::workerLoop() {
-  setFlushToZero();
-  uint64_t seen = 0;
-  for (;;) {
-    {
-      std::unique_lock<std::mutex> lock(mutex_);
-      wake_.wait(lock, [&] { return stop_ || generation_ != seen; });
-      if (stop_) return;
-      seen = generation_;
-    }
-    runChunks();
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (--busy_ == 0) done_.notify_one();
-    }
-  }
-}
+ThreadPool::~ThreadPool() = default;
+
+unsigned ThreadPool::threadCount() const { return unsigned(std::max(1, arena_->arena.max_concurrency())); }
 
 void ThreadPool::parallelFor(size_t count, size_t grain, const std::function<void(size_t, size_t)>& fn) {
   if (count == 0) return;
-  const unsigned int savedCsr = _mm_getcsr();
-  setFlushToZero();
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    fn_ = &fn;
-    count_ = count;
-    grain_ = std::max<size_t>(1, grain);
-    next_.store(0, std::memory_order_relaxed);
-    error_ = nullptr;
-    busy_ = unsigned(workers_.size());
-    ++generation_;
-  }
-  wake_.notify_all();
-  runChunks();
-  std::exception_ptr error;
-  {
-    std::unique_lock<std::mutex> lock(mutex_);
-    done_.wait(lock, [&] { return busy_ == 0; });
-    fn_ = nullptr;
-    error = error_;
-  }
-  _mm_setcsr(savedCsr);
-  if (error) std::rethrow_exception(error);
+  grain = std::max<size_t>(1, grain);
+  arena_->arena.execute([&] {
+    tbb::parallel_for(
+        tbb::blocked_range<size_t>(0, count, grain),
+        [&](const tbb::blocked_range<size_t>& r) {
+          FlushToZero ftz;  // the calling thread too, while it works a chunk
+          fn(r.begin(), r.end());
+        },
+        tbb::simple_partitioner());
+  });
 }
 
 }  // namespace cs

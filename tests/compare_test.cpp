@@ -131,6 +131,9 @@ TEST(Compare, TinyBuiltinRunWritesConsistentReports) {
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("[view 2/2] room:"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("frame 1/1"), std::string::npos) << r.out;
+  // Progress with the estimated time left, from the second step on.
+  EXPECT_NE(r.out.find(" left)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(" of 28, about "), std::string::npos) << "2 views x (reference + 13 settings)\n" << r.out;
 
   for (const char* f : {"results.json", "results.csv", "report.md", "report.html", "speed_vs_error.svg",
                         "speed_vs_error.png", "wall_closeups.png", "room_closeups.png"})

@@ -7,6 +7,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include <xmmintrin.h>
+
 #include <gtest/gtest.h>
 
 #include "core/error.h"
@@ -500,6 +502,14 @@ TEST(ThreadPool, RunsEveryIndexOnceAndRethrowsTheFirstError) {
   std::atomic<size_t> after{0};
   pool.parallelFor(100, 7, [&](size_t b, size_t e) { after += e - b; });  // still usable
   EXPECT_EQ(after.load(), 100u);
+  // Every chunk runs with flush-to-zero and denormals-are-zero; the caller gets its own mode back.
+  const unsigned before = _mm_getcsr();
+  std::atomic<int> withoutFtz{0};
+  pool.parallelFor(1000, 1, [&](size_t, size_t) {
+    if ((_mm_getcsr() & 0x8040u) != 0x8040u) withoutFtz++;
+  });
+  EXPECT_EQ(withoutFtz.load(), 0);
+  EXPECT_EQ(_mm_getcsr(), before);
 }
 
 }  // namespace
