@@ -150,18 +150,18 @@ int runRender(const Options& o) {
     results.push_back(std::move(r));
   }
 
-  // Output: staged, then moved into place.
+  // Output: --out and --dump both written in full into their staging folders first, then moved into
+  // place, so a failure while writing either leaves neither.
   {
     StagedDir out(o.out);
+    std::unique_ptr<StagedDir> dump = o.dump.empty() ? nullptr : std::make_unique<StagedDir>(o.dump);
     const std::vector<float>& ref = visibility[reference->name];
-    for (const FrameResult& r : results) writeFrameImages(out.path(), fileStem(r.method), frame->gbuffer, visibility[r.method], ref, frame->band);
+    for (const FrameResult& r : results)
+      writeFrameImages(out.path(), fileStem(r.method), frame->gbuffer, visibility[r.method], ref, frame->band);
     writeResults(out.path(), results);
+    if (dump) writeDump(dump->path(), scene, frame->gbuffer, spec.camera, spec.light, frame->policy, visibility, frame->band);
     out.commit();
-  }
-  if (!o.dump.empty()) {
-    StagedDir dump(o.dump);
-    writeDump(dump.path(), scene, frame->gbuffer, spec.camera, spec.light, frame->policy, visibility, frame->band);
-    dump.commit();
+    if (dump) dump->commit();
   }
 
   for (const FrameResult& row : results) {

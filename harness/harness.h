@@ -34,7 +34,8 @@ using FrameProgress = std::function<void(uint32_t frame, uint32_t frames)>;
 // One warm-up run (shader compiles, caches), then `frames` timed ones -- except that a warm-up slower than
 // singleFrameAboveMs is itself the one timed frame (compiles are noise against it; long benchmark runs).
 struct TimedRuns {
-  MethodOutput output;         // the median frame's output
+  MethodOutput output;         // the median frame's output (its mask: the first timed frame's, the same
+                               //   mask when deterministic; only one mask is held, whatever `frames`)
   std::vector<double> totals;  // each timed frame's totalMs
   double medianMs = 0, minMs = 0, maxMs = 0;
   bool deterministic = true;   // every timed frame's mask equals the warm-up's (the cone path promises it)

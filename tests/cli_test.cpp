@@ -252,6 +252,27 @@ TEST(Cli, UnwritableOutputIsAClearFailure) {
   CliRun r = cli("render --width 16 --height 16 --frames 1 --out /proc/coneshadow-cannot-write-here");
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_NE(r.out.find("/proc/coneshadow-cannot-write-here"), std::string::npos) << r.out;
+  // --out and --dump are all or nothing together: a dump that cannot be written leaves no results.
+  fs::path out = tempDir("dump_fails");
+  r = cli("render --width 16 --height 16 --frames 1 --out " + out.string() + " --dump /proc/coneshadow-cannot-dump-here");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_FALSE(fs::exists(out / "results.json")) << "--out was written although --dump failed";
+  EXPECT_FALSE(fs::exists(out / "embree_shaded.png"));
+  fs::remove_all(out);
+}
+
+// Many timed frames hold one mask, not one per frame: the output is the same as with one frame.
+TEST(Cli, ManyFramesKeepOneMask) {
+  fs::path a = tempDir("frames_a"), b = tempDir("frames_b");
+  ASSERT_EQ(cli("render --methods cone --view fur --width 24 --height 24 --frames 1 --quiet --out " + a.string()).code, 0);
+  ASSERT_EQ(cli("render --methods cone --view fur --width 24 --height 24 --frames 9 --quiet --out " + b.string()).code, 0);
+  std::ifstream ja(a / "results.json"), jb(b / "results.json");
+  auto x = nlohmann::json::parse(ja), y = nlohmann::json::parse(jb);
+  EXPECT_EQ(x[1]["error"], y[1]["error"]);
+  EXPECT_EQ(y[1]["stats"]["frames"], 9);
+  EXPECT_TRUE(y[1]["stats"]["deterministic"].get<bool>());
+  fs::remove_all(a);
+  fs::remove_all(b);
 }
 
 }  // namespace

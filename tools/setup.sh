@@ -6,10 +6,10 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
 PACKAGES=(
   build-essential cmake pkg-config
-  libvulkan-dev mesa-vulkan-drivers vulkan-tools vulkan-validationlayers
+  libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers
   glslang-tools glslang-dev spirv-tools
   libembree-dev libtbb-dev libglm-dev libtinygltf-dev libstb-dev nlohmann-json3-dev
-  libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev libassimp-dev
+  libgtest-dev libbenchmark-dev libcli11-dev libassimp-dev
   assimp-testmodels
   librsvg2-bin chromium
 )
