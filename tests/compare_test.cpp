@@ -344,6 +344,8 @@ TEST(Scaling, TinySweepWritesFilesWithCsvMatchingJson) {
                         "scaling_triangles.svg", "scaling_triangles.png"})
     EXPECT_TRUE(fs::exists(out / f)) << f;
   nlohmann::json doc = nlohmann::json::parse(readText(out / "scaling.json"));
+  EXPECT_EQ(doc["provenance"]["schema_version"], 2);
+  EXPECT_NE(doc["provenance"]["command_line"].get<std::string>().find("--scaling"), std::string::npos);
   const nlohmann::json& rows = doc.at("rows");
   EXPECT_FALSE(doc.at("device").get<std::string>().empty());
   std::map<std::string, int> perSweep;
@@ -390,6 +392,7 @@ TEST(LightDistances, SweepWritesErrorAndTimeAgainstDistanceForEveryMethod) {
     EXPECT_TRUE(fs::exists(out / f)) << f;
   EXPECT_FALSE(fs::exists(out / "scaling.json"));
   nlohmann::json doc = nlohmann::json::parse(readText(out / "light_distances.json"));
+  EXPECT_EQ(doc["provenance"]["scene_path"], model);
   const nlohmann::json& rows = doc.at("rows");
   ASSERT_EQ(rows.size() % 3, 0u);
   const size_t methods = rows.size() / 3;
