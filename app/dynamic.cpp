@@ -20,6 +20,7 @@
 #include "core/animation.h"
 #include "core/image_io.h"
 #include "eval/frame_output.h"
+#include "harness/harness.h"
 #include "eval/metrics.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
@@ -308,7 +309,7 @@ int runDynamicCompare(const Options& o) {
       std::ostringstream line;
       line << tag << ": frame " << (k + 1) << "/" << n << " (t " << num(time, 3) << "):";
       for (Track& t : tracks[vi]) {
-        const MethodOutput mo = t.object ? t.object->run(frame) : ref;
+        const MethodOutput mo = t.object ? runCounted(*t.object, frame) : ref;
         const ErrorStats err = compareVisibility(gb, mo.visibility, ref.visibility, band);
         FrameResult r = makeFrameResult(rest.name, vl.view, t.info->name, gb, methodDevice(*t.info, device), mo, err);
         double rebuildMs = 0;

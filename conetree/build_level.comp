@@ -3,33 +3,53 @@
 // One depth of the cone tree (002 §3.1, §3.5): node j of this depth encloses its (up to) four children,
 // four consecutive elements of the depth below -- sorted rays when fromLeaves, else nodes. In the
 // far-light frame (cone_layout.h, ConeFrame) the rays are in frame coordinates and their cones widened.
+// With p.fromShape the depth is p.height levels above the leaves of the tree the shape buffer describes
+// (tree_shape.comp): its count and offsets come from there, and a height the tree does not reach is a
+// dispatch of zero workgroups (its indirect arguments) or returns at once.
 // bindings: 0 = positions (vec4 per pixel, the G-buffer), 1 = samples (uint pixel index per sorted ray),
-//           2 = nodes (ConeNode, the whole tree; this depth written, the one below read)
+//           2 = nodes (ConeNode, the whole tree; this depth written, the one below read),
+//           3 = shape words (SHAPE_*; read with fromShape only)
 #include "conetree/cone_math.h"
 
 layout(local_size_x = CONE_BUILD_THREADS) in;
 layout(std430, binding = 0) readonly buffer Positions { vec4 positions[]; };
 layout(std430, binding = 1) readonly buffer Samples { uint samples[]; };
 layout(std430, binding = 2) buffer Nodes { ConeNode nodes[]; };
+layout(std430, binding = 3) readonly buffer Shape { uint shape[]; };
 layout(push_constant) uniform Push { BuildPush p; };
 
+uint count, nodeOffset, childCount, childOffset, fromLeaves;
+
 ConeNode child(uint c) {
-  if (p.fromLeaves != 0u) {
+  if (fromLeaves != 0u) {
     vec3 position = positions[samples[c]].xyz;
     if (p.frame.rowX.w != 0.0f) {  // far frame: the ray in frame coordinates, its cone widened
       vec4 ray = leafRay(toConeFrame(position, p.frame), p.frame.lightFrame.xyz);
       return leafRayUsable(ray, p.minLength) ? rayConeWidened(ray, p.beta, p.sigma) : emptyCone();
     }
-    vec4 ray = leafRay(position, p.light.xyz);
+    vec4 ray = leafRay(position, p.frame.lightFrame.xyz);
     return leafRayUsable(ray, p.minLength) ? rayCone(ray) : emptyCone();
   }
-  return nodes[p.childOffset + c];
+  return nodes[childOffset + c];
 }
 
 void main() {
   uint j = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * CONE_BUILD_THREADS + gl_LocalInvocationID.x;
-  if (j >= p.count) return;
-  uvec2 r = childRange(j, p.childCount);
+  if (p.fromShape != 0u) {
+    uint depth = shape[SHAPE_DEPTH];
+    if (p.height == 0u || p.height > depth) return;
+    uint d = depth - p.height;
+    count = shape[SHAPE_COUNTS + d];
+    nodeOffset = shape[SHAPE_OFFSETS + d];
+    childCount = shape[SHAPE_COUNTS + d + 1u];
+    childOffset = p.height > 1u ? shape[SHAPE_OFFSETS + d + 1u] : 0u;
+    fromLeaves = p.height == 1u ? 1u : 0u;
+  } else {
+    count = p.count, nodeOffset = p.nodeOffset, childCount = p.childCount, childOffset = p.childOffset;
+    fromLeaves = p.fromLeaves;
+  }
+  if (j >= count) return;
+  uvec2 r = childRange(j, childCount);
   uint n = r.y - r.x;
   ConeNode c0 = child(r.x);
   ConeNode c1 = n > 1u ? child(r.x + 1u) : emptyCone();
@@ -37,6 +57,6 @@ void main() {
   ConeNode c3 = n > 3u ? child(r.x + 3u) : emptyCone();
   // In the far frame the axis from the children's sum and the widening CONE_PAD times the frame's angular
   // scale; in the world frame the approximate minimal merge and CONE_PAD.
-  nodes[p.nodeOffset + j] = p.frame.rowX.w != 0.0f ? coneParentFar(c0, c1, c2, c3, n, CONE_PAD * p.frame.centre.w)
+  nodes[nodeOffset + j] = p.frame.rowX.w != 0.0f ? coneParentFar(c0, c1, c2, c3, n, CONE_PAD * p.frame.centre.w)
                                                    : coneParent(c0, c1, c2, c3, n, CONE_PAD);
 }

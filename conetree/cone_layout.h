@@ -83,9 +83,30 @@ struct ConeFrame {
   vec4 lightFrame;  // xyz: R (light - C); w: unused
 };
 
+// The tree's shape on the GPU (conetree/tree_shape.comp writes it from the ray count; the build and the
+// traversal's device path read it): uint words of the shape buffer.
+#define SHAPE_LEAVES 0      // n, the sorted rays (0: no tree)
+#define SHAPE_DEPTH 1       // D = treeDepth(n), 0 when n = 0
+#define SHAPE_NODES 2       // interior nodes stored, levelOffset(n, D, D)
+#define SHAPE_COUNTS 4      // + d: levelCount(n, D, d) for d = 0 .. D (0 past D)
+#define SHAPE_OFFSETS 24    // + d: levelOffset(n, D, d) for d = 0 .. D (0 past D)
+#define SHAPE_BUILD_ARGS 44 // + 4 h: the indirect dispatch (x, y, 1, nodes) building height h = 1 .. D (0 groups past D)
+#define SHAPE_MAX_DEPTH 15  // leaf ranges are 32-bit: 4^D must fit (kMaxLeaves)
+#define SHAPE_WORDS 112
+
+// Push constants of conetree/tree_shape.comp.
+struct ShapePush {
+  uint maxLeaves;     // the device count is clamped to this (the host's bound, which sized the node buffer)
+  uint countIndex;    // word of the count binding holding the ray count
+  uint maxPerDim;     // the device's workgroups per grid dimension (indirect grids stay within it)
+  uint pad0;
+};
+
 // Push constants of conetree/build_level.comp: one dispatch builds one depth of the tree.
 struct BuildPush {
-  vec4 light;         // xyz: the point light
+  uint height;        // fromShape: levels above the leaves of the depth built (1: its children are the rays)
+  uint fromShape;     // 1: count .. fromLeaves below come from the shape buffer (binding 3) for `height`
+  uint pad0, pad1;
   uint count;         // nodes at this depth
   uint nodeOffset;    // levelOffset of this depth in the node array
   uint childCount;    // elements at depth + 1 (sorted rays when fromLeaves)
@@ -94,7 +115,7 @@ struct BuildPush {
   float minLength;    // rays not longer than this are degenerate (2 * eps: an empty interval), skipped
   float sigma;        // far frame: a leaf cone's lengths widened to L -+ sigma (0 in the world frame)
   float beta;         // far frame: a leaf cone's half-angle (0 in the world frame)
-  ConeFrame frame;
+  ConeFrame frame;    // world frame: identity rows, lightFrame = the light (the rays' apex either way)
 };
 
 // ---- implicit indexing (pure; unit-tested on the CPU in tests/conetree_test.cpp) -----------------
@@ -137,6 +158,7 @@ CONE_FN uvec2 leafRange(uint j, uint n, uint depth, uint d) {
 #ifdef __cplusplus
 }  // namespace glsl
 using glsl::BuildPush;
+using glsl::ShapePush;
 using glsl::ConeFrame;
 using glsl::ConeNode;
 using glsl::childRange;
@@ -147,6 +169,10 @@ using glsl::levelOffset;
 using glsl::treeDepth;
 static_assert(sizeof(ConeNode) == 32 && offsetof(ConeNode, sinLen) == 16, "ConeNode layout");
 static_assert(sizeof(ConeFrame) == 80, "ConeFrame layout");
+static_assert(sizeof(ShapePush) == 16, "ShapePush layout");
+static_assert(SHAPE_COUNTS + SHAPE_MAX_DEPTH + 1 <= SHAPE_OFFSETS && SHAPE_OFFSETS + SHAPE_MAX_DEPTH + 1 <= SHAPE_BUILD_ARGS &&
+                  SHAPE_BUILD_ARGS % 4 == 0 && SHAPE_BUILD_ARGS + 4 * (SHAPE_MAX_DEPTH + 1) <= SHAPE_WORDS,
+              "shape words");
 static_assert(sizeof(BuildPush) == 128 && offsetof(BuildPush, count) == 16 && offsetof(BuildPush, minLength) == 36 &&
                   offsetof(BuildPush, frame) == 48,
               "BuildPush layout");

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "conetree/build_level.comp.h"
+#include "conetree/tree_shape.comp.h"
 #include "conetree/cone_math.h"
 #include "core/error.h"
 
@@ -23,7 +24,10 @@ TreeShape treeShape(uint32_t leaves) {
 }
 
 ConeTree::ConeTree(vk::Context& ctx)
-    : ctx_(ctx), build_(vk::createKernel(ctx, "cone tree build", spv_build_level_comp, 3, sizeof(BuildPush))) {}
+    : ctx_(ctx),
+      build_(vk::createKernel(ctx, "cone tree build", spv_build_level_comp, 4, sizeof(BuildPush))),
+      shapeKernel_(vk::createKernel(ctx, "cone tree shape", spv_tree_shape_comp, 2, sizeof(ShapePush))),
+      shapeWords_(vk::createBuffer(ctx, SHAPE_WORDS * 4, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT)) {}
 
 FrameChoice worldFrame(glm::vec3 light) {
   FrameChoice f;
@@ -82,35 +86,68 @@ FrameChoice chooseFrame(glm::vec3 light, glm::vec3 lo, glm::vec3 hi) {
   return f;
 }
 
-void ConeTree::record(vk::Commands& cmd, const vk::BufferRange& positions, const vk::BufferRange& samples,
-                      uint32_t count, glm::vec3 light, float minLength, const FrameChoice* frame) {
-  const FrameChoice fc = frame ? *frame : worldFrame(light);
-  shape_ = treeShape(count);
-  const uint64_t bytes = uint64_t(shape_.nodes()) * sizeof(ConeNode);
+void ConeTree::ensureNodes(uint32_t count) {
+  const uint64_t bytes = uint64_t(treeShape(count).nodes()) * sizeof(ConeNode);
   CS_CHECK(bytes <= ctx_.maxStorageBufferRange(),
-           "cone tree of " << shape_.nodes() << " nodes (" << bytes << " bytes) exceeds one storage binding ("
+           "cone tree of " << treeShape(count).nodes() << " nodes (" << bytes << " bytes) exceeds one storage binding ("
                            << ctx_.maxStorageBufferRange() << " bytes)");
   if (nodes_.size < bytes) {
     nodes_.reset();  // the old one is not needed: free before allocating the larger one
     nodes_ = vk::createBuffer(ctx_, bytes);
   }
+}
+
+BuildPush ConeTree::basePush(glm::vec3 light, float minLength, const FrameChoice& fc) const {
+  BuildPush p{};
+  p.minLength = minLength;
+  p.sigma = fc.sigma;
+  p.beta = fc.beta;
+  p.frame = fc.frame;
+  if (!fc.far) p.frame.lightFrame = glm::vec4(light, 0.0f);  // the world frame's apex is the light itself
+  return p;
+}
+
+void ConeTree::record(vk::Commands& cmd, const vk::BufferRange& positions, const vk::BufferRange& samples,
+                      uint32_t count, glm::vec3 light, float minLength, const FrameChoice* frame) {
+  const FrameChoice fc = frame ? *frame : worldFrame(light);
+  shape_ = treeShape(count);
+  maxDepth_ = shape_.depth;
+  ensureNodes(count);
   for (uint32_t d = shape_.depth; d-- > 0;) {
-    BuildPush p{};
-    p.light = glm::vec4(light, 0.0f);
+    BuildPush p = basePush(light, minLength, fc);
     p.count = shape_.counts[d];
     p.nodeOffset = shape_.offsets[d];
     p.childCount = shape_.counts[d + 1];
     p.childOffset = d + 1 < shape_.depth ? shape_.offsets[d + 1] : 0;
     p.fromLeaves = d + 1 == shape_.depth ? 1u : 0u;
-    p.minLength = minLength;
-    p.sigma = fc.sigma;
-    p.beta = fc.beta;
-    p.frame = fc.frame;
     vk::Grid g = vk::gridFor(p.count, CONE_BUILD_THREADS, ctx_.maxWorkgroups());
-    cmd.dispatch(build_, {positions, samples, nodes_}, p, g.x, g.y);
+    cmd.dispatch(build_, {positions, samples, nodes_, shapeWords_}, p, g.x, g.y);
     cmd.barrier();
   }
 }
+
+void ConeTree::recordDevice(vk::Commands& cmd, const vk::BufferRange& positions, const vk::BufferRange& samples,
+                            const vk::Buffer& countWords, uint32_t countIndex, uint32_t maxCount, glm::vec3 light,
+                            float minLength, const FrameChoice* frame) {
+  CS_CHECK(maxCount >= 1 && maxCount <= kMaxLeaves, "cone tree bound of " << maxCount << " rays (1 .. " << kMaxLeaves << ")");
+  const FrameChoice fc = frame ? *frame : worldFrame(light);
+  ensureNodes(maxCount);
+  maxDepth_ = treeDepth(maxCount);
+  CS_CHECK(maxDepth_ <= SHAPE_MAX_DEPTH, "cone tree deeper than " << SHAPE_MAX_DEPTH);
+  ShapePush sp{maxCount, countIndex, ctx_.maxWorkgroups(), 0};
+  cmd.dispatch(shapeKernel_, {vk::BufferRange(countWords, 0, (VkDeviceSize(countIndex) + 1) * 4), shapeWords_}, sp, 1);
+  cmd.barrier();
+  for (uint32_t h = 1; h <= maxDepth_; ++h) {
+    BuildPush p = basePush(light, minLength, fc);
+    p.height = h;
+    p.fromShape = 1;
+    cmd.dispatchIndirect(build_, {positions, samples, nodes_, shapeWords_}, &p, sizeof(p), shapeWords_,
+                         (SHAPE_BUILD_ARGS + 4 * h) * 4);
+    cmd.barrier();
+  }
+}
+
+void ConeTree::setShape(uint32_t leaves) { shape_ = leaves ? treeShape(leaves) : TreeShape{}; }
 
 std::vector<ConeNode> buildTreeOnHost(const std::vector<glm::vec4>& positions, const std::vector<uint32_t>& samples,
                                       glm::vec3 light, float minLength, const FrameChoice* frame) {

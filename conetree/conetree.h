@@ -54,15 +54,33 @@ class ConeTree {
   void record(vk::Commands& cmd, const vk::BufferRange& positions, const vk::BufferRange& samples, uint32_t count,
               glm::vec3 light, float minLength, const FrameChoice* frame = nullptr);
 
+  // The same build with the ray count on the GPU (word `countIndex` of `countWords`, clamped to
+  // `maxCount`): tree_shape.comp writes the shape (shapeBuffer(), SHAPE_* words of cone_layout.h) and
+  // every height of the deepest tree maxCount rays can have is an indirect dispatch; nothing is read
+  // back, and the node buffer is sized for maxCount rays (so a frame allocates nothing once warm).
+  // shape() is not known on the host afterwards: setShape() sets it when the count has been read back.
+  void recordDevice(vk::Commands& cmd, const vk::BufferRange& positions, const vk::BufferRange& samples,
+                    const vk::Buffer& countWords, uint32_t countIndex, uint32_t maxCount, glm::vec3 light,
+                    float minLength, const FrameChoice* frame = nullptr);
+  // The host's copy of the shape after a device build (`leaves` from shapeBuffer()); 0: no tree.
+  void setShape(uint32_t leaves);
+  const vk::Buffer& shapeBuffer() const { return shapeWords_; }
+  // Depth of the deepest tree the last recording allowed for (recordDevice: treeDepth(maxCount)).
+  uint32_t maxDepth() const { return maxDepth_; }
+
   const TreeShape& shape() const { return shape_; }
   const vk::Buffer& nodes() const { return nodes_; }
-  uint64_t bytesAllocated() const { return nodes_.size; }
+  uint64_t bytesAllocated() const { return nodes_.size + shapeWords_.size; }
 
  private:
+  void ensureNodes(uint32_t count);
+  BuildPush basePush(glm::vec3 light, float minLength, const FrameChoice& fc) const;
+
   vk::Context& ctx_;
-  vk::Kernel build_;
-  vk::Buffer nodes_;
+  vk::Kernel build_, shapeKernel_;
+  vk::Buffer nodes_, shapeWords_;
   TreeShape shape_;
+  uint32_t maxDepth_ = 0;
 };
 
 // CPU reference of the same build (tests): the whole node array for rays from `light` to

@@ -15,11 +15,24 @@ double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+MethodOutput runCounted(ShadowMethod& method, const FrameInput& input) {
+  if (!input.vk) return method.run(input);
+  const vk::HostCost before = input.vk->cost;
+  MethodOutput out = method.run(input);
+  const vk::HostCost c = input.vk->cost - before;
+  out.stats["submits_per_frame"] = c.submits;
+  out.stats["host_syncs_per_frame"] = c.hostSyncs;
+  out.stats["readback_bytes_per_frame"] = c.readbackBytes;
+  out.stats["allocations_per_frame"] = c.allocations;
+  out.stats["dispatches_per_frame"] = c.dispatches;
+  return out;
+}
+
 TimedRuns timeRuns(ShadowMethod& method, const FrameInput& input, uint32_t frames, const FrameProgress& progress,
                    double singleFrameAboveMs) {
   TimedRuns t;
   if (progress) progress(0, frames);
-  const MethodOutput first = method.run(input);
+  const MethodOutput first = runCounted(method, input);
   if (frames == 0 || first.totalMs > singleFrameAboveMs) {
     t.output = first;
     t.totals = {first.totalMs};
@@ -32,7 +45,7 @@ TimedRuns timeRuns(ShadowMethod& method, const FrameInput& input, uint32_t frame
   std::vector<float> mask;
   for (uint32_t i = 0; i < frames; ++i) {
     if (progress) progress(i + 1, frames);
-    MethodOutput out = method.run(input);
+    MethodOutput out = runCounted(method, input);
     t.totals.push_back(out.totalMs);
     if (out.visibility != first.visibility) t.deterministic = false;
     if (i == 0) mask = std::move(out.visibility);

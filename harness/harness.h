@@ -28,6 +28,11 @@ namespace cs {
 
 double median(std::vector<double> values);
 
+// One run of `method`, with what it cost the host (vk::HostCost, counted over the run when the frame has a
+// Vulkan context) in its stats under submits_per_frame, host_syncs_per_frame, readback_bytes_per_frame,
+// allocations_per_frame and dispatches_per_frame. Every command runs methods through this.
+MethodOutput runCounted(ShadowMethod& method, const FrameInput& input);
+
 // Called before each run of a method: frame 0 is the warm-up, then 1..frames.
 using FrameProgress = std::function<void(uint32_t frame, uint32_t frames)>;
 

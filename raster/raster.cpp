@@ -213,7 +213,7 @@ RasterTiming Raster::render(const Camera& camera, glm::vec3 light, uint32_t widt
   VkDeviceSize offsets[2] = {0, 0};
   vkCmdBindVertexBuffers(cb, 0, 2, vbs, offsets);
   vkCmdBindIndexBuffer(cb, indices_.buffer, 0, VK_INDEX_TYPE_UINT32);
-  if (indexCount_) vkCmdDrawIndexed(cb, indexCount_, 1, 0, 0, 0);
+  if (indexCount_) vkCmdDrawIndexed(cb, indexCount_, 1, 0, 0, 0), ctx_.cost.dispatches++;
   vkCmdEndRenderPass(cb);
   VkBufferImageCopy region{};
   region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};

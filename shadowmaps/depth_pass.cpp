@@ -239,6 +239,7 @@ void DepthPass::recordWindow(vk::Commands& cmd, uint32_t face, double res, uint3
     vkCmdBindIndexBuffer(cb, indices_.buffer, 0, VK_INDEX_TYPE_UINT32);
     if (!culling_) {
       vkCmdDrawIndexed(cb, indexCount_, 1, 0, 0, 0);
+      ctx_.cost.dispatches++;
       drawn_ += indexCount_ / 3;
     } else {
       // The window's frustum in face space: u in [u0, u1], v in [v0, v1] (u = x_f / z_f), z_f >= near.
@@ -248,7 +249,7 @@ void DepthPass::recordWindow(vk::Commands& cmd, uint32_t face, double res, uint3
       const double nv0 = std::sqrt(1 + v0 * v0), nv1 = std::sqrt(1 + v1 * v1);
       uint32_t runFirst = 0, runCount = 0;
       auto flush = [&] {
-        if (runCount) vkCmdDrawIndexed(cb, runCount, 1, runFirst, 0, 0);
+        if (runCount) vkCmdDrawIndexed(cb, runCount, 1, runFirst, 0, 0), ctx_.cost.dispatches++;
         drawn_ += runCount / 3;
         runCount = 0;
       };

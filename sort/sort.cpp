@@ -148,12 +148,21 @@ void Scan::recordLevel(vk::Commands& cmd, const vk::BufferRange& in, const vk::B
   }
   // Block sums -> scan them one level up -> scan each block from its offset.
   vk::Grid g = groups(ctx_, counts[level + 1]);
-  cmd.dispatch(reduce_, {in, sums(level + 1), countBinding(count)}, push, g.x, g.y);
+  const bool indirect = level == 0 && count.groupsBuffer != VK_NULL_HANDLE && count.onDevice();
+  if (indirect)
+    cmd.dispatchIndirect(reduce_, {in, sums(level + 1), countBinding(count)}, &push, sizeof(push), count.groupsBuffer,
+                         count.groupsOffset);
+  else
+    cmd.dispatch(reduce_, {in, sums(level + 1), countBinding(count)}, push, g.x, g.y);
   cmd.barrier();
   recordLevel(cmd, sums(level + 1), scanned(level + 1), count, level + 1, total, false);
   cmd.barrier();
   push.flags |= FLAG_ADD_OFFSETS;
-  cmd.dispatch(block_, {in, out, scanned(level + 1), countBinding(count), dummy_}, push, g.x, g.y);
+  if (indirect)
+    cmd.dispatchIndirect(block_, {in, out, scanned(level + 1), countBinding(count), dummy_}, &push, sizeof(push),
+                         count.groupsBuffer, count.groupsOffset);
+  else
+    cmd.dispatch(block_, {in, out, scanned(level + 1), countBinding(count), dummy_}, push, g.x, g.y);
 }
 
 // ---- compaction ---------------------------------------------------------------------------------

@@ -61,6 +61,17 @@ struct Count {
     return c;
   }
   bool onDevice() const { return word.valid(); }
+  // Scan only: the level-0 grid on the GPU too -- indirect dispatch arguments (x, y, 1) at `offset` of
+  // `args` for max(1, ceil(count / SCAN_BLOCK)) workgroups, written by whoever wrote the count -- so a
+  // scan bounded by a large capacity launches only the workgroups the device count needs.
+  VkBuffer groupsBuffer = VK_NULL_HANDLE;
+  VkDeviceSize groupsOffset = 0;
+  Count withGroups(VkBuffer args, VkDeviceSize offset) const {
+    Count c = *this;
+    c.groupsBuffer = args;
+    c.groupsOffset = offset;
+    return c;
+  }
 };
 
 // ---- sizing and dispatch maths (pure, unit-tested) ----------------------------------------------

@@ -2,6 +2,7 @@
 // on random and degenerate cones, and the GPU build: every leaf ray lies inside every ancestor cone and
 // within its [Lmin, Lmax].
 #include <cmath>
+#include <cstring>
 #include <random>
 #include <vector>
 
@@ -198,6 +199,60 @@ TEST(ConeTree, EveryLeafRayInsideEveryAncestorOnTheGpu) {
     }
     // Nodes whose every ray is degenerate are empty, on both sides.
     for (uint32_t k = 0; k < s.nodes(); ++k) EXPECT_EQ(cone::coneIsEmpty(gpu[k]), cone::coneIsEmpty(cpu[k])) << k;
+  }
+}
+
+// The device build (ConeTree::recordDevice): the ray count read on the GPU, the shape written there and
+// every height an indirect dispatch recorded for the deepest tree the bound allows. Shape words equal
+// treeShape() and the nodes are bit-identical to the build from the host count, for counts well below
+// the bound (a shallower tree than recorded for), at it, and zero (no tree).
+TEST(ConeTree, DeviceBuildFromTheGpuCountEqualsTheHostBuild) {
+  auto& ctx = test::context();
+  const glm::vec3 light(0.3f, -0.2f, 0.1f);
+  const float minLength = 2e-4f;
+  cone::ConeTree hostTree(ctx), deviceTree(ctx);
+  for (uint32_t n : {0u, 1u, 3u, 4u, 5u, 16u, 17u, 1000u, 4097u, 30001u}) {
+    const uint32_t bound = n == 30001u ? n : 4 * n + 77;
+    std::vector<glm::vec4> pos = samplePositions(std::max(bound, 1u), light, n + 1);
+    std::vector<uint32_t> order(std::max(bound, 1u));
+    for (uint32_t i = 0; i < order.size(); ++i) order[i] = uint32_t(uint64_t(i) * 7919u % order.size());
+    vk::Buffer positions = vk::createBuffer(ctx, pos.size() * sizeof(glm::vec4));
+    vk::Buffer samples = vk::createBuffer(ctx, order.size() * 4);
+    vk::Buffer count = vk::createBuffer(ctx, 16);
+    vk::upload(ctx, positions, pos.data(), pos.size() * sizeof(glm::vec4));
+    vk::upload(ctx, samples, order.data(), order.size() * 4);
+    const uint32_t words[4] = {7u, n, 9u, 9u};  // the count at word 1
+    vk::upload(ctx, count, words, sizeof(words));
+    {
+      vk::Commands cmd(ctx);
+      deviceTree.recordDevice(cmd, positions, samples, count, 1, bound, light, minLength);
+      cmd.submit();
+    }
+    EXPECT_EQ(deviceTree.maxDepth(), cone::treeDepth(bound));
+    const std::vector<uint32_t> shape = vk::download<uint32_t>(ctx, deviceTree.shapeBuffer(), SHAPE_WORDS);
+    ASSERT_EQ(shape[SHAPE_LEAVES], n);
+    if (n == 0) {
+      EXPECT_EQ(shape[SHAPE_DEPTH], 0u);
+      EXPECT_EQ(shape[SHAPE_NODES], 0u);
+      for (uint32_t h = 1; h <= cone::treeDepth(bound); ++h) EXPECT_EQ(shape[SHAPE_BUILD_ARGS + 4 * h], 0u) << h;
+      continue;
+    }
+    const cone::TreeShape s = cone::treeShape(n);
+    ASSERT_EQ(shape[SHAPE_DEPTH], s.depth) << n;
+    EXPECT_EQ(shape[SHAPE_NODES], s.nodes()) << n;
+    for (uint32_t d = 0; d <= s.depth; ++d) {
+      EXPECT_EQ(shape[SHAPE_COUNTS + d], s.counts[d]) << n << " depth " << d;
+      EXPECT_EQ(shape[SHAPE_OFFSETS + d], s.offsets[d]) << n << " depth " << d;
+    }
+    for (uint32_t h = 1; h <= s.depth; ++h) EXPECT_EQ(shape[SHAPE_BUILD_ARGS + 4 * h + 3], s.counts[s.depth - h]) << h;
+    {
+      vk::Commands cmd(ctx);
+      hostTree.record(cmd, positions, samples, n, light, minLength);
+      cmd.submit();
+    }
+    const std::vector<ConeNode> a = vk::download<ConeNode>(ctx, hostTree.nodes(), s.nodes());
+    const std::vector<ConeNode> b = vk::download<ConeNode>(ctx, deviceTree.nodes(), s.nodes());
+    EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(ConeNode)), 0) << "n=" << n;
   }
 }
 

@@ -33,6 +33,7 @@ ConeOptions coneOptions(const Settings& s) {
   cone.frontFaceCulling = s.onOff("front-face-culling", cone.frontFaceCulling);
   cone.earlyAccept = s.onOff("early-accept", cone.earlyAccept);
   cone.twoPass = s.onOff("two-pass", cone.twoPass);
+  cone.profileStages = s.onOff("profile-stages", cone.profileStages);
   if (s.has("test"))
     cone.test = s.choice("test", {"precise", "sphere"}, "precise") == "sphere" ? ConeTest::Sphere : ConeTest::Precise;
   cone.blockerSolidAngle = float(s.number("blocker-solid-angle", 0.0, 12.5664, cone.blockerSolidAngle));
@@ -64,6 +65,10 @@ MethodInfo coneMethodInfo() {
        {}},
       {"ray-order", "O", "hilbert (sorted rays, default) or screen (2x2 Morton screen order)", {"hilbert", "screen"}},
       {"traversal-memory", "BYTES", "bound on the traversal's pair buffers (default 64M; e.g. 256K)", {}},
+      {"profile-stages", "on|off",
+       "one submission per stage (compact, keys, sort, build, traversal, leaves) to time each by wall clock, "
+       "instead of the frame's single submission (the same mask)",
+       {}},
   };
   m.check = [](const Settings& s) { (void)coneOptions(s); };
   m.make = [](vk::Context* ctx, const Settings& s) -> std::unique_ptr<ShadowMethod> {

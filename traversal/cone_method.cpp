@@ -109,54 +109,11 @@ class ConeMethod : public ShadowMethod {
       visibility_.reset();
       visibility_ = vk::createBuffer(ctx_, uint64_t(pixels) * 4);
     }
-
-    // Each stage is its own submit, timed by the host's wall clock around it (waits included): lavapipe's
-    // timestamps land on the wrong side of dispatches (see cone_method.h). Timestamps go to the stats too.
-    std::vector<StageTime> stages;
-    nlohmann::json timestamps = nlohmann::json::object();
-    if (uploadMs > 0) stages.push_back({"upload", uploadMs, StageKind::Rebuild});
-    auto stage = [&](const char* name, auto&& record) {
-      timer_.restart();
-      vk::Commands cmd(ctx_, &timer_);
-      cmd.mark("start");
-      record(cmd);
-      cmd.mark(name);
-      auto s0 = Clock::now();
-      cmd.submit();
-      stages.push_back({name, msSince(s0)});
-      for (auto& [n, ms] : timer_.intervals()) timestamps[n] = ms;
-    };
-
-    // Lit samples in ray order (sort/), then their count on the host: it shapes the tree.
-    const sort::RayOrder order = options_.sorted ? sort::RayOrder::Hilbert : sort::RayOrder::ScreenMorton;
-    stage("compact", [&](vk::Commands& cmd) {
-      cmd.fill(visibility_, kOne, 0, uint64_t(pixels) * 4);
-      rays_->recordCompaction(cmd, g, order);
-    });
     // The frame of the cones: world, or for a light far outside the triangles' bounds the far-light frame
     // (traversal.h): the keys, the tree and the pass tests in it, the leaves in the world.
     frame_ = cone::chooseFrame(frame.light, boundsLo_, boundsHi_);
-    if (options_.sorted) {
-      stage("keys", [&](vk::Commands& cmd) {
-        if (!frame_.far) return rays_->recordKeys(cmd, g, frame.light, rays_->count());
-        sort::KeysPush k{};
-        k.light = glm::vec4(frame.light, 1.0f);
-        k.framed = 1u;
-        k.rowX = frame_.frame.rowX, k.rowY = frame_.frame.rowY, k.rowZ = frame_.frame.rowZ;
-        k.origin = frame_.frame.centre;
-        k.lightFrame = frame_.frame.lightFrame;
-        k.rect = frame_.keyRect;
-        rays_->recordKeys(cmd, g, k, rays_->count());
-      });
-      stage("sort", [&](vk::Commands& cmd) { rays_->recordSort(cmd, rays_->count()); });
-    } else {
-      stages.push_back({"keys", 0.0});
-      stages.push_back({"sort", 0.0});
-    }
-    const uint32_t lit = rays_->readCount();
 
-    nlohmann::json stats = {{"lit_samples", lit},
-                            {"triangles", triangleCount_},
+    nlohmann::json stats = {{"triangles", triangleCount_},
                             {"triangles_dropped", droppedTriangles_},
                             {"triangle_buffers", triangles_.size()},
                             {"sorted", options_.sorted},
@@ -177,46 +134,41 @@ class ConeMethod : public ShadowMethod {
       stats["light_distance_half_diagonals"] =
           frame_.distance / std::max(1e-30, 0.5 * double(glm::length(boundsHi_ - boundsLo_)));
     }
-    traversal::TraversalStats ts;
-    if (lit > 0 && triangleCount_ > 0) {
-      stage("build", [&](vk::Commands& cmd) {
-        tree_.record(cmd, g.position, rays_->samples(), lit, frame.light, 2.0f * eps, &frame_);
-        if (frame_.far) recordFrameTriangles(cmd);
-      });
-      traversal::TraversalInput in;
-      in.tree = &tree_;
-      in.samples = rays_->samples();
-      in.positions = g.position;
-      in.visibility = &visibility_;
-      in.light = frame.light;
-      in.eps = eps;
-      in.test = options_.test == ConeTest::Sphere ? TRAVERSE_TEST_SPHERE : TRAVERSE_TEST_PRECISE;
-      in.frontFaceCulling = options_.frontFaceCulling;
-      in.earlyAccept = options_.earlyAccept;
-      stats["tree_depth"] = tree_.shape().depth;
-      stats["tree_nodes"] = tree_.shape().nodes();
-      if (options_.twoPass) ts = runTwoPass(in, lit, g, stage, stats);
-      else ts = traverse(in, 0, triangleCount_);
-    } else {
-      stages.push_back({"build", 0.0});
-      stats["tree_depth"] = 0;
-      stats["tree_nodes"] = 0;
-    }
-    stages.push_back({"traversal", ts.traversalMs, StageKind::Lookup});
-    stages.push_back({"leaves", ts.leavesMs, StageKind::Lookup});
-    // The ray tree is the cone path's shadow structure, rebuilt every frame from the frame's samples.
-    for (StageTime& st : stages)
-      if (st.name == "build") st.kind = StageKind::Rebuild;
-    timestamps["traversal"] = ts.traversalGpuMs;
-    timestamps["leaves"] = ts.leavesGpuMs;
-    stats["timestamp_ms"] = timestamps;
-    out.totalMs = msSince(t0);
 
-    auto t1 = Clock::now();
+    traversal::TraversalInput in;
+    in.tree = &tree_;
+    in.samples = rays_->samples();
+    in.positions = g.position;
+    in.visibility = &visibility_;
+    in.light = frame.light;
+    in.eps = eps;
+    in.test = options_.test == ConeTest::Sphere ? TRAVERSE_TEST_SPHERE : TRAVERSE_TEST_PRECISE;
+    in.frontFaceCulling = options_.frontFaceCulling;
+    in.earlyAccept = options_.earlyAccept;
+
+    std::vector<StageTime> stages;
+    if (uploadMs > 0) stages.push_back({"upload", uploadMs, StageKind::Rebuild});
+    nlohmann::json timestamps = nlohmann::json::object();
+    traversal::TraversalStats ts;
     out.visibility.resize(pixels);
-    if (pixels) vk::download(ctx_, visibility_, out.visibility.data(), uint64_t(pixels) * 4);
+    double readbackMs = 0;
+    if (options_.twoPass) {
+      ts = runStaged(frame, g, in, stages, timestamps, stats);
+      auto t1 = Clock::now();
+      out.totalMs = msSince(t0);
+      if (pixels) vk::download(ctx_, visibility_, out.visibility.data(), uint64_t(pixels) * 4);
+      readbackMs = msSince(t1);
+    } else {
+      ts = runSubmitted(frame, g, in, stages, timestamps, stats, out.visibility, readbackMs);
+      out.totalMs = msSince(t0) - readbackMs;
+    }
     // The words hold 1.0f or 0.0f bits; nothing else is ever written, so no NaN or inf can appear.
-    stats["readback_ms"] = msSince(t1);
+    stats["readback_ms"] = readbackMs;
+    for (StageTime& st : stages) {  // the ray tree is the cone path's shadow structure, rebuilt every frame
+      if (st.name == "build" || st.name == "rebuild") st.kind = StageKind::Rebuild;
+      if (st.name == "traversal" || st.name == "leaves") st.kind = StageKind::Lookup;
+    }
+    stats["timestamp_ms"] = timestamps;
 
     double stageMs = 0;
     for (auto& st : stages) stageMs += st.ms;
@@ -237,12 +189,190 @@ class ConeMethod : public ShadowMethod {
   }
 
  private:
+  // Whether this device's timestamps may time stages inside one submission (see cone_method.h).
+  bool timestampsTrusted() const {
+    return ctx_.properties.deviceType != VK_PHYSICAL_DEVICE_TYPE_CPU && ctx_.timestampPeriodNs() > 0;
+  }
+
+  // The frame as one recording (traversal.h, "One submission"): compaction, keys, sort, the tree's shape
+  // and build, the far frame's triangles, the traversal and the readback, submitted once -- or, with
+  // profileStages, submitted at each stage's end. Falls back to the chunked traversal (several submits)
+  // only when the pair arena overflowed on the GPU. Fills `mask`; the readback's wall time to readbackMs.
+  traversal::TraversalStats runSubmitted(const FrameInput& frame, const DeviceGBuffer& g, traversal::TraversalInput in,
+                                         std::vector<StageTime>& stages, nlohmann::json& timestamps,
+                                         nlohmann::json& stats, std::vector<float>& mask, double& readbackMs) {
+    const uint32_t pixels = g.width * g.height;
+    const bool profile = options_.profileStages;
+    timer_.restart();
+    vk::Commands cmd(ctx_, &timer_);
+    auto s0 = Clock::now();
+    cmd.mark("start");
+    std::vector<std::pair<std::string, double>> wall;  // profile: wall ms per stage, in order
+    auto addWall = [&](const std::string& name, double ms) {
+      for (auto& [n, v] : wall)
+        if (n == name) return void(v += ms);
+      wall.push_back({name, ms});
+    };
+    auto addTimestamps = [&] {
+      for (auto& [n, ms] : timer_.intervals()) timestamps[n] = timestamps.value(n, 0.0) + ms;
+    };
+    auto boundary = [&](const char* name) {
+      if (!profile) {
+        if (timer_.names.size() + 1 < timer_.capacity) cmd.mark(name);
+        return;
+      }
+      cmd.mark(name);
+      cmd.submit();
+      addWall(name, msSince(s0));
+      addTimestamps();
+      timer_.restart();
+      s0 = Clock::now();
+      cmd.mark("start");
+    };
+
+    const sort::RayOrder order = options_.sorted ? sort::RayOrder::Hilbert : sort::RayOrder::ScreenMorton;
+    cmd.fill(visibility_, kOne, 0, uint64_t(pixels) * 4);
+    rays_->recordCompaction(cmd, g, order);
+    boundary("compact");
+    if (options_.sorted) {
+      recordKeys(cmd, g, frame.light);
+      boundary("keys");
+      rays_->recordSort(cmd, rays_->count());
+      boundary("sort");
+    }
+    tree_.recordDevice(cmd, g.position, rays_->samples(), rays_->countBuffer(), 0, std::max(pixels, 1u), frame.light,
+                       2.0f * in.eps, &frame_);
+    if (frame_.far) recordFrameTriangles(cmd);
+    boundary("build");
+    traversal_.recordBegin(cmd, in);
+    forEachTriangleBuffer(in, 0, triangleCount_, [&](const traversal::TraversalInput& part) {
+      traversal_.record(cmd, part, boundary);
+    });
+    readback_.clear();
+    const uint32_t maskSlot = readback_.add(visibility_, uint64_t(pixels) * 4);
+    const uint32_t stateSlot = readback_.add(traversal_.stateBuffer(), STATE_WORDS * 4);
+    const uint32_t shapeSlot = readback_.add(tree_.shapeBuffer(), SHAPE_WORDS * 4);
+    readback_.record(cmd);
+    cmd.barrier();
+    cmd.mark("readback");
+    cmd.submit();
+    if (profile) addWall("readback copy", msSince(s0));
+    else wall.push_back({"frame", msSince(s0)});
+    addTimestamps();
+
+    uint32_t state[STATE_WORDS], shape[SHAPE_WORDS];
+    readback_.read(stateSlot, state);
+    readback_.read(shapeSlot, shape);
+    const uint32_t lit = shape[SHAPE_LEAVES];
+    tree_.setShape(lit);
+    stats["lit_samples"] = lit;
+    stats["tree_depth"] = shape[SHAPE_DEPTH];
+    stats["tree_nodes"] = shape[SHAPE_NODES];
+    traversal::TraversalStats ts = traversal_.statsFromState(state, shape[SHAPE_DEPTH]);
+    stats["traversal_path"] = "one submission";
+    if (traversal::Traversal::overflowed(state)) {
+      // The pairs of one step did not fit the arena on the GPU: the chunked traversal redoes it from the
+      // tree already built (the hits written so far are hits; every pair is decided again).
+      auto f0 = Clock::now();
+      ts = traverse(in, 0, triangleCount_);
+      addWall("traversal (chunked)", msSince(f0));
+      stats["traversal_path"] = "chunked: a step's pairs passed the arena on the GPU, so the traversal was redone in chunks";
+      auto t1 = Clock::now();
+      if (pixels) vk::download(ctx_, visibility_, mask.data(), uint64_t(pixels) * 4);
+      readbackMs = msSince(t1);
+    } else {
+      auto t1 = Clock::now();
+      readback_.read(maskSlot, mask.data());
+      readbackMs = msSince(t1);
+    }
+
+    if (profile) {
+      stats["stage_timing"] = "one submission per stage, host wall clock (--profile-stages)";
+      for (auto& [n, ms] : wall) stages.push_back({n, ms});
+    } else if (timestampsTrusted()) {
+      stats["stage_timing"] = "one submission; stages from GPU timestamps";
+      for (const char* n : {"compact", "keys", "sort", "build", "traversal", "leaves"})
+        if (timestamps.contains(n)) stages.push_back({n, timestamps[n].get<double>()});
+      for (auto& [n, ms] : wall)
+        if (n != "frame") stages.push_back({n, ms});
+    } else {
+      stats["stage_timing"] = "one submission; the frame's wall clock (this device's timestamps are not trusted "
+                              "inside a submission: --profile-stages on splits it)";
+      for (auto& [n, ms] : wall) stages.push_back({n, ms});
+    }
+    return ts;
+  }
+
+  // The ray keys of the frame (in the far frame over the bounds' projection).
+  void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light) {
+    if (!frame_.far) return rays_->recordKeys(cmd, g, light, rays_->count());
+    sort::KeysPush k{};
+    k.light = glm::vec4(light, 1.0f);
+    k.framed = 1u;
+    k.rowX = frame_.frame.rowX, k.rowY = frame_.frame.rowY, k.rowZ = frame_.frame.rowZ;
+    k.origin = frame_.frame.centre;
+    k.lightFrame = frame_.frame.lightFrame;
+    k.rect = frame_.keyRect;
+    rays_->recordKeys(cmd, g, k, rays_->count());
+  }
+
+  // Two-pass frames (002 §3.4): each stage its own submit, timed by the host's wall clock around it (waits
+  // included), the lit count read back to shape the tree and the update decided on the host.
+  traversal::TraversalStats runStaged(const FrameInput& frame, const DeviceGBuffer& g, traversal::TraversalInput in,
+                                      std::vector<StageTime>& stages, nlohmann::json& timestamps,
+                                      nlohmann::json& stats) {
+    const uint32_t pixels = g.width * g.height;
+    auto stage = [&](const char* name, auto&& record) {
+      timer_.restart();
+      vk::Commands cmd(ctx_, &timer_);
+      cmd.mark("start");
+      record(cmd);
+      cmd.mark(name);
+      auto s0 = Clock::now();
+      cmd.submit();
+      stages.push_back({name, msSince(s0)});
+      for (auto& [n, ms] : timer_.intervals()) timestamps[n] = ms;
+    };
+    const sort::RayOrder order = options_.sorted ? sort::RayOrder::Hilbert : sort::RayOrder::ScreenMorton;
+    stage("compact", [&](vk::Commands& cmd) {
+      cmd.fill(visibility_, kOne, 0, uint64_t(pixels) * 4);
+      rays_->recordCompaction(cmd, g, order);
+    });
+    if (options_.sorted) {
+      stage("keys", [&](vk::Commands& cmd) { recordKeys(cmd, g, frame.light); });
+      stage("sort", [&](vk::Commands& cmd) { rays_->recordSort(cmd, rays_->count()); });
+    }
+    const uint32_t lit = rays_->readCount();
+    stats["lit_samples"] = lit;
+    stats["traversal_path"] = "per-stage submits (two-pass: the update is decided on the host)";
+    stats["stage_timing"] = "one submission per stage, host wall clock (two-pass)";
+    traversal::TraversalStats ts;
+    if (lit > 0 && triangleCount_ > 0) {
+      stage("build", [&](vk::Commands& cmd) {
+        tree_.record(cmd, g.position, rays_->samples(), lit, frame.light, 2.0f * in.eps, &frame_);
+        if (frame_.far) recordFrameTriangles(cmd);
+      });
+      stats["tree_depth"] = tree_.shape().depth;
+      stats["tree_nodes"] = tree_.shape().nodes();
+      ts = runTwoPass(in, lit, g, stage, stats);
+    } else {
+      stats["tree_depth"] = 0;
+      stats["tree_nodes"] = 0;
+    }
+    stages.push_back({"traversal", ts.traversalMs});
+    stages.push_back({"leaves", ts.leavesMs});
+    timestamps["traversal"] = ts.traversalGpuMs;
+    timestamps["leaves"] = ts.leavesGpuMs;
+    return ts;
+  }
+
   uint64_t bytesAllocated() const {
     uint64_t triangleBytes = 0;
     for (const vk::Buffer& b : triangles_) triangleBytes += b.size;
     for (const vk::Buffer& b : frameTriangles_) triangleBytes += b.size;
     return triangleBytes + (rays_ ? rays_->bytesAllocated() : 0) + visibility_.size + tree_.bytesAllocated() +
-           traversal_.bytesAllocated() + traversal_.flagBytes() + (compact_ ? compact_->bytesAllocated() : 0) +
+           traversal_.bytesAllocated() + traversal_.flagBytes() + readback_.bytesAllocated() +
+           (compact_ ? compact_->bytesAllocated() : 0) +
            rayFlags_.size + remaining_.size + kept_.size;
   }
 
@@ -268,11 +398,10 @@ class ConeMethod : public ShadowMethod {
     cmd.barrier();
   }
 
-  // Triangles [first, first + count) through the tree of `in`, one traversal per triangle buffer they
-  // fall in (one, unless the scene exceeds a storage binding); the stats summed.
-  traversal::TraversalStats traverse(traversal::TraversalInput in, uint32_t first, uint32_t count) {
-    traversal::TraversalStats total;
-    bool any = false;
+  // Calls fn with `in` narrowed to each triangle buffer that triangles [first, first + count) fall in
+  // (one, unless the scene exceeds a storage binding).
+  template <class Fn>
+  void forEachTriangleBuffer(traversal::TraversalInput in, uint32_t first, uint32_t count, Fn&& fn) {
     const uint64_t end = uint64_t(first) + count;
     for (uint64_t c = first / chunkTriangles_; c < triangles_.size() && c * chunkTriangles_ < end; ++c) {
       const uint64_t lo = std::max<uint64_t>(first, c * chunkTriangles_);
@@ -283,10 +412,20 @@ class ConeMethod : public ShadowMethod {
       in.coneScale = frame_.scale;
       in.firstTriangle = uint32_t(lo - c * chunkTriangles_);
       in.triangleCount = uint32_t(hi - lo);
-      traversal::TraversalStats ts = traversal_.run(in, &timer_);
+      fn(in);
+    }
+  }
+
+  // Triangles [first, first + count) through the tree of `in` with the chunked traversal (its own
+  // submits), one run per triangle buffer; the stats summed.
+  traversal::TraversalStats traverse(const traversal::TraversalInput& in, uint32_t first, uint32_t count) {
+    traversal::TraversalStats total;
+    bool any = false;
+    forEachTriangleBuffer(in, first, count, [&](const traversal::TraversalInput& part) {
+      traversal::TraversalStats ts = traversal_.run(part, &timer_);
       total = any ? combine(total, ts) : ts;
       any = true;
-    }
+    });
     return total;
   }
 
@@ -451,6 +590,7 @@ class ConeMethod : public ShadowMethod {
   std::vector<vk::Buffer> triangles_;  // chunkTriangles_ triangles each (the last: the rest)
   uint32_t chunkTriangles_ = 1;
   vk::Buffer visibility_;
+  vk::Readback readback_{ctx_};  // the mask and the counters, copied inside the frame's submission
   uint32_t triangleCount_ = 0;
   uint64_t droppedTriangles_ = 0;
   std::vector<glm::vec3> cachedPositions_;

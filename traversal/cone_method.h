@@ -57,6 +57,11 @@ struct ConeOptions {
   float blockerSolidAngle = 4.0f * 3.14159265f / 4096.0f;  // sr: 1/4096 of the sphere
   float blockerMaxFraction = 0.125f;
   float updateMinFinished = 0.1f;
+  // The frame is one submission (traversal.h, "One submission"): every count that sizes later work stays
+  // on the GPU and the host waits once. With profileStages (--profile-stages) the same recording is
+  // submitted stage by stage, so each stage's wall clock can be measured where timestamps are not to be
+  // trusted (lavapipe). Two-pass frames are always submitted per stage: their update is decided on the host.
+  bool profileStages = false;
   // Triangles per triangle buffer; 0 = as many as one storage binding of the device holds (48 bytes each:
   // 2.8 M on lavapipe's 128 MiB). A larger scene is traversed buffer by buffer, the same tree and mask
   // (tests set a small value to prove it).
@@ -68,13 +73,15 @@ struct ConeOptions {
 
 // name() = "cone". MethodOutput:
 //   visibility  0/1 per pixel (1 where the sample is not lit); exactly 0.0f or 1.0f, never NaN.
-//   stages      "compact", "keys", "sort", "build", "traversal", "leaves" (and "upload" on frames whose
-//               triangles changed; with two-pass also "update", the unfinished rays' compaction, and
-//               "rebuild", the second tree; traversal and leaves are both passes'): each the host's wall clock around its own submit(s), waits included.
-//               Not timestamps: on lavapipe a timestamp written after a barrier can take the time of the
-//               dispatch *after* it (measured: a 30 ms leaf dispatch reported as 0.05 ms, its time showing
-//               up in the interval before it), so per-stage timestamps are misattributed there. The
-//               timestamp intervals are still reported, in stats.timestamp_ms, for GPUs where they hold.
+//   stages      "upload" on frames whose triangles changed, then: with one submission on a device whose
+//               timestamps are trusted (not a CPU device), "compact", "keys", "sort", "build",
+//               "traversal", "leaves" from timestamps; with one submission on lavapipe, one "frame" stage
+//               (the wall clock of the submission): a timestamp written after a barrier there can take the
+//               time of the dispatch *after* it (measured: a 30 ms leaf dispatch reported as 0.05 ms), so
+//               per-stage timestamps are misattributed; with profileStages or two-pass, the six stages
+//               (two-pass adds "update", the unfinished rays' compaction, and "rebuild", the second tree),
+//               each the host's wall clock around its own submit(s), waits included.
+//               stats.stage_timing says which; the timestamp intervals are in stats.timestamp_ms.
 //   totalMs     wall clock of the frame's shadow work up to the mask on the GPU; the readback of the mask
 //               to the host is stats.readback_ms.
 //   stats       variant ("PreciseSorted", ...), test ("precise" | "sphere"), front_face_culling, early_accept,

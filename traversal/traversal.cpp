@@ -5,6 +5,7 @@
 #include <chrono>
 
 #include "core/error.h"
+#include "traversal/traverse_advance.comp.h"
 #include "traversal/traverse_leaves.comp.h"
 #include "traversal/traverse_scatter.comp.h"
 #include "traversal/traverse_test.comp.h"
@@ -115,18 +116,21 @@ Traversal::Traversal(vk::Context& ctx, const ArenaPlan& plan) : ctx_(ctx), plan_
   test_ = vk::createKernel(ctx, "traverse test", spv_traverse_test_comp, 10, sizeof(TraversePush));
   scatter_ = vk::createKernel(ctx, "traverse scatter", spv_traverse_scatter_comp, 5, sizeof(TraversePush));
   leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 6, sizeof(TraversePush));
+  advance_ = vk::createKernel(ctx, "traverse advance", spv_traverse_advance_comp, 2, sizeof(AdvancePush));
   arena_ = vk::createBuffer(ctx, plan_.pairCapacity * kPairBytes);
   chunk_ = vk::createBuffer(ctx, uint64_t(plan_.chunkCapacity) * kPairBytes);
   masks_ = vk::createBuffer(ctx, uint64_t(plan_.chunkCapacity) * 4);
   counts_ = vk::createBuffer(ctx, uint64_t(plan_.chunkCapacity) * 4);
   stats_ = vk::createBuffer(ctx, kStatsBytes, vk::Memory::HostVisible);
+  state_ = vk::createBuffer(ctx, STATE_WORDS * 4, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
   scan_ = std::make_unique<sort::Scan>(ctx, plan_.chunkCapacity);
 }
 
 Traversal::~Traversal() = default;
 
 uint64_t Traversal::bytesAllocated() const {
-  return arena_.size + chunk_.size + masks_.size + counts_.size + stats_.size + (scan_ ? scan_->bytesAllocated() : 0);
+  return arena_.size + chunk_.size + masks_.size + counts_.size + stats_.size + state_.size +
+         (scan_ ? scan_->bytesAllocated() : 0);
 }
 
 // Submits and waits; the wall time of the submit goes to `wallMs`, the timestamp intervals to the stats.
@@ -291,11 +295,7 @@ TraversalStats Traversal::run(const TraversalInput& in, vk::Timer* timer) {
   f.ratio.assign(f.depth, 1.0);
   f.stats.passes.resize(f.depth);
   if (in.earlyAccept && in.test == TRAVERSE_TEST_PRECISE) {  // the flags, cleared per frame
-    const uint64_t bytes = std::max<uint64_t>(uint64_t(f.shape->nodes()) * 4, 16);
-    if (flags_.size < bytes) {
-      flags_.reset();
-      flags_ = vk::createBuffer(ctx_, bytes);
-    }
+    ensureFlags(f.shape->nodes());
     vk::Commands cmd(ctx_);
     cmd.fill(flags_, 0);
     cmd.barrier();
@@ -321,6 +321,125 @@ TraversalStats Traversal::run(const TraversalInput& in, vk::Timer* timer) {
   f.stats.peakBytes = f.stats.peakPairs * kPairBytes +
                       (f.stats.peakChunk ? std::min(chunkScratchBytes(f.stats.peakChunk), scratch) : 0);
   return f.stats;
+}
+
+void Traversal::ensureFlags(uint64_t nodes) {
+  const uint64_t bytes = std::max<uint64_t>(nodes * 4, 16);
+  if (flags_.size < bytes) {
+    flags_.reset();
+    flags_ = vk::createBuffer(ctx_, bytes);
+  }
+}
+
+// ---- the device path -------------------------------------------------------------------------------
+
+void Traversal::recordBegin(vk::Commands& cmd, const TraversalInput& in) {
+  CS_CHECK(in.tree, "traversal input incomplete");
+  cmd.fill(state_, 0);
+  if (in.earlyAccept && in.test == TRAVERSE_TEST_PRECISE) {
+    ensureFlags(in.tree->nodes().size / sizeof(cone::ConeNode));  // a flag per node the tree can have
+    cmd.fill(flags_, 0);
+  }
+  cmd.barrier();
+}
+
+void Traversal::record(vk::Commands& cmd, const TraversalInput& in, const std::function<void(const char*)>& boundary) {
+  CS_CHECK(in.triangles && in.tree && in.visibility, "traversal input incomplete");
+  const uint32_t maxDepth = in.tree->maxDepth();
+  CS_CHECK(maxDepth >= 1 && maxDepth < STATE_MAX_STEPS, "traversal: tree depth bound " << maxDepth);
+  const uint32_t capacity = plan_.chunkCapacity;
+  const bool early = in.earlyAccept && in.test == TRAVERSE_TEST_PRECISE;
+  const vk::Buffer& tris = in.frameTriangles ? *in.frameTriangles : *in.triangles;
+  const vk::Buffer& shape = in.tree->shapeBuffer();
+  const vk::Buffer* buffers[2] = {&arena_, &chunk_};  // step c writes buffers[c % 2]
+
+  TraversePush base{};
+  base.light = glm::vec4(in.light, 0.0f);
+  base.eps = in.eps;
+  base.minLength = 2.0f * in.eps;
+  base.test = in.test;
+  base.frontFaceCulling = in.frontFaceCulling ? 1u : 0u;
+  base.earlyAccept = early ? 1u : 0u;
+  base.frameVertices = in.frameTriangles ? 1u : 0u;
+  base.coneScale = in.frameTriangles ? in.coneScale : 1.0f;
+  base.countWord = STATE_COUNT;
+  base.deviceParams = 1u;
+  base.outFirst = 0;
+  base.outLimit = capacity;
+
+  auto advance = [&](uint32_t step, uint32_t triangles) {
+    AdvancePush a{step, triangles, capacity, ctx_.maxWorkgroups()};
+    cmd.dispatch(advance_, {shape, state_}, a, 1);
+    cmd.barrier();
+  };
+  // The test of one step (its scan and scatter follow): inputs in `src`, survivors to `dst`.
+  auto testStep = [&](const TraversePush& p, const vk::Buffer& src, const vk::Buffer& dst, bool indirect, uint32_t items) {
+    auto dispatch = [&](const vk::Kernel& k, std::initializer_list<vk::BufferRange> b) {
+      if (indirect) cmd.dispatchIndirect(k, b, &p, sizeof(p), state_, STATE_TEST_ARGS * 4);
+      else {
+        vk::Grid g = vk::gridFor(items, TRAVERSE_THREADS, ctx_.maxWorkgroups());
+        cmd.dispatch(k, b, static_cast<const void*>(&p), uint32_t(sizeof(p)), g.x, g.y);
+      }
+    };
+    if (early)
+      dispatch(test_, {tris, in.tree->nodes(), src, masks_, counts_, state_, in.samples, in.positions, *in.visibility, flags_});
+    else
+      dispatch(test_, {tris, in.tree->nodes(), src, masks_, counts_, state_, state_, state_, state_, state_});
+    cmd.barrier();
+    scan_->record(cmd, counts_, counts_, sort::Count::device(sort::GpuWord(state_, STATE_COUNT), capacity).withGroups(state_.buffer, STATE_SCAN_ARGS * 4),
+                  sort::GpuWord(state_, STAT_TOTAL));
+    dispatch(scatter_, {dst, src, masks_, counts_, state_});
+    cmd.barrier();
+  };
+
+  const uint64_t end = uint64_t(in.firstTriangle) + in.triangleCount;
+  for (uint64_t pos = in.firstTriangle; pos < end; pos += capacity) {
+    const uint32_t m = uint32_t(std::min<uint64_t>(capacity, end - pos));
+    advance(0, m);
+    TraversePush p0 = base;
+    p0.first = uint32_t(pos);
+    p0.count = m;
+    p0.fromTriangles = 1u;
+    testStep(p0, chunk_, *buffers[0], false, m);  // pass 0: the triangles against the root
+    for (uint32_t c = 1; c <= maxDepth; ++c) {
+      advance(c, 0);
+      if (c < maxDepth) testStep(base, *buffers[(c - 1) % 2], *buffers[c % 2], true, 0);
+    }
+    if (boundary) boundary("traversal");
+    for (uint32_t c = 1; c <= maxDepth; ++c) {  // zero workgroups but at c = D
+      TraversePush p = base;
+      p.first = 0;
+      p.countWord = STATE_LEAF_ARGS + 4 * c + 3;
+      p.missingWord = STATE_LEAF_MISSING;
+      cmd.dispatchIndirect(leaves_, {*in.triangles, *buffers[(c - 1) % 2], in.samples, in.positions, *in.visibility, state_},
+                           &p, sizeof(p), state_, (STATE_LEAF_ARGS + 4 * c) * 4);
+    }
+    cmd.barrier();
+    if (boundary) boundary("leaves");
+  }
+}
+
+TraversalStats Traversal::statsFromState(const uint32_t* w, uint32_t depth) const {
+  auto u64 = [&](uint32_t at) { return uint64_t(w[at]) | (uint64_t(w[at + 1]) << 32); };
+  TraversalStats s;
+  for (uint32_t d = 0; d < std::min<uint32_t>(depth, STATE_MAX_STEPS); ++d) {
+    const uint32_t at = STATE_ACC + STATE_ACC_WORDS * d;
+    PassStats ps;
+    ps.inputs = u64(at);
+    ps.tested = u64(at + 2);
+    ps.survived = u64(at + 4);
+    ps.chunks = w[at + 6];
+    s.passes.push_back(ps);
+  }
+  s.leafPairs = u64(STATE_LEAF_PAIRS);
+  s.leafTests = 4 * s.leafPairs - w[STATE_LEAF_MISSING];
+  s.earlyAccepted = u64(STATE_ACCEPTED);
+  s.droppedPairs = u64(STATE_DROPPED);
+  s.peakPairs = w[STATE_PEAK_PAIRS];
+  s.peakChunk = w[STATE_PEAK_CHUNK];
+  const uint64_t scratch = bytesAllocated() - arena_.size;
+  s.peakBytes = s.peakPairs * kPairBytes + (s.peakChunk ? std::min(chunkScratchBytes(s.peakChunk), scratch) : 0);
+  return s;
 }
 
 }  // namespace cs::traversal

@@ -74,11 +74,27 @@
 // A chunk retried after an overflow accepts again: idempotent. The flags are outside the memory bound
 // (flagBytes(): 4 bytes per interior node, like the tree's own nodes).
 //
+// One submission (the device path; record()). For a tree built on the GPU from the GPU's ray count
+// (ConeTree::recordDevice), the whole traversal goes into the caller's command buffer with no count from
+// the host. The triangles are taken in batches of chunkCapacity (a host count); each batch goes down the
+// tree breadth-first, one step per depth: step c tests the pairs of depth c - 1 (step 0: the batch's
+// triangles) against their children at depth c, scans the survivor counts and scatters the pairs, the
+// steps ping-ponging between the arena and the chunk buffer; at c = D, the tree's depth on the GPU, the
+// pairs go to the leaves instead. Between steps a one-invocation kernel (traverse_advance.comp) adds the
+// step's counts to per-depth totals and writes the next step's count, shape fields and indirect dispatch
+// arguments; steps past the tree's depth are dispatches of zero workgroups. Every step may write at most
+// chunkCapacity pairs (its scratch and either buffer hold that many): a step whose survivors do not fit
+// writes none of them and sets the overflow word, after which nothing more runs, and the caller redoes the
+// traversal with run() (chunked, several submits) -- the mask is the same either way: the hits already
+// written are hits, and the chunked run decides every pair. The counters stay on the GPU (stateBuffer())
+// and come back once with the mask (statsFromState).
+//
 // Stats per frame: for each pass (depth), the (triangle, node) pairs tested, the survivors and the chunks;
 // the leaf tests; the submits; the time of the passes ("traversal") and of the leaf tests
 // ("leaves"), as the wall time of their submits (host waits included) and from timestamps.
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -171,6 +187,18 @@ class Traversal {
   // restarted per submit and its "traversal" / "leaves" timestamp intervals summed into the stats.
   TraversalStats run(const TraversalInput& in, vk::Timer* timer = nullptr);
 
+  // The device path (see "One submission"). recordBegin() once per frame clears the counters (and the
+  // early-accept flags, sized for the deepest tree the recording allows); record() once per triangle
+  // buffer. `boundary`, when given, is called after each batch's passes with "traversal" and after its
+  // leaves with "leaves" (a caller may end a submission there to time them).
+  void recordBegin(vk::Commands& cmd, const TraversalInput& in);
+  void record(vk::Commands& cmd, const TraversalInput& in, const std::function<void(const char*)>& boundary = {});
+  const vk::Buffer& stateBuffer() const { return state_; }
+  // The counters of the device path from the state words read back (STATE_WORDS of them), for a tree
+  // of `depth` (the shape's SHAPE_DEPTH).
+  TraversalStats statsFromState(const uint32_t* words, uint32_t depth) const;
+  static bool overflowed(const uint32_t* words) { return words[STATE_OVERFLOW] != 0; }
+
   const ArenaPlan& plan() const { return plan_; }
   uint64_t bytesAllocated() const;
   // The early-accept flags (allocated on the first frame that uses them; not in bytesAllocated()).
@@ -187,8 +215,10 @@ class Traversal {
 
   vk::Context& ctx_;
   ArenaPlan plan_;
-  vk::Kernel test_, scatter_, leaves_;
-  vk::Buffer arena_, chunk_, masks_, counts_, stats_, flags_;
+  void ensureFlags(uint64_t nodes);
+
+  vk::Kernel test_, scatter_, leaves_, advance_;
+  vk::Buffer arena_, chunk_, masks_, counts_, stats_, flags_, state_;
   std::unique_ptr<sort::Scan> scan_;
 };
 

@@ -12,6 +12,29 @@
 #define STAT_DROPPED 3     // early accept: input pairs dropped because their node was accepted (their tests in STAT_MISSING)
 #define STAT_WORDS 4
 
+// The device-driven frame (Traversal::record, traversal.h "One submission"): one state buffer holds the
+// four step counters above, then what the advance kernel (traverse_advance.comp) keeps between steps.
+#define STATE_COUNT 4          // input elements of the current step (0: the step does nothing)
+#define STATE_CHILD_OFFSET 5   // the current step's TraversePush fields, from the tree's shape
+#define STATE_CHILD_COUNT 6
+#define STATE_INPUT_OFFSET 7
+#define STATE_LEAF_SHIFT 8
+#define STATE_LEAF_COUNT 9
+#define STATE_OVERFLOW 10      // 1 once a step's survivors did not fit: nothing runs after it (the host redoes the frame chunked)
+#define STATE_PEAK_PAIRS 11    // most pairs resident at once (a step's inputs + survivors)
+#define STATE_PEAK_CHUNK 12    // most inputs of one step
+#define STATE_LEAF_MISSING 13  // leaf tests short of 4 per pair (rays past the last leaf)
+#define STATE_ACC 16           // + 8 d: depth d's inputs, tests, survivors (uint64 as lo, hi) and steps that ran
+#define STATE_ACC_WORDS 8
+#define STATE_LEAF_PAIRS 144   // uint64 (lo, hi): pairs sent to the leaves
+#define STATE_ACCEPTED 146     // uint64: early accept, nodes found covered
+#define STATE_DROPPED 148      // uint64: early accept, pairs dropped at an accepted node
+#define STATE_TEST_ARGS 152    // uvec4: the current step's test and scatter dispatch (x, y, 1, inputs)
+#define STATE_LEAF_ARGS 156    // + 4 c: the leaves of step c (x, y, 1, leaf pairs); 0 groups but at c = D
+#define STATE_MAX_STEPS 16     // steps 0 .. 15 (tree depth <= 15)
+#define STATE_SCAN_ARGS 224    // uvec4: the current step's scan, level 0 (max(1, ceil(inputs / SCAN_BLOCK)) workgroups)
+#define STATE_WORDS 228
+
 // TraversePush::test: the cone/triangle test of the passes (cone_method.h, ConeOptions::test).
 #define TRAVERSE_TEST_PRECISE 0u  // precise_test.h (002 §3.2)
 #define TRAVERSE_TEST_SPHERE 1u   // sphere_test.h: the triangle's bounding sphere (the ray-space-hierarchy baseline)
@@ -48,7 +71,17 @@ struct TraversePush {
   uint frameVertices; // test: 1 = binding 0 holds the vertices relative to the light in the far-light frame
                       // (frame_triangles.comp), used as they are; 0 = world positions, the light subtracted
   float coneScale;    // test: the frame's angular scale (1 in the world frame; precise_test.h)
-  uint pad0, pad1, pad2;
+  uint countWord;     // device path: the stats word holding the input count (0: `count` above)
+  uint deviceParams;  // device path, test: 1 = childOffset .. leafCount and inputOffset from the STATE_* words
+  uint missingWord;   // leaves: the stats word their missing tests go to (STAT_MISSING, or STATE_LEAF_MISSING)
+};
+
+// traverse_advance.comp: between two steps of the device path (one invocation).
+struct AdvancePush {
+  uint step;          // 0: a batch starts (pass 0 next); c >= 1: step c - 1 just ran, step c is next
+  uint triangles;     // step 0: the batch's triangles (pass 0's inputs)
+  uint capacity;      // pairs a step may write (its output buffer and the next step's scratch)
+  uint maxPerDim;     // workgroups per grid dimension
 };
 
 // frame_triangles.comp: the triangles' vertices relative to the light in the far-light frame.
@@ -62,6 +95,10 @@ struct FrameTrianglesPush {
 
 #ifdef __cplusplus
 static_assert(sizeof(FrameTrianglesPush) == 96, "FrameTrianglesPush layout");
+static_assert(sizeof(AdvancePush) == 16, "AdvancePush layout");
+static_assert(STATE_ACC + STATE_ACC_WORDS * STATE_MAX_STEPS <= STATE_LEAF_PAIRS && STATE_TEST_ARGS % 4 == 0 &&
+                  STATE_LEAF_ARGS % 4 == 0 && STATE_LEAF_ARGS + 4 * (STATE_MAX_STEPS + 1) <= STATE_WORDS,
+              "state words");
 static_assert(sizeof(TraversePush) == 96 && offsetof(TraversePush, frameVertices) == 76 && offsetof(TraversePush, first) == 16 &&
                   offsetof(TraversePush, minLength) == 44 && offsetof(TraversePush, outLimit) == 48 &&
                   offsetof(TraversePush, test) == 52 && offsetof(TraversePush, frontFaceCulling) == 56,

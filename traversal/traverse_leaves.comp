@@ -8,7 +8,8 @@
 // counts 4 tests per pair, and the invocations past the last ray -- under the last node only -- count
 // themselves in STAT_MISSING.
 // bindings: 0 = triangles (vec4 x 3), 1 = arena (uvec2 pairs), 2 = samples (uint pixel index per sorted
-//           ray), 3 = positions (vec4 per pixel), 4 = visibility (uint per pixel), 5 = stats
+//           ray), 3 = positions (vec4 per pixel), 4 = visibility (uint per pixel), 5 = stats (the device
+//           path: the state words, the pair count at p.countWord)
 #include "traversal/precise_test.h"
 #include "traversal/traverse.glsl"
 
@@ -23,11 +24,11 @@ layout(push_constant) uniform Push { TraversePush p; };
 
 void main() {
   uint i = flatIndex();
-  if (i >= 4u * p.count) return;
+  if (i >= 4u * (p.countWord != 0u ? stats[p.countWord] : p.count)) return;
   uvec2 pair = pairs[p.first + i / 4u];
   uint leaf = 4u * pair.y + (i & 3u);
-  if (leaf >= p.childCount) {  // past the last ray (only under the last node): one test fewer
-    atomicAdd(stats[STAT_MISSING], 1u);
+  if (leaf >= (p.deviceParams != 0u ? stats[STATE_LEAF_COUNT] : p.childCount)) {  // past the last ray (only under the last node): one test fewer
+    atomicAdd(stats[p.missingWord], 1u);
     return;
   }
   uint sampleIndex = samples[leaf];

@@ -5,7 +5,7 @@
 // survivors (the scan's total) would pass outLimit, nothing is written: the host retries a smaller chunk.
 // bindings: 0 = arena (uvec2 pairs, written), 1 = chunk (uvec2 input pairs, a copy: outputs may overwrite
 //           the inputs' arena slots), 2 = masks (uint per input), 3 = offsets (uint per input),
-//           4 = stats (STAT_TOTAL: the survivors)
+//           4 = stats (STAT_TOTAL: the survivors; on the device path the state words, the count at p.countWord)
 #include "traversal/traverse.glsl"
 
 layout(local_size_x = TRAVERSE_THREADS) in;
@@ -18,7 +18,7 @@ layout(push_constant) uniform Push { TraversePush p; };
 
 void main() {
   uint i = flatIndex();
-  if (i >= p.count) return;
+  if (i >= (p.countWord != 0u ? stats[p.countWord] : p.count)) return;
   uint mask = masks[i];
   if (mask == 0u || stats[STAT_TOTAL] > p.outLimit - p.outFirst) return;
   uint tri = p.fromTriangles != 0u ? p.first + i : inputs[i].x;

@@ -32,11 +32,15 @@ layout(std430, binding = 8) buffer Visibility { uint visibility[]; };
 layout(std430, binding = 9) buffer Flags { uint flags[]; };
 layout(push_constant) uniform Push { TraversePush p; };
 
+// This dispatch's counts and offsets: the push constants, or on the device path the words the advance
+// kernel wrote from the tree's shape (traverse_advance.comp).
+uint count, childOffset, childCount, inputOffset, leafShift, leafCount;
+
 // Shadows every sample under child c (of the child depth) at once and flags the node; counts it once.
 void acceptChild(uint c, vec3 light) {
-  if (atomicExchange(flags[p.childOffset + c], 1u) == 0u) atomicAdd(stats[STAT_ACCEPTED], 1u);
-  uint first = c << p.leafShift;
-  uint end = min((c + 1u) << p.leafShift, p.leafCount);
+  if (atomicExchange(flags[childOffset + c], 1u) == 0u) atomicAdd(stats[STAT_ACCEPTED], 1u);
+  uint first = c << leafShift;
+  uint end = min((c + 1u) << leafShift, leafCount);
   for (uint leaf = first; leaf < end; leaf++) {
     uint sampleIndex = samples[leaf];
     vec4 ray = leafRay(positions[sampleIndex].xyz, light);
@@ -46,7 +50,15 @@ void acceptChild(uint c, vec3 light) {
 
 void main() {
   uint i = flatIndex();
-  if (i >= p.count) return;
+  count = p.countWord != 0u ? stats[p.countWord] : p.count;
+  if (i >= count) return;
+  if (p.deviceParams != 0u) {
+    childOffset = stats[STATE_CHILD_OFFSET], childCount = stats[STATE_CHILD_COUNT];
+    inputOffset = stats[STATE_INPUT_OFFSET], leafShift = stats[STATE_LEAF_SHIFT], leafCount = stats[STATE_LEAF_COUNT];
+  } else {
+    childOffset = p.childOffset, childCount = p.childCount;
+    inputOffset = p.inputOffset, leafShift = p.leafShift, leafCount = p.leafCount;
+  }
   uvec2 pair = p.fromTriangles != 0u ? uvec2(p.first + i, 0u) : pairs[p.first + i];
   vec3 light = p.light.xyz;
   // Relative to the light, exactly as the leaf test computes them from the light's end; in the far-light
@@ -60,9 +72,9 @@ void main() {
     v2 -= light;
   }
   float scale = p.coneScale;
-  uvec2 r = p.fromTriangles != 0u ? uvec2(0u, 1u) : childRange(pair.y, p.childCount);
+  uvec2 r = p.fromTriangles != 0u ? uvec2(0u, 1u) : childRange(pair.y, childCount);
   uint mask = 0u;
-  if (p.earlyAccept != 0u && p.fromTriangles == 0u && flags[p.inputOffset + pair.y] != 0u) {
+  if (p.earlyAccept != 0u && p.fromTriangles == 0u && flags[inputOffset + pair.y] != 0u) {
     // the node was accepted (by another triangle): every sample under it is shadowed already
     atomicAdd(stats[STAT_DROPPED], 1u);
     atomicAdd(stats[STAT_MISSING], r.y - r.x);
@@ -71,14 +83,14 @@ void main() {
   } else if (p.test == TRAVERSE_TEST_SPHERE) {
     vec4 sphere = boundingSphere(v0, v1, v2, scale);
     for (uint c = r.x; c < r.y; c++)
-      if (sphereConeTriangle(nodes[p.childOffset + c], sphere, p.eps, scale)) mask |= 1u << (c - r.x);
+      if (sphereConeTriangle(nodes[childOffset + c], sphere, p.eps, scale)) mask |= 1u << (c - r.x);
   } else {
     // The precise test, with the sphere test ANDed in: both conservative, and the sphere's margins are
     // the tighter ones for small triangles (traversal.h).
     PreciseTriangle t = preciseTriangle(v0, v1, v2, scale);  // once for the (up to) four children
     vec4 sphere = boundingSphere(v0, v1, v2, scale);
     for (uint c = r.x; c < r.y; c++) {
-      ConeNode node = nodes[p.childOffset + c];
+      ConeNode node = nodes[childOffset + c];
       if (!sphereConeTriangle(node, sphere, p.eps, scale) || !preciseConeTriangle(node, t, p.eps)) continue;
       if (p.earlyAccept != 0u && preciseConeCovered(node, t, p.eps)) acceptChild(c, light);
       else mask |= 1u << (c - r.x);

@@ -126,9 +126,15 @@ uint32_t findMemoryType(const Context& ctx, uint32_t bits, VkMemoryPropertyFlags
 
 }  // namespace
 
+HostCost operator-(const HostCost& a, const HostCost& b) {
+  return {a.submits - b.submits, a.hostSyncs - b.hostSyncs, a.readbackBytes - b.readbackBytes,
+          a.allocations - b.allocations, a.dispatches - b.dispatches};
+}
+
 Context::~Context() {
   if (device) {
     vkDeviceWaitIdle(device);
+    staging.reset();
     if (fence) vkDestroyFence(device, fence, nullptr);
     if (commandPool) vkDestroyCommandPool(device, commandPool, nullptr);
     vkDestroyDevice(device, nullptr);
@@ -349,6 +355,7 @@ Buffer createBuffer(Context& ctx, VkDeviceSize size, Memory memory, VkBufferUsag
   ai.allocationSize = req.size;
   ai.memoryTypeIndex = type;
   VkResult r = vkAllocateMemory(ctx.device, &ai, nullptr, &b.memory);
+  ctx.cost.allocations++;
   if (r != VK_SUCCESS) {
     vkDestroyBuffer(ctx.device, b.buffer, nullptr);
     b.buffer = VK_NULL_HANDLE;
@@ -361,6 +368,15 @@ Buffer createBuffer(Context& ctx, VkDeviceSize size, Memory memory, VkBufferUsag
   return b;
 }
 
+// The context's staging buffer, grown (one allocation) when `bytes` do not fit.
+static Buffer& stagingFor(Context& ctx, VkDeviceSize bytes) {
+  if (!ctx.staging || ctx.staging->size < bytes) {
+    ctx.staging.reset();
+    ctx.staging = std::make_unique<Buffer>(createBuffer(ctx, std::max<VkDeviceSize>(bytes, 1 << 16), Memory::HostVisible));
+  }
+  return *ctx.staging;
+}
+
 void upload(Context& ctx, Buffer& dst, const void* data, VkDeviceSize bytes, VkDeviceSize offset) {
   CS_CHECK(offset + bytes <= dst.size, "upload of " << bytes << " bytes at " << offset << " past buffer of " << dst.size);
   if (bytes == 0) return;
@@ -368,7 +384,7 @@ void upload(Context& ctx, Buffer& dst, const void* data, VkDeviceSize bytes, VkD
     std::memcpy(static_cast<char*>(dst.mapped) + offset, data, bytes);
     return;
   }
-  Buffer staging = createBuffer(ctx, bytes, Memory::HostVisible);
+  Buffer& staging = stagingFor(ctx, bytes);
   std::memcpy(staging.mapped, data, bytes);
   Commands cmd(ctx);
   cmd.copy(staging, dst, bytes, 0, offset);
@@ -378,16 +394,54 @@ void upload(Context& ctx, Buffer& dst, const void* data, VkDeviceSize bytes, VkD
 void download(Context& ctx, const Buffer& src, void* data, VkDeviceSize bytes, VkDeviceSize offset) {
   CS_CHECK(offset + bytes <= src.size, "download of " << bytes << " bytes at " << offset << " past buffer of " << src.size);
   if (bytes == 0) return;
+  ctx.cost.readbackBytes += bytes;
   if (src.mapped) {
     std::memcpy(data, static_cast<const char*>(src.mapped) + offset, bytes);
     return;
   }
-  Buffer staging = createBuffer(ctx, bytes, Memory::HostVisible);
+  Buffer& staging = stagingFor(ctx, bytes);
   Commands cmd(ctx);
   cmd.copy(src, staging, bytes, offset, 0);
   cmd.submit();
   std::memcpy(data, staging.mapped, bytes);
 }
+
+uint32_t Readback::add(const Buffer& src, VkDeviceSize bytes, VkDeviceSize srcOffset) {
+  CS_CHECK(srcOffset + bytes <= src.size, "readback of " << bytes << " bytes at " << srcOffset << " past a buffer of "
+                                                         << src.size);
+  const VkDeviceSize hostOffset = slots_.empty() ? 0 : (slots_.back().hostOffset + slots_.back().bytes + 15) & ~VkDeviceSize(15);
+  slots_.push_back({&src, bytes, srcOffset, hostOffset});
+  return uint32_t(slots_.size() - 1);
+}
+
+void Readback::record(Commands& cmd) {
+  if (slots_.empty()) return;
+  bool copies = false;
+  for (const Slot& s : slots_) copies = copies || !s.src->mapped;
+  if (!copies) return;
+  const VkDeviceSize need = slots_.back().hostOffset + slots_.back().bytes;
+  if (!host_ || host_->size < need) {
+    host_.reset();
+    host_ = std::make_unique<Buffer>(createBuffer(ctx_, need, Memory::HostVisible));
+  }
+  for (const Slot& s : slots_)
+    if (!s.src->mapped) cmd.copy(*s.src, *host_, s.bytes, s.srcOffset, s.hostOffset);
+  cmd.barrier();
+}
+
+void Readback::read(uint32_t slot, void* data) const {
+  const Slot& s = slots_.at(slot);
+  if (s.bytes == 0) return;
+  ctx_.cost.readbackBytes += s.bytes;
+  if (s.src->mapped) {
+    std::memcpy(data, static_cast<const char*>(s.src->mapped) + s.srcOffset, s.bytes);
+    return;
+  }
+  CS_CHECK(host_ && host_->size >= s.hostOffset + s.bytes, "readback read before it was recorded");
+  std::memcpy(data, static_cast<const char*>(host_->mapped) + s.hostOffset, s.bytes);
+}
+
+uint64_t Readback::bytesAllocated() const { return host_ ? host_->size : 0; }
 
 // ---- images ------------------------------------------------------------------------------------
 
@@ -433,6 +487,7 @@ Image createImage(Context& ctx, uint32_t width, uint32_t height, VkFormat format
   ai.allocationSize = req.size;
   ai.memoryTypeIndex = type;
   VkResult r = vkAllocateMemory(ctx.device, &ai, nullptr, &t.memory);
+  ctx.cost.allocations++;
   if (r != VK_SUCCESS)
     throw Error("cannot allocate a " + std::to_string(width) + "x" + std::to_string(height) + " render target (" +
                     resultName(r) + ")",
@@ -687,15 +742,17 @@ void Commands::dispatch(const Kernel& kernel, std::initializer_list<BufferRange>
   pushBuffers(ctx_, cb_, kernel, buffers);
   if (pushBytes) vkCmdPushConstants(cb_, kernel.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, pushBytes, push);
   vkCmdDispatch(cb_, gx, gy, gz);
+  ctx_.cost.dispatches++;
 }
 
 void Commands::dispatchIndirect(const Kernel& kernel, std::initializer_list<BufferRange> buffers, const void* push,
-                                uint32_t pushBytes, const Buffer& args, VkDeviceSize offset) {
+                                uint32_t pushBytes, VkBuffer args, VkDeviceSize offset) {
   CS_CHECK(pushBytes == kernel.pushBytes,
            kernel.name << ": push constants of " << pushBytes << " bytes, kernel expects " << kernel.pushBytes);
   pushBuffers(ctx_, cb_, kernel, buffers);
   if (pushBytes) vkCmdPushConstants(cb_, kernel.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, pushBytes, push);
-  vkCmdDispatchIndirect(cb_, args.buffer, offset);
+  vkCmdDispatchIndirect(cb_, args, offset);
+  ctx_.cost.dispatches++;
 }
 
 void Commands::fill(const Buffer& b, uint32_t value, VkDeviceSize offset, VkDeviceSize size) {
@@ -735,7 +792,9 @@ void Commands::submit() {
   si.pCommandBuffers = &cb_;
   VK_CHECK(vkResetFences(ctx_.device, 1, &ctx_.fence));
   VK_CHECK(vkQueueSubmit(ctx_.queue, 1, &si, ctx_.fence));
+  ctx_.cost.submits++;
   VK_CHECK(vkWaitForFences(ctx_.device, 1, &ctx_.fence, VK_TRUE, UINT64_MAX));
+  ctx_.cost.hostSyncs++;
   VK_CHECK(vkResetCommandBuffer(cb_, 0));
   begin();
 }

@@ -31,6 +31,20 @@ struct ContextOptions {
   bool quiet = false;         // do not print the chosen device
 };
 
+// What a frame costs the host, counted by vk/ since the context was made; a method reports the
+// difference over its frame (eval/method.h: the keys submits_per_frame, host_syncs_per_frame,
+// readback_bytes_per_frame, allocations_per_frame, dispatches_per_frame).
+struct HostCost {
+  uint64_t submits = 0;        // queue submissions (Commands::submit)
+  uint64_t hostSyncs = 0;      // host waits for the device (fence waits)
+  uint64_t readbackBytes = 0;  // bytes copied from device buffers into host memory (download, readBack)
+  uint64_t allocations = 0;    // device memory allocations (buffers, images, staging)
+  uint64_t dispatches = 0;     // compute dispatches, direct and indirect, and draw calls
+};
+HostCost operator-(const HostCost& a, const HostCost& b);
+
+struct Buffer;
+
 struct Context {
   VkInstance instance = VK_NULL_HANDLE;
   VkDebugUtilsMessengerEXT messenger = VK_NULL_HANDLE;
@@ -45,6 +59,9 @@ struct Context {
   uint32_t subgroupSize = 0;
   bool hostVisibleDeviceLocal = false;   // unified memory (lavapipe, some iGPUs): no staging needed
   PFN_vkCmdPushDescriptorSetKHR cmdPushDescriptorSet = nullptr;
+
+  HostCost cost;                    // see HostCost
+  std::unique_ptr<Buffer> staging;  // discrete GPUs: the one staging buffer upload/download reuse (grown as needed)
 
   // validation messages (warnings and errors) seen so far; tests fail when this grows
   uint64_t validationMessages = 0;
@@ -92,7 +109,8 @@ struct Buffer {
 // Throws cs::Error if size exceeds what the device can allocate.
 Buffer createBuffer(Context& ctx, VkDeviceSize size, Memory memory = Memory::Device,
                     VkBufferUsageFlags extraUsage = 0);
-// Host <-> buffer copies; through a staging buffer when the buffer is not host visible.
+// Host <-> buffer copies; through the context's staging buffer (one submit and wait each) when the buffer
+// is not host visible. Downloads count their bytes in ctx.cost.readbackBytes.
 void upload(Context& ctx, Buffer& dst, const void* data, VkDeviceSize bytes, VkDeviceSize offset = 0);
 void download(Context& ctx, const Buffer& src, void* data, VkDeviceSize bytes, VkDeviceSize offset = 0);
 template <class T>
@@ -101,6 +119,32 @@ std::vector<T> download(Context& ctx, const Buffer& src, size_t count, size_t fi
   if (count) download(ctx, src, v.data(), count * sizeof(T), first * sizeof(T));
   return v;
 }
+
+// A host-visible copy of device results, filled inside a frame's own command buffer so that reading them
+// needs no submit of its own: on unified memory (hostVisibleDeviceLocal) the source buffers are read
+// directly and nothing is recorded; elsewhere record() adds a copy into `host`, which grows between
+// frames only. After the frame's submit, read() copies the bytes out (counted as readback).
+class Commands;
+class Readback {
+ public:
+  explicit Readback(Context& ctx) : ctx_(ctx) {}
+  // Plans `bytes` of `src` from `srcOffset`; returns a slot for read(). Call before record().
+  uint32_t add(const Buffer& src, VkDeviceSize bytes, VkDeviceSize srcOffset = 0);
+  // Records the copies of every planned slot (no-op on unified memory); allocates only when it grows.
+  void record(Commands& cmd);
+  void read(uint32_t slot, void* data) const;
+  void clear() { slots_.clear(); }
+  uint64_t bytesAllocated() const;
+
+ private:
+  struct Slot {
+    const Buffer* src;
+    VkDeviceSize bytes, srcOffset, hostOffset;
+  };
+  Context& ctx_;
+  std::vector<Slot> slots_;
+  std::unique_ptr<Buffer> host_;
+};
 
 // A 2-D render target with its own device-local memory and one view. Move-only.
 struct Image {
@@ -222,7 +266,11 @@ class Commands {
   }
   // Dispatch with the workgroup count read from `args` (3 x uint32 at `offset`) on the GPU.
   void dispatchIndirect(const Kernel& kernel, std::initializer_list<BufferRange> buffers, const void* push,
-                        uint32_t pushBytes, const Buffer& args, VkDeviceSize offset = 0);
+                        uint32_t pushBytes, const Buffer& args, VkDeviceSize offset = 0) {
+    dispatchIndirect(kernel, buffers, push, pushBytes, args.buffer, offset);
+  }
+  void dispatchIndirect(const Kernel& kernel, std::initializer_list<BufferRange> buffers, const void* push,
+                        uint32_t pushBytes, VkBuffer args, VkDeviceSize offset);
   void fill(const Buffer& b, uint32_t value, VkDeviceSize offset = 0, VkDeviceSize size = VK_WHOLE_SIZE);
   void copy(const Buffer& src, const Buffer& dst, VkDeviceSize bytes, VkDeviceSize srcOffset = 0,
             VkDeviceSize dstOffset = 0);

@@ -1,0 +1,79 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// The device path's bookkeeping between two steps (one invocation; traversal.h, "One submission"). Step c
+// expands the pairs of depth c - 1 into depth c (step 0: the batch's triangles into the root); at c = D,
+// the tree's depth, the pairs go to the leaves instead. Before step c this kernel
+//  - adds what step c - 1 did to its depth's totals (inputs, tests, survivors, steps run, early accept),
+//  - flags an overflow when step c - 1's survivors passed the capacity (the scatter then wrote none, and
+//    every later step of the frame is a dispatch of zero workgroups: the host redoes it chunked),
+//  - writes step c's count, its TraversePush fields from the tree's shape, and the indirect arguments of
+//    its test and scatter, or of the leaves at c = D, and clears the step counters.
+// bindings: 0 = shape words (SHAPE_*, conetree/tree_shape.comp), 1 = state words (STAT_*, STATE_*)
+#include "conetree/cone_layout.h"
+#include "sort/sort_layout.h"
+#include "traversal/traversal_layout.h"
+
+layout(local_size_x = 1) in;
+layout(std430, binding = 0) readonly buffer Shape { uint shape[]; };
+layout(std430, binding = 1) buffer State { uint state[]; };
+layout(push_constant) uniform Push { AdvancePush p; };
+
+void add64(uint at, uint value) {
+  uint lo = state[at] + value;
+  if (lo < value) state[at + 1u] += 1u;
+  state[at] = lo;
+}
+
+void writeArgs(uint at, uint items, uint count, uint groupSize) {
+  uint groups = (items + groupSize - 1u) / groupSize;
+  uint x = min(groups, p.maxPerDim);
+  state[at] = x;
+  state[at + 1u] = x == 0u ? 1u : (groups + x - 1u) / x;
+  state[at + 2u] = 1u;
+  state[at + 3u] = count;
+}
+
+void main() {
+  uint depth = shape[SHAPE_DEPTH];
+  uint c = p.step;
+  uint n = 0u;
+  if (c == 0u) {
+    n = state[STATE_OVERFLOW] != 0u || depth == 0u ? 0u : p.triangles;
+  } else {
+    uint inputs = state[STATE_COUNT];
+    if (inputs > 0u) {
+      uint survivors = state[STAT_TOTAL];
+      uint acc = STATE_ACC + STATE_ACC_WORDS * (c - 1u);
+      add64(acc, inputs);
+      add64(acc + 2u, inputs * (c == 1u ? 1u : 4u) - state[STAT_MISSING]);
+      add64(acc + 4u, survivors);
+      state[acc + 6u] += 1u;
+      add64(STATE_ACCEPTED, state[STAT_ACCEPTED]);
+      add64(STATE_DROPPED, state[STAT_DROPPED]);
+      state[STATE_PEAK_CHUNK] = max(state[STATE_PEAK_CHUNK], inputs);
+      state[STATE_PEAK_PAIRS] = max(state[STATE_PEAK_PAIRS], (c == 1u ? 0u : inputs) + min(survivors, p.capacity));
+      if (survivors > p.capacity) state[STATE_OVERFLOW] = 1u;
+      else n = survivors;
+    }
+  }
+  writeArgs(STATE_TEST_ARGS, 0u, 0u, TRAVERSE_THREADS);
+  if (c <= STATE_MAX_STEPS) writeArgs(STATE_LEAF_ARGS + 4u * c, 0u, 0u, TRAVERSE_THREADS);
+  state[STATE_COUNT] = 0u;
+  if (n > 0u && c == depth) {
+    writeArgs(STATE_LEAF_ARGS + 4u * c, 4u * n, n, TRAVERSE_THREADS);
+    add64(STATE_LEAF_PAIRS, n);
+  } else if (n > 0u && c < depth) {
+    state[STATE_COUNT] = n;
+    if (c > 0u) writeArgs(STATE_TEST_ARGS, n, n, TRAVERSE_THREADS);
+    state[STATE_CHILD_OFFSET] = shape[SHAPE_OFFSETS + c];
+    state[STATE_CHILD_COUNT] = shape[SHAPE_COUNTS + c];
+    state[STATE_INPUT_OFFSET] = c == 0u ? 0u : shape[SHAPE_OFFSETS + c - 1u];
+    state[STATE_LEAF_SHIFT] = 2u * (depth - c);
+  }
+  writeArgs(STATE_SCAN_ARGS, max(state[STATE_COUNT], 1u), 0u, SCAN_BLOCK);  // at least one: it writes the total
+  state[STATE_LEAF_COUNT] = shape[SHAPE_LEAVES];
+  state[STAT_MISSING] = 0u;
+  state[STAT_TOTAL] = 0u;
+  state[STAT_ACCEPTED] = 0u;
+  state[STAT_DROPPED] = 0u;
+}
