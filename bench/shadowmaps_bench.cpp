@@ -10,6 +10,7 @@
 // "builtin" is every named view of the built-in scene; "engine" is assimp's 2CylinderEngine with the
 // automatic camera and light (or a .gltf/.glb path). --images writes <scene>_<view>_<method>_{mask,diff}.png.
 #include <algorithm>
+#include <map>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
@@ -102,6 +103,7 @@ int main(int argc, char** argv) {
         }
       };
       row(referenceMethod().name, judge(referenceMethod(), Settings(), *ctx, frame, uint32_t(frames)));
+      std::map<std::string, double> medians;  // method -> median ms, for the ratios below
       for (size_t k = 0; k < methods.size(); ++k) {
         if (methods[k]->reference) continue;
         const Judged j = judge(*methods[k], settings[k], *ctx, frame, uint32_t(frames));
@@ -110,6 +112,15 @@ int main(int argc, char** argv) {
         std::printf("%-24s %s: %s; stages:", "", methods[k]->name.c_str(), j.runs.output.work.c_str());
         for (auto& st : j.runs.output.stages) std::printf(" %s %.2f", st.name.c_str(), st.ms);
         std::printf("\n");
+        if (s.contains("submits_per_frame"))
+          std::printf("%-24s %s host cost per frame: %llu submits, %llu host syncs, %.1f KiB read back, %llu allocations, "
+                      "%llu dispatches\n",
+                      "", methods[k]->name.c_str(), s["submits_per_frame"].get<unsigned long long>(),
+                      s["host_syncs_per_frame"].get<unsigned long long>(),
+                      double(s["readback_bytes_per_frame"].get<uint64_t>()) / 1024.0,
+                      s["allocations_per_frame"].get<unsigned long long>(),
+                      s["dispatches_per_frame"].get<unsigned long long>());
+        medians[methods[k]->name] = j.runs.medianMs;
         if (s.contains("unique_pages") && s.contains("requests_before_pruning"))
           std::printf("%-24s page requests %llu -> %llu pruned -> %llu unique pages (paper 000 Fig. 12: 2,900-7,100 "
                       "at 1024²), %llu passes (%llu aligned superpages), effective %u², pool %llu/%llu pages, "
@@ -123,6 +134,12 @@ int main(int argc, char** argv) {
                       s["isolated_samples"].get<unsigned long long>(), s["lookup_misses"].get<unsigned long long>(),
                       s["triangles_drawn"].get<unsigned long long>(), s["triangles"].get<unsigned long long>(),
                       s["analysis_wall_ms"].get<double>(), s["render_wall_ms"].get<double>());
+      }
+      if (medians.count("cone")) {  // the cone path against each peer, same run
+        std::printf("%-24s cone / embree %.2fx", "", medians["cone"] / frame.reference.medianMs);
+        for (auto& [name, ms] : medians)
+          if (name != "cone") std::printf(", cone / %s %.2fx", name.c_str(), medians["cone"] / ms);
+        std::printf("\n");
       }
       std::fflush(stdout);
     }

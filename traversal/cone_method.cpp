@@ -242,7 +242,7 @@ class ConeMethod : public ShadowMethod {
     }
     tree_.recordDevice(cmd, g.position, rays_->samples(), rays_->countBuffer(), 0, std::max(pixels, 1u), frame.light,
                        2.0f * in.eps, &frame_);
-    if (frame_.far) recordFrameTriangles(cmd);
+    if (frame_.far && frameTrianglesStale()) recordFrameTriangles(cmd);
     boundary("build");
     traversal_.recordBegin(cmd, in);
     forEachTriangleBuffer(in, 0, triangleCount_, [&](const traversal::TraversalInput& part) {
@@ -350,7 +350,7 @@ class ConeMethod : public ShadowMethod {
     if (lit > 0 && triangleCount_ > 0) {
       stage("build", [&](vk::Commands& cmd) {
         tree_.record(cmd, g.position, rays_->samples(), lit, frame.light, 2.0f * in.eps, &frame_);
-        if (frame_.far) recordFrameTriangles(cmd);
+        if (frame_.far && frameTrianglesStale()) recordFrameTriangles(cmd);
       });
       stats["tree_depth"] = tree_.shape().depth;
       stats["tree_nodes"] = tree_.shape().nodes();
@@ -376,8 +376,19 @@ class ConeMethod : public ShadowMethod {
            rayFlags_.size + remaining_.size + kept_.size;
   }
 
+  // Whether the far frame's triangle copies predate the triangles or this frame's far frame (a static
+  // scene under a static light keeps them).
+  bool frameTrianglesStale() const {
+    const cone::ConeFrame& a = frame_.frame;
+    const cone::ConeFrame& b = frameTrianglesOf_;
+    return frameTrianglesUpload_ != uploads_ || a.rowX != b.rowX || a.rowY != b.rowY || a.rowZ != b.rowZ ||
+           a.centre != b.centre || a.lightFrame != b.lightFrame;
+  }
+
   // The far-light frame's copy of every triangle buffer (frame_triangles.comp), for the pass tests.
   void recordFrameTriangles(vk::Commands& cmd) {
+    frameTrianglesUpload_ = uploads_;
+    frameTrianglesOf_ = frame_.frame;
     frameTriangles_.resize(triangles_.size());
     for (size_t c = 0; c < triangles_.size(); ++c) {
       if (frameTriangles_[c].size < triangles_[c].size) {
@@ -547,6 +558,7 @@ class ConeMethod : public ShadowMethod {
     }
     cachedPositions_ = scene.positions;
     cachedIndices_ = scene.indices;
+    uploads_++;
     cachedLight_ = light;
     return msSince(t0);
   }
@@ -599,6 +611,9 @@ class ConeMethod : public ShadowMethod {
   glm::vec3 boundsLo_{0}, boundsHi_{0};  // of the uploaded (finite) triangles
   cone::FrameChoice frame_;              // this frame's cone frame (world or far)
   std::vector<vk::Buffer> frameTriangles_;  // far frame: the triangles relative to the light in the frame
+  uint64_t uploads_ = 0;                    // triangle uploads so far
+  uint64_t frameTrianglesUpload_ = ~uint64_t(0);  // the upload and the frame frameTriangles_ were made for
+  cone::ConeFrame frameTrianglesOf_{};
   vk::Kernel frameTris_;
   // two-pass
   uint32_t blockerCount_ = 0;
