@@ -22,6 +22,7 @@ using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 constexpr uint32_t kOne = 0x3F800000u;  // 1.0f: the visibility words start lit
+constexpr uint64_t kMaxBatches = 64;     // batches one submission may hold (see runSubmitted)
 
 // Solid angle of triangle (a, b, c), vertices relative to the apex (Van Oosterom & Strackee); 0 for a
 // degenerate one.
@@ -245,9 +246,21 @@ class ConeMethod : public ShadowMethod {
     if (frame_.far && frameTrianglesStale()) recordFrameTriangles(cmd);
     boundary("build");
     traversal_.recordBegin(cmd, in);
+    std::vector<uint32_t> batchStarts;  // scene index of each batch's first triangle, in order
+    const uint32_t batch = traversal_.batchTriangles();
+    uint64_t batches = 0;
     forEachTriangleBuffer(in, 0, triangleCount_, [&](const traversal::TraversalInput& part) {
-      traversal_.record(cmd, part, boundary);
+      batches += (uint64_t(part.triangleCount) + batch - 1) / batch;
     });
+    // An arena so small that the batches would number in the hundreds (each ~10 dispatches a depth) is
+    // traversed chunked instead, after the submission.
+    const bool onDevice = batches <= kMaxBatches;
+    if (onDevice)
+      forEachTriangleBuffer(in, 0, triangleCount_, [&](const traversal::TraversalInput& part) {
+        const uint32_t base = uint32_t(part.triangles - triangles_.data()) * chunkTriangles_;
+        for (uint32_t first : traversal_.record(cmd, part, boundary)) batchStarts.push_back(base + first);
+      });
+    stats["traversal_batch_triangles"] = batch;
     readback_.clear();
     const uint32_t maskSlot = readback_.add(visibility_, uint64_t(pixels) * 4);
     const uint32_t stateSlot = readback_.add(traversal_.stateBuffer(), STATE_WORDS * 4);
@@ -268,15 +281,29 @@ class ConeMethod : public ShadowMethod {
     stats["lit_samples"] = lit;
     stats["tree_depth"] = shape[SHAPE_DEPTH];
     stats["tree_nodes"] = shape[SHAPE_NODES];
-    traversal::TraversalStats ts = traversal_.statsFromState(state, shape[SHAPE_DEPTH]);
+    const bool overflow = traversal::Traversal::overflowed(state);
+    traversal::TraversalStats ts = traversal_.statsFromState(state, shape[SHAPE_DEPTH], overflow);
+    if (onDevice) traversal_.learnBatch(state);
     stats["traversal_path"] = "one submission";
-    if (traversal::Traversal::overflowed(state)) {
-      // The pairs of one step did not fit the arena on the GPU: the chunked traversal redoes it from the
-      // tree already built (the hits written so far are hits; every pair is decided again).
+    if (!onDevice) {
       auto f0 = Clock::now();
       ts = traverse(in, 0, triangleCount_);
       addWall("traversal (chunked)", msSince(f0));
-      stats["traversal_path"] = "chunked: a step's pairs passed the arena on the GPU, so the traversal was redone in chunks";
+      stats["traversal_path"] = "chunked: the traversal memory holds too few pairs for one submission (" +
+                                std::to_string(batches) + " batches of " + std::to_string(batch) + " triangles)";
+      auto t1 = Clock::now();
+      if (pixels) vk::download(ctx_, visibility_, mask.data(), uint64_t(pixels) * 4);
+      readbackMs = msSince(t1);
+    } else if (overflow) {
+      // The pairs of one step did not fit the arena on the GPU: the chunked traversal takes over from the
+      // first batch that did not complete, on the tree already built (the hits written so far are hits).
+      const uint32_t done = traversal::Traversal::batchesDone(state);
+      const uint32_t from = done < batchStarts.size() ? batchStarts[done] : triangleCount_;
+      auto f0 = Clock::now();
+      if (from < triangleCount_) ts = combine(ts, traverse(in, from, triangleCount_ - from));
+      addWall("traversal (chunked)", msSince(f0));
+      stats["traversal_path"] = "chunked from triangle " + std::to_string(from) +
+                                ": a step's pairs passed the arena on the GPU (the next frame's batches are smaller)";
       auto t1 = Clock::now();
       if (pixels) vk::download(ctx_, visibility_, mask.data(), uint64_t(pixels) * 4);
       readbackMs = msSince(t1);

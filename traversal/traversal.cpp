@@ -113,6 +113,7 @@ Traversal::Traversal(vk::Context& ctx, uint64_t memoryBytes)
 
 Traversal::Traversal(vk::Context& ctx, const ArenaPlan& plan) : ctx_(ctx), plan_(plan) {
   CS_CHECK(plan_.pairCapacity >= kMinPairs && plan_.chunkCapacity >= 1, "traversal arena plan too small");
+  batchTriangles_ = plan_.chunkCapacity;
   test_ = vk::createKernel(ctx, "traverse test", spv_traverse_test_comp, 10, sizeof(TraversePush));
   scatter_ = vk::createKernel(ctx, "traverse scatter", spv_traverse_scatter_comp, 5, sizeof(TraversePush));
   leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 6, sizeof(TraversePush));
@@ -343,7 +344,9 @@ void Traversal::recordBegin(vk::Commands& cmd, const TraversalInput& in) {
   cmd.barrier();
 }
 
-void Traversal::record(vk::Commands& cmd, const TraversalInput& in, const std::function<void(const char*)>& boundary) {
+std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput& in,
+                                        const std::function<void(const char*)>& boundary) {
+  std::vector<uint32_t> starts;
   CS_CHECK(in.triangles && in.tree && in.visibility, "traversal input incomplete");
   const uint32_t maxDepth = in.tree->maxDepth();
   CS_CHECK(maxDepth >= 1 && maxDepth < STATE_MAX_STEPS, "traversal: tree depth bound " << maxDepth);
@@ -393,8 +396,10 @@ void Traversal::record(vk::Commands& cmd, const TraversalInput& in, const std::f
   };
 
   const uint64_t end = uint64_t(in.firstTriangle) + in.triangleCount;
-  for (uint64_t pos = in.firstTriangle; pos < end; pos += capacity) {
-    const uint32_t m = uint32_t(std::min<uint64_t>(capacity, end - pos));
+  const uint32_t batch = std::max(1u, std::min(capacity, batchTriangles_));
+  for (uint64_t pos = in.firstTriangle; pos < end; pos += batch) {
+    const uint32_t m = uint32_t(std::min<uint64_t>(batch, end - pos));
+    starts.push_back(uint32_t(pos));
     advance(0, m);
     TraversePush p0 = base;
     p0.first = uint32_t(pos);
@@ -415,11 +420,28 @@ void Traversal::record(vk::Commands& cmd, const TraversalInput& in, const std::f
                            &p, sizeof(p), state_, (STATE_LEAF_ARGS + 4 * c) * 4);
     }
     cmd.barrier();
+    advance(ADVANCE_END_OF_BATCH, 0);
     if (boundary) boundary("leaves");
   }
+  return starts;
 }
 
-TraversalStats Traversal::statsFromState(const uint32_t* w, uint32_t depth) const {
+void Traversal::learnBatch(const uint32_t* w) {
+  const uint32_t capacity = plan_.chunkCapacity;
+  const uint32_t used = std::max(1u, std::min(capacity, batchTriangles_));
+  if (overflowed(w)) batchTriangles_ = std::max(1u, used / 4);
+  else if (w[STATE_PEAK_PAIRS] < capacity / 8 && used < capacity) batchTriangles_ = uint32_t(std::min<uint64_t>(capacity, 2ull * used));
+}
+
+TraversalStats Traversal::statsFromState(const uint32_t* words, uint32_t depth, bool committed) const {
+  // The committed copy holds STATE_LEAF_MISSING, then the words from STATE_ACC on: read it through a
+  // view that puts them where the live words are.
+  std::vector<uint32_t> view(words, words + STATE_WORDS);
+  if (committed) {
+    view[STATE_LEAF_MISSING] = words[STATE_COMMITTED];
+    for (uint32_t k = 0; k + 1 < STATE_COMMITTED_WORDS; ++k) view[STATE_ACC + k] = words[STATE_COMMITTED + 1 + k];
+  }
+  const uint32_t* w = view.data();
   auto u64 = [&](uint32_t at) { return uint64_t(w[at]) | (uint64_t(w[at + 1]) << 32); };
   TraversalStats s;
   for (uint32_t d = 0; d < std::min<uint32_t>(depth, STATE_MAX_STEPS); ++d) {

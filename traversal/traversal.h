@@ -86,7 +86,8 @@
 // chunkCapacity pairs (its scratch and either buffer hold that many): a step whose survivors do not fit
 // writes none of them and sets the overflow word, after which nothing more runs, and the caller redoes the
 // traversal with run() (chunked, several submits) -- the mask is the same either way: the hits already
-// written are hits, and the chunked run decides every pair. The counters stay on the GPU (stateBuffer())
+// written are hits, and the chunked run decides every pair from the first batch that did not complete).
+// The batch size adapts from frame to frame (learnBatch). The counters stay on the GPU (stateBuffer())
 // and come back once with the mask (statsFromState).
 //
 // Stats per frame: for each pass (depth), the (triangle, node) pairs tested, the survivors and the chunks;
@@ -192,11 +193,21 @@ class Traversal {
   // buffer. `boundary`, when given, is called after each batch's passes with "traversal" and after its
   // leaves with "leaves" (a caller may end a submission there to time them).
   void recordBegin(vk::Commands& cmd, const TraversalInput& in);
-  void record(vk::Commands& cmd, const TraversalInput& in, const std::function<void(const char*)>& boundary = {});
+  // Returns the first triangle of each batch, in order (STATE_BATCHES_DONE of them completed).
+  std::vector<uint32_t> record(vk::Commands& cmd, const TraversalInput& in,
+                               const std::function<void(const char*)>& boundary = {});
+  // After a device frame, from its state words: a frame that overflowed makes the batches 4x smaller
+  // for the next (a step's pairs grow with its batch's triangles), one that used less than 1/8 of the
+  // capacity at its peak doubles them, up to chunkCapacity. So a scene whose full batch overflows pays
+  // the chunked fallback on its first frame only.
+  void learnBatch(const uint32_t* words);
+  uint32_t batchTriangles() const { return batchTriangles_; }
   const vk::Buffer& stateBuffer() const { return state_; }
   // The counters of the device path from the state words read back (STATE_WORDS of them), for a tree
   // of `depth` (the shape's SHAPE_DEPTH).
-  TraversalStats statsFromState(const uint32_t* words, uint32_t depth) const;
+  // With `committed`, as of the last batch that completed (what an overflowed frame's fallback adds to).
+  TraversalStats statsFromState(const uint32_t* words, uint32_t depth, bool committed = false) const;
+  static uint32_t batchesDone(const uint32_t* words) { return words[STATE_BATCHES_DONE]; }
   static bool overflowed(const uint32_t* words) { return words[STATE_OVERFLOW] != 0; }
 
   const ArenaPlan& plan() const { return plan_; }
@@ -220,6 +231,7 @@ class Traversal {
   vk::Kernel test_, scatter_, leaves_, advance_;
   vk::Buffer arena_, chunk_, masks_, counts_, stats_, flags_, state_;
   std::unique_ptr<sort::Scan> scan_;
+  uint32_t batchTriangles_ = 1;  // triangles per batch of the device path (learnBatch)
 };
 
 }  // namespace cs::traversal

@@ -24,6 +24,7 @@
 #define STATE_PEAK_PAIRS 11    // most pairs resident at once (a step's inputs + survivors)
 #define STATE_PEAK_CHUNK 12    // most inputs of one step
 #define STATE_LEAF_MISSING 13  // leaf tests short of 4 per pair (rays past the last leaf)
+#define STATE_BATCHES_DONE 14  // batches whose every step and leaf fit (the host resumes after them on overflow)
 #define STATE_ACC 16           // + 8 d: depth d's inputs, tests, survivors (uint64 as lo, hi) and steps that ran
 #define STATE_ACC_WORDS 8
 #define STATE_LEAF_PAIRS 144   // uint64 (lo, hi): pairs sent to the leaves
@@ -33,7 +34,10 @@
 #define STATE_LEAF_ARGS 156    // + 4 c: the leaves of step c (x, y, 1, leaf pairs); 0 groups but at c = D
 #define STATE_MAX_STEPS 16     // steps 0 .. 15 (tree depth <= 15)
 #define STATE_SCAN_ARGS 224    // uvec4: the current step's scan, level 0 (max(1, ceil(inputs / SCAN_BLOCK)) workgroups)
-#define STATE_WORDS 228
+#define STATE_COMMITTED 232    // the totals (STATE_LEAF_MISSING, then STATE_ACC .. STATE_TEST_ARGS) as of the last completed batch
+#define STATE_COMMITTED_WORDS (1 + STATE_TEST_ARGS - STATE_ACC)
+#define STATE_WORDS 372
+#define ADVANCE_END_OF_BATCH 0xFFFFFFFFu
 
 // TraversePush::test: the cone/triangle test of the passes (cone_method.h, ConeOptions::test).
 #define TRAVERSE_TEST_PRECISE 0u  // precise_test.h (002 §3.2)
@@ -78,7 +82,8 @@ struct TraversePush {
 
 // traverse_advance.comp: between two steps of the device path (one invocation).
 struct AdvancePush {
-  uint step;          // 0: a batch starts (pass 0 next); c >= 1: step c - 1 just ran, step c is next
+  uint step;          // 0: a batch starts (pass 0 next); c >= 1: step c - 1 just ran, step c is next;
+                      // ADVANCE_END_OF_BATCH: the batch's leaves ran (counts it done unless it overflowed)
   uint triangles;     // step 0: the batch's triangles (pass 0's inputs)
   uint capacity;      // pairs a step may write (its output buffer and the next step's scratch)
   uint maxPerDim;     // workgroups per grid dimension
@@ -99,6 +104,7 @@ static_assert(sizeof(AdvancePush) == 16, "AdvancePush layout");
 static_assert(STATE_ACC + STATE_ACC_WORDS * STATE_MAX_STEPS <= STATE_LEAF_PAIRS && STATE_TEST_ARGS % 4 == 0 &&
                   STATE_LEAF_ARGS % 4 == 0 && STATE_LEAF_ARGS + 4 * (STATE_MAX_STEPS + 1) <= STATE_WORDS,
               "state words");
+static_assert(STATE_COMMITTED >= STATE_SCAN_ARGS + 4 && STATE_COMMITTED + STATE_COMMITTED_WORDS <= STATE_WORDS, "committed words");
 static_assert(sizeof(TraversePush) == 96 && offsetof(TraversePush, frameVertices) == 76 && offsetof(TraversePush, first) == 16 &&
                   offsetof(TraversePush, minLength) == 44 && offsetof(TraversePush, outLimit) == 48 &&
                   offsetof(TraversePush, test) == 52 && offsetof(TraversePush, frontFaceCulling) == 56,

@@ -34,6 +34,13 @@ void writeArgs(uint at, uint items, uint count, uint groupSize) {
 }
 
 void main() {
+  if (p.step == ADVANCE_END_OF_BATCH) {
+    if (state[STATE_OVERFLOW] != 0u) return;
+    state[STATE_BATCHES_DONE] += 1u;
+    state[STATE_COMMITTED] = state[STATE_LEAF_MISSING];
+    for (uint k = 0u; k + 1u < STATE_COMMITTED_WORDS; k++) state[STATE_COMMITTED + 1u + k] = state[STATE_ACC + k];
+    return;
+  }
   uint depth = shape[SHAPE_DEPTH];
   uint c = p.step;
   uint n = 0u;
