@@ -430,6 +430,24 @@ bool noImageDecode(tinygltf::Image*, const int, std::string*, std::string*, int,
   return true;  // we model no textures: leave image bytes undecoded
 }
 
+// How deep the JSON value nests (a scalar: 0), walked without recursion; stops counting past `limit`.
+// tinygltf copies "extras" recursively, one stack frame a level: a small file nesting 20,000 levels
+// would overflow the stack, so such a file is refused before it gets there.
+constexpr size_t kMaxJsonDepth = 128;  // a glTF's own structure needs about 8
+size_t jsonDepth(const json& root, size_t limit) {
+  std::vector<std::pair<const json*, size_t>> stack{{&root, 0}};
+  size_t deepest = 0;
+  while (!stack.empty()) {
+    auto [v, d] = stack.back();
+    stack.pop_back();
+    if (!v->is_structured() || v->empty()) continue;
+    deepest = std::max(deepest, d + 1);
+    if (deepest > limit) return deepest;
+    for (const json& e : *v) stack.push_back({&e, d + 1});
+  }
+  return deepest;
+}
+
 tinygltf::Model parseFile(const std::string& path, std::ostream& warn) {
   const std::string ext = [&] {
     std::string e = std::filesystem::path(path).extension().string();
@@ -460,6 +478,12 @@ tinygltf::Model parseFile(const std::string& path, std::ostream& warn) {
       throw Error("glTF version '" + version + "' is not one coneshadow knows (it reads 2.x)", path,
                   "re-export it as glTF 2.0");
   }
+  if (j.is_object())
+    for (auto it = j.begin(); it != j.end(); ++it)
+      if (jsonDepth(it.value(), kMaxJsonDepth - 1) > kMaxJsonDepth - 1)
+        throw Error("the JSON nests more than " + std::to_string(kMaxJsonDepth) + " levels deep (under \"" + it.key() +
+                        "\")",
+                    path, "a glTF needs about 8 levels; remove the deeply nested extras or extensions");
   SchemaCheck(path).root(j);
   if (const auto it = j.find("extensionsRequired"); it != j.end())
     for (const json& e : *it)

@@ -470,6 +470,32 @@ TEST_F(TinyGltf, SparseAccessorOverridesItsBase) {
   EXPECT_NEAR(glm::distance(s.positions[s.indices[1]], glm::vec3(12, 0, 0)), 0.0f, 1e-5f);
 }
 
+// A file that nests its extras 20,000 levels deep (40 KB) is refused with one line, before a recursive
+// copy of them can overflow the stack; 100 levels still load. The text is written by hand: serialising
+// such a document would recurse as deep.
+TEST_F(TinyGltf, DeeplyNestedExtrasAreRefusedNotACrash) {
+  const std::string good = tinyDocument().dump();
+  for (int levels : {100, 20000}) {
+    const std::string nested = std::string(size_t(levels), '[') + std::string(size_t(levels), ']');
+    const std::string path = (dir / ("nested" + std::to_string(levels) + ".gltf")).string();
+    std::ofstream(path) << "{\"extras\":" << nested << "," << good.substr(1);
+    std::ostringstream warn;
+    if (levels == 100) {
+      EXPECT_GT(loadGltf(path, warn).indices.size(), 0u);
+      continue;
+    }
+    try {
+      loadGltf(path, warn);
+      FAIL() << "loaded";
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      EXPECT_EQ(what.rfind(path + ": ", 0), 0u) << what;
+      EXPECT_NE(what.find("nests more than 128 levels deep (under \"extras\")"), std::string::npos) << what;
+      EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+    }
+  }
+}
+
 // Each mutation of the good document must fail with its own message.
 struct Mutation {
   const char* name;

@@ -283,7 +283,7 @@ class ConeMethod : public ShadowMethod {
     stats["tree_nodes"] = shape[SHAPE_NODES];
     const bool overflow = traversal::Traversal::overflowed(state);
     traversal::TraversalStats ts = traversal_.statsFromState(state, shape[SHAPE_DEPTH], overflow);
-    if (onDevice) traversal_.learnBatch(state);
+
     stats["traversal_path"] = "one submission";
     if (!onDevice) {
       auto f0 = Clock::now();
@@ -313,6 +313,7 @@ class ConeMethod : public ShadowMethod {
       readbackMs = msSince(t1);
     }
 
+    if (onDevice) traversal_.learnBatch(state, ts, triangleCount_);
     if (profile) {
       stats["stage_timing"] = "one submission per stage, host wall clock (--profile-stages)";
       for (auto& [n, ms] : wall) stages.push_back({n, ms});

@@ -426,11 +426,20 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
   return starts;
 }
 
-void Traversal::learnBatch(const uint32_t* w) {
+void Traversal::learnBatch(const uint32_t* w, const TraversalStats& frame, uint64_t triangles) {
   const uint32_t capacity = plan_.chunkCapacity;
   const uint32_t used = std::max(1u, std::min(capacity, batchTriangles_));
-  if (overflowed(w)) batchTriangles_ = std::max(1u, used / 4);
-  else if (w[STATE_PEAK_PAIRS] < capacity / 8 && used < capacity) batchTriangles_ = uint32_t(std::min<uint64_t>(capacity, 2ull * used));
+  if (overflowed(w)) {
+    // The most pairs any depth held per triangle over the whole frame: a batch of b triangles holds about
+    // b times that at its worst depth; aim at half the capacity (the triangles are not all alike).
+    uint64_t worst = 0;
+    for (const PassStats& p : frame.passes) worst = std::max(worst, p.survived);
+    const double perTriangle = double(worst) / double(std::max<uint64_t>(1, triangles));
+    const double fit = perTriangle > 0 ? 0.5 * double(capacity) / perTriangle : double(used) / 4;
+    batchTriangles_ = uint32_t(std::clamp(fit, 1.0, std::max(1.0, double(used) / 2)));
+  } else if (w[STATE_PEAK_PAIRS] < capacity / 8 && used < capacity) {
+    batchTriangles_ = uint32_t(std::min<uint64_t>(capacity, 2ull * used));
+  }
 }
 
 TraversalStats Traversal::statsFromState(const uint32_t* words, uint32_t depth, bool committed) const {

@@ -196,11 +196,12 @@ class Traversal {
   // Returns the first triangle of each batch, in order (STATE_BATCHES_DONE of them completed).
   std::vector<uint32_t> record(vk::Commands& cmd, const TraversalInput& in,
                                const std::function<void(const char*)>& boundary = {});
-  // After a device frame, from its state words: a frame that overflowed makes the batches 4x smaller
-  // for the next (a step's pairs grow with its batch's triangles), one that used less than 1/8 of the
-  // capacity at its peak doubles them, up to chunkCapacity. So a scene whose full batch overflows pays
-  // the chunked fallback on its first frame only.
-  void learnBatch(const uint32_t* words);
+  // After a device frame, from its state words and the frame's whole traversal stats (`triangles`
+  // traversed): a frame that overflowed sizes the next frame's batches so that its busiest depth's pairs
+  // per triangle fill half the capacity (at most half the batch it used; a step's pairs grow with its
+  // batch's triangles), one that used less than 1/8 of the capacity at its peak doubles them, up to
+  // chunkCapacity. So a scene whose full batch overflows pays the chunked fallback on its first frame.
+  void learnBatch(const uint32_t* words, const TraversalStats& frame, uint64_t triangles);
   uint32_t batchTriangles() const { return batchTriangles_; }
   const vk::Buffer& stateBuffer() const { return state_; }
   // The counters of the device path from the state words read back (STATE_WORDS of them), for a tree
