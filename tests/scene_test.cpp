@@ -470,6 +470,20 @@ TEST_F(TinyGltf, SparseAccessorOverridesItsBase) {
   EXPECT_NEAR(glm::distance(s.positions[s.indices[1]], glm::vec3(12, 0, 0)), 0.0f, 1e-5f);
 }
 
+// Loading `path` fails with one line that starts with the path and names `problem`.
+void expectLoadError(const std::string& path, const std::string& problem) {
+  std::ostringstream warn;
+  try {
+    loadGltf(path, warn);
+    FAIL() << "loaded";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind(path + ": ", 0), 0u) << what;
+    EXPECT_NE(what.find(problem), std::string::npos) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  }
+}
+
 // A file that nests its extras 20,000 levels deep (40 KB) is refused with one line, before a recursive
 // copy of them can overflow the stack; 100 levels still load. The text is written by hand: serialising
 // such a document would recurse as deep.
@@ -484,15 +498,7 @@ TEST_F(TinyGltf, DeeplyNestedExtrasAreRefusedNotACrash) {
       EXPECT_GT(loadGltf(path, warn).indices.size(), 0u);
       continue;
     }
-    try {
-      loadGltf(path, warn);
-      FAIL() << "loaded";
-    } catch (const Error& e) {
-      const std::string what = e.what();
-      EXPECT_EQ(what.rfind(path + ": ", 0), 0u) << what;
-      EXPECT_NE(what.find("nests more than 128 levels deep (under \"extras\")"), std::string::npos) << what;
-      EXPECT_EQ(what.find('\n'), std::string::npos) << what;
-    }
+    expectLoadError(path, "nests more than 128 levels deep (under \"extras\")");
   }
 }
 
@@ -511,16 +517,7 @@ TEST_P(TinyGltfBroken, ThrowsNamingFileAndProblem) {
   json doc = tinyDocument();
   GetParam().apply(doc);
   const std::string path = write(doc, std::string(GetParam().name) + ".gltf");
-  std::ostringstream warn;
-  try {
-    loadGltf(path, warn);
-    FAIL() << "loaded";
-  } catch (const Error& e) {
-    const std::string what = e.what();
-    EXPECT_EQ(what.rfind(path + ": ", 0), 0u) << what;
-    EXPECT_NE(what.find(GetParam().problem), std::string::npos) << what;
-    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
-  }
+  expectLoadError(path, GetParam().problem);
 }
 
 INSTANTIATE_TEST_SUITE_P(
