@@ -65,6 +65,49 @@ TEST(PreciseConeTriangle, NeverRejectsAPairThatABruteForceSearchFindsIntersectin
   for (int k : {0, 3, 7, 8, 10, 12}) EXPECT_GT(rejectedByKind[k], missesByKind[k] / 2) << kindName(k);
 }
 
+// Clusters (traversal.h, "Clusters"): the sphere of a cluster holding a triangle that some ray of the
+// cone hits is never rejected by the sphere test -- for clusters of that triangle alone, of it and
+// random triangles around it (up to 50x its size away), of coincident and of degenerate (point, line)
+// triangles -- and a cluster is rejected for many pairs no ray hits.
+TEST(ClusterSphere, NeverRejectsAClusterHoldingATriangleARayOfTheConeHits) {
+  PairGenerator gen(20261202);
+  BruteForce brute;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  int hits = 0, misses = 0, rejected = 0;
+  for (int i = 0; i < 8000; ++i) {
+    Pair p = gen.make();
+    std::vector<glm::vec4> verts = {glm::vec4(p.v[0], 1), glm::vec4(p.v[1], 1), glm::vec4(p.v[2], 1)};
+    const float size = std::max({glm::length(p.v[1] - p.v[0]), glm::length(p.v[2] - p.v[0]), 1e-6f});
+    const int shape = i % 5;  // 0: the triangle alone, 1-2: with neighbours, 3: coincident copies, 4: a point
+    if (shape == 1 || shape == 2) {
+      const float spread = size * (shape == 1 ? 2.0f : 50.0f);
+      for (int k = 0; k < 3 * 20; ++k) verts.push_back(glm::vec4(p.v[k % 3] + spread * vec3(u(rng), u(rng), u(rng)), 1));
+    } else if (shape == 3) {
+      for (int k = 0; k < 9; ++k) verts.push_back(verts[size_t(k % 3)]);
+    } else if (shape == 4) {
+      p.v[1] = p.v[2] = p.v[0];
+      verts = {glm::vec4(p.v[0], 1), glm::vec4(p.v[0], 1), glm::vec4(p.v[0], 1)};
+    }
+    const glm::dvec4 b = traversal::clusterBounds(verts.data(), verts.size());
+    // Relative to the apex already: the GPU's vertices are these fp32 values themselves.
+    const glm::vec4 sphere = traversal::clusterSphere(glm::dvec3(b), b.w, glm::length(glm::dvec3(b)) + b.w);
+    const bool keep = cone::sphereConeTriangle(p.cone, sphere, p.eps);
+    if (brute.hit(p)) {
+      hits++;
+      ASSERT_TRUE(keep) << "pair " << i << " (" << kindName(p.kind) << ", cluster shape " << shape
+                        << ") is hit but its cluster was rejected";
+      // and the triangle's own sphere test, which the traversal ANDs, keeps it too
+      ASSERT_TRUE(cone::sphereConeTriangle(p.cone, p.v[0], p.v[1], p.v[2], p.eps)) << i;
+    } else {
+      misses++;
+      if (!keep) rejected++;
+    }
+  }
+  EXPECT_GT(hits, 1000);
+  EXPECT_GT(rejected, misses / 4) << rejected << " of " << misses;
+}
+
 // The far-light frame (traversal.h): with the margins scaled by the frame's angular scale, the precise
 // and sphere tests still never reject a pair a brute-force search finds intersecting, and they reject
 // more of the others than with scale 1 (the point of the frame: there narrow cones far from the apex keep
@@ -302,6 +345,7 @@ TEST(ConeMethod, MaskIsBitIdenticalAtAnyTraversalMemoryAndPeakStaysUnderTheBound
   // per depth (traversal::minimumPairs) with chunks of a single pair.
   const uint32_t depth = cone::treeDepth(uint32_t(host.litCount()));
   std::vector<ConeOptions> configs(4);
+  for (ConeOptions& o : configs) o.clusters = false;  // the chunked path has none: the very same pairs
   configs[0].traversalMemoryBytes = traversal::kDefaultMemoryBytes;
   configs[1].traversalMemoryBytes = traversal::kDefaultMemoryBytes / 1000;
   configs[2].traversalMemoryBytes = 9000;
@@ -393,6 +437,12 @@ TEST(ConeFrame, OneSubmissionOneHostSyncNoAllocationAfterWarmUp) {
       EXPECT_EQ(out.stats["readback_bytes_per_frame"], maskBytes + (STATE_WORDS + SHAPE_WORDS) * 4) << what;
       EXPECT_EQ(out.stats["lit_samples"], uint64_t(host.litCount())) << what;
       EXPECT_EQ(out.visibility, warm.visibility) << what;
+      // Clusters change which pairs are tested (and, reordering the triangles, which early-accepted node
+      // drops which pair), never the mask.
+      ConeOptions plain = o;
+      plain.clusters = false;
+      const MethodOutput without = runCounted(*makeConeMethod(ctx, plain), frame);
+      EXPECT_EQ(without.visibility, out.visibility) << what << ": clusters changed the mask";
       if (variant != "PreciseSorted") continue;
       if (!empty) EXPECT_GT(std::count(out.visibility.begin(), out.visibility.end(), 0.0f), 0) << what;
       ConeOptions p = o;

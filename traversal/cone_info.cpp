@@ -34,6 +34,7 @@ ConeOptions coneOptions(const Settings& s) {
   cone.earlyAccept = s.onOff("early-accept", cone.earlyAccept);
   cone.twoPass = s.onOff("two-pass", cone.twoPass);
   cone.profileStages = s.onOff("profile-stages", cone.profileStages);
+  cone.clusters = s.onOff("clusters", cone.clusters);
   if (s.has("test"))
     cone.test = s.choice("test", {"precise", "sphere"}, "precise") == "sphere" ? ConeTest::Sphere : ConeTest::Precise;
   cone.blockerSolidAngle = float(s.number("blocker-solid-angle", 0.0, 12.5664, cone.blockerSolidAngle));
@@ -65,6 +66,7 @@ MethodInfo coneMethodInfo() {
        {}},
       {"ray-order", "O", "hilbert (sorted rays, default) or screen (2x2 Morton screen order)", {"hilbert", "screen"}},
       {"traversal-memory", "BYTES", "bound on the traversal's pair buffers (default 64M; e.g. 256K)", {}},
+      {"clusters", "on|off", "clusters of 64 triangles go down the tree's upper levels first (default on; the same mask)", {}},
       {"profile-stages", "on|off",
        "one submission per stage (compact, keys, sort, build, traversal, leaves) to time each by wall clock, "
        "instead of the frame's single submission (the same mask)",

@@ -45,6 +45,8 @@ traversal::TraversalStats combine(const traversal::TraversalStats& a, const trav
     c.passes[d].chunks += b.passes[d].chunks;
     c.passes[d].overflows += b.passes[d].overflows;
   }
+  for (size_t d = 0; d < b.passes.size(); ++d) c.passes[d].clusterTests += b.passes[d].clusterTests;
+  c.expandedClusters += b.expandedClusters;
   c.leafPairs += b.leafPairs;
   c.leafTests += b.leafTests;
   c.submits += b.submits;
@@ -245,6 +247,8 @@ class ConeMethod : public ShadowMethod {
                        2.0f * in.eps, &frame_);
     if (frame_.far && frameTrianglesStale()) recordFrameTriangles(cmd);
     boundary("build");
+    const bool clusters = options_.clusters && traversal_.clustersFit();
+    if (clusters) updateClusterSpheres(frame.light);
     traversal_.recordBegin(cmd, in);
     std::vector<uint32_t> batchStarts;  // scene index of each batch's first triangle, in order
     const uint32_t batch = traversal_.batchTriangles();
@@ -256,10 +260,12 @@ class ConeMethod : public ShadowMethod {
     // traversed chunked instead, after the submission.
     const bool onDevice = batches <= kMaxBatches;
     if (onDevice)
-      forEachTriangleBuffer(in, 0, triangleCount_, [&](const traversal::TraversalInput& part) {
-        const uint32_t base = uint32_t(part.triangles - triangles_.data()) * chunkTriangles_;
-        for (uint32_t first : traversal_.record(cmd, part, boundary)) batchStarts.push_back(base + first);
+      forEachTriangleBuffer(in, 0, triangleCount_, [&](traversal::TraversalInput part) {
+        const size_t b = size_t(part.triangles - triangles_.data());
+        if (clusters) part.clusterSpheres = &clusterSpheres_[b];
+        for (uint32_t first : traversal_.record(cmd, part, boundary)) batchStarts.push_back(uint32_t(b) * chunkTriangles_ + first);
       });
+    stats["clusters"] = clusters;
     stats["traversal_batch_triangles"] = batch;
     readback_.clear();
     const uint32_t maskSlot = readback_.add(visibility_, uint64_t(pixels) * 4);
@@ -399,9 +405,15 @@ class ConeMethod : public ShadowMethod {
     for (const vk::Buffer& b : triangles_) triangleBytes += b.size;
     for (const vk::Buffer& b : frameTriangles_) triangleBytes += b.size;
     return triangleBytes + (rays_ ? rays_->bytesAllocated() : 0) + visibility_.size + tree_.bytesAllocated() +
-           traversal_.bytesAllocated() + traversal_.flagBytes() + readback_.bytesAllocated() +
+           traversal_.bytesAllocated() + traversal_.flagBytes() + readback_.bytesAllocated() + clusterSphereBytes() +
            (compact_ ? compact_->bytesAllocated() : 0) +
            rayFlags_.size + remaining_.size + kept_.size;
+  }
+
+  uint64_t clusterSphereBytes() const {
+    uint64_t n = 0;
+    for (const vk::Buffer& b : clusterSpheres_) n += b.size;
+    return n;
   }
 
   // Whether the far frame's triangle copies predate the triangles or this frame's far frame (a static
@@ -565,6 +577,7 @@ class ConeMethod : public ShadowMethod {
     boundsHi_ = tris.empty() ? glm::vec3(0) : hi;
     triangleCount_ = uint32_t(tris.size() / 3);
     if (options_.twoPass) orderBlockersFirst(tris, light);
+    else if (options_.clusters) orderForClusters(tris, scene.indices != cachedIndices_);
     // One buffer per `perBinding` triangles: a scene larger than one storage binding of the device
     // (128 MiB on lavapipe: 2.8 M triangles) is traversed binding by binding (traverse()).
     constexpr uint64_t kTriangleBytes = 3 * sizeof(glm::vec4);
@@ -572,6 +585,7 @@ class ConeMethod : public ShadowMethod {
         options_.trianglesPerBinding ? options_.trianglesPerBinding : ctx_.maxStorageBufferRange() / kTriangleBytes;
     CS_CHECK(perBinding >= 1, "cone: a storage binding of this device cannot hold one triangle");
     chunkTriangles_ = uint32_t(std::min<uint64_t>(perBinding, UINT32_MAX));
+    if (chunkTriangles_ >= CLUSTER_SIZE) chunkTriangles_ -= chunkTriangles_ % CLUSTER_SIZE;  // whole clusters a buffer
     const size_t chunks = std::max<size_t>(1, (triangleCount_ + uint64_t(chunkTriangles_) - 1) / chunkTriangles_);
     triangles_.resize(chunks);
     for (size_t c = 0; c < chunks; ++c) {
@@ -584,11 +598,89 @@ class ConeMethod : public ShadowMethod {
       }
       if (count) vk::upload(ctx_, triangles_[c], tris.data() + 3 * first, count * kTriangleBytes);
     }
+    if (options_.clusters && !options_.twoPass) clusterBounds(tris);
     cachedPositions_ = scene.positions;
     cachedIndices_ = scene.indices;
     uploads_++;
     cachedLight_ = light;
     return msSince(t0);
+  }
+
+  // Clusters (traversal.h, "Clusters"): the triangles in Morton order of their centroids over the
+  // bounds, so every CLUSTER_SIZE consecutive ones are close in space. The order is kept while the
+  // scene's index list stays (moving vertices: the clusters stay, their spheres follow); `reorder` makes it anew.
+  void orderForClusters(std::vector<glm::vec4>& tris, bool reorder) {
+    const size_t n = tris.size() / 3;
+    if (reorder || clusterOrder_.size() != n) {
+      std::vector<uint32_t> code(n);
+      const glm::vec3 lo = boundsLo_, ext = glm::max(boundsHi_ - boundsLo_, glm::vec3(1e-30f));
+      auto spread = [](uint32_t v) {  // 10 bits -> every third bit
+        v = (v | (v << 16)) & 0x030000FFu;
+        v = (v | (v << 8)) & 0x0300F00Fu;
+        v = (v | (v << 4)) & 0x030C30C3u;
+        return (v | (v << 2)) & 0x09249249u;
+      };
+      for (size_t t = 0; t < n; ++t) {
+        const glm::vec3 c = (glm::vec3(tris[3 * t]) + glm::vec3(tris[3 * t + 1]) + glm::vec3(tris[3 * t + 2])) / 3.0f;
+        const glm::vec3 u = glm::clamp((c - lo) / ext, 0.0f, 1.0f) * 1023.0f;
+        code[t] = (spread(uint32_t(u.x)) << 2) | (spread(uint32_t(u.y)) << 1) | spread(uint32_t(u.z));
+      }
+      clusterOrder_.resize(n);
+      for (size_t t = 0; t < n; ++t) clusterOrder_[t] = uint32_t(t);
+      std::stable_sort(clusterOrder_.begin(), clusterOrder_.end(), [&](uint32_t a, uint32_t b) { return code[a] < code[b]; });
+    }
+    std::vector<glm::vec4> ordered(tris.size());
+    for (size_t t = 0; t < n; ++t)
+      for (int k = 0; k < 3; ++k) ordered[3 * t + k] = tris[3 * size_t(clusterOrder_[t]) + k];
+    tris.swap(ordered);
+  }
+
+  // Each cluster's bounding sphere in world space, in double: the centre of its vertices' box and the
+  // largest distance to a vertex.
+  void clusterBounds(const std::vector<glm::vec4>& tris) {
+    const size_t n = tris.size() / 3, clusters = (n + CLUSTER_SIZE - 1) / CLUSTER_SIZE;
+    clusterWorld_.assign(clusters, glm::dvec4(0));
+    for (size_t k = 0; k < clusters; ++k) {
+      const size_t first = k * CLUSTER_SIZE, end = std::min(n, first + CLUSTER_SIZE);
+      clusterWorld_[k] = traversal::clusterBounds(tris.data() + 3 * first, 3 * (end - first));
+    }
+  }
+
+  // The clusters' spheres relative to the light in the pass tests' coordinates (the world, or the far
+  // frame through its fp32 rows), written to host-visible buffers when the triangles or the frame
+  // changed. Padded by 2^-16 of the magnitudes: the GPU's vertices are fp32 differences of up to those
+  // magnitudes (v - light, or R (v - C) - R (light - C)), a few ulp off the exact ones.
+  void updateClusterSpheres(glm::vec3 light) {
+    const cone::ConeFrame& f = frame_.frame;
+    if (clusterSpheresUpload_ == uploads_ && clusterSpheresLight_ == light && clusterSpheresFar_ == frame_.far &&
+        clusterSpheresOf_.rowX == f.rowX && clusterSpheresOf_.rowY == f.rowY && clusterSpheresOf_.rowZ == f.rowZ &&
+        clusterSpheresOf_.centre == f.centre && clusterSpheresOf_.lightFrame == f.lightFrame)
+      return;
+    clusterSpheresUpload_ = uploads_, clusterSpheresLight_ = light, clusterSpheresFar_ = frame_.far;
+    clusterSpheresOf_ = f;
+    const size_t perBuffer = chunkTriangles_ / CLUSTER_SIZE;
+    clusterSpheres_.resize(triangles_.size());
+    const glm::dmat3 R = glm::transpose(glm::dmat3(glm::dvec3(glm::vec3(f.rowX)), glm::dvec3(glm::vec3(f.rowY)),
+                                                   glm::dvec3(glm::vec3(f.rowZ))));
+    const glm::dvec3 C(glm::vec3(f.centre)), LF(glm::vec3(f.lightFrame)), L(light);
+    std::vector<glm::vec4> spheres;
+    for (size_t b = 0; b < triangles_.size(); ++b) {
+      const size_t first = b * perBuffer, end = std::min(clusterWorld_.size(), first + perBuffer);
+      spheres.assign(std::max<size_t>(1, end - std::min(first, end)), glm::vec4(0));
+      for (size_t k = first; k < end; ++k) {
+        const glm::dvec3 c(clusterWorld_[k]);
+        const double r = clusterWorld_[k].w;
+        const glm::dvec3 rel = frame_.far ? R * (c - C) - LF : c - L;
+        const double operands = frame_.far ? glm::length(c - C) + r + glm::length(LF) : glm::length(c) + r + glm::length(L);
+        spheres[k - first] = traversal::clusterSphere(rel, r, operands);
+      }
+      const uint64_t bytes = spheres.size() * sizeof(glm::vec4);
+      if (clusterSpheres_[b].size < bytes) {
+        clusterSpheres_[b].reset();
+        clusterSpheres_[b] = vk::createBuffer(ctx_, bytes, vk::Memory::HostVisible);
+      }
+      std::memcpy(clusterSpheres_[b].mapped, spheres.data(), bytes);
+    }
   }
 
   // Two-pass blockers (cone_method.h): triangles subtending at least blockerSolidAngle at the light, the
@@ -640,6 +732,14 @@ class ConeMethod : public ShadowMethod {
   cone::FrameChoice frame_;              // this frame's cone frame (world or far)
   std::vector<vk::Buffer> frameTriangles_;  // far frame: the triangles relative to the light in the frame
   uint64_t uploads_ = 0;                    // triangle uploads so far
+  // clusters (traversal.h, "Clusters")
+  std::vector<uint32_t> clusterOrder_;       // scene triangle (finite ones, in order) of each buffer slot
+  std::vector<glm::dvec4> clusterWorld_;     // per cluster: world centre, radius
+  std::vector<vk::Buffer> clusterSpheres_;   // per triangle buffer: its clusters' spheres for this frame
+  uint64_t clusterSpheresUpload_ = ~uint64_t(0);
+  glm::vec3 clusterSpheresLight_{0};
+  bool clusterSpheresFar_ = false;
+  cone::ConeFrame clusterSpheresOf_{};
   uint64_t frameTrianglesUpload_ = ~uint64_t(0);  // the upload and the frame frameTriangles_ were made for
   cone::ConeFrame frameTrianglesOf_{};
   vk::Kernel frameTris_;

@@ -62,6 +62,9 @@ struct ConeOptions {
   // submitted stage by stage, so each stage's wall clock can be measured where timestamps are not to be
   // trusted (lavapipe). Two-pass frames are always submitted per stage: their update is decided on the host.
   bool profileStages = false;
+  // Triangle clusters down the upper levels of the tree (traversal.h, "Clusters"; --clusters): the same
+  // mask, fewer pairs tested on large scenes. One-pass frames in one submission only.
+  bool clusters = true;
   // Triangles per triangle buffer; 0 = as many as one storage binding of the device holds (48 bytes each:
   // 2.8 M on lavapipe's 128 MiB). A larger scene is traversed buffer by buffer, the same tree and mask
   // (tests set a small value to prove it).

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 
 #include "core/error.h"
 #include "traversal/traverse_advance.comp.h"
@@ -52,6 +53,25 @@ ArenaPlan planArena(uint64_t memoryBytes, uint64_t maxBinding) {
   }
 }
 
+// ---- cluster spheres -------------------------------------------------------------------------------------
+
+glm::dvec4 clusterBounds(const glm::vec4* vertices, size_t count) {
+  glm::dvec3 lo(INFINITY), hi(-INFINITY);
+  for (size_t v = 0; v < count; ++v) {
+    lo = glm::min(lo, glm::dvec3(glm::vec3(vertices[v])));
+    hi = glm::max(hi, glm::dvec3(glm::vec3(vertices[v])));
+  }
+  const glm::dvec3 c = 0.5 * (lo + hi);
+  double r = 0;
+  for (size_t v = 0; v < count; ++v) r = std::max(r, glm::length(glm::dvec3(glm::vec3(vertices[v])) - c));
+  return glm::dvec4(c, r);
+}
+
+glm::vec4 clusterSphere(glm::dvec3 rel, double radius, double operands) {
+  const double pad = std::ldexp(glm::length(rel) + radius + operands, -16);
+  return glm::vec4(glm::vec3(rel), float((radius + pad) * (1.0 + std::ldexp(1.0, -20))));
+}
+
 // ---- statistics ----------------------------------------------------------------------------------------
 
 uint64_t TraversalStats::pairsTested() const {
@@ -74,10 +94,12 @@ nlohmann::json TraversalStats::toJson() const {
                       {"pairs_tested", passes[d].tested},
                       {"pairs_survived", passes[d].survived},
                       {"chunks", passes[d].chunks},
+                      {"cluster_tests", passes[d].clusterTests},
                       {"overflows", passes[d].overflows}});
   return {{"passes", levels},
           {"pairs_tested", pairsTested()},
           {"pairs_survived", pairsSurvived()},
+          {"expanded_clusters", expandedClusters},
           {"leaf_pairs", leafPairs},
           {"leaf_tests", leafTests},
           {"submits", submits},
@@ -114,7 +136,7 @@ Traversal::Traversal(vk::Context& ctx, uint64_t memoryBytes)
 Traversal::Traversal(vk::Context& ctx, const ArenaPlan& plan) : ctx_(ctx), plan_(plan) {
   CS_CHECK(plan_.pairCapacity >= kMinPairs && plan_.chunkCapacity >= 1, "traversal arena plan too small");
   batchTriangles_ = plan_.chunkCapacity;
-  test_ = vk::createKernel(ctx, "traverse test", spv_traverse_test_comp, 10, sizeof(TraversePush));
+  test_ = vk::createKernel(ctx, "traverse test", spv_traverse_test_comp, 11, sizeof(TraversePush));
   scatter_ = vk::createKernel(ctx, "traverse scatter", spv_traverse_scatter_comp, 5, sizeof(TraversePush));
   leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 6, sizeof(TraversePush));
   advance_ = vk::createKernel(ctx, "traverse advance", spv_traverse_advance_comp, 2, sizeof(AdvancePush));
@@ -187,10 +209,10 @@ bool Traversal::expandChunk(Frame& f, uint32_t child, bool fromTriangles, uint64
   vk::Grid g = vk::gridFor(count, TRAVERSE_THREADS, ctx_.maxWorkgroups());
   if (early)
     cmd.dispatch(test_, {tris, f.in->tree->nodes(), chunk_, masks_, counts_, stats_, f.in->samples,
-                         f.in->positions, *f.in->visibility, flags_}, p, g.x, g.y);
-  else  // bindings 6-9 unused: any valid buffer
+                         f.in->positions, *f.in->visibility, flags_, stats_}, p, g.x, g.y);
+  else  // bindings 6-10 unused: any valid buffer
     cmd.dispatch(test_, {tris, f.in->tree->nodes(), chunk_, masks_, counts_, stats_, stats_, stats_,
-                         stats_, stats_}, p, g.x, g.y);
+                         stats_, stats_, stats_}, p, g.x, g.y);
   cmd.barrier();
   scan_->record(cmd, counts_, counts_, sort::Count(count), sort::GpuWord(stats_, STAT_TOTAL));
   cmd.dispatch(scatter_, {arena_, chunk_, masks_, counts_, stats_}, p, g.x, g.y);
@@ -353,6 +375,10 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
   const uint32_t capacity = plan_.chunkCapacity;
   const bool early = in.earlyAccept && in.test == TRAVERSE_TEST_PRECISE;
   const vk::Buffer& tris = in.frameTriangles ? *in.frameTriangles : *in.triangles;
+  // Clusters need batches of whole clusters and an arena that holds one cluster's expansion.
+  const bool clusters = in.clusterSpheres && clustersFit_ && capacity >= CLUSTER_SIZE && batchTriangles_ >= CLUSTER_SIZE &&
+                        in.firstTriangle % CLUSTER_SIZE == 0;
+  usedClusters_ = clusters;
   const vk::Buffer& shape = in.tree->shapeBuffer();
   const vk::Buffer* buffers[2] = {&arena_, &chunk_};  // step c writes buffers[c % 2]
 
@@ -369,9 +395,10 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
   base.deviceParams = 1u;
   base.outFirst = 0;
   base.outLimit = capacity;
+  base.triangleEnd = in.firstTriangle + in.triangleCount;
 
   auto advance = [&](uint32_t step, uint32_t triangles) {
-    AdvancePush a{step, triangles, capacity, ctx_.maxWorkgroups()};
+    AdvancePush a{step, triangles, capacity, ctx_.maxWorkgroups(), clusters ? 1u : 0u, 0, 0, 0};
     cmd.dispatch(advance_, {shape, state_}, a, 1);
     cmd.barrier();
   };
@@ -384,10 +411,12 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
         cmd.dispatch(k, b, static_cast<const void*>(&p), uint32_t(sizeof(p)), g.x, g.y);
       }
     };
+    const vk::Buffer& spheres = clusters ? *in.clusterSpheres : state_;
     if (early)
-      dispatch(test_, {tris, in.tree->nodes(), src, masks_, counts_, state_, in.samples, in.positions, *in.visibility, flags_});
+      dispatch(test_, {tris, in.tree->nodes(), src, masks_, counts_, state_, in.samples, in.positions, *in.visibility,
+                       flags_, spheres});
     else
-      dispatch(test_, {tris, in.tree->nodes(), src, masks_, counts_, state_, state_, state_, state_, state_});
+      dispatch(test_, {tris, in.tree->nodes(), src, masks_, counts_, state_, state_, state_, state_, state_, spheres});
     cmd.barrier();
     scan_->record(cmd, counts_, counts_, sort::Count::device(sort::GpuWord(state_, STATE_COUNT), capacity).withGroups(state_.buffer, STATE_SCAN_ARGS * 4),
                   sort::GpuWord(state_, STAT_TOTAL));
@@ -396,7 +425,8 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
   };
 
   const uint64_t end = uint64_t(in.firstTriangle) + in.triangleCount;
-  const uint32_t batch = std::max(1u, std::min(capacity, batchTriangles_));
+  uint32_t batch = std::max(1u, std::min(capacity, batchTriangles_));
+  if (clusters) batch = batch / CLUSTER_SIZE * CLUSTER_SIZE;
   for (uint64_t pos = in.firstTriangle; pos < end; pos += batch) {
     const uint32_t m = uint32_t(std::min<uint64_t>(batch, end - pos));
     starts.push_back(uint32_t(pos));
@@ -429,7 +459,9 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
 void Traversal::learnBatch(const uint32_t* w, const TraversalStats& frame, uint64_t triangles) {
   const uint32_t capacity = plan_.chunkCapacity;
   const uint32_t used = std::max(1u, std::min(capacity, batchTriangles_));
-  if (overflowed(w)) {
+  if (overflowed(w) && usedClusters_ && used <= CLUSTER_SIZE) {
+    clustersFit_ = false;  // even one cluster's expansion does not fit: triangles only
+  } else if (overflowed(w)) {
     // The most pairs any depth held per triangle over the whole frame: a batch of b triangles holds about
     // b times that at its worst depth; aim at half the capacity (the triangles are not all alike).
     uint64_t worst = 0;
@@ -460,8 +492,10 @@ TraversalStats Traversal::statsFromState(const uint32_t* words, uint32_t depth, 
     ps.tested = u64(at + 2);
     ps.survived = u64(at + 4);
     ps.chunks = w[at + 6];
+    ps.clusterTests = w[at + 7];
     s.passes.push_back(ps);
   }
+  s.expandedClusters = uint64_t(words[STATE_EXPANDED]) | (uint64_t(words[STATE_EXPANDED + 1]) << 32);
   s.leafPairs = u64(STATE_LEAF_PAIRS);
   s.leafTests = 4 * s.leafPairs - w[STATE_LEAF_MISSING];
   s.earlyAccepted = u64(STATE_ACCEPTED);

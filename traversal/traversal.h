@@ -90,6 +90,19 @@
 // The batch size adapts from frame to frame (learnBatch). The counters stay on the GPU (stateBuffer())
 // and come back once with the mask (statsFromState).
 //
+// Clusters (device path, TraversalInput::clusterSpheres). The triangle buffer is laid out so that every
+// CLUSTER_SIZE consecutive triangles are close in space (cone_method.cpp: Morton order of their
+// centroids, once per upload), each group bounded by a sphere the host computes per frame in double,
+// relative to the light in the pass tests' coordinates and padded by 2^-16 of the magnitudes (so it holds
+// the fp32 vertices the GPU sees). With a tree at least 3 deep, a batch starts as (cluster, node) pairs
+// tested with the sphere test (sphere_test.h: false only when no ray of the cone meets the sphere, so
+// never for a cluster holding a triangle that any ray of the cone hits, tests/traversal_test.cpp
+// ClusterSphere*); the advance kernel expands the surviving cluster pairs into their triangles' pairs
+// at the first step whose clusters kept 2.5 of 4 children on average (the spheres are as wide as the
+// cones: from there on a cluster is no longer culled as a whole) and at the latest one depth above the
+// leaves; the triangle pairs then continue as without clusters. The mask is the same (tested): a
+// triangle's pair is dropped only where its cluster's conservative test, or its own, rejects it.
+//
 // Stats per frame: for each pass (depth), the (triangle, node) pairs tested, the survivors and the chunks;
 // the leaf tests; the submits; the time of the passes ("traversal") and of the leaf tests
 // ("leaves"), as the wall time of their submits (host waits included) and from timestamps.
@@ -127,6 +140,16 @@ uint64_t minimumPairs(uint32_t treeDepth);
 constexpr uint64_t kMinPairs = 4;
 constexpr uint64_t kDefaultMemoryBytes = uint64_t(64) << 20;
 
+// ---- cluster spheres (pure, unit-tested; "Clusters") ------------------------------------------------
+// The world bound of `count` fp32 vertices, in double: xyz the centre of their box, w the largest
+// distance from it to a vertex.
+glm::dvec4 clusterBounds(const glm::vec4* vertices, size_t count);
+// The sphere a pass test reads: centre `rel` (the bound's centre relative to the light in the tests'
+// coordinates, exact), radius `radius`, padded by 2^-16 of |rel| + radius + `operands` (the magnitudes
+// of the fp32 values the GPU's vertices are differences of) so it holds the vertices as the GPU
+// rounds them.
+glm::vec4 clusterSphere(glm::dvec3 rel, double radius, double operands);
+
 // ---- per-frame statistics -----------------------------------------------------------------------------
 struct PassStats {
   uint64_t inputs = 0;    // pairs (or triangles, pass 0) fed to the pass
@@ -134,9 +157,11 @@ struct PassStats {
   uint64_t survived = 0;  // pairs written for the next depth
   uint64_t chunks = 0;    // chunks the pass was split into
   uint64_t overflows = 0; // chunks tested but dropped because their survivors did not fit (retried)
+  uint64_t clusterTests = 0;  // of `tested`: (cluster, node) tests (device path with clusters)
 };
 struct TraversalStats {
   std::vector<PassStats> passes;  // passes[d]: the tests against the nodes of depth d (0 = root)
+  uint64_t expandedClusters = 0;  // (cluster, node) pairs expanded into their triangles' pairs
   uint64_t leafPairs = 0;         // pairs of depth D-1 sent to the leaves
   uint64_t leafTests = 0;         // (pair, ray) combinations at the leaves: 4 per pair but under a last node
   uint64_t submits = 0;
@@ -172,6 +197,9 @@ struct TraversalInput {
   uint32_t test = TRAVERSE_TEST_PRECISE;  // the passes' cone/triangle test (traversal_layout.h)
   bool frontFaceCulling = false;          // pass 0 drops triangles facing the light (cone_method.h)
   bool earlyAccept = false;               // 002 §3.3, with the precise test only (see above)
+  // Device path, one-pass frames: the sphere of each CLUSTER_SIZE triangles of `triangles` (see
+  // "Clusters"), relative to the light as the pass tests' vertices. Null: no clusters.
+  const vk::Buffer* clusterSpheres = nullptr;
 };
 
 class Traversal {
@@ -203,6 +231,9 @@ class Traversal {
   // chunkCapacity. So a scene whose full batch overflows pays the chunked fallback on its first frame.
   void learnBatch(const uint32_t* words, const TraversalStats& frame, uint64_t triangles);
   uint32_t batchTriangles() const { return batchTriangles_; }
+  // Whether the device path may start its batches as clusters (an arena too small for one cluster's
+  // expansion turns them off for good).
+  bool clustersFit() const { return clustersFit_; }
   const vk::Buffer& stateBuffer() const { return state_; }
   // The counters of the device path from the state words read back (STATE_WORDS of them), for a tree
   // of `depth` (the shape's SHAPE_DEPTH).
@@ -233,6 +264,8 @@ class Traversal {
   vk::Buffer arena_, chunk_, masks_, counts_, stats_, flags_, state_;
   std::unique_ptr<sort::Scan> scan_;
   uint32_t batchTriangles_ = 1;  // triangles per batch of the device path (learnBatch)
+  bool clustersFit_ = true;      // false once a one-cluster batch overflowed: triangles only from then on
+  bool usedClusters_ = false;    // the last record() started its batches as clusters
 };
 
 }  // namespace cs::traversal

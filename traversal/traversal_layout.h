@@ -25,7 +25,9 @@
 #define STATE_PEAK_CHUNK 12    // most inputs of one step
 #define STATE_LEAF_MISSING 13  // leaf tests short of 4 per pair (rays past the last leaf)
 #define STATE_BATCHES_DONE 14  // batches whose every step and leaf fit (the host resumes after them on overflow)
-#define STATE_ACC 16           // + 8 d: depth d's inputs, tests, survivors (uint64 as lo, hi) and steps that ran
+#define STATE_MODE 15          // what the current step's inputs are: STEP_TRIANGLES, STEP_CLUSTERS or STEP_EXPAND
+#define STATE_ACC 16           // + 8 d: depth d's inputs, tests, survivors (uint64 as lo, hi), steps that ran and
+                               //   the cluster tests among the tests (uint32)
 #define STATE_ACC_WORDS 8
 #define STATE_LEAF_PAIRS 144   // uint64 (lo, hi): pairs sent to the leaves
 #define STATE_ACCEPTED 146     // uint64: early accept, nodes found covered
@@ -34,10 +36,23 @@
 #define STATE_LEAF_ARGS 156    // + 4 c: the leaves of step c (x, y, 1, leaf pairs); 0 groups but at c = D
 #define STATE_MAX_STEPS 16     // steps 0 .. 15 (tree depth <= 15)
 #define STATE_SCAN_ARGS 224    // uvec4: the current step's scan, level 0 (max(1, ceil(inputs / SCAN_BLOCK)) workgroups)
+#define STATE_EXPANDED 228     // uint64: (cluster, node) pairs expanded into their triangles
+#define STATE_BATCH_TRIANGLES 230  // the current batch's triangles
 #define STATE_COMMITTED 232    // the totals (STATE_LEAF_MISSING, then STATE_ACC .. STATE_TEST_ARGS) as of the last completed batch
 #define STATE_COMMITTED_WORDS (1 + STATE_TEST_ARGS - STATE_ACC)
 #define STATE_WORDS 372
 #define ADVANCE_END_OF_BATCH 0xFFFFFFFFu
+
+// Triangle clusters (traversal.h, "Clusters"): CLUSTER_SIZE consecutive triangles of a triangle buffer
+// (the last may hold fewer), bounded by one sphere relative to the light (cone_method.cpp).
+#define CLUSTER_SIZE 64u
+#define CLUSTER_SHIFT 6u
+// A step's inputs (STATE_MODE): (triangle, node) pairs; (cluster, node) pairs, tested with the cluster's
+// sphere; or the expansion of (cluster, node) pairs, input i being triangle CLUSTER_SIZE * cluster + i % 64
+// of pair i / 64 (tested as a triangle pair; past the buffer's triangles: nothing).
+#define STEP_TRIANGLES 0u
+#define STEP_CLUSTERS 1u
+#define STEP_EXPAND 2u
 
 // TraversePush::test: the cone/triangle test of the passes (cone_method.h, ConeOptions::test).
 #define TRAVERSE_TEST_PRECISE 0u  // precise_test.h (002 §3.2)
@@ -78,6 +93,8 @@ struct TraversePush {
   uint countWord;     // device path: the stats word holding the input count (0: `count` above)
   uint deviceParams;  // device path, test: 1 = childOffset .. leafCount and inputOffset from the STATE_* words
   uint missingWord;   // leaves: the stats word their missing tests go to (STAT_MISSING, or STATE_LEAF_MISSING)
+  uint triangleEnd;   // device path: the triangle buffer's triangle count (an expansion's last cluster ends there)
+  uint pad0, pad1, pad2;
 };
 
 // traverse_advance.comp: between two steps of the device path (one invocation).
@@ -87,6 +104,8 @@ struct AdvancePush {
   uint triangles;     // step 0: the batch's triangles (pass 0's inputs)
   uint capacity;      // pairs a step may write (its output buffer and the next step's scratch)
   uint maxPerDim;     // workgroups per grid dimension
+  uint clusters;      // step 0: 1 = the batch starts as (cluster, root) tests when the tree is deep enough
+  uint pad0, pad1, pad2;
 };
 
 // frame_triangles.comp: the triangles' vertices relative to the light in the far-light frame.
@@ -100,12 +119,12 @@ struct FrameTrianglesPush {
 
 #ifdef __cplusplus
 static_assert(sizeof(FrameTrianglesPush) == 96, "FrameTrianglesPush layout");
-static_assert(sizeof(AdvancePush) == 16, "AdvancePush layout");
+static_assert(sizeof(AdvancePush) == 32, "AdvancePush layout");
 static_assert(STATE_ACC + STATE_ACC_WORDS * STATE_MAX_STEPS <= STATE_LEAF_PAIRS && STATE_TEST_ARGS % 4 == 0 &&
                   STATE_LEAF_ARGS % 4 == 0 && STATE_LEAF_ARGS + 4 * (STATE_MAX_STEPS + 1) <= STATE_WORDS,
               "state words");
 static_assert(STATE_COMMITTED >= STATE_SCAN_ARGS + 4 && STATE_COMMITTED + STATE_COMMITTED_WORDS <= STATE_WORDS, "committed words");
-static_assert(sizeof(TraversePush) == 96 && offsetof(TraversePush, frameVertices) == 76 && offsetof(TraversePush, first) == 16 &&
+static_assert(sizeof(TraversePush) == 112 && offsetof(TraversePush, frameVertices) == 76 && offsetof(TraversePush, first) == 16 &&
                   offsetof(TraversePush, minLength) == 44 && offsetof(TraversePush, outLimit) == 48 &&
                   offsetof(TraversePush, test) == 52 && offsetof(TraversePush, frontFaceCulling) == 56,
               "TraversePush layout");

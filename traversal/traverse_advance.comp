@@ -44,25 +44,56 @@ void main() {
   uint depth = shape[SHAPE_DEPTH];
   uint c = p.step;
   uint n = 0u;
+  uint mode = STEP_TRIANGLES;
+  uint count = 0u;  // the next step's inputs (an expansion: CLUSTER_SIZE per cluster pair)
   if (c == 0u) {
     n = state[STATE_OVERFLOW] != 0u || depth == 0u ? 0u : p.triangles;
+    state[STATE_BATCH_TRIANGLES] = p.triangles;
+    // Clusters go down the upper levels when there are levels to spare before the leaves (see below).
+    if (p.clusters != 0u && depth >= 3u) {
+      mode = STEP_CLUSTERS;
+      n = (n + CLUSTER_SIZE - 1u) >> CLUSTER_SHIFT;
+    }
+    count = n;
   } else {
     uint inputs = state[STATE_COUNT];
+    uint was = state[STATE_MODE];
     if (inputs > 0u) {
       uint survivors = state[STAT_TOTAL];
       uint acc = STATE_ACC + STATE_ACC_WORDS * (c - 1u);
+      uint tests = inputs * (c == 1u ? 1u : 4u) - state[STAT_MISSING];
       add64(acc, inputs);
-      add64(acc + 2u, inputs * (c == 1u ? 1u : 4u) - state[STAT_MISSING]);
+      add64(acc + 2u, tests);
       add64(acc + 4u, survivors);
       state[acc + 6u] += 1u;
+      if (was == STEP_CLUSTERS) state[acc + 7u] += tests;
       add64(STATE_ACCEPTED, state[STAT_ACCEPTED]);
       add64(STATE_DROPPED, state[STAT_DROPPED]);
       state[STATE_PEAK_CHUNK] = max(state[STATE_PEAK_CHUNK], inputs);
       state[STATE_PEAK_PAIRS] = max(state[STATE_PEAK_PAIRS], (c == 1u ? 0u : inputs) + min(survivors, p.capacity));
       if (survivors > p.capacity) state[STATE_OVERFLOW] = 1u;
       else n = survivors;
+      // Expansion rule: cluster pairs expand into their triangles once they no longer save work -- their
+      // triangles would be as many pairs as the batch has triangles (every later level would test more
+      // pairs than pass 0 did), or a step kept 2.5 of its 4 children per cluster on average (the clusters'
+      // spheres are as wide as the cones: the next levels would keep nearly every child) -- and at the
+      // latest one depth before the leaves. Triangle pairs stay triangle pairs.
+      if (was == STEP_CLUSTERS && n > 0u) {
+        bool expand = c + 1u >= depth || (c >= 2u && 2u * survivors >= 5u * inputs) ||
+                      survivors >= ((state[STATE_BATCH_TRIANGLES] + CLUSTER_SIZE - 1u) >> CLUSTER_SHIFT);
+        mode = expand ? STEP_EXPAND : STEP_CLUSTERS;
+        if (expand) {
+          add64(STATE_EXPANDED, n);
+          if (n > (p.capacity >> CLUSTER_SHIFT)) {
+            state[STATE_OVERFLOW] = 1u;
+            n = 0u;
+          }
+        }
+      }
+      count = mode == STEP_EXPAND ? n << CLUSTER_SHIFT : n;
     }
   }
+  state[STATE_MODE] = mode;
   writeArgs(STATE_TEST_ARGS, 0u, 0u, TRAVERSE_THREADS);
   if (c <= STATE_MAX_STEPS) writeArgs(STATE_LEAF_ARGS + 4u * c, 0u, 0u, TRAVERSE_THREADS);
   state[STATE_COUNT] = 0u;
@@ -70,8 +101,8 @@ void main() {
     writeArgs(STATE_LEAF_ARGS + 4u * c, 4u * n, n, TRAVERSE_THREADS);
     add64(STATE_LEAF_PAIRS, n);
   } else if (n > 0u && c < depth) {
-    state[STATE_COUNT] = n;
-    if (c > 0u) writeArgs(STATE_TEST_ARGS, n, n, TRAVERSE_THREADS);
+    state[STATE_COUNT] = count;
+    if (c > 0u) writeArgs(STATE_TEST_ARGS, count, count, TRAVERSE_THREADS);
     state[STATE_CHILD_OFFSET] = shape[SHAPE_OFFSETS + c];
     state[STATE_CHILD_COUNT] = shape[SHAPE_COUNTS + c];
     state[STATE_INPUT_OFFSET] = c == 0u ? 0u : shape[SHAPE_OFFSETS + c - 1u];

@@ -21,8 +21,14 @@ void main() {
   if (i >= (p.countWord != 0u ? stats[p.countWord] : p.count)) return;
   uint mask = masks[i];
   if (mask == 0u || stats[STAT_TOTAL] > p.outLimit - p.outFirst) return;
-  uint tri = p.fromTriangles != 0u ? p.first + i : inputs[i].x;
-  uint firstChild = p.fromTriangles != 0u ? 0u : 4u * inputs[i].y;
+  // The input pair: a triangle or cluster of pass 0, an arena pair, or (an expansion, device path) the
+  // triangle i % 64 of cluster pair i / 64.
+  uint mode = p.deviceParams != 0u ? stats[STATE_MODE] : STEP_TRIANGLES;
+  bool expand = mode == STEP_EXPAND;
+  uint first = mode == STEP_CLUSTERS ? p.first >> CLUSTER_SHIFT : p.first;
+  uvec2 in_ = expand ? inputs[i >> CLUSTER_SHIFT] : (p.fromTriangles != 0u ? uvec2(first + i, 0u) : inputs[i]);
+  uint tri = expand ? (in_.x << CLUSTER_SHIFT) + (i & (CLUSTER_SIZE - 1u)) : in_.x;
+  uint firstChild = p.fromTriangles != 0u ? 0u : 4u * in_.y;
   uint out_ = p.outFirst + offsets[i];
   for (uint k = 0u; k < 4u; k++)
     if ((mask & (1u << k)) != 0u) pairs[out_++] = uvec2(tri, firstChild + k);

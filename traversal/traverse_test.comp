@@ -14,7 +14,12 @@
 // bindings: 0 = triangles (vec4 x 3 per triangle, world space; in the far-light frame relative to the light), 1 = nodes (ConeNode), 2 = chunk (uvec2
 //           input pairs), 3 = masks (uint per input), 4 = counts (uint per input), 5 = stats (uint[STAT_WORDS]),
 //           6 = samples (uint pixel per sorted ray), 7 = positions (vec4 per pixel), 8 = visibility (uint per
-//           pixel), 9 = flags (uint per interior node); 6-9 used with early accept only
+//           pixel), 9 = flags (uint per interior node); 6-9 used with early accept only,
+//           10 = cluster spheres (vec4 per cluster, relative to the light as binding 0's vertices; device path)
+// Clusters (device path, STATE_MODE): a STEP_CLUSTERS step tests (cluster, node) pairs with the
+// cluster's sphere (sphere_test.h: false only when no ray of the cone meets the sphere, which holds all
+// the cluster's triangles); a STEP_EXPAND step's input i is triangle 64 * cluster + i % 64 of cluster
+// pair i / 64, tested as a triangle pair (front-face culling applies there: its pass 0 was the clusters').
 #include "traversal/precise_test.h"
 #include "traversal/sphere_test.h"
 #include "traversal/traverse.glsl"
@@ -30,6 +35,7 @@ layout(std430, binding = 6) readonly buffer Samples { uint samples[]; };
 layout(std430, binding = 7) readonly buffer Positions { vec4 positions[]; };
 layout(std430, binding = 8) buffer Visibility { uint visibility[]; };
 layout(std430, binding = 9) buffer Flags { uint flags[]; };
+layout(std430, binding = 10) readonly buffer Clusters { vec4 clusterSpheres[]; };
 layout(push_constant) uniform Push { TraversePush p; };
 
 // This dispatch's counts and offsets: the push constants, or on the device path the words the advance
@@ -59,7 +65,33 @@ void main() {
     childOffset = p.childOffset, childCount = p.childCount;
     inputOffset = p.inputOffset, leafShift = p.leafShift, leafCount = p.leafCount;
   }
-  uvec2 pair = p.fromTriangles != 0u ? uvec2(p.first + i, 0u) : pairs[p.first + i];
+  uint mode = p.deviceParams != 0u ? stats[STATE_MODE] : STEP_TRIANGLES;
+  uvec2 pair;
+  if (mode == STEP_EXPAND) {
+    uvec2 cp = pairs[i >> CLUSTER_SHIFT];
+    pair = uvec2((cp.x << CLUSTER_SHIFT) + (i & (CLUSTER_SIZE - 1u)), cp.y);
+    if (pair.x >= p.triangleEnd) {  // past the last cluster's triangles: no test
+      masks[i] = 0u;
+      counts[i] = 0u;
+      atomicAdd(stats[STAT_MISSING], 4u);
+      return;
+    }
+  } else {
+    uint first = mode == STEP_CLUSTERS ? p.first >> CLUSTER_SHIFT : p.first;  // pass 0: clusters or triangles
+    pair = p.fromTriangles != 0u ? uvec2(first + i, 0u) : pairs[p.first + i];
+  }
+  if (mode == STEP_CLUSTERS) {
+    uvec2 r = p.fromTriangles != 0u ? uvec2(0u, 1u) : childRange(pair.y, childCount);
+    vec4 sphere = clusterSpheres[pair.x];
+    uint mask = 0u;
+    for (uint c = r.x; c < r.y; c++)
+      if (sphereConeTriangle(nodes[childOffset + c], sphere, p.eps, p.coneScale)) mask |= 1u << (c - r.x);
+    masks[i] = mask;
+    counts[i] = bitCount(mask);
+    uint expected = p.fromTriangles != 0u ? 1u : 4u;
+    if (r.y - r.x < expected) atomicAdd(stats[STAT_MISSING], expected - (r.y - r.x));
+    return;
+  }
   vec3 light = p.light.xyz;
   // Relative to the light, exactly as the leaf test computes them from the light's end; in the far-light
   // frame, as frame_triangles.comp wrote them.
@@ -78,7 +110,7 @@ void main() {
     // the node was accepted (by another triangle): every sample under it is shadowed already
     atomicAdd(stats[STAT_DROPPED], 1u);
     atomicAdd(stats[STAT_MISSING], r.y - r.x);
-  } else if (p.frontFaceCulling != 0u && p.fromTriangles != 0u && facesLight(v0, v1, v2)) {
+  } else if (p.frontFaceCulling != 0u && (p.fromTriangles != 0u || mode == STEP_EXPAND) && facesLight(v0, v1, v2)) {
     // 002 §3.6: a triangle facing the light casts no shadow in a closed mesh; dropped at the root.
   } else if (p.test == TRAVERSE_TEST_SPHERE) {
     vec4 sphere = boundingSphere(v0, v1, v2, scale);
