@@ -247,7 +247,7 @@ class ConeMethod : public ShadowMethod {
                        2.0f * in.eps, &frame_);
     if (frame_.far && frameTrianglesStale()) recordFrameTriangles(cmd);
     boundary("build");
-    const bool clusters = options_.clusters && traversal_.clustersFit();
+    const bool clusters = options_.clusters && traversal_.clustersFit() && chunkTriangles_ >= CLUSTER_SIZE;
     if (clusters) updateClusterSpheres(frame.light);
     traversal_.recordBegin(cmd, in);
     std::vector<uint32_t> batchStarts;  // scene index of each batch's first triangle, in order
