@@ -265,7 +265,7 @@ class ConeMethod : public ShadowMethod {
         if (clusters) part.clusterSpheres = &clusterSpheres_[b];
         for (uint32_t first : traversal_.record(cmd, part, boundary)) batchStarts.push_back(uint32_t(b) * chunkTriangles_ + first);
       });
-    stats["clusters"] = clusters;
+    stats["clusters"] = clusters && onDevice;
     stats["traversal_batch_triangles"] = batch;
     readback_.clear();
     const uint32_t maskSlot = readback_.add(visibility_, uint64_t(pixels) * 4);
@@ -291,33 +291,27 @@ class ConeMethod : public ShadowMethod {
     traversal::TraversalStats ts = traversal_.statsFromState(state, shape[SHAPE_DEPTH], overflow);
 
     stats["traversal_path"] = "one submission";
-    if (!onDevice) {
-      auto f0 = Clock::now();
-      ts = traverse(in, 0, triangleCount_);
-      addWall("traversal (chunked)", msSince(f0));
-      stats["traversal_path"] = "chunked: the traversal memory holds too few pairs for one submission (" +
-                                std::to_string(batches) + " batches of " + std::to_string(batch) + " triangles)";
-      auto t1 = Clock::now();
-      if (pixels) vk::download(ctx_, visibility_, mask.data(), uint64_t(pixels) * 4);
-      readbackMs = msSince(t1);
-    } else if (overflow) {
-      // The pairs of one step did not fit the arena on the GPU: the chunked traversal takes over from the
-      // first batch that did not complete, on the tree already built (the hits written so far are hits).
+    auto t1 = Clock::now();
+    if (!onDevice || overflow) {
+      // The chunked traversal (its own submits) on the tree already built: all of it when the memory
+      // bound holds too few pairs for one submission; after an overflow on the GPU, from the first batch
+      // that did not complete (the hits written so far are hits; the completed batches' counts are in ts).
       const uint32_t done = traversal::Traversal::batchesDone(state);
-      const uint32_t from = done < batchStarts.size() ? batchStarts[done] : triangleCount_;
+      const uint32_t from = !onDevice ? 0 : done < batchStarts.size() ? batchStarts[done] : triangleCount_;
       auto f0 = Clock::now();
       if (from < triangleCount_) ts = combine(ts, traverse(in, from, triangleCount_ - from));
       addWall("traversal (chunked)", msSince(f0));
-      stats["traversal_path"] = "chunked from triangle " + std::to_string(from) +
-                                ": a step's pairs passed the arena on the GPU (the next frame's batches are smaller)";
-      auto t1 = Clock::now();
+      stats["traversal_path"] =
+          !onDevice ? "chunked: the traversal memory holds too few pairs for one submission (" + std::to_string(batches) +
+                          " batches of " + std::to_string(batch) + " triangles)"
+                    : "chunked from triangle " + std::to_string(from) +
+                          ": a step's pairs passed the arena on the GPU (the next frame's batches are smaller)";
+      t1 = Clock::now();
       if (pixels) vk::download(ctx_, visibility_, mask.data(), uint64_t(pixels) * 4);
-      readbackMs = msSince(t1);
     } else {
-      auto t1 = Clock::now();
       readback_.read(maskSlot, mask.data());
-      readbackMs = msSince(t1);
     }
+    readbackMs = msSince(t1);
 
     if (onDevice) traversal_.learnBatch(state, ts, triangleCount_);
     if (profile) {
