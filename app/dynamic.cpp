@@ -270,7 +270,9 @@ int runDynamicCompare(const Options& o) {
     DeviceGBuffer dev;
     GBuffer gb;
     // One frame's scene state, samples, reference and band.
+    Camera current = camera;  // the view of the frame frameAt rendered last
     auto frameAt = [&](double time, Camera cam) {
+      current = cam;
       double uploadMs = 0;
       if (animated) {
         anim.pose(time, scene);
@@ -290,7 +292,7 @@ int runDynamicCompare(const Options& o) {
       const double tw = animated ? 0.5 * (anim.frameTime(0, n) + anim.frameTime(std::min(1u, n - 1), n)) : 0.0;
       frameAt(tw, o.movingCamera ? orbitCamera(camera, 1, 2 * n, enclosed) : camera);
       const EpsilonPolicy policy = EpsilonPolicy::forScene(scene);
-      const FrameInput frame = frameInputOf(scene, gb, dev, *ctx, light, policy.eps);
+      const FrameInput frame = frameInputOf(scene, gb, dev, *ctx, light, policy.eps, &current);
       reference.run(frame);
       for (Track& t : tracks[vi])
         if (t.object) t.object->run(frame);
@@ -302,7 +304,7 @@ int runDynamicCompare(const Options& o) {
       vl.rasterMs.push_back(rasterMs);
       if (animated) vl.uploadMs.push_back(uploadMs);
       const EpsilonPolicy policy = EpsilonPolicy::forScene(scene);
-      const FrameInput frame = frameInputOf(scene, gb, dev, *ctx, light, policy.eps);
+      const FrameInput frame = frameInputOf(scene, gb, dev, *ctx, light, policy.eps, &current);
       const MethodOutput ref = reference.run(frame);
       const std::vector<uint8_t> band = reference.ambiguityBand(scene, gb, light, policy);
       const size_t lit = gb.litCount();

@@ -23,6 +23,9 @@ struct FrameInput {
   vk::Context* vk = nullptr;                 // null for CPU-only runs
   glm::vec3 light{0};
   float epsilon = 0;                         // along-ray epsilon of the shared policy (eval/epsilon.h)
+  // The view the samples were rendered from (methods whose analysis weighs samples by their distance to
+  // the eye or the view frustum: RTW); null when the caller has none.
+  const Camera* camera = nullptr;
 };
 
 // What a stage is for, so reports can group stages without knowing the method: a rebuild of the

@@ -66,8 +66,9 @@ TimedRuns timeRuns(ShadowMethod& method, const FrameInput& input, uint32_t frame
 }
 
 FrameInput frameInputOf(const Scene& scene, const GBuffer& gbuffer, const DeviceGBuffer& device, vk::Context& ctx,
-                        glm::vec3 light, float epsilon) {
+                        glm::vec3 light, float epsilon, const Camera* camera) {
   FrameInput f;
+  f.camera = camera;
   f.scene = &scene;
   f.gbuffer = &gbuffer;
   f.device = &device;
@@ -94,7 +95,7 @@ std::unique_ptr<PreparedFrame> prepareFrame(vk::Context& ctx, Raster& raster, co
   f->rasterMs = median(rasterMs);
   f->litSamples = f->gbuffer.litCount();
   f->policy = spec.policy ? *spec.policy : EpsilonPolicy::forScene(scene);
-  f->input = frameInputOf(scene, f->gbuffer, f->device, ctx, spec.light, f->policy.eps);
+  f->input = frameInputOf(scene, f->gbuffer, f->device, ctx, spec.light, f->policy.eps, &f->spec.camera);
 
   if (step) step("reference");
   f->embree = std::make_unique<EmbreeReference>();

@@ -61,7 +61,7 @@ struct FrameSpec {
 
 // What every method is fed for one frame: the same samples, light and epsilon.
 FrameInput frameInputOf(const Scene& scene, const GBuffer& gbuffer, const DeviceGBuffer& device, vk::Context& ctx,
-                        glm::vec3 light, float epsilon);
+                        glm::vec3 light, float epsilon, const Camera* camera = nullptr);
 
 // A prepared frame. Not movable: `input` points into it.
 struct PreparedFrame {

@@ -6,6 +6,10 @@
 
 #include "shadowmaps/depth.frag.h"
 #include "shadowmaps/depth.vert.h"
+#include "shadowmaps/depth_warp.frag.h"
+#include "shadowmaps/depth_warp.geom.h"
+#include "shadowmaps/depth_warp.vert.h"
+#include "shadowmaps/rtw_shared.h"
 #include "shadowmaps/sm_shared.h"
 
 namespace cs::sm {
@@ -37,6 +41,12 @@ DepthPass::DepthPass(vk::Context& ctx, bool culling) : ctx_(ctx), culling_(culli
 DepthPass::~DepthPass() {
   destroyTargets();
   VkDevice d = ctx_.device;
+  if (warpedPipeline_) vkDestroyPipeline(d, warpedPipeline_, nullptr);
+  if (warpedLayout_) vkDestroyPipelineLayout(d, warpedLayout_, nullptr);
+  if (warpedSet_) vkDestroyDescriptorSetLayout(d, warpedSet_, nullptr);
+  if (warpedVert_) vkDestroyShaderModule(d, warpedVert_, nullptr);
+  if (warpedGeom_) vkDestroyShaderModule(d, warpedGeom_, nullptr);
+  if (warpedFrag_) vkDestroyShaderModule(d, warpedFrag_, nullptr);
   if (pipeline_) vkDestroyPipeline(d, pipeline_, nullptr);
   if (layout_) vkDestroyPipelineLayout(d, layout_, nullptr);
   if (renderPass_) vkDestroyRenderPass(d, renderPass_, nullptr);
@@ -207,15 +217,11 @@ void DepthPass::destroyTargets() {
   targetBytes_ = 0;
 }
 
-void DepthPass::recordWindow(vk::Commands& cmd, uint32_t face, double res, uint32_t x0, uint32_t y0, uint32_t w,
-                             uint32_t h, glm::vec3 light, float nearPlane) {
+VkCommandBuffer DepthPass::beginPass(vk::Commands& cmd, uint32_t w, uint32_t h) {
   CS_CHECK(w > 0 && h > 0 && w <= largestTarget() && h <= largestTarget(),
            "depth pass window " << w << "x" << h << " does not fit the largest target of " << largestTarget());
   current_ = 0;
   while (targets_[current_].size < std::max(w, h)) ++current_;
-  DepthPush push{};
-  push.clip = windowClip(face, res, x0, y0, w, h, nearPlane);
-  push.light = glm::vec4(light, 1.0f);
   VkCommandBuffer cb = cmd.handle();
   VkClearValue clears[2]{};
   clears[0].color.float32[0] = SM_EMPTY_DEPTH;
@@ -227,46 +233,137 @@ void DepthPass::recordWindow(vk::Commands& cmd, uint32_t face, double res, uint3
   bi.clearValueCount = 2;
   bi.pClearValues = clears;
   vkCmdBeginRenderPass(cb, &bi, VK_SUBPASS_CONTENTS_INLINE);
-  if (indexCount_) {
-    vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
-    VkViewport viewport{0, 0, float(w), float(h), 0.0f, 1.0f};
-    VkRect2D scissor{{0, 0}, {w, h}};
-    vkCmdSetViewport(cb, 0, 1, &viewport);
-    vkCmdSetScissor(cb, 0, 1, &scissor);
-    vkCmdPushConstants(cb, layout_, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(push), &push);
-    VkDeviceSize offset = 0;
-    vkCmdBindVertexBuffers(cb, 0, 1, &vertices_.buffer, &offset);
-    vkCmdBindIndexBuffer(cb, indices_.buffer, 0, VK_INDEX_TYPE_UINT32);
-    if (!culling_) {
-      vkCmdDrawIndexed(cb, indexCount_, 1, 0, 0, 0);
-      ctx_.cost.dispatches++;
-      drawn_ += indexCount_ / 3;
-    } else {
-      // The window's frustum in face space: u in [u0, u1], v in [v0, v1] (u = x_f / z_f), z_f >= near.
-      const double u0 = 2.0 * x0 / res - 1, u1 = 2.0 * (double(x0) + w) / res - 1;
-      const double v0 = 2.0 * y0 / res - 1, v1 = 2.0 * (double(y0) + h) / res - 1;
-      const double nu0 = std::sqrt(1 + u0 * u0), nu1 = std::sqrt(1 + u1 * u1);
-      const double nv0 = std::sqrt(1 + v0 * v0), nv1 = std::sqrt(1 + v1 * v1);
-      uint32_t runFirst = 0, runCount = 0;
-      auto flush = [&] {
-        if (runCount) vkCmdDrawIndexed(cb, runCount, 1, runFirst, 0, 0), ctx_.cost.dispatches++;
-        drawn_ += runCount / 3;
-        runCount = 0;
-      };
-      for (const Cluster& c : clusters_) {
-        const glm::dvec3 f(faceSpace(face, c.center - light));
-        const double r = c.radius;
-        const bool outside = f.z + r < nearPlane || (f.x - u0 * f.z) / nu0 < -r || (u1 * f.z - f.x) / nu1 < -r ||
-                             (f.y - v0 * f.z) / nv0 < -r || (v1 * f.z - f.y) / nv1 < -r;
-        if (outside) {
-          flush();
-          continue;
-        }
-        if (runCount == 0) runFirst = c.firstIndex;
-        runCount += c.indexCount;
-      }
+  VkViewport viewport{0, 0, float(w), float(h), 0.0f, 1.0f};
+  VkRect2D scissor{{0, 0}, {w, h}};
+  vkCmdSetViewport(cb, 0, 1, &viewport);
+  vkCmdSetScissor(cb, 0, 1, &scissor);
+  return cb;
+}
+
+void DepthPass::drawClusters(VkCommandBuffer cb, uint32_t face, double u0, double u1, double v0, double v1,
+                             glm::vec3 light, float nearPlane) {
+  VkDeviceSize offset = 0;
+  vkCmdBindVertexBuffers(cb, 0, 1, &vertices_.buffer, &offset);
+  vkCmdBindIndexBuffer(cb, indices_.buffer, 0, VK_INDEX_TYPE_UINT32);
+  if (!culling_) {
+    vkCmdDrawIndexed(cb, indexCount_, 1, 0, 0, 0);
+    ctx_.cost.dispatches++;
+    drawn_ += indexCount_ / 3;
+    return;
+  }
+  // The frustum in face space: u in [u0, u1], v in [v0, v1] (u = x_f / z_f), z_f >= near.
+  const double nu0 = std::sqrt(1 + u0 * u0), nu1 = std::sqrt(1 + u1 * u1);
+  const double nv0 = std::sqrt(1 + v0 * v0), nv1 = std::sqrt(1 + v1 * v1);
+  uint32_t runFirst = 0, runCount = 0;
+  auto flush = [&] {
+    if (runCount) vkCmdDrawIndexed(cb, runCount, 1, runFirst, 0, 0), ctx_.cost.dispatches++;
+    drawn_ += runCount / 3;
+    runCount = 0;
+  };
+  for (const Cluster& c : clusters_) {
+    const glm::dvec3 f(faceSpace(face, c.center - light));
+    const double r = c.radius;
+    const bool outside = f.z + r < nearPlane || (f.x - u0 * f.z) / nu0 < -r || (u1 * f.z - f.x) / nu1 < -r ||
+                         (f.y - v0 * f.z) / nv0 < -r || (v1 * f.z - f.y) / nv1 < -r;
+    if (outside) {
       flush();
+      continue;
     }
+    if (runCount == 0) runFirst = c.firstIndex;
+    runCount += c.indexCount;
+  }
+  flush();
+}
+
+void DepthPass::recordWindow(vk::Commands& cmd, uint32_t face, double res, uint32_t x0, uint32_t y0, uint32_t w,
+                             uint32_t h, glm::vec3 light, float nearPlane) {
+  VkCommandBuffer cb = beginPass(cmd, w, h);
+  if (indexCount_) {
+    DepthPush push{};
+    push.clip = windowClip(face, res, x0, y0, w, h, nearPlane);
+    push.light = glm::vec4(light, 1.0f);
+    vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
+    vkCmdPushConstants(cb, layout_, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(push), &push);
+    const double u0 = 2.0 * x0 / res - 1, u1 = 2.0 * (double(x0) + w) / res - 1;
+    const double v0 = 2.0 * y0 / res - 1, v1 = 2.0 * (double(y0) + h) / res - 1;
+    drawClusters(cb, face, u0, u1, v0, v1, light, nearPlane);
+  }
+  vkCmdEndRenderPass(cb);
+}
+
+// The warped pass's clip margin past the face's edges (face coordinates): the lookup's last texels read
+// geometry just beyond the edge, and the margin keeps every vertex within the warp's end cells.
+constexpr float kWarpMargin = 0.01f;
+constexpr VkShaderStageFlags kWarpedStages =
+    VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_GEOMETRY_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
+
+void DepthPass::createWarpedPipeline() {
+  if (!ctx_.geometryShader)
+    throw Error("the RTW shadow map needs the geometryShader feature, which this device lacks", ctx_.deviceName(),
+                "use another shadow method (cubesm, rmsm) on this device");
+  const auto& lim = ctx_.properties.limits;
+  if (lim.maxGeometryOutputVertices < RTW_GS_MAX_VERTICES ||
+      lim.maxGeometryTotalOutputComponents < RTW_GS_MAX_VERTICES * RTW_GS_COMPONENTS)
+    throw Error("the RTW geometry stage emits up to " + std::to_string(RTW_GS_MAX_VERTICES) +
+                    " vertices of " + std::to_string(RTW_GS_COMPONENTS) + " components; this device allows " + std::to_string(lim.maxGeometryOutputVertices) +
+                    " vertices and " + std::to_string(lim.maxGeometryTotalOutputComponents) + " components",
+                ctx_.deviceName(), "use another shadow method (cubesm, rmsm) on this device");
+  VkDevice d = ctx_.device;
+  warpedVert_ = vk::createShaderModule(ctx_, spv_depth_warp_vert, sizeof(spv_depth_warp_vert));
+  warpedGeom_ = vk::createShaderModule(ctx_, spv_depth_warp_geom, sizeof(spv_depth_warp_geom));
+  warpedFrag_ = vk::createShaderModule(ctx_, spv_depth_warp_frag, sizeof(spv_depth_warp_frag));
+  VkDescriptorSetLayoutBinding binding{0, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1,
+                                      VK_SHADER_STAGE_GEOMETRY_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+  VkDescriptorSetLayoutCreateInfo si{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+  si.flags = VK_DESCRIPTOR_SET_LAYOUT_CREATE_PUSH_DESCRIPTOR_BIT_KHR;
+  si.bindingCount = 1;
+  si.pBindings = &binding;
+  VK_CHECK(vkCreateDescriptorSetLayout(d, &si, nullptr, &warpedSet_));
+  VkPushConstantRange range{kWarpedStages, 0, sizeof(RtwDepthPush)};
+  VkPipelineLayoutCreateInfo li{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+  li.setLayoutCount = 1;
+  li.pSetLayouts = &warpedSet_;
+  li.pushConstantRangeCount = 1;
+  li.pPushConstantRanges = &range;
+  VK_CHECK(vkCreatePipelineLayout(d, &li, nullptr, &warpedLayout_));
+  vk::TrianglePipelineDesc desc;
+  desc.vert = warpedVert_;
+  desc.geom = warpedGeom_;
+  desc.frag = warpedFrag_;
+  desc.layout = warpedLayout_;
+  desc.renderPass = renderPass_;
+  desc.vertexStreams = 1;
+  desc.colorAttachments = 1;
+  desc.colorWriteMask = VK_COLOR_COMPONENT_R_BIT;
+  desc.depthCompare = VK_COMPARE_OP_GREATER;
+  warpedPipeline_ = vk::createTrianglePipeline(ctx_, desc);
+}
+
+void DepthPass::recordWarped(vk::Commands& cmd, uint32_t face, uint32_t resolution, const vk::Buffer& warp,
+                             uint32_t cells, glm::vec3 light, float nearPlane, float tessTexels) {
+  if (!warpedPipeline_) createWarpedPipeline();
+  VkCommandBuffer cb = beginPass(cmd, resolution, resolution);
+  if (indexCount_) {
+    RtwDepthPush push{};
+    push.light = glm::vec4(light, 1.0f);
+    push.face = face;
+    push.cells = cells;
+    push.resolution = resolution;
+    push.tessellate = tessTexels > 0 ? 1u : 0u;
+    push.tessTexels = tessTexels;
+    push.nearPlane = nearPlane;
+    push.margin = kWarpMargin;
+    vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, warpedPipeline_);
+    vkCmdPushConstants(cb, warpedLayout_, kWarpedStages, 0, sizeof(push), &push);
+    VkDescriptorBufferInfo info{warp.buffer, 0, VK_WHOLE_SIZE};
+    VkWriteDescriptorSet write{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+    write.dstBinding = 0;
+    write.descriptorCount = 1;
+    write.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    write.pBufferInfo = &info;
+    ctx_.cmdPushDescriptorSet(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, warpedLayout_, 0, 1, &write);
+    const double m = 1.0 + kWarpMargin;
+    drawClusters(cb, face, -m, m, -m, m, light, nearPlane);
   }
   vkCmdEndRenderPass(cb);
 }

@@ -52,8 +52,15 @@ class DepthPass {
   // into the target's top-left w x h texels; texels no triangle covers hold SM_EMPTY_DEPTH.
   void recordWindow(vk::Commands& cmd, uint32_t face, double res, uint32_t x0, uint32_t y0, uint32_t w,
                     uint32_t h, glm::vec3 light, float nearPlane);
-  // Copies rectangles of the target the last recordWindow rendered into `dst` (4-byte texels). No
-  // barrier: the caller adds one before reading `dst`.
+  // RTW (rtw.h): one geometry pass of face `face` whose vertices move through the face's warp maps
+  // (`warp`, rtw_shared.h layout, `cells` super-cells an axis; depth_warp.geom clips each triangle to the
+  // face first) into the target's top-left `resolution`² texels. tessTexels > 0: triangles whose warped
+  // edges are longer are subdivided. Needs the device's geometryShader feature (Error naming it if not).
+  // Clusters are culled against the whole face.
+  void recordWarped(vk::Commands& cmd, uint32_t face, uint32_t resolution, const vk::Buffer& warp, uint32_t cells,
+                    glm::vec3 light, float nearPlane, float tessTexels);
+  // Copies rectangles of the target the last recordWindow or recordWarped rendered into `dst` (4-byte
+  // texels). No barrier: the caller adds one before reading `dst`.
   void recordCopy(vk::Commands& cmd, const std::vector<VkBufferImageCopy>& regions, const vk::Buffer& dst);
 
   uint32_t triangleCount() const { return indexCount_ / 3; }
@@ -69,7 +76,14 @@ class DepthPass {
 
  private:
   void createPipeline();
+  void createWarpedPipeline();
   void destroyTargets();
+  // Begins the render pass on the smallest target holding w x h, viewport and scissor set.
+  VkCommandBuffer beginPass(vk::Commands& cmd, uint32_t w, uint32_t h);
+  // Draws the clusters whose sphere meets the frustum u in [u0, u1], v in [v0, v1], z_f >= near of face
+  // `face` (all triangles without culling); the pipeline and its constants are bound.
+  void drawClusters(VkCommandBuffer cb, uint32_t face, double u0, double u1, double v0, double v1, glm::vec3 light,
+                    float nearPlane);
 
   struct Cluster {
     glm::vec3 center{0};
@@ -90,6 +104,11 @@ class DepthPass {
   VkPipelineLayout layout_ = VK_NULL_HANDLE;
   VkPipeline pipeline_ = VK_NULL_HANDLE;
   VkShaderModule vert_ = VK_NULL_HANDLE, frag_ = VK_NULL_HANDLE;
+  // The warped pass (RTW), made on first use.
+  VkDescriptorSetLayout warpedSet_ = VK_NULL_HANDLE;
+  VkPipelineLayout warpedLayout_ = VK_NULL_HANDLE;
+  VkPipeline warpedPipeline_ = VK_NULL_HANDLE;
+  VkShaderModule warpedVert_ = VK_NULL_HANDLE, warpedGeom_ = VK_NULL_HANDLE, warpedFrag_ = VK_NULL_HANDLE;
   struct Target {
     vk::Image color, depth;
     VkFramebuffer framebuffer = VK_NULL_HANDLE;

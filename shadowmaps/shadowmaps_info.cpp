@@ -1,8 +1,11 @@
-// The cube shadow map and RMSM in the method registry: their settings, compare's sweeps (face
-// resolution; page pool, finest level, matching and analysis resolution) and the factories.
+// The cube shadow map, RMSM and RTW in the method registry: their settings, compare's sweeps (face
+// resolution; page pool, finest level, matching and analysis resolution; map resolution, analysis,
+// importance functions, tessellation) and the factories.
 #include "eval/registry.h"
 #include "shadowmaps/cube_sm.h"
 #include "shadowmaps/rmsm.h"
+#include "shadowmaps/rtw.h"
+#include "shadowmaps/rtw_shared.h"
 
 namespace cs {
 
@@ -45,7 +48,77 @@ RmsmOptions rmsmOptions(const Settings& s) {
   return rm;
 }
 
+RtwOptions rtwOptions(const Settings& s) {
+  RtwOptions o;
+  o.resolution = s.count("rtw-resolution", 16, 16384, o.resolution);
+  o.cells = s.count("rtw-cells", 2, RTW_MAX_CELLS, o.resolution / 4);
+  if (o.cells > o.resolution)
+    throw UsageError("rtw: --rtw-cells " + std::to_string(o.cells) + " exceeds the map's " +
+                     std::to_string(o.resolution) + " texels a side");
+  const std::string analysis = s.choice("rtw-analysis", {"forward", "backward", "hybrid"}, "backward");
+  o.analysis = analysis == "forward" ? RtwAnalysis::Forward : analysis == "hybrid" ? RtwAnalysis::Hybrid : RtwAnalysis::Backward;
+  if (s.has("rtw-importance")) o.functions = parseRtwFunctions(s.values().at("rtw-importance"), o.analysis);
+  o.alpha = float(s.number("rtw-alpha", 0.0, 1.0, o.alpha));
+  o.beta = float(s.number("rtw-beta", 0.0, 100.0, o.beta));
+  o.blurSigma = float(s.number("rtw-blur", 0.0, 64.0, o.blurSigma));
+  o.forwardResolution = s.count("rtw-forward-res", 2, 16384, o.cells);
+  if (o.forwardResolution < o.cells || o.forwardResolution > o.resolution)
+    throw UsageError("rtw: --rtw-forward-res " + std::to_string(o.forwardResolution) +
+                     " must lie between the cell count (" + std::to_string(o.cells) + ") and the map resolution");
+  o.tessellation = float(s.number("rtw-tessellation", 0.0, 100.0, o.tessellation));
+  o.warpBias = float(s.number("rtw-warp-bias", 1.0, 64.0, o.warpBias));
+  o.pcf = !s.present("sm-no-pcf");
+  o.planeBias = s.present("plane-bias");
+  o.cull = s.onOff("sm-cull", o.cull);
+  return o;
+}
+
 }  // namespace
+
+MethodInfo rtwMethodInfo() {
+  MethodInfo m;
+  m.name = "rtw";
+  m.summary = "rectilinear texture warping: one warped map per cube face, texels where the importance is";
+  m.settings = {
+      {"rtw-resolution", "N", "texels per warped face side (default 1024)", {}},
+      {"rtw-cells", "N", "super-cells per axis of the warp maps (default resolution / 4)", {}},
+      {"rtw-analysis", "NAME", "importance from the samples (backward), the light's depth image (forward) or both",
+       {"backward", "forward", "hybrid"}},
+      {"rtw-importance", "LIST",
+       "importance functions, multiplied: view, distance, edge (forward, hybrid), normal; or uniform (identity "
+       "warp). Default: view,distance,normal (backward), view,distance,edge,normal (forward, hybrid)",
+       {}},
+      {"rtw-alpha", "A", "edge function's importance away from edges (default 0.001)", {}},
+      {"rtw-beta", "B", "normal function's bonus for surfaces facing the eye (default 2)", {}},
+      {"rtw-blur", "SIGMA", "Gaussian blur of the 1-D importance, in cells (default 1.5; 0 = none)", {}},
+      {"rtw-forward-res", "M", "texels a side of the forward depth image per face (default = cells)", {}},
+      {"rtw-tessellation", "PCT",
+       "subdivide triangles whose warped edges exceed PCT % of the map side (default 0 = off; the paper's 2.5)", {}},
+      {"rtw-warp-bias", "F", "scale on the slope bias's texel, for the warp's non-linearity (default 1)", {}},
+      {"sm-no-pcf", "", "one depth tap instead of 2x2 PCF", {}},
+      kPlaneBias,
+      kCull,
+  };
+  m.check = [](const Settings& s) { (void)rtwOptions(s); };
+  m.make = [](vk::Context* ctx, const Settings& s) -> std::unique_ptr<ShadowMethod> {
+    CS_CHECK(ctx, "the rtw method needs a Vulkan device");
+    return makeRtw(*ctx, rtwOptions(s));
+  };
+  // The map's side (a quarter, then the same texels as a 1024² cube map), then at 1024² the other
+  // analyses, the plain view-and-distance importance, and the paper's 2.5 % tessellation.
+  m.sweep = [](const Settings& s) {
+    std::vector<SweepPoint> points;
+    for (uint32_t r : {512u, 1024u})
+      points.push_back({"rtw@" + std::to_string(r), s.with("rtw-resolution", std::to_string(r)).without("rtw-cells")});
+    const Settings at1024 = s.with("rtw-resolution", "1024").without("rtw-cells");
+    points.push_back({"rtw@1024,forward", at1024.with("rtw-analysis", "forward").without("rtw-importance")});
+    points.push_back({"rtw@1024,hybrid", at1024.with("rtw-analysis", "hybrid").without("rtw-importance")});
+    points.push_back({"rtw@1024,view+distance", at1024.with("rtw-importance", "view,distance")});
+    points.push_back({"rtw@1024,tess2.5", at1024.with("rtw-tessellation", "2.5")});
+    return points;
+  };
+  return m;
+}
 
 MethodInfo cubeShadowMapMethodInfo() {
   MethodInfo m;

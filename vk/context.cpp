@@ -275,6 +275,8 @@ std::unique_ptr<Context> createContext(const ContextOptions& options) {
   want.features.shaderInt64 = VK_TRUE;
   want.features.fragmentStoresAndAtomics = have.features.fragmentStoresAndAtomics;
   want.features.vertexPipelineStoresAndAtomics = have.features.vertexPipelineStoresAndAtomics;
+  want.features.geometryShader = have.features.geometryShader;
+  ctx->geometryShader = have.features.geometryShader == VK_TRUE;
 
   float priority = 1.0f;
   VkDeviceQueueCreateInfo qi{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
@@ -515,9 +517,13 @@ VkShaderModule createShaderModule(Context& ctx, const uint32_t* spirv, size_t sp
 VkPipeline createTrianglePipeline(Context& ctx, const TrianglePipelineDesc& desc) {
   CS_CHECK(desc.vertexStreams >= 1 && desc.vertexStreams <= 4 && desc.colorAttachments <= 4,
            "triangle pipeline: " << desc.vertexStreams << " streams, " << desc.colorAttachments << " attachments");
-  VkPipelineShaderStageCreateInfo stages[2]{};
+  VkPipelineShaderStageCreateInfo stages[3]{};
   stages[0] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_VERTEX_BIT, desc.vert, "main", nullptr};
   stages[1] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_FRAGMENT_BIT, desc.frag, "main", nullptr};
+  if (desc.geom) {
+    CS_CHECK(ctx.geometryShader, "triangle pipeline: a geometry stage on a device without the geometryShader feature");
+    stages[2] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_GEOMETRY_BIT, desc.geom, "main", nullptr};
+  }
   VkVertexInputBindingDescription bindings[4];
   VkVertexInputAttributeDescription attrs[4];
   for (uint32_t i = 0; i < desc.vertexStreams; ++i) {
@@ -555,7 +561,7 @@ VkPipeline createTrianglePipeline(Context& ctx, const TrianglePipelineDesc& desc
   dy.dynamicStateCount = 2;
   dy.pDynamicStates = dyn;
   VkGraphicsPipelineCreateInfo pi{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
-  pi.stageCount = 2;
+  pi.stageCount = desc.geom ? 3 : 2;
   pi.pStages = stages;
   pi.pVertexInputState = &vi;
   pi.pInputAssemblyState = &ia;

@@ -58,6 +58,7 @@ struct Context {
   VkPhysicalDeviceMemoryProperties memory{};
   uint32_t subgroupSize = 0;
   bool hostVisibleDeviceLocal = false;   // unified memory (lavapipe, some iGPUs): no staging needed
+  bool geometryShader = false;           // the device's geometryShader feature, enabled when it has it (RTW)
   PFN_vkCmdPushDescriptorSetKHR cmdPushDescriptorSet = nullptr;
 
   HostCost cost;                    // see HostCost
@@ -174,6 +175,7 @@ VkShaderModule createShaderModule(Context& ctx, const uint32_t* spirv, size_t sp
 // viewport and scissor. What differs between passes is below.
 struct TrianglePipelineDesc {
   VkShaderModule vert = VK_NULL_HANDLE, frag = VK_NULL_HANDLE;
+  VkShaderModule geom = VK_NULL_HANDLE;       // optional geometry stage (the device's geometryShader feature)
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkRenderPass renderPass = VK_NULL_HANDLE;
   uint32_t vertexStreams = 1;                 // at most 4
