@@ -17,8 +17,10 @@ namespace cs::sm {
 #define RTW_THREADS 256          // per-pixel and per-texel kernels
 #define RTW_WARP_THREADS 256     // rtw_warp.comp: one workgroup per face and axis
 #define RTW_MAX_CELLS 2048u      // super-cells per axis (shared memory of rtw_warp.comp: 2 floats a cell)
-#define RTW_GS_MAX_VERTICES 90   // the warped pass's geometry shader: 11 components a vertex (1024 / 11 = 93)
-#define RTW_GS_COMPONENTS 11u
+// The warped pass's geometry shader: at most 72 vertices of 14 components, as the limit counts them
+// (gl_Position, gl_PointSize, and two 4-component locations): 1008 of the 1024 Vulkan guarantees.
+#define RTW_GS_MAX_VERTICES 72
+#define RTW_GS_COMPONENTS 14u
 
 // Importance functions (RtwImportancePush::functions), multiplied (paper 004 §5).
 #define RTW_VIEW 1u      // I_DV: 1 inside the desired view, 0 outside (forward: the view frustum test)
