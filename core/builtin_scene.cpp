@@ -148,6 +148,10 @@ std::vector<Camera> views() {
       view("room", {9.3f, 7.3f, 6.3f}, {-3.0f, 1.5f, -3.0f}, 1.1f),
       // Looking up at the shadows thrown on the ceiling by the casters above the light.
       view("ceiling", {-2.5f, 1.6f, 3.5f}, {1.0f, 8.0f, -1.0f}, 1.0f),
+      // Zoomed from the wall view's eye (so the casters' placement, which keeps clear of every eye, is
+      // unchanged) onto a long shadow edge on the back wall: a 3.5° field of view, where a 2048² cube
+      // map's texels span many pixels and aliasing shows (paper 004's Fig. 1 situation).
+      view("edge", glm::vec3(kWallEye), {0.43f, 4.05f, -7.0f}, 0.06f),
   };
 }
 

@@ -66,8 +66,10 @@ std::vector<float> rtwKnots(const std::vector<float>& importance, float sigma) {
       for (int o = -r; o <= r; ++o) {
         const float g = std::exp(-0.5f * float(o * o) / (sigma * sigma));
         const long j = long(k) + o;
-        if (j >= 0 && j < long(n)) sum += g * importance[size_t(j)];
-        weight += g;
+        if (j >= 0 && j < long(n)) {  // normalised over the face: edge cells keep their share
+          sum += g * importance[size_t(j)];
+          weight += g;
+        }
       }
       v = sum / weight;
     }
@@ -208,7 +210,9 @@ class Rtw : public ShadowMethod {
     timer_.restart();
     readback_.clear();
     const uint32_t visSlot = readback_.add(visibility_, uint64_t(pixels) * 4);
-    const uint32_t warpSlot = readback_.add(warp_, uint64_t(sm::rtwWarpWords(n, r)) * 4);
+    // The knots, active flags and live ranges come back (stats); the inverse tables stay on the device.
+    const uint32_t warpWords = sm::rtwInverseBase(0, 0, n, r);
+    const uint32_t warpSlot = readback_.add(warp_, uint64_t(warpWords) * 4);
     const uint32_t countSlot = readback_.add(counters_, 16);
     {
       vk::Commands cmd(ctx_, &timer_);
@@ -296,7 +300,7 @@ class Rtw : public ShadowMethod {
     const auto t1 = Clock::now();
     out.visibility.resize(pixels);
     if (pixels) readback_.read(visSlot, out.visibility.data());
-    std::vector<float> warp(sm::rtwWarpWords(n, r));
+    std::vector<float> warp(warpWords);
     readback_.read(warpSlot, warp.data());
     uint32_t counters[4] = {};
     readback_.read(countSlot, counters);

@@ -42,8 +42,10 @@ void main() {
       for (int o = -r; o <= r; ++o) {
         float g = exp(-0.5 * float(o * o) / (pc.sigma * pc.sigma));
         int j = int(k) + o;
-        if (j >= 0 && j < int(n)) sum += g * collapsed[j];
-        weight += g;
+        if (j >= 0 && j < int(n)) {  // the kernel's weight inside the face only: edge cells keep their share
+          sum += g * collapsed[j];
+          weight += g;
+        }
       }
       v = sum / weight;
     }

@@ -93,7 +93,7 @@ MethodInfo rtwMethodInfo() {
       {"rtw-blur", "SIGMA", "Gaussian blur of the 1-D importance, in cells (default 1.5; 0 = none)", {}},
       {"rtw-forward-res", "M", "texels a side of the forward depth image per face (default = cells)", {}},
       {"rtw-tessellation", "PCT",
-       "subdivide triangles whose warped edges exceed PCT % of the map side (default 0 = off; the paper's 2.5)", {}},
+       "subdivide triangles whose warped edges exceed PCT % of the map side (default 2.5, the paper's; 0 = off)", {}},
       {"rtw-warp-bias", "F", "scale on the slope bias's texel, for the warp's non-linearity (default 1)", {}},
       {"sm-no-pcf", "", "one depth tap instead of 2x2 PCF", {}},
       kPlaneBias,
@@ -105,7 +105,7 @@ MethodInfo rtwMethodInfo() {
     return makeRtw(*ctx, rtwOptions(s));
   };
   // The map's side (a quarter, then the same texels as a 1024² cube map), then at 1024² the other
-  // analyses, the plain view-and-distance importance, and the paper's 2.5 % tessellation.
+  // analyses, the plain view-and-distance importance, and no tessellation (straight warped edges).
   m.sweep = [](const Settings& s) {
     std::vector<SweepPoint> points;
     for (uint32_t r : {512u, 1024u})
@@ -114,7 +114,7 @@ MethodInfo rtwMethodInfo() {
     points.push_back({"rtw@1024,forward", at1024.with("rtw-analysis", "forward").without("rtw-importance")});
     points.push_back({"rtw@1024,hybrid", at1024.with("rtw-analysis", "hybrid").without("rtw-importance")});
     points.push_back({"rtw@1024,view+distance", at1024.with("rtw-importance", "view,distance")});
-    points.push_back({"rtw@1024,tess2.5", at1024.with("rtw-tessellation", "2.5")});
+    points.push_back({"rtw@1024,no-tess", at1024.with("rtw-tessellation", "0")});
     return points;
   };
   return m;

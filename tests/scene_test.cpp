@@ -631,7 +631,7 @@ TEST(BuiltinScene, OneLightInsideTheRoom) {
 TEST(BuiltinScene, NamedViewsExistInOrderInsideTheRoom) {
   const Scene s = builtinScene();
   const std::vector<std::string> names = builtinViewNames();
-  EXPECT_EQ(names, (std::vector<std::string>{"wall", "fur", "room", "ceiling"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"wall", "fur", "room", "ceiling", "edge"}));
   ASSERT_EQ(s.cameras.size(), names.size());
   for (size_t i = 0; i < names.size(); ++i) {
     EXPECT_EQ(s.cameras[i].name, names[i]);
