@@ -172,6 +172,13 @@ int runRender(const Options& o) {
               << row.error.misclassifiedFraction << " (outside band " << row.error.misclassifiedOutsideBand
               << " samples), raster " << std::setprecision(3) << frame->rasterMs << " ms; wrote " << o.out << "/"
               << (o.dump.empty() ? "" : " and " + o.dump + "/") << "\n";
+    if (row.stats.contains("per_frame") && !o.quiet) {  // a progressive method: its error frame by frame
+      std::cout << "  " << row.method << " per frame (0 = warm-up): ";
+      for (const auto& f : row.stats["per_frame"])
+        std::cout << f["frame"].get<int>() << ": " << std::setprecision(4) << 100 * f["misclassified_fraction"].get<double>()
+                  << " % (" << std::setprecision(1) << f["ms"].get<double>() << " ms)  ";
+      std::cout << "\n";
+    }
   }
   return kExitOk;
 }

@@ -39,6 +39,9 @@ struct MethodInfo {
   // Claims the reference's answer on every lit sample outside the ambiguity band (at its default
   // settings); the registry's contract test holds it to that on every view it runs.
   bool exact = false;
+  // Its answer improves over frames of a static view (a tree refined frame by frame): a timed run's row
+  // shows the last frame's mask, and every row lists each frame's time and error (harness.h).
+  bool progressive = false;
   std::vector<SettingSpec> settings;
   // Parses every setting, throws UsageError naming the method and the setting. Runs before any work.
   std::function<void(const Settings&)> check;

@@ -29,10 +29,11 @@ MethodOutput runCounted(ShadowMethod& method, const FrameInput& input) {
 }
 
 TimedRuns timeRuns(ShadowMethod& method, const FrameInput& input, uint32_t frames, const FrameProgress& progress,
-                   double singleFrameAboveMs) {
+                   double singleFrameAboveMs, const FrameInspector& inspect, bool lastFrame) {
   TimedRuns t;
   if (progress) progress(0, frames);
   const MethodOutput first = runCounted(method, input);
+  if (inspect) inspect(0, first);
   if (frames == 0 || first.totalMs > singleFrameAboveMs) {
     t.output = first;
     t.totals = {first.totalMs};
@@ -46,9 +47,10 @@ TimedRuns timeRuns(ShadowMethod& method, const FrameInput& input, uint32_t frame
   for (uint32_t i = 0; i < frames; ++i) {
     if (progress) progress(i + 1, frames);
     MethodOutput out = runCounted(method, input);
+    if (inspect) inspect(i + 1, out);
     t.totals.push_back(out.totalMs);
     if (out.visibility != first.visibility) t.deterministic = false;
-    if (i == 0) mask = std::move(out.visibility);
+    if (i == 0 || lastFrame) mask = std::move(out.visibility);
     out.visibility = {};
     outs.push_back(std::move(out));
   }
@@ -56,8 +58,8 @@ TimedRuns timeRuns(ShadowMethod& method, const FrameInput& input, uint32_t frame
   t.minMs = *std::min_element(t.totals.begin(), t.totals.end());
   t.maxMs = *std::max_element(t.totals.begin(), t.totals.end());
   if (!outs.empty()) {
-    size_t best = 0;
-    for (size_t i = 0; i < outs.size(); ++i)
+    size_t best = lastFrame ? outs.size() - 1 : 0;
+    for (size_t i = 0; i < outs.size() && !lastFrame; ++i)
       if (std::abs(outs[i].totalMs - t.medianMs) < std::abs(outs[best].totalMs - t.medianMs)) best = i;
     t.output = std::move(outs[best]);
     t.output.visibility = std::move(mask);
@@ -115,7 +117,11 @@ Judged judge(const MethodInfo& info, ShadowMethod* method, const PreparedFrame& 
     j.runs = frame.reference;
   } else {
     CS_CHECK(method, "judge: no method object for " << info.name);
-    j.runs = timeRuns(*method, frame.input, frames, progress, singleFrameAboveMs);
+    auto inspect = [&](uint32_t, const MethodOutput& out) {
+      j.perFrame.push_back({out.totalMs, compareVisibility(frame.gbuffer, out.visibility,
+                                                           frame.reference.output.visibility, frame.band)});
+    };
+    j.runs = timeRuns(*method, frame.input, frames, progress, singleFrameAboveMs, inspect, info.progressive);
   }
   j.error = compareVisibility(frame.gbuffer, j.runs.output.visibility, frame.reference.output.visibility, frame.band);
   return j;
@@ -148,6 +154,22 @@ FrameResult resultRow(const MethodInfo& info, const std::string& setting, const 
   st["lit_samples"] = frame.litSamples;
   st["band_samples"] = frame.bandSamples;
   if (!judged.runs.output.work.empty()) st["work"] = judged.runs.output.work;
+  if (info.progressive || !judged.runs.deterministic) {
+    // The run frame by frame, the warm-up first: a progressive method's error against its frame index and
+    // against the time spent so far.
+    nlohmann::json frames = nlohmann::json::array();
+    double cumulative = 0;
+    for (size_t k = 0; k < judged.perFrame.size(); ++k) {
+      const Judged::Frame& f = judged.perFrame[k];
+      cumulative += f.ms;
+      frames.push_back({{"frame", k},
+                        {"ms", f.ms},
+                        {"cumulative_ms", cumulative},
+                        {"misclassified_fraction", f.error.misclassifiedFraction},
+                        {"misclassified_outside_band", f.error.misclassifiedOutsideBand}});
+    }
+    st["per_frame"] = frames;
+  }
   return r;
 }
 

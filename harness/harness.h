@@ -40,14 +40,18 @@ using FrameProgress = std::function<void(uint32_t frame, uint32_t frames)>;
 // singleFrameAboveMs is itself the one timed frame (compiles are noise against it; long benchmark runs).
 struct TimedRuns {
   MethodOutput output;         // the median frame's output (its mask: the first timed frame's, the same
-                               //   mask when deterministic; only one mask is held, whatever `frames`)
+                               //   mask when deterministic; only one mask is held, whatever `frames`);
+                               //   with lastFrame, the last timed frame's output and mask
   std::vector<double> totals;  // each timed frame's totalMs
   double medianMs = 0, minMs = 0, maxMs = 0;
   bool deterministic = true;   // every timed frame's mask equals the warm-up's (the cone path promises it)
 };
 inline constexpr double kAlwaysTimeEveryFrame = 1e300;
+// Sees each run's output, the warm-up (frame 0) included, before its mask is dropped.
+using FrameInspector = std::function<void(uint32_t frame, const MethodOutput& out)>;
 TimedRuns timeRuns(ShadowMethod& method, const FrameInput& input, uint32_t frames, const FrameProgress& progress = {},
-                   double singleFrameAboveMs = kAlwaysTimeEveryFrame);
+                   double singleFrameAboveMs = kAlwaysTimeEveryFrame, const FrameInspector& inspect = {},
+                   bool lastFrame = false);
 
 struct FrameSpec {
   Camera camera;
@@ -96,6 +100,12 @@ std::unique_ptr<PreparedFrame> prepareFrame(vk::Context& ctx, Raster& raster, co
 struct Judged {
   TimedRuns runs;
   ErrorStats error;
+  // Each run's wall ms and error, the warm-up first (frame 0): a progressive method's convergence.
+  struct Frame {
+    double ms = 0;
+    ErrorStats error;
+  };
+  std::vector<Frame> perFrame;
 };
 
 // The method on the prepared frame (a reference method's row is the reference run itself).

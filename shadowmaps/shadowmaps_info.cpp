@@ -1,7 +1,9 @@
-// The cube shadow map, RMSM and RTW in the method registry: their settings, compare's sweeps (face
+// The cube shadow map, RMSM, RTW and ASM in the method registry: their settings, compare's sweeps (face
 // resolution; page pool, finest level, matching and analysis resolution; map resolution, analysis,
-// importance functions, tessellation) and the factories.
+// importance functions, tessellation; memory, node resolution, analysis fraction) and the factories.
 #include "eval/registry.h"
+#include "shadowmaps/asm.h"
+#include "shadowmaps/asm_shared.h"
 #include "shadowmaps/cube_sm.h"
 #include "shadowmaps/rmsm.h"
 #include "shadowmaps/rtw.h"
@@ -73,6 +75,28 @@ RtwOptions rtwOptions(const Settings& s) {
   return o;
 }
 
+AsmOptions asmOptions(const Settings& s) {
+  AsmOptions o;
+  o.nodeResolution = s.count("asm-node-res", 16, 4096, o.nodeResolution);
+  o.cells = s.count("asm-cells", 2, 16, o.cells);
+  if (o.nodeResolution % o.cells)
+    throw UsageError("asm: --asm-cells " + std::to_string(o.cells) + " does not divide the node resolution " +
+                     std::to_string(o.nodeResolution));
+  o.memoryBytes = s.bytes("asm-memory", o.memoryBytes);
+  const uint64_t nodeBytes = uint64_t(o.nodeResolution + 1) * (o.nodeResolution + 1) * 4;
+  if (o.memoryBytes < 7 * nodeBytes)
+    throw UsageError("asm: --asm-memory " + byteSizeLabel(o.memoryBytes) + " holds fewer than the six roots and one "
+                     "child of " + std::to_string(o.nodeResolution) + "² (" + byteSizeLabel(7 * nodeBytes) + ")");
+  o.budgetMs = s.number("asm-budget-ms", 0.0, 1e6, o.budgetMs);
+  o.analysisStep = s.count("asm-analysis", 1, 16, o.analysisStep);
+  o.maxDepth = s.count("asm-max-depth", 1, ASM_MAX_DEPTH, asmMaxDepth(o.nodeResolution, o.cells));
+  o.lodBias = float(s.number("asm-lod-bias", 0.0, 4.0, o.lodBias));
+  o.pcf = !s.present("sm-no-pcf");
+  o.planeBias = s.present("plane-bias");
+  o.cull = s.onOff("sm-cull", o.cull);
+  return o;
+}
+
 }  // namespace
 
 MethodInfo rtwMethodInfo() {
@@ -115,6 +139,42 @@ MethodInfo rtwMethodInfo() {
     points.push_back({"rtw@1024,hybrid", at1024.with("rtw-analysis", "hybrid").without("rtw-importance")});
     points.push_back({"rtw@1024,view+distance", at1024.with("rtw-importance", "view,distance")});
     points.push_back({"rtw@1024,no-tess", at1024.with("rtw-tessellation", "0")});
+    return points;
+  };
+  return m;
+}
+
+MethodInfo asmMethodInfo() {
+  MethodInfo m;
+  m.name = "asm";
+  m.progressive = true;
+  m.summary = "adaptive shadow maps: a tree of nodes per cube face, refined over frames where shadow edges are too coarse";
+  m.settings = {
+      {"asm-node-res", "N", "texels a side of every node (default 256)", {}},
+      {"asm-cells", "C", "cells a side of a node, each may hold a child at C x the resolution (default 4)", {}},
+      {"asm-memory", "BYTES", "node pool, roots included (default 32M)", {}},
+      {"asm-budget-ms", "MS", "time for new nodes per frame by the calibrated cost model (default 30; 0 = no limit)", {}},
+      {"asm-analysis", "K", "analyse every K-th pixel in x and y (default 1; the paper's eighth is about 3)", {}},
+      {"asm-max-depth", "L", "deepest node level (default: as deep as fp32 face coordinates resolve)", {}},
+      {"asm-lod-bias", "L", "refine until texels are 2^L times finer than pixels (default 0: matched, the paper's)", {}},
+      {"sm-no-pcf", "", "one depth tap instead of 2x2 PCF", {}},
+      kPlaneBias,
+      kCull,
+  };
+  m.check = [](const Settings& s) { (void)asmOptions(s); };
+  m.make = [](vk::Context* ctx, const Settings& s) -> std::unique_ptr<ShadowMethod> {
+    CS_CHECK(ctx, "the asm method needs a Vulkan device");
+    return makeAdaptiveShadowMap(*ctx, asmOptions(s));
+  };
+  // The memory limit, then at 32M the node resolution, finer-than-matched texels and the analysis fraction.
+  m.sweep = [](const Settings& s) {
+    std::vector<SweepPoint> points;
+    for (uint64_t mem : {8ull << 20, 32ull << 20})
+      points.push_back({"asm@" + byteSizeLabel(mem), s.with("asm-memory", std::to_string(mem))});
+    const Settings at32 = s.with("asm-memory", std::to_string(32ull << 20));
+    points.push_back({"asm@32M,node512", at32.with("asm-node-res", "512").without("asm-cells")});
+    points.push_back({"asm@32M,lod+1", at32.with("asm-lod-bias", "1")});
+    points.push_back({"asm@32M,analysis3x", at32.with("asm-analysis", "3")});
     return points;
   };
   return m;

@@ -1,0 +1,111 @@
+// shadowmaps/: adaptive shadow maps (ASM, paper 001) for an omnidirectional light. CLI name "asm".
+//
+// Per cube face a tree of shadow-map nodes, every node N x N texels (--asm-node-res) split into C x C
+// cells (--asm-cells); a cell may hold a child node over its region at C times the resolution. The six
+// roots (one per face, the whole face at N² texels) are always resident; children come and go within a
+// memory limit (--asm-memory), kept by the host as the paper's CPU keeps them. Per frame:
+//   1. analysis (§3.1, GPU, asm_frame.comp): every analysed sample (--asm-analysis K: every K-th pixel in
+//      x and y) walks to its finest resident node; if its 2x2 taps disagree there (it straddles a depth
+//      discontinuity) and the node's texel covers more of the surface than its pixel does, the cell whose
+//      child would hold it gains one unit of benefit;
+//   2. refinement (host): cells by benefit over cost, cost = a·N² + b per node with a and b calibrated on
+//      the device at the first frame (every node renders N² texels, so the order is the benefit's);
+//      nodes are created for the best cells until the frame's time budget (--asm-budget-ms) is spent.
+//      When the pool is full, the least recently used leaf not used in the last frame is evicted;
+//      when every node is in use, one is replaced only by a more beneficial cell (§3.2);
+//   3. the new nodes rendered with the shared depth pass (a window of the face at the node's depth,
+//      frustum-culled per node) into the pool; the lookup (§4.4): the finest resident node, the shared
+//      bias, 2x2 PCF.
+// ASM is progressive: the tree persists across run() calls, so a static view converges over frames. A
+// change of geometry or light flushes it (the roots are rendered again, every child is dropped).
+// Faces: a sample belongs to its direction's major-axis face, whose root covers the whole face: no sample
+// falls between faces.
+#pragma once
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "eval/method.h"
+
+namespace cs {
+namespace vk { struct Context; }
+
+struct AsmOptions {
+  uint32_t nodeResolution = 256;   // N: texels a side of every node (--asm-node-res)
+  uint32_t cells = 4;              // C: cells a side of a node (--asm-cells); N must be a multiple
+  uint64_t memoryBytes = 32ull << 20;  // the node pool (--asm-memory): (N + 1)² · 4 bytes a node
+  double budgetMs = 30;            // node creation per frame (--asm-budget-ms); 0: no time limit
+  uint32_t analysisStep = 1;       // analyse every K-th pixel in x and y (--asm-analysis)
+  uint32_t maxDepth = 0;           // deepest level; 0: as deep as fp32 face coordinates allow
+  float lodBias = 0;               // refine until texels are 2^lodBias times finer than pixels (--asm-lod-bias)
+  bool keepTree = false;           // tests: stats "node_keys" holds every resident node's key
+  float constantBias = 2.0f;       // as cube_sm.h
+  float slopeBias = 1.5f;
+  float maxSlope = 10.0f;
+  bool pcf = true;
+  bool planeBias = false;
+  bool cull = true;                // per-node frustum culling (depth_pass.h); the same result
+};
+
+// The host's tree: which node sits in which pool slot, when it was last used, what it was created for.
+// Pure bookkeeping (no device), so the tests can drive it directly.
+class AsmTree {
+ public:
+  // `slots` pool slots, the first six the faces' roots; C cells a side; nodes down to maxDepth.
+  AsmTree(uint32_t slots, uint32_t cells, uint32_t maxDepth);
+
+  struct Node {
+    uint32_t key = 0;        // sm::pageKey(face, depth, x, y); SM_INVALID_KEY when the slot is free
+    uint32_t parent = 0;     // the parent's slot (roots: their own)
+    uint32_t children = 0;   // resident children
+    uint64_t lastUsed = 0;   // frame index of the last walk through it
+    uint64_t benefit = 0;    // the benefit it was created for (roots: ~0)
+  };
+  // A cell that asks for a child: the node's slot, the cell (row-major in C x C), its benefit.
+  struct Candidate {
+    uint32_t slot = 0, cell = 0;
+    uint64_t benefit = 0;
+  };
+  struct Refinement {
+    std::vector<std::pair<uint32_t, uint32_t>> created;  // (key, slot) to render this frame
+    uint32_t evicted = 0;   // LRU evictions of nodes unused in the last frame
+    uint32_t replaced = 0;  // nodes in use replaced by a more beneficial cell
+    uint32_t refused = 0;   // candidates left for want of memory (the budget aside)
+  };
+
+  // Drops every child; the roots stay (keys of face f in slot f).
+  void reset();
+  // Marks the slots whose `used` flag is set as used in `frame`.
+  void markUsed(const std::vector<uint32_t>& used, uint64_t frame);
+  // Creates children for up to `maxNew` candidates, the most beneficial first, in frame `frame`.
+  Refinement refine(std::vector<Candidate> candidates, uint64_t frame, uint32_t maxNew);
+  // The open-addressing table asm_frame.comp probes: `capacity` (a power of two, > resident nodes)
+  // pairs (key, slot), SM_INVALID_KEY where empty.
+  std::vector<uint32_t> hashTable(uint32_t capacity) const;
+
+  const std::vector<Node>& nodes() const { return nodes_; }
+  uint32_t resident() const;
+  uint32_t deepest() const;  // the deepest resident node's depth
+  uint32_t cells() const { return cells_; }
+
+ private:
+  uint32_t childKey(uint32_t slot, uint32_t cell) const;
+  bool residentKey(uint32_t key) const;
+  void drop(uint32_t slot);
+
+  std::vector<Node> nodes_;
+  uint32_t cells_, maxDepth_;
+};
+
+// MethodOutput: visibility per pixel in [0, 1] (PCF) or {0, 1}; stages "analysis", "nodes" (the new
+// nodes' geometry passes and copies; the first frame: the roots), "lookup"; stats: nodes_resident,
+// nodes_created, nodes_evicted, nodes_replaced, candidates, refused, frame (frames since the last flush),
+// deepest, effective_resolution (N·C^deepest), pool_slots, pool_bytes, node_cost_a_ms_per_texel,
+// node_cost_b_ms, analysed_samples, straddling, coarser_than_pixel, triangles_drawn, bias terms. Throws
+// cs::Error on limits (N, C, memory for the six roots and one child, one storage binding).
+std::unique_ptr<ShadowMethod> makeAdaptiveShadowMap(vk::Context& ctx, const AsmOptions& options = {});
+
+// The deepest level the face coordinates of fp32 resolve: N·C^L texels a side <= 2^21.
+uint32_t asmMaxDepth(uint32_t nodeResolution, uint32_t cells);
+
+}  // namespace cs
