@@ -167,6 +167,65 @@ std::vector<std::string> viewOrder(const std::vector<Row>& rows) {
   return views;
 }
 
+bool anyProgressive(const std::vector<Row>& rows) {
+  return std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.result.stats.contains("per_frame"); });
+}
+
+// Progressive methods frame by frame (the warm-up is frame 1): per view, each frame's misclassified
+// fraction and the time spent up to it.
+std::string convergenceMd(const std::vector<Row>& rows) {
+  std::ostringstream os;
+  os << "\n## Convergence of progressive methods\n\nEach frame of a static view refines the method's structure; "
+        "frame 1 is the warm-up. Cells: misclassified (cumulative ms). The one-frame methods' answers stand beside "
+        "them in the plot at frame 1.\n\n![convergence](convergence.png)\n\n(vector: convergence.svg)\n";
+  for (const Row& r : rows) {
+    if (!r.result.stats.contains("per_frame")) continue;
+    os << "\n" << r.result.view << " / " << r.setting << ":";
+    for (const auto& f : r.result.stats["per_frame"])
+      os << " " << f["frame"].get<int>() + 1 << ": " << pct(f["misclassified_fraction"].get<double>()) << " ("
+         << num(f["cumulative_ms"].get<double>(), 4) << " ms);";
+    os << "\n";
+  }
+  return os.str();
+}
+
+// Error against frame index and against cumulative time, one curve per progressive row; every other
+// non-reference row a point at frame 1 and its own time (what it answers with no iteration).
+std::string convergenceSvg(const std::vector<Row>& rows) {
+  LogPanel byFrame, byTime;
+  byFrame.xLabel = "frame (log scale; 1 = the warm-up)";
+  byTime.xLabel = "cumulative shadow time, ms (log scale)";
+  for (LogPanel* p : {&byFrame, &byTime}) {
+    p->yLabel = "misclassified fraction of lit samples (log; 0 at the floor)";
+    p->yFloor = 1e-7;
+    p->fixedY = true;
+    p->yMinDecade = -7;
+    p->yMaxDecade = 0;
+  }
+  PlotSeries oneFrame{"one-frame methods", {}, false}, oneFrameTime{"one-frame methods", {}, false};
+  for (const Row& r : rows) {
+    const std::string label = r.result.view + " " + r.setting;
+    if (!r.result.stats.contains("per_frame")) {
+      if (r.result.method == referenceMethod().name) continue;
+      const double e = r.result.error.misclassifiedFraction;
+      oneFrame.points.push_back({1.0, e, label + ": " + pct(e)});
+      oneFrameTime.points.push_back({std::max(r.result.totalMs, 1e-3), e, label + ": " + pct(e)});
+      continue;
+    }
+    PlotSeries a{label, {}, true}, b{label, {}, true};
+    for (const auto& f : r.result.stats["per_frame"]) {
+      const double e = f["misclassified_fraction"].get<double>();
+      a.points.push_back({double(f["frame"].get<int>() + 1), e, label + " frame " + std::to_string(f["frame"].get<int>() + 1)});
+      b.points.push_back({std::max(f["cumulative_ms"].get<double>(), 1e-3), e, label});
+    }
+    byFrame.series.push_back(std::move(a));
+    byTime.series.push_back(std::move(b));
+  }
+  byFrame.series.push_back(std::move(oneFrame));
+  byTime.series.push_back(std::move(oneFrameTime));
+  return logPlotSvg({byFrame, byTime});
+}
+
 std::string reportMd(const std::string& sceneName, const std::string& device, uint32_t w, uint32_t h,
                      uint32_t frames, const std::vector<Row>& rows, const std::vector<Closeup>& closeups) {
   std::ostringstream os;
@@ -192,6 +251,7 @@ std::string reportMd(const std::string& sceneName, const std::string& device, ui
       if (c.view == v) os << "\n" << closeupText(c) << "\n\n![" << v << " close-ups](" << c.file << ")\n";
   }
   os << "\n## Speed against error\n\n![speed vs error](speed_vs_error.png)\n\n(vector: speed_vs_error.svg)\n";
+  if (anyProgressive(rows)) os << convergenceMd(rows);
   return os.str();
 }
 
@@ -373,6 +433,10 @@ int runCompare(const Options& o) {
                   reportHtml(scene.name, device, o.width, o.height, o.frames, rows, closeups));
   writeFileAtomic((fs::path(dir) / "speed_vs_error.svg").string(), speedVsErrorSvg(rows));
   svgToPng((fs::path(dir) / "speed_vs_error.svg").string(), (fs::path(dir) / "speed_vs_error.png").string());
+  if (anyProgressive(rows)) {
+    writeFileAtomic((fs::path(dir) / "convergence.svg").string(), convergenceSvg(rows));
+    svgToPng((fs::path(dir) / "convergence.svg").string(), (fs::path(dir) / "convergence.png").string());
+  }
   out.commit();
 
   std::cout << "result: compared " << settings.size() << " method setting(s) on " << cameras.size() << " view(s) of "
