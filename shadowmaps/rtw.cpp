@@ -237,7 +237,10 @@ class Rtw : public ShadowMethod {
         cmd.dispatch(forwardKernel_, {forward_, importance_, edges_, view_}, ip, fg.x, fg.y);
         cmd.barrier();
       }
-      if (!uniform && o_.analysis != RtwAnalysis::Forward && pixels) {
+      if (!uniform && pixels) {
+        // Backward and hybrid: the samples' importance. Forward: a floor under it at every sample's cell
+        // (RTW_SAMPLE_COVERAGE), so that no lit sample is looked up in a culled cell.
+        ip.mode = o_.analysis == RtwAnalysis::Forward ? RTW_SAMPLE_COVERAGE : 0u;
         const vk::Grid pg = vk::gridFor(pixels, RTW_THREADS, ctx_.maxWorkgroups());
         cmd.dispatch(importanceKernel_, {g.position, g.normal, importance_, edges_, view_}, ip, pg.x, pg.y);
         cmd.barrier();

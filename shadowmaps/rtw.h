@@ -7,8 +7,9 @@
 //   1. importance map, n x n cells per face (§4.1, §5): backward (every lit sample raises its cell to the
 //      product of the enabled functions: desired view, distance to the eye, surface normal), forward (a
 //      low-resolution depth image of each face, m x m: desired view by the view frustum, distance,
-//      normal from neighbouring texels, shadow edges by depth discontinuities), or hybrid (backward,
-//      times the forward image's edge function at the sample's texel);
+//      normal from neighbouring texels, shadow edges by depth discontinuities; then every lit sample
+//      raises its cell to alpha times its own importance, so no sample lies in a culled cell), or hybrid
+//      (backward, times the forward image's edge function at the sample's texel);
 //   2. warp maps (§4.2): rows and columns collapsed by the maximum, a Gaussian blur of sigma cells that
 //      leaves culled cells culled, knots from the cumulative importance (rtw_warp.comp);
 //   3. the warped geometry pass per face (§4.3; depth_pass.h recordWarped): each triangle clipped to the
@@ -80,7 +81,7 @@ std::vector<float> rtwKnots(const std::vector<float>& importance, float sigma);
 // and hybrid: the depth images too), "warp", "faces" (geometry passes and copies), "lookup"; stats:
 // resolution, cells, analysis, functions, mer (per face [MER_s, MER_t]: the resolution a uniform face
 // would need to match the finest cell), mer_max, culled_cells (per face, fraction of cells of zero width,
-// both axes), active_faces, culled_samples (lit samples in culled cells: their lookup is a guess),
+// both axes), active_faces, culled_samples (lit samples in culled cells, 0 by construction: their lookup would be a guess),
 // tessellation, bias terms, triangles_drawn. Throws cs::Error on the limits above.
 std::unique_ptr<ShadowMethod> makeRtw(vk::Context& ctx, const RtwOptions& options = {});
 

@@ -3,7 +3,8 @@
 // RTW backward analysis (paper 004 §4.1), one invocation per pixel: every lit sample projects into its
 // cube face and raises its super-cell's importance to the product of the enabled functions (§5): I_DV
 // (implied: the sample is in the view), I_D, I_SN, and in the hybrid analysis I_E read from the light's
-// depth image (rtw_forward.comp, RTW_FORWARD_EDGES). A cell keeps the largest value of its samples
+// depth image (rtw_forward.comp, RTW_FORWARD_EDGES). After a forward analysis (RTW_SAMPLE_COVERAGE) the
+// same pass gives every sample's cell a floor of alpha times its value. A cell keeps the largest value of its samples
 // (§6.3: "only keeping the highest value point"); importance is >= 0, so its float bits order as uints.
 // bindings: 0 = position (vec4 per pixel), 1 = normal (vec4 per pixel, w = N·L̂), 2 = importance (uint
 //           per cell, 6 faces of n x n, row-major), 3 = edges (float per depth-image texel, 6 faces of
@@ -34,7 +35,9 @@ void main() {
       float len = length(fromEye);
       value *= rtwNormalImportance(len > 0.0 ? -dot(nl.xyz, fromEye) / len : 1.0, pc.beta);
     }
-    if ((pc.functions & RTW_EDGE) != 0u) {
+    if (pc.mode == RTW_SAMPLE_COVERAGE) {
+      value *= pc.alpha;  // a floor under the forward analysis: the cell stays live, at little width
+    } else if ((pc.functions & RTW_EDGE) != 0u) {
       uint m = pc.forwardRes;
       uvec2 t = uvec2(clamp(floor(st * float(m)), vec2(0.0), vec2(float(m - 1u))));
       value *= edges[face * m * m + t.y * m + t.x];

@@ -32,6 +32,11 @@ namespace cs::sm {
 // Analyses (RtwImportancePush::mode of rtw_forward.comp).
 #define RTW_FORWARD_IMPORTANCE 0u  // forward analysis: the light's depth image writes the importance map
 #define RTW_FORWARD_EDGES 1u       // hybrid analysis: the light's depth image writes I_E per texel
+// rtw_importance.comp after the forward analysis: every lit sample raises its cell to alpha times its
+// own importance (no I_E), so no sample in view lies in a culled cell (a view narrower than a texel of
+// the light's depth image would otherwise see its cells culled: the forward view test reads texel
+// centres).
+#define RTW_SAMPLE_COVERAGE 2u
 
 // ---- the warp buffer ------------------------------------------------------------------------------------
 // For face f and axis a (0 = s, the face's x; 1 = t), n + 1 knots K[0..n], K[0] = 0, K[n] = 1,
@@ -99,7 +104,7 @@ struct RtwImportancePush {
   uint cells;          // super-cells per axis (n)
   uint forwardRes;     // texels a side of the light's depth image per face (m)
   uint functions;      // RTW_* bits
-  uint mode;           // rtw_forward.comp: RTW_FORWARD_IMPORTANCE or RTW_FORWARD_EDGES
+  uint mode;           // rtw_forward.comp: RTW_FORWARD_*; rtw_importance.comp: RTW_SAMPLE_COVERAGE or 0
   float alpha;         // I_E's importance away from edges
   float beta;          // I_SN's bonus
   float constantBias;  // world units: the edge test's constant term and the lit-sample minimum distance
