@@ -117,6 +117,7 @@ class Parser {
   void parseFile(const fs::path& path, Group& into, int depth, const std::string& from) {
     if (depth > kMaxIncludeDepth)
       throw Error("includes nest deeper than " + std::to_string(kMaxIncludeDepth) + " files (a cycle?)", from);
+    checkSceneInput(path.string(), from);
     std::ifstream in(path, std::ios::binary);
     if (!in) throw Error("cannot open '" + path.string() + "'", from.empty() ? path.string() : from,
                          "AFF includes are relative to the including file");

@@ -67,6 +67,7 @@ std::string assimpFormats() {
 }
 
 Scene loadAssimp(const std::string& path, std::ostream& warn) {
+  checkSceneInput(path);
   Assimp::Importer importer;
   // Only triangles and normals matter: no materials, textures, animations or bones are read.
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);

@@ -397,6 +397,7 @@ bool harmlessRequiredExtension(const std::string& name) {
 // The glTF file on disk: read, split (GLB), JSON-checked, then handed to tinygltf.
 
 std::vector<unsigned char> readFile(const std::string& path) {
+  checkSceneInput(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error("cannot open the file", path, "check the path");
   std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());

@@ -76,7 +76,26 @@ PointLight automaticLight(const Scene& scene) {
 
 namespace cs {
 
+void checkSceneInput(const std::string& path, const std::string& from) {
+  namespace fs = std::filesystem;
+  const std::string where = from.empty() ? path : from;
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (ec || !fs::exists(st)) throw Error("cannot open '" + path + "': no such file", where, "check the path");
+  if (!fs::is_regular_file(st))
+    throw Error("'" + path + "' is not a regular file (" +
+                    std::string(fs::is_directory(st) ? "a folder" : fs::is_fifo(st) ? "a FIFO" : "a device or socket") + ")",
+                where, "give the scene file itself");
+  const uint64_t bytes = fs::file_size(path, ec);
+  if (ec) throw Error("cannot read the size of '" + path + "'", where, "check the permissions");
+  if (bytes > kMaxSceneFileBytes)
+    throw Error("'" + path + "' is " + std::to_string(bytes >> 20) + " MiB, over the " +
+                    std::to_string(kMaxSceneFileBytes >> 20) + " MiB a scene file may have",
+                where, "split the scene or decimate it");
+}
+
 std::string fileHash(const std::string& path) {
+  checkSceneInput(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error("cannot read the file", path, "check the path and permissions");
   uint64_t h = 1469598103934665603ull;

@@ -101,6 +101,11 @@ std::string assimpFormats();
 Scene loadSceneFile(const std::string& path, std::ostream& warn, std::optional<double> time = std::nullopt);
 // FNV-1a 64 of a file's bytes, 16 hex digits; cs::Error when it cannot be read.
 std::string fileHash(const std::string& path);
+// Every scene reader's first step: the path names a regular file (not a FIFO, a device or a folder,
+// which would block or read forever) of at most kMaxSceneFileBytes; cs::Error naming it otherwise,
+// before a byte is read. `from` names what referred to it (an including file), if anything.
+inline constexpr uint64_t kMaxSceneFileBytes = 2ull << 30;
+void checkSceneInput(const std::string& path, const std::string& from = {});
 
 // A receiver under a scene that has none (a single model): one square of two triangles, normal +y, just
 // below the bounds' lowest y (by 1e-3 of the diagonal), the diagonal wide on each side of the centre, so

@@ -1,5 +1,6 @@
 // Scene loading: malformed glTF files fail with one line naming the file and the problem, good files
 // flatten to the expected world-space triangles, and the built-in scene is deterministic and usable.
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -154,6 +155,40 @@ TEST(GltfLoader, RejectsUnknownExtensionAndMissingFile) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/scene.gltf: cannot open"), std::string::npos) << e.what();
   }
+}
+
+// A FIFO, a folder or a file over the size limit under a scene's name is refused before a byte is read:
+// a FIFO would block the reader forever, a huge file would be read whole first. Through every reader (glTF,
+// BART and its includes, assimp) and the provenance hash.
+TEST(SceneLoader, NonRegularAndOversizedFilesAreRefusedBeforeReading) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("coneshadow_inputs_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::ostringstream warn;
+  auto refused = [&](const fs::path& p, const std::string& want) {
+    try {
+      (void)loadSceneFile(p.string(), warn);
+      ADD_FAILURE() << p << " was read";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(want), std::string::npos) << e.what();
+    }
+  };
+  for (const char* name : {"pipe.gltf", "pipe.glb", "pipe.aff", "pipe.obj"}) {
+    ASSERT_EQ(mkfifo((dir / name).c_str(), 0600), 0) << name;
+    refused(dir / name, "a FIFO");
+  }
+  fs::create_directories(dir / "folder.glb");
+  refused(dir / "folder.glb", "a folder");
+  {
+    std::ofstream((dir / "huge.gltf").string()) << "{}";
+  }
+  fs::resize_file(dir / "huge.gltf", kMaxSceneFileBytes + 1);  // sparse: nothing is written
+  refused(dir / "huge.gltf", "over the");
+  std::ofstream((dir / "includes.aff").string()) << "i 0 pipe.aff\n";
+  refused(dir / "includes.aff", "a FIFO");
+  EXPECT_THROW(fileHash((dir / "pipe.gltf").string()), Error);
+  fs::remove_all(dir);
 }
 
 // ------------------------------------------------------------------------------------------------
