@@ -189,41 +189,48 @@ std::string convergenceMd(const std::vector<Row>& rows) {
   return os.str();
 }
 
-// Error against frame index and against cumulative time, one curve per progressive row; every other
-// non-reference row a point at frame 1 and its own time (what it answers with no iteration).
+// Per view, error against frame index and against cumulative time: one curve per progressive row of the
+// view, every other non-reference row of the view a point at frame 1 and its own time (what it answers
+// with no iteration). Two panels a view, so every legend stays short.
 std::string convergenceSvg(const std::vector<Row>& rows) {
-  LogPanel byFrame, byTime;
-  byFrame.xLabel = "frame (log scale; 1 = the warm-up)";
-  byTime.xLabel = "cumulative shadow time, ms (log scale)";
-  for (LogPanel* p : {&byFrame, &byTime}) {
-    p->yLabel = "misclassified fraction of lit samples (log; 0 at the floor)";
-    p->yFloor = 1e-7;
-    p->fixedY = true;
-    p->yMinDecade = -7;
-    p->yMaxDecade = 0;
-  }
-  PlotSeries oneFrame{"one-frame methods", {}, false}, oneFrameTime{"one-frame methods", {}, false};
-  for (const Row& r : rows) {
-    const std::string label = r.result.view + " " + r.setting;
-    if (!r.result.stats.contains("per_frame")) {
-      if (r.result.method == referenceMethod().name) continue;
-      const double e = r.result.error.misclassifiedFraction;
-      oneFrame.points.push_back({1.0, e, label + ": " + pct(e)});
-      oneFrameTime.points.push_back({std::max(r.result.totalMs, 1e-3), e, label + ": " + pct(e)});
-      continue;
+  std::vector<LogPanel> panels;
+  for (const std::string& view : viewOrder(rows)) {
+    LogPanel byFrame, byTime;
+    byFrame.xLabel = view + ": frame (log scale; 1 = the warm-up)";
+    byTime.xLabel = view + ": cumulative shadow time, ms (log scale)";
+    for (LogPanel* p : {&byFrame, &byTime}) {
+      p->yLabel = "misclassified fraction (log; 0 at the floor)";
+      p->yFloor = 1e-7;
+      p->fixedY = true;
+      p->yMinDecade = -7;
+      p->yMaxDecade = 0;
     }
-    PlotSeries a{label, {}, true}, b{label, {}, true};
-    for (const auto& f : r.result.stats["per_frame"]) {
-      const double e = f["misclassified_fraction"].get<double>();
-      a.points.push_back({double(f["frame"].get<int>() + 1), e, label + " frame " + std::to_string(f["frame"].get<int>() + 1)});
-      b.points.push_back({std::max(f["cumulative_ms"].get<double>(), 1e-3), e, label});
+    PlotSeries oneFrame{"one-frame methods", {}, false}, oneFrameTime{"one-frame methods", {}, false};
+    for (const Row& r : rows) {
+      if (r.result.view != view || r.result.method == referenceMethod().name) continue;
+      if (!r.result.stats.contains("per_frame")) {
+        const double e = r.result.error.misclassifiedFraction;
+        oneFrame.points.push_back({1.0, e, r.setting + ": " + pct(e)});
+        oneFrameTime.points.push_back({std::max(r.result.totalMs, 1e-3), e, r.setting + ": " + pct(e)});
+        continue;
+      }
+      PlotSeries a{r.setting, {}, true}, b{r.setting, {}, true};
+      for (const auto& f : r.result.stats["per_frame"]) {
+        const double e = f["misclassified_fraction"].get<double>();
+        const int k = f["frame"].get<int>() + 1;
+        a.points.push_back({double(k), e, r.setting + " frame " + std::to_string(k) + ": " + pct(e)});
+        b.points.push_back({std::max(f["cumulative_ms"].get<double>(), 1e-3), e, r.setting + " frame " + std::to_string(k)});
+      }
+      byFrame.series.push_back(std::move(a));
+      byTime.series.push_back(std::move(b));
     }
-    byFrame.series.push_back(std::move(a));
-    byTime.series.push_back(std::move(b));
+    if (byFrame.series.empty()) continue;
+    byFrame.series.push_back(std::move(oneFrame));
+    byTime.series.push_back(std::move(oneFrameTime));
+    panels.push_back(std::move(byFrame));
+    panels.push_back(std::move(byTime));
   }
-  byFrame.series.push_back(std::move(oneFrame));
-  byTime.series.push_back(std::move(oneFrameTime));
-  return logPlotSvg({byFrame, byTime});
+  return logPlotSvg(panels, 760, 320);
 }
 
 std::string reportMd(const std::string& sceneName, const std::string& device, uint32_t w, uint32_t h,
