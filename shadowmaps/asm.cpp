@@ -269,7 +269,8 @@ class AdaptiveShadowMap : public ShadowMethod {
     const auto ta = Clock::now();
     {
       readback_.clear();
-      const uint32_t bSlot = readback_.add(benefit_, benefit_.size), uSlot = readback_.add(used_, used_.size),
+      // The host vectors' sizes, not the buffers' (a buffer may be allocated larger than asked).
+      const uint32_t bSlot = readback_.add(benefit_, benefit.size() * 4), uSlot = readback_.add(used_, used.size() * 4),
                      cSlot = readback_.add(counters_, 16);
       vk::Commands cmd(ctx_);
       cmd.fill(benefit_, 0);
@@ -283,8 +284,8 @@ class AdaptiveShadowMap : public ShadowMethod {
       cmd.barrier();
       readback_.record(cmd);
       cmd.submit();
-      readback_.read(bSlot, benefit.data());
-      readback_.read(uSlot, used.data());
+      readback_.read(bSlot, benefit);
+      readback_.read(uSlot, used);
       readback_.read(cSlot, counters);
     }
     out.stages.push_back({"analysis", msSince(ta), StageKind::Rebuild});
@@ -308,7 +309,7 @@ class AdaptiveShadowMap : public ShadowMethod {
     {
       timer_.restart();
       readback_.clear();
-      const uint32_t vSlot = readback_.add(visibility_, uint64_t(pixels) * 4), uSlot = readback_.add(used_, used_.size);
+      const uint32_t vSlot = readback_.add(visibility_, uint64_t(pixels) * 4), uSlot = readback_.add(used_, used.size() * 4);
       vk::Commands cmd(ctx_, &timer_);
       cmd.mark("start");
       recordNodes(cmd, ref.created, frame.light, eps);
@@ -323,8 +324,8 @@ class AdaptiveShadowMap : public ShadowMethod {
       cmd.mark("lookup");
       readback_.record(cmd);
       cmd.submit();
-      if (pixels) readback_.read(vSlot, visibility.data());
-      readback_.read(uSlot, used.data());
+      if (pixels) readback_.read(vSlot, visibility);
+      readback_.read(uSlot, used);
     }
     for (auto& [stage, ms] : timer_.intervals())
       out.stages.push_back({stage, ms, stage == "lookup" ? StageKind::Lookup : StageKind::Rebuild});

@@ -302,9 +302,9 @@ class Rtw : public ShadowMethod {
 
     const auto t1 = Clock::now();
     out.visibility.resize(pixels);
-    if (pixels) readback_.read(visSlot, out.visibility.data());
+    if (pixels) readback_.read(visSlot, out.visibility);
     std::vector<float> warp(warpWords);
-    readback_.read(warpSlot, warp.data());
+    readback_.read(warpSlot, warp);
     uint32_t counters[4] = {};
     readback_.read(countSlot, counters);
 

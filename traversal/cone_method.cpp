@@ -309,7 +309,7 @@ class ConeMethod : public ShadowMethod {
       t1 = Clock::now();
       if (pixels) vk::download(ctx_, visibility_, mask.data(), uint64_t(pixels) * 4);
     } else {
-      readback_.read(maskSlot, mask.data());
+      readback_.read(maskSlot, mask);
     }
     readbackMs = msSince(t1);
 

@@ -431,9 +431,11 @@ void Readback::record(Commands& cmd) {
   cmd.barrier();
 }
 
-void Readback::read(uint32_t slot, void* data) const {
+void Readback::readBytes(uint32_t slot, void* data, size_t capacity) const {
   const Slot& s = slots_.at(slot);
   if (s.bytes == 0) return;
+  CS_CHECK(s.bytes <= capacity, "readback slot " << slot << " holds " << s.bytes << " bytes, its destination only "
+                                                  << capacity);
   ctx_.cost.readbackBytes += s.bytes;
   if (s.src->mapped) {
     std::memcpy(data, static_cast<const char*>(s.src->mapped) + s.srcOffset, s.bytes);

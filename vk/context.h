@@ -6,6 +6,7 @@
 #include <functional>
 #include <initializer_list>
 #include <memory>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -133,7 +134,19 @@ class Readback {
   uint32_t add(const Buffer& src, VkDeviceSize bytes, VkDeviceSize srcOffset = 0);
   // Records the copies of every planned slot (no-op on unified memory); allocates only when it grows.
   void record(Commands& cmd);
-  void read(uint32_t slot, void* data) const;
+  // Copies a slot into `dst`; a slot larger than `dst` is an error, never a write past it.
+  template <class T>
+  void read(uint32_t slot, std::span<T> dst) const {
+    readBytes(slot, dst.data(), dst.size_bytes());
+  }
+  template <class T>
+  void read(uint32_t slot, std::vector<T>& dst) const {
+    readBytes(slot, dst.data(), dst.size() * sizeof(T));
+  }
+  template <class T, size_t N>
+  void read(uint32_t slot, T (&dst)[N]) const {
+    readBytes(slot, dst, sizeof(dst));
+  }
   void clear() { slots_.clear(); }
   uint64_t bytesAllocated() const;
 
@@ -145,6 +158,7 @@ class Readback {
   Context& ctx_;
   std::vector<Slot> slots_;
   std::unique_ptr<Buffer> host_;
+  void readBytes(uint32_t slot, void* data, size_t capacity) const;
 };
 
 // A 2-D render target with its own device-local memory and one view. Move-only.
