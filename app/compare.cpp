@@ -120,6 +120,9 @@ std::string num(double v, int prec) {
 
 std::string pct(double fraction) { return num(fraction * 100.0, 4) + "%"; }
 
+// Report thumbnails: images with a longer side above this are shown shrunk (eval's shrinkKeepingErrors).
+constexpr uint32_t kThumbnailSide = 256;
+
 std::string imageName(const Row& r, const std::string& kind) {
   return r.stem + "_" + r.setting + "_" + kind + ".png";
 }
@@ -131,32 +134,32 @@ std::string stagesCell(const Row& r) {
   return out;
 }
 
+double mib(const Row& r) { return double(r.result.bytes) / (1024.0 * 1024.0); }
+
 // The method's own measure of its work (MethodOutput::work): nodes visited, pages, faces, rays.
 std::string workCell(const Row& r) {
   const nlohmann::json& s = r.result.stats;
   return s.contains("work") && s["work"].is_string() ? s["work"].get<std::string>() : "—";
 }
 
-// The table cells of one row, shared by report.md and report.html.
+// The table cells of one row, shared by report.md and report.html (stages have a table of their own).
 std::vector<std::string> cells(const Row& r) {
   const ErrorStats& e = r.result.error;
   return {r.setting,
           num(r.result.totalMs, 3) + " (" + num(r.msMin, 3) + "–" + num(r.msMax, 3) + ")",
-          stagesCell(r),
-          pct(e.misclassifiedFraction) + " (" + pct(e.misclassifiedFractionOutsideBand) + ")",
-          std::to_string(e.falseShadow) + " / " + std::to_string(e.falseLight) + " (" +
-              std::to_string(e.falseShadowOutsideBand) + " / " + std::to_string(e.falseLightOutsideBand) + ")",
-          num(e.meanAbsError, 6) + " (" + num(e.meanAbsErrorOutsideBand, 6) + ")",
-          num(double(r.result.bytes) / (1024.0 * 1024.0), 2),
+          pct(e.misclassifiedFractionOutsideBand) + " (" + pct(e.misclassifiedFraction) + ")",
+          std::to_string(e.falseShadowOutsideBand) + " / " + std::to_string(e.falseLightOutsideBand) + " (" +
+              std::to_string(e.falseShadow) + " / " + std::to_string(e.falseLight) + ")",
+          num(e.meanAbsErrorOutsideBand, 6) + " (" + num(e.meanAbsError, 6) + ")",
+          num(mib(r), 2),
           workCell(r)};
 }
 
 const std::vector<std::string> kHeader = {"method/setting",
                                           "ms median (min–max)",
-                                          "ms per stage",
-                                          "misclassified % (outside band)",
-                                          "false shadow / false light (outside band)",
-                                          "MAE (outside band)",
+                                          "misclassified % outside band (all)",
+                                          "false shadow / false light outside band (all)",
+                                          "MAE outside band (all)",
                                           "MiB",
                                           "work"};
 
@@ -166,6 +169,66 @@ std::vector<std::string> viewOrder(const std::vector<Row>& rows) {
     if (std::find(views.begin(), views.end(), r.result.view) == views.end()) views.push_back(r.result.view);
   return views;
 }
+
+// The verdict of one view, among the methods (the reference is the ground truth, not a candidate): the
+// fastest exact setting (nothing misclassified outside the ambiguity band), the fastest and the smallest
+// in memory with at most kGoodFraction misclassified outside the band.
+constexpr double kGoodFraction = 0.001;
+struct Verdict {
+  const Row* fastestExact = nullptr;
+  const Row* fastestGood = nullptr;
+  const Row* smallestGood = nullptr;
+};
+
+Verdict verdictOf(const std::vector<Row>& rows, const std::string& view) {
+  Verdict v;
+  for (const Row& r : rows) {
+    if (r.result.view != view || r.result.method == referenceMethod().name) continue;
+    const double e = r.result.error.misclassifiedFractionOutsideBand;
+    const bool exact = r.result.error.misclassifiedOutsideBand == 0;
+    if (exact && (!v.fastestExact || r.result.totalMs < v.fastestExact->result.totalMs)) v.fastestExact = &r;
+    if (e <= kGoodFraction) {
+      if (!v.fastestGood || r.result.totalMs < v.fastestGood->result.totalMs) v.fastestGood = &r;
+      if (!v.smallestGood || r.result.bytes < v.smallestGood->result.bytes) v.smallestGood = &r;
+    }
+  }
+  return v;
+}
+
+std::string verdictCell(const Row* r) {
+  if (!r) return "none";
+  const ErrorStats& e = r->result.error;
+  return r->setting + ": " + num(r->result.totalMs, 1) + " ms, " +
+         (e.misclassifiedOutsideBand == 0 ? std::string("0 %") : pct(e.misclassifiedFractionOutsideBand)) +
+         " outside the band, " + num(mib(*r), 1) + " MiB";
+}
+
+const std::vector<std::string> kVerdictHeader = {"view", "fastest exact (0 outside the band)",
+                                                 "fastest at ≤ 0.1 % outside the band",
+                                                 "least memory at ≤ 0.1 % outside the band", "reference (Embree) ms"};
+
+std::vector<std::string> verdictCells(const std::vector<Row>& rows, const std::string& view) {
+  const Verdict v = verdictOf(rows, view);
+  std::string reference = "—";
+  for (const Row& r : rows)
+    if (r.result.view == view && r.result.method == referenceMethod().name) reference = num(r.result.totalMs, 1);
+  return {view, verdictCell(v.fastestExact), verdictCell(v.fastestGood), verdictCell(v.smallestGood), reference};
+}
+
+const char* kVerdictText =
+    "Among the methods on these samples, per view: the fastest that misclassifies nothing outside the ambiguity band, "
+    "the fastest and the smallest in memory that misclassify at most 0.1 % of the lit samples outside it (times are "
+    "medians per frame; the reference, Embree, is the ground truth and not a candidate).";
+
+const char* kLegendMd =
+    "Images, per setting: *shaded* (the method's shadows), *mask* (white: lit sample called lit; black: lit sample "
+    "called shadowed; grey: not a lit sample), *diff* against Embree (red: false shadow; blue-cyan: false light; "
+    "yellow: disagreement inside the ambiguity band; dimmed shading: agreement). Thumbnails of images larger than "
+    "256 pixels are shrunk so that no error pixel disappears (a block with a red or blue pixel is red or blue); click "
+    "for full size.";
+
+// The stages of every row of a view, in execution order.
+std::vector<std::string> stageHeader() { return {"method/setting", "ms per stage (execution order)"}; }
 
 bool anyProgressive(const std::vector<Row>& rows) {
   return std::any_of(rows.begin(), rows.end(), [](const Row& r) { return r.result.stats.contains("per_frame"); });
@@ -236,85 +299,179 @@ std::string convergenceSvg(const std::vector<Row>& rows) {
 std::string reportMd(const std::string& sceneName, const std::string& device, uint32_t w, uint32_t h,
                      uint32_t frames, const std::vector<Row>& rows, const std::vector<Closeup>& closeups) {
   std::ostringstream os;
+  auto table = [&](const std::vector<std::string>& header) {
+    os << "|";
+    for (auto& hcell : header) os << " " << hcell << " |";
+    os << "\n|";
+    for (size_t i = 0; i < header.size(); ++i) os << (i ? " ---: |" : " --- |");
+    os << "\n";
+  };
+  auto row = [&](const std::vector<std::string>& cellsOfRow) {
+    os << "|";
+    for (auto& c : cellsOfRow) os << " " << c << " |";
+    os << "\n";
+  };
   os << "# coneshadow compare: " << sceneName << "\n\n"
      << "device: " << device << "\n\n"
-     << w << "x" << h << ", median of " << frames
-     << " frame(s) after one warm-up; misclassified over lit samples against Embree (in parentheses: outside "
-        "the ambiguity band); false shadow / false light in samples; MiB allocated by the method; work: the method's own "
-        "measure of what it did (for the cone path, nodes visited = (triangle, cone) pairs tested).\n";
+     << w << "x" << h << ", median of " << frames << " frame(s) after one warm-up.\n\n## Verdict\n\n"
+     << kVerdictText << "\n\n";
+  table(kVerdictHeader);
+  for (auto& v : viewOrder(rows)) row(verdictCells(rows, v));
+  os << "\n" << kLegendMd << "\n\n## Speed against error\n\n![speed vs error](speed_vs_error.png)\n\n"
+     << "(vector: speed_vs_error.svg) One panel per view, one line per method through its settings in sweep order; y: "
+        "misclassified outside the ambiguity band, exact results on the floor labelled 0; marker area: bytes.\n\n"
+     << "## Error against memory\n\n![error vs memory](error_vs_bytes.png)\n\n(vector: error_vs_bytes.svg)\n\n"
+     << "Cells below: misclassified over lit samples against Embree, outside the ambiguity band (in parentheses: all); "
+        "false shadow / false light in samples; MiB allocated by the method; work: the method's own measure of what "
+        "it did (for the cone path, nodes visited = (triangle, cone) pairs tested).\n";
   for (auto& v : viewOrder(rows)) {
-    os << "\n## " << v << "\n\n|";
-    for (auto& hcell : kHeader) os << " " << hcell << " |";
-    os << "\n|";
-    for (size_t i = 0; i < kHeader.size(); ++i) os << (i ? " ---: |" : " --- |");
-    os << "\n";
-    for (auto& r : rows) {
-      if (r.result.view != v) continue;
-      os << "|";
-      for (auto& c : cells(r)) os << " " << c << " |";
-      os << "\n";
-    }
+    os << "\n## " << v << "\n\n";
+    table(kHeader);
+    for (auto& r : rows)
+      if (r.result.view == v) row(cells(r));
+    os << "\nStages:\n\n";
+    table(stageHeader());
+    for (auto& r : rows)
+      if (r.result.view == v) row({r.setting, stagesCell(r)});
     for (auto& c : closeups)
       if (c.view == v) os << "\n" << closeupText(c) << "\n\n![" << v << " close-ups](" << c.file << ")\n";
   }
-  os << "\n## Speed against error\n\n![speed vs error](speed_vs_error.png)\n\n(vector: speed_vs_error.svg)\n";
   if (anyProgressive(rows)) os << convergenceMd(rows);
   return os.str();
 }
 
-std::string reportHtml(const std::string& sceneName, const std::string& device, uint32_t w, uint32_t h,
-                       uint32_t frames, const std::vector<Row>& rows, const std::vector<Closeup>& closeups) {
+// A report image: thumbnails at 1:1 (shrunk keeping errors), small images enlarged by a whole factor with
+// crisp pixels; every one links to its full-size file.
+std::string htmlImage(const std::string& file, const std::string& thumb, uint32_t w, uint32_t h, const std::string& alt) {
+  const uint32_t longer = std::max({w, h, 1u});
+  const uint32_t scale = longer >= kThumbnailSide ? 1u : std::max(1u, kThumbnailSide / longer);
+  return "<a href=\"" + htmlEscape(file) + "\"><img class=\"px\" src=\"" + htmlEscape(thumb) + "\" width=\"" +
+         std::to_string(w * scale) + "\" height=\"" + std::to_string(h * scale) + "\" alt=\"" + htmlEscape(alt) + "\"></a>";
+}
+
+std::string swatch(const uint8_t rgb[3], const std::string& text) {
   std::ostringstream os;
+  os << "<span class=\"sw\" style=\"background:rgb(" << int(rgb[0]) << "," << int(rgb[1]) << "," << int(rgb[2])
+     << ")\"></span>" << htmlEscape(text);
+  return os.str();
+}
+
+std::string reportHtml(const std::string& sceneName, const std::string& device, uint32_t w, uint32_t h,
+                       uint32_t frames, const std::vector<Row>& rows, const std::vector<Closeup>& closeups,
+                       const std::string& speedSvg, const std::string& bytesSvg, uint32_t thumbFactor) {
+  std::ostringstream os;
+  auto table = [&](const std::vector<std::string>& header, const std::string& cls) {
+    os << "<table class=\"" << cls << "\">\n<tr>";
+    for (auto& hcell : header) os << "<th>" << htmlEscape(hcell) << "</th>";
+    os << "</tr>\n";
+  };
+  auto row = [&](const std::vector<std::string>& cellsOfRow) {
+    os << "<tr>";
+    for (auto& c : cellsOfRow) os << "<td>" << htmlEscape(c) << "</td>";
+    os << "</tr>\n";
+  };
+  const uint8_t white[3] = {255, 255, 255}, black[3] = {0, 0, 0},
+                grey[3] = {kNotLitMaskGrey, kNotLitMaskGrey, kNotLitMaskGrey}, dim[3] = {100, 100, 100};
   os << "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>coneshadow compare: " << htmlEscape(sceneName)
-     << "</title>\n<style>body{font-family:sans-serif}table{border-collapse:collapse}td,th{border:1px solid #bbb;"
-        "padding:3px 6px;text-align:right}td:first-child{text-align:left}img{image-rendering:pixelated;"
-        "width:160px}img.closeup{width:auto;max-width:100%}</style></head><body>\n"
+     << "</title>\n<style>body{font-family:sans-serif;max-width:1360px;margin:8px auto;padding:0 12px}"
+        "table{border-collapse:collapse;max-width:100%}td,th{border:1px solid #bbb;padding:3px 6px;text-align:right;"
+        "overflow-wrap:break-word}td:first-child{text-align:left}table.verdict td{text-align:left}"
+        "img.px{image-rendering:pixelated;image-rendering:crisp-edges;display:block}"
+        "img.closeup{max-width:100%;height:auto;image-rendering:pixelated}svg{max-width:100%;height:auto}"
+        ".sw{display:inline-block;width:14px;height:14px;border:1px solid #444;margin:0 4px 0 12px;"
+        "vertical-align:middle}</style></head><body>\n"
      << "<h1>coneshadow compare: " << htmlEscape(sceneName) << "</h1>\n<p>device: " << htmlEscape(device)
-     << "</p>\n<p>" << w << "x" << h << ", median of " << frames
-     << " frame(s) after one warm-up; misclassified over lit samples against Embree (in parentheses: outside the "
-        "ambiguity band).</p>\n<p><a href=\"speed_vs_error.svg\"><img style=\"width:720px\" src=\"speed_vs_error.png\" "
-        "alt=\"speed vs error\"></a></p>\n";
+     << "</p>\n<p>" << w << "x" << h << ", median of " << frames << " frame(s) after one warm-up.</p>\n<h2>Verdict</h2>\n<p>"
+     << htmlEscape(kVerdictText) << "</p>\n";
+  table(kVerdictHeader, "verdict");
+  for (auto& v : viewOrder(rows)) row(verdictCells(rows, v));
+  os << "</table>\n<p>Mask:" << swatch(white, "lit sample called lit") << swatch(black, "lit sample called shadowed")
+     << swatch(grey, "not a lit sample") << "<br>Diff against Embree:" << swatch(kFalseShadowRgb, "false shadow")
+     << swatch(kFalseLightRgb, "false light") << swatch(kBandDisagreeRgb, "disagreement inside the ambiguity band")
+     << swatch(dim, "agreement (dimmed shading)") << "</p>\n<p>"
+     << (thumbFactor > 1 ? "Images shrunk " + std::to_string(thumbFactor) +
+                               "x so that no error pixel disappears (a block holding a red or blue pixel is red or "
+                               "blue); click for full size."
+                         : std::string("Images at 1:1 or enlarged by a whole factor; click for full size."))
+     << "</p>\n<h2>Speed against error</h2>\n<p>One panel per view, one line per method through its settings in sweep "
+        "order; y: misclassified outside the ambiguity band (exact results on the floor labelled 0); marker area: "
+        "bytes; hover a marker for its numbers.</p>\n<div class=\"plot\">"
+     << speedSvg << "</div>\n<h2>Error against memory</h2>\n<div class=\"plot\">" << bytesSvg << "</div>\n";
   for (auto& v : viewOrder(rows)) {
-    os << "<h2>" << htmlEscape(v) << "</h2>\n<table>\n<tr>";
-    for (auto& hcell : kHeader) os << "<th>" << htmlEscape(hcell) << "</th>";
-    os << "<th>shaded</th><th>mask</th><th>diff</th></tr>\n";
+    os << "<h2>" << htmlEscape(v) << "</h2>\n";
+    table(kHeader, "results");
+    for (auto& r : rows)
+      if (r.result.view == v) row(cells(r));
+    os << "</table>\n<h3>Stages</h3>\n";
+    table(stageHeader(), "stages");
+    for (auto& r : rows)
+      if (r.result.view == v) row({r.setting, stagesCell(r)});
+    os << "</table>\n<h3>Images</h3>\n<table class=\"images\">\n<tr><th>method/setting</th><th>shaded</th><th>mask</th>"
+          "<th>diff</th></tr>\n";
     for (auto& r : rows) {
       if (r.result.view != v) continue;
-      os << "<tr>";
-      for (auto& c : cells(r)) os << "<td>" << htmlEscape(c) << "</td>";
-      for (const char* kind : {"shaded", "mask", "diff"})
-        os << "<td><img src=\"" << htmlEscape(imageName(r, kind)) << "\" alt=\"" << kind << "\"></td>";
+      os << "<tr><td>" << htmlEscape(r.setting) << "</td>";
+      for (const char* kind : {"shaded", "mask", "diff"}) {
+        const std::string file = imageName(r, kind), thumb = thumbFactor > 1 ? imageName(r, std::string(kind) + "_thumb") : file;
+        os << "<td>" << htmlImage(file, thumb, (w + thumbFactor - 1) / thumbFactor, (h + thumbFactor - 1) / thumbFactor, kind)
+           << "</td>";
+      }
       os << "</tr>\n";
     }
     os << "</table>\n";
     for (auto& c : closeups)
       if (c.view == v)
-        os << "<p>" << htmlEscape(closeupText(c)) << "</p>\n<p><img class=\"closeup\" src=\"" << htmlEscape(c.file)
-           << "\" alt=\"" << htmlEscape(v) << " close-ups\"></p>\n";
+        os << "<p>" << htmlEscape(closeupText(c)) << "</p>\n<p><a href=\"" << htmlEscape(c.file) << "\"><img class=\"closeup\" src=\""
+           << htmlEscape(c.file) << "\" alt=\"" << htmlEscape(v) << " close-ups\"></a></p>\n";
   }
   os << "</body></html>\n";
   return os.str();
 }
 
-// Speed (x, log ms) against error (y, log misclassified fraction, exact zeros at a floor labelled "0"),
-// one colour per method.
-std::string speedVsErrorSvg(const std::vector<Row>& rows) {
-  LogPanel panel;
-  panel.xLabel = "shadow time per frame, ms (log scale)";
-  panel.yLabel = "misclassified fraction of lit samples (log; 0 at the floor)";
-  panel.yFloor = 1e-7;
-  panel.fixedY = true;
-  panel.yMinDecade = -7;
-  panel.yMaxDecade = 0;
-  for (auto& r : rows) {
-    auto it = std::find_if(panel.series.begin(), panel.series.end(),
-                           [&](const PlotSeries& s) { return s.name == r.result.method; });
-    if (it == panel.series.end()) it = panel.series.insert(panel.series.end(), PlotSeries{r.result.method, {}, false});
-    it->points.push_back({std::max(r.result.totalMs, 1e-3), r.result.error.misclassifiedFraction,
-                          r.result.view + " " + r.setting + ": " + num(r.result.totalMs, 3) + " ms, " +
-                              pct(r.result.error.misclassifiedFraction) + " misclassified"});
+// Marker radius for `bytes` (area proportional to bytes, the largest of the run 14 px; at least 2.5 px).
+double markerRadius(uint64_t bytes, uint64_t maxBytes) {
+  return maxBytes ? std::max(2.5, 14.0 * std::sqrt(double(bytes) / double(maxBytes))) : 5.0;
+}
+
+// A floor one decade below the smallest nonzero value (1e-6 when all are zero): exact results sit on it.
+double floorFor(const std::vector<double>& values) {
+  double lo = 0;
+  for (double v : values)
+    if (v > 0 && (lo == 0 || v < lo)) lo = v;
+  return lo > 0 ? std::pow(10.0, std::floor(std::log10(lo)) - 1.0) : 1e-6;
+}
+
+// Per view a panel: x = time (speed) or MiB (memory), y = misclassified fraction outside the band; one
+// series per method through its settings in sweep order; marker area = bytes.
+std::string tradeOffSvg(const std::vector<Row>& rows, bool memory) {
+  std::vector<LogPanel> panels;
+  uint64_t maxBytes = 0;
+  for (const Row& r : rows) maxBytes = std::max(maxBytes, r.result.bytes);
+  for (const std::string& view : viewOrder(rows)) {
+    LogPanel panel;
+    panel.title = view;
+    panel.xLabel = memory ? "MiB allocated by the method (log scale)" : "shadow time per frame, ms (log scale)";
+    panel.yLabel = "misclassified outside the band (log)";
+    std::vector<double> errors;
+    for (const Row& r : rows)
+      if (r.result.view == view) errors.push_back(r.result.error.misclassifiedFractionOutsideBand);
+    panel.yFloor = floorFor(errors);
+    for (const Row& r : rows) {
+      if (r.result.view != view) continue;
+      if (memory && r.result.bytes == 0) continue;
+      auto it = std::find_if(panel.series.begin(), panel.series.end(),
+                             [&](const PlotSeries& s) { return s.name == r.result.method; });
+      if (it == panel.series.end()) it = panel.series.insert(panel.series.end(), PlotSeries{r.result.method, {}, true});
+      const double e = r.result.error.misclassifiedFractionOutsideBand;
+      PlotPoint p{memory ? std::max(mib(r), 1e-3) : std::max(r.result.totalMs, 1e-3), e,
+                  view + " " + r.setting + ": " + num(r.result.totalMs, 3) + " ms, " + pct(e) + " outside the band, " +
+                      num(mib(r), 2) + " MiB"};
+      p.radius = markerRadius(r.result.bytes, maxBytes);
+      it->points.push_back(p);
+    }
+    panels.push_back(std::move(panel));
   }
-  return logPlotSvg({panel});
+  return logPlotSvg(panels, 1360, 360, 2);
 }
 
 // Steps done of a known total, and the time left at the mean step so far.
@@ -361,6 +518,7 @@ int runCompare(const Options& o) {
   std::vector<Closeup> closeups;
   std::vector<std::string> stems;
   Raster raster(*ctx, scene);
+  uint32_t thumbFactor = 1;
   Eta eta(cameras.size() * (settings.size() + 1));  // per view: the reference, then each setting
   for (size_t vi = 0; vi < cameras.size(); ++vi) {
     FrameSpec spec;
@@ -417,7 +575,8 @@ int runCompare(const Options& o) {
       row.result.provenance = provenance;
       row.msMin = j.runs.minMs;
       row.msMax = j.runs.maxMs;
-      writeFrameImages(out.path(), stem + "_" + s.label, frame->gbuffer, j.runs.output.visibility, reference, frame->band);
+      thumbFactor = writeFrameImages(out.path(), stem + "_" + s.label, frame->gbuffer, j.runs.output.visibility, reference,
+                                     frame->band, kThumbnailSide);
       rows.push_back(std::move(row));
     }
     // Enlarged to about 256 pixels a tile, at least 2x, so single-pixel aliasing is visible.
@@ -434,12 +593,15 @@ int runCompare(const Options& o) {
   for (auto& r : rows) results.push_back(r.result);
   writeResults(out.path(), results);
   std::string dir = out.path();
+  const std::string speedSvg = tradeOffSvg(rows, false), bytesSvg = tradeOffSvg(rows, true);
   writeFileAtomic((fs::path(dir) / "report.md").string(),
                   reportMd(scene.name, device, o.width, o.height, o.frames, rows, closeups));
-  writeFileAtomic((fs::path(dir) / "report.html").string(),
-                  reportHtml(scene.name, device, o.width, o.height, o.frames, rows, closeups));
-  writeFileAtomic((fs::path(dir) / "speed_vs_error.svg").string(), speedVsErrorSvg(rows));
-  svgToPng((fs::path(dir) / "speed_vs_error.svg").string(), (fs::path(dir) / "speed_vs_error.png").string());
+  writeFileAtomic((fs::path(dir) / "report.html").string(), reportHtml(scene.name, device, o.width, o.height, o.frames, rows,
+                                                                      closeups, speedSvg, bytesSvg, thumbFactor));
+  for (const auto& [name, svg] : {std::pair{"speed_vs_error", &speedSvg}, std::pair{"error_vs_bytes", &bytesSvg}}) {
+    writeFileAtomic((fs::path(dir) / (std::string(name) + ".svg")).string(), *svg);
+    svgToPng((fs::path(dir) / (std::string(name) + ".svg")).string(), (fs::path(dir) / (std::string(name) + ".png")).string());
+  }
   if (anyProgressive(rows)) {
     writeFileAtomic((fs::path(dir) / "convergence.svg").string(), convergenceSvg(rows));
     svgToPng((fs::path(dir) / "convergence.svg").string(), (fs::path(dir) / "convergence.png").string());
@@ -448,7 +610,7 @@ int runCompare(const Options& o) {
 
   std::cout << "result: compared " << settings.size() << " method setting(s) on " << cameras.size() << " view(s) of "
             << scene.name << " at " << o.width << "x" << o.height << "; wrote " << o.out << "/ (report.md, report.html, "
-            << "speed_vs_error.svg/.png, results.json, results.csv, " << rows.size() * 3 << " images, "
+            << "speed_vs_error.svg/.png, error_vs_bytes.svg/.png, results.json, results.csv, " << rows.size() * 3 << " images, "
             << closeups.size() << " close-up strip(s))\n";
   return kExitOk;
 }

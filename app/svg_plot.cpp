@@ -39,9 +39,9 @@ std::string decadeLabel(int e) {
   return os.str();
 }
 
-void panelSvg(std::ostream& os, const LogPanel& p, double W, double H, double y0px) {
-  const double left = 80, right = 170, top = 30, bottom = 60;
-  const double pw = W - left - right, ph = H - top - bottom, ptop = y0px + top;
+void panelSvg(std::ostream& os, const LogPanel& p, double W, double H, double x0px, double y0px) {
+  const double left = x0px + 80, right = 170, top = 30, bottom = 60;
+  const double pw = W - 80 - right, ph = H - top - bottom, ptop = y0px + top;
   auto clampY = [&](double y) { return p.yFloor > 0 ? std::max(y, p.yFloor) : y; };
   double xlo = 1e300, xhi = 0, ylo = 1e300, yhi = 0;
   for (auto& s : p.series)
@@ -59,6 +59,9 @@ void panelSvg(std::ostream& os, const LogPanel& p, double W, double H, double y0
   if (y1 <= y0) y1 = y0 + 1;
   const double xmin = std::pow(10.0, x0), ymin = std::pow(10.0, y0);
   auto px = [&](double x) { return left + (std::log10(std::max(x, xmin)) - x0) / (x1 - x0) * pw; };
+  if (!p.title.empty())
+    os << "<text x=\"" << left << "\" y=\"" << ptop - 10 << "\" font-weight=\"bold\">" << htmlEscape(p.title)
+       << "</text>\n";
   auto py = [&](double y) { return ptop + ph - (std::log10(std::max(clampY(y), ymin)) - y0) / (y1 - y0) * ph; };
 
   os << "<rect x=\"" << left << "\" y=\"" << ptop << "\" width=\"" << pw << "\" height=\"" << ph
@@ -72,14 +75,14 @@ void panelSvg(std::ostream& os, const LogPanel& p, double W, double H, double y0
   const int floorDecade = p.yFloor > 0 ? int(std::round(std::log10(p.yFloor))) : y0 - 1;
   for (int e = y0; e <= y1; ++e) {
     double y = py(std::pow(10.0, e));
-    std::string label = e == floorDecade ? "0" : e == 0 ? "1" : p.fixedY ? "1e" + std::to_string(e) : decadeLabel(e);
+    std::string label = e == floorDecade ? "0 (exact)" : e == 0 ? "1" : p.fixedY ? "1e" + std::to_string(e) : decadeLabel(e);
     os << "<line x1=\"" << left << "\" y1=\"" << y << "\" x2=\"" << left + pw << "\" y2=\"" << y
        << "\" stroke=\"#ddd\"/>\n<text x=\"" << left - 6 << "\" y=\"" << y + 4 << "\" text-anchor=\"end\">" << label
        << "</text>\n";
   }
   os << "<text x=\"" << left + pw / 2 << "\" y=\"" << y0px + H - 18 << "\" text-anchor=\"middle\">"
      << htmlEscape(p.xLabel) << "</text>\n"
-     << "<text transform=\"translate(18," << ptop + ph / 2 << ") rotate(-90)\" text-anchor=\"middle\">"
+     << "<text transform=\"translate(" << x0px + 18 << "," << ptop + ph / 2 << ") rotate(-90)\" text-anchor=\"middle\">"
      << htmlEscape(p.yLabel) << "</text>\n";
   for (size_t si = 0; si < p.series.size(); ++si) {
     const PlotSeries& s = p.series[si];
@@ -90,7 +93,7 @@ void panelSvg(std::ostream& os, const LogPanel& p, double W, double H, double y0
       os << "\"/>\n";
     }
     for (auto& pt : s.points)
-      os << "<circle cx=\"" << px(pt.x) << "\" cy=\"" << py(pt.y) << "\" r=\"5\" fill=\"" << colour
+      os << "<circle cx=\"" << px(pt.x) << "\" cy=\"" << py(pt.y) << "\" r=\"" << pt.radius << "\" fill=\"" << colour
          << "\" fill-opacity=\"0.75\" stroke=\"black\"><title>" << htmlEscape(pt.title) << "</title></circle>\n";
     double y = ptop + 10 + 20.0 * double(si);
     os << "<rect x=\"" << left + pw + 16 << "\" y=\"" << y - 6 << "\" width=\"12\" height=\"12\" fill=\"" << colour
@@ -100,14 +103,17 @@ void panelSvg(std::ostream& os, const LogPanel& p, double W, double H, double y0
 
 }  // namespace
 
-std::string logPlotSvg(const std::vector<LogPanel>& panels, double width, double panelHeight) {
-  const double H = panelHeight * double(std::max<size_t>(panels.size(), 1));
+std::string logPlotSvg(const std::vector<LogPanel>& panels, double width, double panelHeight, size_t columns) {
+  columns = std::max<size_t>(1, std::min(columns, std::max<size_t>(panels.size(), 1)));
+  const size_t rows = (std::max<size_t>(panels.size(), 1) + columns - 1) / columns;
+  const double H = panelHeight * double(rows), panelWidth = width / double(columns);
   std::ostringstream os;
   os << std::fixed << std::setprecision(2);
   os << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << width << "\" height=\"" << H << "\" viewBox=\"0 0 "
      << width << " " << H << "\" font-family=\"sans-serif\" font-size=\"12\">\n"
      << "<rect x=\"0\" y=\"0\" width=\"" << width << "\" height=\"" << H << "\" fill=\"white\"/>\n";
-  for (size_t i = 0; i < panels.size(); ++i) panelSvg(os, panels[i], width, panelHeight, panelHeight * double(i));
+  for (size_t i = 0; i < panels.size(); ++i)
+    panelSvg(os, panels[i], panelWidth, panelHeight, panelWidth * double(i % columns), panelHeight * double(i / columns));
   os << "</svg>\n";
   return os.str();
 }

@@ -9,6 +9,7 @@ namespace cs {
 struct PlotPoint {
   double x = 0, y = 0;
   std::string title;  // hover text
+  double radius = 5;  // marker radius in px (compare draws marker area proportional to bytes)
 };
 
 struct PlotSeries {
@@ -25,10 +26,13 @@ struct LogPanel {
   double yFloor = 0;
   bool fixedY = false;
   int yMinDecade = 0, yMaxDecade = 0;  // used when fixedY
+  std::string title;                   // drawn above the panel, when set
 };
 
-// Panels stacked vertically, each `panelHeight` tall, one legend per panel (series colours by index).
-std::string logPlotSvg(const std::vector<LogPanel>& panels, double width = 760, double panelHeight = 480);
+// Panels in a grid of `columns` (row by row), each `width` / columns wide and `panelHeight` tall, one
+// legend per panel (series colours by index).
+std::string logPlotSvg(const std::vector<LogPanel>& panels, double width = 760, double panelHeight = 480,
+                       size_t columns = 1);
 
 // Converts an SVG file to PNG with rsvg-convert. Throws cs::Error with rsvg-convert's message (or why it
 // could not be run) and leaves no file at pngPath on failure.

@@ -127,14 +127,58 @@ std::vector<uint8_t> diffImage(const GBuffer& g, const std::vector<float>& metho
   return img;
 }
 
-void writeFrameImages(const std::string& dir, const std::string& prefix, const GBuffer& g,
-                      const std::vector<float>& visibility, const std::vector<float>& reference,
-                      const std::vector<uint8_t>& band) {
+uint32_t shrinkFactor(uint32_t width, uint32_t height, uint32_t side) {
+  const uint32_t longer = std::max(width, height);
+  return side == 0 || longer <= side ? 1u : (longer + side - 1) / side;
+}
+
+std::vector<uint8_t> shrinkKeepingErrors(const std::vector<uint8_t>& rgb, uint32_t width, uint32_t height, uint32_t factor,
+                                         uint32_t& outWidth, uint32_t& outHeight) {
+  CS_CHECK(rgb.size() == size_t(width) * height * 3, "image has " << rgb.size() << " bytes, " << width << "x" << height
+                                                                  << " RGB expected");
+  factor = std::max(factor, 1u);
+  outWidth = (width + factor - 1) / factor;
+  outHeight = (height + factor - 1) / factor;
+  if (factor == 1) return rgb;
+  auto is = [](const uint8_t* p, const uint8_t c[3]) { return p[0] == c[0] && p[1] == c[1] && p[2] == c[2]; };
+  std::vector<uint8_t> out(size_t(outWidth) * outHeight * 3);
+  for (uint32_t by = 0; by < outHeight; ++by)
+    for (uint32_t bx = 0; bx < outWidth; ++bx) {
+      uint64_t sum[3] = {0, 0, 0}, n = 0, shadow = 0, light = 0, band = 0;
+      for (uint32_t y = by * factor; y < std::min(height, (by + 1) * factor); ++y)
+        for (uint32_t x = bx * factor; x < std::min(width, (bx + 1) * factor); ++x) {
+          const uint8_t* p = &rgb[(size_t(y) * width + x) * 3];
+          shadow += is(p, kFalseShadowRgb);
+          light += is(p, kFalseLightRgb);
+          band += is(p, kBandDisagreeRgb);
+          for (int c = 0; c < 3; ++c) sum[c] += p[c];
+          ++n;
+        }
+      uint8_t* q = &out[(size_t(by) * outWidth + bx) * 3];
+      const uint8_t* pick = shadow || light ? (shadow >= light ? kFalseShadowRgb : kFalseLightRgb)
+                            : band          ? kBandDisagreeRgb
+                                            : nullptr;
+      for (int c = 0; c < 3; ++c) q[c] = pick ? pick[c] : uint8_t((sum[c] + n / 2) / n);
+    }
+  return out;
+}
+
+uint32_t writeFrameImages(const std::string& dir, const std::string& prefix, const GBuffer& g,
+                          const std::vector<float>& visibility, const std::vector<float>& reference,
+                          const std::vector<uint8_t>& band, uint32_t thumbnailSide) {
   createDirectory(dir);
-  writePng(join(dir, prefix + "_shaded.png"), g.width, g.height, shadedImage(g, visibility));
-  writePng(join(dir, prefix + "_mask.png"), g.width, g.height, maskImage(g, visibility));
-  if (!reference.empty())
-    writePng(join(dir, prefix + "_diff.png"), g.width, g.height, diffImage(g, visibility, reference, band));
+  const uint32_t factor = shrinkFactor(g.width, g.height, thumbnailSide);
+  auto write = [&](const std::string& kind, const std::vector<uint8_t>& rgb) {
+    writePng(join(dir, prefix + "_" + kind + ".png"), g.width, g.height, rgb);
+    if (factor == 1) return;
+    uint32_t tw = 0, th = 0;
+    std::vector<uint8_t> small = shrinkKeepingErrors(rgb, g.width, g.height, factor, tw, th);
+    writePng(join(dir, prefix + "_" + kind + "_thumb.png"), tw, th, small);
+  };
+  write("shaded", shadedImage(g, visibility));
+  write("mask", maskImage(g, visibility));
+  if (!reference.empty()) write("diff", diffImage(g, visibility, reference, band));
+  return factor;
 }
 
 void writeDump(const std::string& dir, const Scene& scene, const GBuffer& g, const Camera& camera, glm::vec3 light,

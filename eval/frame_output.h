@@ -42,11 +42,23 @@ std::vector<uint8_t> maskImage(const GBuffer& gbuffer, const std::vector<float>&
 std::vector<uint8_t> diffImage(const GBuffer& gbuffer, const std::vector<float>& method,
                                const std::vector<float>& reference, const std::vector<uint8_t>& band);
 
+// An RGB image shrunk by an integer `factor` (each output pixel one factor x factor block; partial blocks
+// at the right and bottom edges) so that no error pixel disappears: a block holding a false-shadow or
+// false-light pixel takes the colour of the more numerous of the two (false shadow on a tie), else a
+// block holding a band disagreement is yellow, else the block's mean colour. factor 1 returns the image.
+std::vector<uint8_t> shrinkKeepingErrors(const std::vector<uint8_t>& rgb, uint32_t width, uint32_t height, uint32_t factor,
+                                         uint32_t& outWidth, uint32_t& outHeight);
+
+// The smallest integer factor that brings the longer side of a width x height image to at most `side`.
+uint32_t shrinkFactor(uint32_t width, uint32_t height, uint32_t side);
+
 // <dir>/<prefix>_shaded.png, <prefix>_mask.png and, when `reference` is not empty, <prefix>_diff.png.
 // Creates `dir` if needed.
-void writeFrameImages(const std::string& dir, const std::string& prefix, const GBuffer& gbuffer,
-                      const std::vector<float>& visibility, const std::vector<float>& reference,
-                      const std::vector<uint8_t>& band);
+// With thumbnailSide > 0 and an image larger than that, each also as <prefix>_<kind>_thumb.png, shrunk by
+// shrinkFactor(width, height, thumbnailSide) through shrinkKeepingErrors; returns that factor (1: none).
+uint32_t writeFrameImages(const std::string& dir, const std::string& prefix, const GBuffer& gbuffer,
+                          const std::vector<float>& visibility, const std::vector<float>& reference,
+                          const std::vector<uint8_t>& band, uint32_t thumbnailSide = 0);
 
 // The dump for an independent checker, in `dir` (created if needed). PFM rows are bottom-first (PFM
 // convention, see core/image_io.h); meta.json says so and gives everything needed to re-trace:

@@ -192,29 +192,45 @@ TEST(Compare, TinyBuiltinRunWritesConsistentReports) {
     EXPECT_EQ(filled, flat.size()) << "row " << i << ": a JSON field is missing from the CSV";
   }
 
-  // The plot: an SVG with one marker per row.
+  // The plots: one panel per view, one marker per row (memory: per row with bytes), exact on the floor.
   std::string svg = readText(out / "speed_vs_error.svg");
   EXPECT_NE(svg.find("<svg"), std::string::npos);
   EXPECT_NE(svg.find("</svg>"), std::string::npos);
   EXPECT_EQ(countOf(svg, "<circle"), results.size());
   EXPECT_EQ(countOf(svg, "<circle"), countOf(svg, "</circle>"));
-  EXPECT_NE(svg.find(">0</text>"), std::string::npos) << "the floor is labelled 0";
+  EXPECT_NE(svg.find(">0 (exact)</text>"), std::string::npos) << "the floor is labelled 0";
+  EXPECT_NE(svg.find(">wall</text>"), std::string::npos) << "a panel per view";
+  EXPECT_NE(svg.find(">room</text>"), std::string::npos) << "a panel per view";
+  EXPECT_GE(countOf(svg, "<polyline"), 2u) << "a line per method through its settings";
+  size_t withBytes = 0;
+  for (auto& row : results) withBytes += row.at("bytes").get<uint64_t>() > 0;
+  std::string bytesSvg = readText(out / "error_vs_bytes.svg");
+  EXPECT_EQ(countOf(bytesSvg, "<circle"), withBytes);
+  EXPECT_TRUE(fs::exists(out / "error_vs_bytes.png"));
 
-  // report.md: a table per view; report.html: every image it shows exists.
+  // report.md: the verdict first, then a table and a stage table per view.
   std::string md = readText(out / "report.md");
   EXPECT_NE(md.find("device: "), std::string::npos);
+  ASSERT_NE(md.find("## Verdict"), std::string::npos);
+  EXPECT_LT(md.find("## Verdict"), md.find("## wall"));
+  EXPECT_NE(md.find("| wall | "), std::string::npos) << "a verdict row per view";
+  EXPECT_NE(md.find("| room | "), std::string::npos) << "a verdict row per view";
+  EXPECT_NE(md.find("red: false shadow"), std::string::npos) << "the legend";
   EXPECT_NE(md.find("## wall"), std::string::npos);
   EXPECT_NE(md.find("## room"), std::string::npos);
-  // Every row carries its stages and its own measure of work; the sweep has RMSM's three knobs.
-  for (const char* column : {"| ms per stage |", "| false shadow / false light (outside band) |", "| work |"})
+  for (const char* column : {"| ms per stage (execution order) |", "| false shadow / false light outside band (all) |", "| work |"})
     EXPECT_EQ(countOf(md, column), 2u) << column << ": once per view";
   for (auto& row : results) {
     const std::string setting = row.at("stats").at("setting");
-    const size_t at = md.find("| " + setting + " |", md.find("## " + row.at("view").get<std::string>()));
+    const size_t view = md.find("## " + row.at("view").get<std::string>());
+    const size_t at = md.find("| " + setting + " |", view);
     ASSERT_NE(at, std::string::npos) << setting;
     const std::string line = md.substr(at, md.find('\n', at) - at);
     if (!row.at("stages").empty()) {
-      EXPECT_NE(line.find(row.at("stages")[0].at("name").get<std::string>() + " "), std::string::npos) << line;
+      const size_t stagesAt = md.find("| " + setting + " |", md.find("| ms per stage", view));
+      ASSERT_NE(stagesAt, std::string::npos) << setting;
+      const std::string stages = md.substr(stagesAt, md.find('\n', stagesAt) - stagesAt);
+      EXPECT_NE(stages.find(row.at("stages")[0].at("name").get<std::string>() + " "), std::string::npos) << stages;
     }
     if (row.at("method") == "cone") {
       EXPECT_NE(line.find(std::to_string(row.at("stats").at("pairs_tested").get<uint64_t>()) + " nodes visited"),
@@ -228,18 +244,26 @@ TEST(Compare, TinyBuiltinRunWritesConsistentReports) {
   for (const char* setting : {"rmsm@4M", "rmsm@16M,max4096", "rmsm@16M,analysis8x"}) {
     EXPECT_NE(md.find("| " + std::string(setting) + " |"), std::string::npos) << setting;
   }
+  // report.html: the plots inline (their tooltips work), every image it shows exists and links to itself
+  // at full size.
   std::string html = readText(out / "report.html");
-  std::regex img("<img[^>]*src=\"([^\"]+)\"");
+  EXPECT_EQ(countOf(html, "<svg"), 2u);
+  EXPECT_NE(html.find("<title>wall "), std::string::npos) << "the markers' tooltips";
+  EXPECT_NE(html.find("class=\"verdict\""), std::string::npos);
+  std::regex img("<a href=\"([^\"]+)\"><img[^>]*src=\"([^\"]+)\"");
   size_t images = 0;
   for (auto it = std::sregex_iterator(html.begin(), html.end(), img); it != std::sregex_iterator(); ++it) {
     ++images;
-    std::string src = (*it)[1];
+    std::string href = (*it)[1], src = (*it)[2];
     EXPECT_EQ(src.find('/'), std::string::npos) << src;
     EXPECT_TRUE(fs::exists(out / src)) << src;
+    EXPECT_TRUE(fs::exists(out / href)) << href;
+    EXPECT_EQ(src, href) << "at 48x32 no thumbnails: the image itself, enlarged";
   }
-  EXPECT_EQ(images, results.size() * 3 + 1 + 2) << "per setting 3, the plot, one close-up strip per view";
-  EXPECT_NE(html.find("speed_vs_error.png"), std::string::npos);
+  EXPECT_EQ(images, results.size() * 3 + 2) << "per setting 3, one close-up strip per view";
+  EXPECT_NE(html.find("width=\"240\" height=\"160\""), std::string::npos) << "48x32 enlarged 5x";
   EXPECT_NE(md.find("](speed_vs_error.png)"), std::string::npos);
+  EXPECT_NE(md.find("](error_vs_bytes.png)"), std::string::npos);
   EXPECT_NE(md.find("](wall_closeups.png)"), std::string::npos);
   EXPECT_NE(md.find("left to right: embree, "), std::string::npos) << "the strip's order is documented";
   fs::remove_all(out);

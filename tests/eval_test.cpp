@@ -10,6 +10,7 @@
 #include <iterator>
 #include <map>
 #include <sstream>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -260,6 +261,64 @@ TEST(FrameOutput, WriteFrameImagesWritesThreePngs) {
   GBuffer g = tinyGBuffer();
   writeFrameImages(dir.file("img"), "cone", g, {1, 0, 1, 1}, {1, 1, 1, 1}, {});
   for (const char* name : {"cone_shaded.png", "cone_mask.png", "cone_diff.png"})
+    EXPECT_GT(fs::file_size(dir.path / "img" / name), 0u) << name;
+}
+
+TEST(FrameOutput, ShrunkDiffKeepsEveryErrorPixel) {
+  // A 301x203 diff image: random dimmed greys with scattered error pixels, every kind, some blocks mixed.
+  const uint32_t W = 301, H = 203;
+  std::mt19937 rng(7);
+  std::vector<uint8_t> rgb(size_t(W) * H * 3);
+  for (size_t i = 0; i < size_t(W) * H; ++i) {
+    const uint32_t r = rng() % 1000;
+    const uint8_t* c = r < 4 ? kFalseShadowRgb : r < 8 ? kFalseLightRgb : r < 12 ? kBandDisagreeRgb : nullptr;
+    const uint8_t grey = uint8_t(rng() % 128);
+    for (int k = 0; k < 3; ++k) rgb[3 * i + k] = c ? c[k] : grey;
+  }
+  const uint32_t factor = shrinkFactor(W, H, 64);
+  EXPECT_EQ(factor, 5u);
+  EXPECT_EQ(shrinkFactor(48, 32, 256), 1u);
+  EXPECT_EQ(shrinkFactor(1024, 768, 256), 4u);
+  uint32_t tw = 0, th = 0;
+  const std::vector<uint8_t> small = shrinkKeepingErrors(rgb, W, H, factor, tw, th);
+  ASSERT_EQ(tw, 61u);
+  ASSERT_EQ(th, 41u);
+  auto is = [](const uint8_t* p, const uint8_t c[3]) { return p[0] == c[0] && p[1] == c[1] && p[2] == c[2]; };
+  size_t errorBlocks = 0;
+  for (uint32_t by = 0; by < th; ++by)
+    for (uint32_t bx = 0; bx < tw; ++bx) {
+      size_t shadow = 0, light = 0, band = 0;
+      for (uint32_t y = by * factor; y < std::min(H, (by + 1) * factor); ++y)
+        for (uint32_t x = bx * factor; x < std::min(W, (bx + 1) * factor); ++x) {
+          const uint8_t* p = &rgb[(size_t(y) * W + x) * 3];
+          shadow += is(p, kFalseShadowRgb), light += is(p, kFalseLightRgb), band += is(p, kBandDisagreeRgb);
+        }
+      const uint8_t* q = &small[(size_t(by) * tw + bx) * 3];
+      if (shadow || light) {
+        ++errorBlocks;
+        EXPECT_TRUE(is(q, shadow >= light ? kFalseShadowRgb : kFalseLightRgb)) << bx << "," << by;
+      } else if (band) {
+        EXPECT_TRUE(is(q, kBandDisagreeRgb)) << bx << "," << by;
+      } else {
+        EXPECT_LT(q[0], 128) << "a block without errors is its mean grey";
+        EXPECT_EQ(q[0], q[1]);
+      }
+    }
+  EXPECT_GT(errorBlocks, 100u);
+  // Factor 1 is the image itself.
+  EXPECT_EQ(shrinkKeepingErrors(rgb, W, H, 1, tw, th), rgb);
+
+  // writeFrameImages writes the thumbnails beside the full-size images when asked.
+  TempDir dir;
+  GBuffer g;
+  g.width = 300;
+  g.height = 10;
+  g.position.assign(g.size(), glm::vec4(0, 0, 0, 1));
+  g.normal.assign(g.size(), glm::vec4(0, 0, 1, 1));
+  std::vector<float> ref(g.size(), 1.0f), met(g.size(), 1.0f);
+  met[5 * 300 + 299] = 0.0f;  // one false shadow in the last, partial block
+  EXPECT_EQ(writeFrameImages(dir.file("img"), "m", g, met, ref, {}, 256), 2u);
+  for (const char* name : {"m_shaded_thumb.png", "m_mask_thumb.png", "m_diff_thumb.png"})
     EXPECT_GT(fs::file_size(dir.path / "img" / name), 0u) << name;
 }
 
