@@ -1,4 +1,4 @@
-// PNG / PFM writers and the PFM reader; all files go out through writeFileAtomic.
+// PNG / PFM / EXR writers and the PFM reader; all files go out through writeFileAtomic.
 #include "core/image_io.h"
 
 #include <unistd.h>
@@ -8,11 +8,13 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <sstream>
 
 #include <stb_image_write.h>  // implementation compiled once, in core/tinygltf_impl.cpp
+#include <tinyexr.h>          // declarations only; the implementation is Debian's libtinyexr
 
 #include "core/error.h"
 
@@ -96,6 +98,50 @@ void writePfm(const std::string& path, uint32_t width, uint32_t height, int chan
     const float* src = data.data() + size_t(height - 1 - fileRow) * rowFloats;
     std::memcpy(dst + size_t(fileRow) * rowFloats * sizeof(float), src, rowFloats * sizeof(float));
   }
+  writeFileAtomic(path, bytes);
+}
+
+void writeExr(const std::string& path, uint32_t width, uint32_t height, int channels, const std::vector<float>& data) {
+  if (channels != 1 && channels != 3) throw Error("EXR dumps take 1 or 3 channels, not " + std::to_string(channels), path);
+  checkImageSize(path, width, height, data.size(), size_t(channels));
+  // Planar, channels in the alphabetical order readers expect (B, G, R).
+  const size_t pixels = size_t(width) * height;
+  std::vector<std::vector<float>> planes(static_cast<size_t>(channels), std::vector<float>(pixels));
+  for (size_t i = 0; i < pixels; ++i)
+    for (int c = 0; c < channels; ++c) planes[size_t(channels - 1 - c)][i] = data[i * size_t(channels) + size_t(c)];
+  std::vector<unsigned char*> planePointers;
+  for (auto& p : planes) planePointers.push_back(reinterpret_cast<unsigned char*>(p.data()));
+  std::vector<EXRChannelInfo> info(static_cast<size_t>(channels));
+  const char* names3[] = {"B", "G", "R"};
+  for (int c = 0; c < channels; ++c) {
+    info[size_t(c)] = EXRChannelInfo{};
+    std::snprintf(info[size_t(c)].name, sizeof(info[size_t(c)].name), "%s", channels == 1 ? "Y" : names3[c]);
+  }
+  std::vector<int> types(size_t(channels), TINYEXR_PIXELTYPE_FLOAT), requested(size_t(channels), TINYEXR_PIXELTYPE_FLOAT);
+  EXRHeader header;
+  InitEXRHeader(&header);
+  header.num_channels = channels;
+  header.channels = info.data();
+  header.pixel_types = types.data();
+  header.requested_pixel_types = requested.data();
+  header.compression_type = TINYEXR_COMPRESSIONTYPE_ZIP;
+  EXRImage image;
+  InitEXRImage(&image);
+  image.num_channels = channels;
+  image.images = planePointers.data();
+  image.width = int(width);
+  image.height = int(height);
+  unsigned char* memory = nullptr;
+  const char* err = nullptr;
+  const size_t size = SaveEXRImageToMemory(&image, &header, &memory, &err);
+  if (size == 0 || !memory) {
+    const std::string why = err ? err : "unknown reason";
+    if (err) FreeEXRErrorMessage(err);
+    std::free(memory);
+    throw Error("cannot encode EXR: " + why, path);
+  }
+  const std::string bytes(reinterpret_cast<const char*>(memory), size);
+  std::free(memory);
   writeFileAtomic(path, bytes);
 }
 

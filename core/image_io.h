@@ -1,5 +1,5 @@
-// Image and file output: PNG (stb_image_write) and PFM (float images, for dumps an independent tool
-// reads back), written atomically — to a temporary name, then renamed — so a failure never leaves a
+// Image and file output: PNG (stb_image_write), PFM and OpenEXR (float images, for dumps an independent
+// tool reads back), written atomically — to a temporary name, then renamed — so a failure never leaves a
 // partial file under the final name. Every failure is a cs::Error naming the path and the reason.
 #pragma once
 #include <cstdint>
@@ -24,6 +24,10 @@ void writePng(const std::string& path, uint32_t width, uint32_t height, const st
 // bottom (row 0 = top, as in the G-buffer), `channels` floats per pixel; the file stores the bottom row
 // first, as the format requires, so readers that follow the PFM convention see the image upright.
 void writePfm(const std::string& path, uint32_t width, uint32_t height, int channels, const std::vector<float>& data);
+
+// OpenEXR, the same data as writePfm (1 channel "Y", 3 channels "R", "G", "B"; 32-bit float, ZIP), rows
+// top to bottom as EXR stores them: what tev, OpenImageIO and Python's EXR readers open directly.
+void writeExr(const std::string& path, uint32_t width, uint32_t height, int channels, const std::vector<float>& data);
 
 struct PfmImage {
   uint32_t width = 0, height = 0;

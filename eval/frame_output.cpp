@@ -201,19 +201,24 @@ void writeDump(const std::string& dir, const Scene& scene, const GBuffer& g, con
     lightTerm[i] = geometry ? g.normal[i].w : 0.0f;
     if (!band.empty() && band[i]) inBand[i] = 1.0f;
   }
-  writePfm(join(dir, "position.pfm"), g.width, g.height, 3, position);
-  writePfm(join(dir, "normal.pfm"), g.width, g.height, 3, normal);
-  writePfm(join(dir, "light.pfm"), g.width, g.height, 1, lightTerm);
-  writePfm(join(dir, "band.pfm"), g.width, g.height, 1, inBand);
+  // Every image twice: PFM (bottom row first) and OpenEXR (top row first), the same floats.
+  auto dump = [&](const std::string& stem, int channels, const std::vector<float>& data) {
+    writePfm(join(dir, stem + ".pfm"), g.width, g.height, channels, data);
+    writeExr(join(dir, stem + ".exr"), g.width, g.height, channels, data);
+  };
+  dump("position", 3, position);
+  dump("normal", 3, normal);
+  dump("light", 1, lightTerm);
+  dump("band", 1, inBand);
 
   nlohmann::json files = {{"position", "position.pfm"}, {"normal", "normal.pfm"}, {"light", "light.pfm"},
                           {"band", "band.pfm"}};
   nlohmann::json visibilityFiles = nlohmann::json::object();
   for (const auto& [method, vis] : visibility) {
     CS_CHECK(vis.size() == n, "visibility of '" << method << "' has " << vis.size() << " values, " << n << " expected");
-    const std::string file = "visibility_" + fileSafe(method) + ".pfm";
-    writePfm(join(dir, file), g.width, g.height, 1, vis);
-    visibilityFiles[method] = file;
+    const std::string stem = "visibility_" + fileSafe(method);
+    dump(stem, 1, vis);
+    visibilityFiles[method] = stem + ".pfm";
   }
   files["visibility"] = visibilityFiles;
 
@@ -245,7 +250,8 @@ void writeDump(const std::string& dir, const Scene& scene, const GBuffer& g, con
       {"files", files},
       {"row_order",
        "PFM rows are stored bottom row first (PFM convention): pixel (x, y) with y = 0 the top row of the "
-       "image is file row height-1-y; floats little-endian (scale -1.0)"},
+       "image is file row height-1-y; floats little-endian (scale -1.0). Every .pfm has an .exr twin with the "
+       "same floats (32-bit, channels Y or R,G,B), rows top first as EXR stores them"},
       {"lit_rule", "a sample is lit when position is not NaN and light > 0; only lit samples are judged"},
       {"visibility_rule", "1 = lit, 0 = shadowed, thresholded at 0.5; 1 where the sample is not lit"},
   };

@@ -60,8 +60,9 @@ uint32_t writeFrameImages(const std::string& dir, const std::string& prefix, con
                           const std::vector<float>& visibility, const std::vector<float>& reference,
                           const std::vector<uint8_t>& band, uint32_t thumbnailSide = 0);
 
-// The dump for an independent checker, in `dir` (created if needed). PFM rows are bottom-first (PFM
-// convention, see core/image_io.h); meta.json says so and gives everything needed to re-trace:
+// The dump for an independent checker, in `dir` (created if needed). Every image as PFM (rows bottom-first,
+// the PFM convention, see core/image_io.h) and as OpenEXR beside it (<name>.exr, the same floats, rows
+// top-first); meta.json says so and gives everything needed to re-trace:
 //   position.pfm            3 floats per pixel: world position, NaN where there is no geometry
 //   normal.pfm              3 floats: world unit normal (turned toward the camera), NaN where no geometry
 //   light.pfm               1 float: direct-light term max(0, N·L̂); a sample is lit when it has

@@ -10,11 +10,13 @@
 #include <iterator>
 #include <map>
 #include <sstream>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <tinyexr.h>
 
 #include "core/error.h"
 #include "core/image_io.h"
@@ -362,6 +364,36 @@ TEST(FrameOutput, DumpHasNaNWhereNoGeometryAndTopRowLastInTheFile) {
   EXPECT_FLOAT_EQ(meta.at("bounds").at("max")[1].get<float>(), 4.0f);
   EXPECT_EQ(meta.at("files").at("visibility").at("cone/v2").get<std::string>(), "visibility_cone_v2.pfm");
   EXPECT_NE(meta.at("row_order").get<std::string>().find("bottom row first"), std::string::npos);
+
+  // The EXR twins hold the same floats, rows top first, read back by tinyexr's own loader.
+  auto exr = [&](const std::string& file, int& w, int& h) {
+    float* rgba = nullptr;
+    const char* err = nullptr;
+    EXPECT_EQ(LoadEXR(&rgba, &w, &h, dir.file("dump/" + file).c_str(), &err), TINYEXR_SUCCESS) << (err ? err : "");
+    if (err) FreeEXRErrorMessage(err);
+    std::vector<float> out(rgba, rgba + (rgba ? size_t(w) * h * 4 : 0));
+    std::free(rgba);
+    return out;
+  };
+  int w = 0, h = 0;
+  std::vector<float> position = exr("position.exr", w, h);
+  ASSERT_EQ(w, 2);
+  ASSERT_EQ(h, 2);
+  ASSERT_EQ(position.size(), 16u);
+  EXPECT_EQ(position[4 * 1 + 0], 1.0f);  // pixel (1, 0): x = 1, R channel, top row first
+  EXPECT_TRUE(std::isnan(position[4 * 3 + 0]));
+  for (size_t i = 0; i < 4; ++i)
+    for (int c = 0; c < 3; ++c) {
+      const float want = g.hasGeometry(i) ? g.position[i][c] : std::numeric_limits<float>::quiet_NaN();
+      if (std::isnan(want)) EXPECT_TRUE(std::isnan(position[4 * i + c]));
+      else EXPECT_EQ(position[4 * i + c], want) << i << " " << c;
+    }
+  std::vector<float> visibility = exr("visibility_embree.exr", w, h);
+  ASSERT_EQ(visibility.size(), 16u);
+  for (size_t i = 0; i < 4; ++i) EXPECT_EQ(visibility[4 * i], (std::vector<float>{1, 0, 1, 1})[i]) << i;
+  std::vector<float> light = exr("light.exr", w, h);
+  ASSERT_EQ(light.size(), 16u);
+  EXPECT_EQ(light[4], 0.5f);
 }
 
 // Splits one CSV line (RFC 4180 quoting).
