@@ -150,17 +150,28 @@ int runRender(const Options& o) {
     results.push_back(std::move(r));
   }
 
-  // Output: --out and --dump both written in full into their staging folders first, then moved into
-  // place, so a failure while writing either leaves neither.
+  // Output: --out and --dump both written in full into their staging folders first, then each put in
+  // place in one step, so a failure while writing either leaves neither. A dump folder inside the output
+  // folder (or the same one) is written inside its staging folder, and the other way round.
   {
-    StagedDir out(o.out);
-    std::unique_ptr<StagedDir> dump = o.dump.empty() ? nullptr : std::make_unique<StagedDir>(o.dump);
+    namespace fs = std::filesystem;
+    const bool dumpInOut = !o.dump.empty() && pathWithin(o.dump, o.out);
+    const bool outInDump = !o.dump.empty() && !dumpInOut && pathWithin(o.out, o.dump);
+    std::unique_ptr<StagedDir> dump = !o.dump.empty() && !dumpInOut ? std::make_unique<StagedDir>(o.dump) : nullptr;
+    std::unique_ptr<StagedDir> out = outInDump ? nullptr : std::make_unique<StagedDir>(o.out);
+    auto inside = [](const StagedDir& staged, const std::string& path) {
+      return (fs::path(staged.path()) / fs::absolute(path).lexically_normal().lexically_relative(staged.target()))
+          .lexically_normal()
+          .string();
+    };
+    const std::string outDir = out ? out->path() : inside(*dump, o.out);
+    const std::string dumpDir = o.dump.empty() ? "" : dump ? dump->path() : inside(*out, o.dump);
     const std::vector<float>& ref = visibility[reference->name];
     for (const FrameResult& r : results)
-      writeFrameImages(out.path(), fileStem(r.method), frame->gbuffer, visibility[r.method], ref, frame->band);
-    writeResults(out.path(), results);
-    if (dump) writeDump(dump->path(), scene, frame->gbuffer, spec.camera, spec.light, frame->policy, visibility, frame->band);
-    out.commit();
+      writeFrameImages(outDir, fileStem(r.method), frame->gbuffer, visibility[r.method], ref, frame->band);
+    writeResults(outDir, results);
+    if (!dumpDir.empty()) writeDump(dumpDir, scene, frame->gbuffer, spec.camera, spec.light, frame->policy, visibility, frame->band);
+    if (out) out->commit();
     if (dump) dump->commit();
   }
 

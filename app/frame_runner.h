@@ -18,6 +18,7 @@
 
 #include "core/error.h"
 #include "app/cli.h"
+#include "app/staged_dir.h"
 #include "core/scene.h"
 #include "eval/frame_output.h"
 #include "eval/method.h"
@@ -50,40 +51,6 @@ inline std::unique_ptr<vk::Context> commandContext(const Options& o) {
   co.quiet = true;
   return vk::createContext(co);
 }
-
-// Output goes to a staging folder inside the target and is moved into place only when the whole run
-// succeeded, so a failure never leaves a partial set of files behind.
-class StagedDir {
- public:
-  explicit StagedDir(const std::string& target) : target_(target) {
-    namespace fs = std::filesystem;
-    std::error_code ec;
-    fs::create_directories(target_, ec);
-    if (ec) throw Error("cannot create the output folder: " + ec.message(), target_, "check the path and permissions");
-    staging_ = (fs::path(target_) / (".staging-" + std::to_string(::getpid()))).string();
-    fs::remove_all(staging_, ec);
-    fs::create_directories(staging_, ec);
-    if (ec) throw Error("cannot write into the output folder: " + ec.message(), target_, "check permissions");
-  }
-  ~StagedDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(staging_, ec);
-  }
-  StagedDir(const StagedDir&) = delete;
-  StagedDir& operator=(const StagedDir&) = delete;
-  const std::string& path() const { return staging_; }
-  void commit() {
-    namespace fs = std::filesystem;
-    for (auto& entry : fs::directory_iterator(staging_)) {
-      std::error_code ec;
-      fs::rename(entry.path(), fs::path(target_) / entry.path().filename(), ec);
-      if (ec) throw Error("cannot move " + entry.path().filename().string() + " into place: " + ec.message(), target_);
-    }
-  }
-
- private:
-  std::string target_, staging_;
-};
 
 inline std::string stageText(const MethodOutput& out) {
   std::ostringstream os;

@@ -1,4 +1,8 @@
 // coneshadow: the command-line entry point (app/commands.h runMain).
 #include "app/commands.h"
+#include "app/staged_dir.h"
 
-int main(int argc, char** argv) { return cs::runMain(argc, argv); }
+int main(int argc, char** argv) {
+  cs::installInterruptCleanup();  // before any thread starts: an interrupted run leaves no staging folder
+  return cs::runMain(argc, argv);
+}

@@ -1,0 +1,171 @@
+// All-or-nothing output folders and the interrupt cleanup: see staged_dir.h.
+#include "app/staged_dir.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <set>
+#include <system_error>
+#include <thread>
+
+#include "core/error.h"
+
+namespace fs = std::filesystem;
+
+namespace cs {
+
+namespace {
+
+// The live staging folders, removed by the interrupt thread.
+std::mutex gLiveMutex;
+std::set<std::string>& live() {
+  static std::set<std::string> folders;
+  return folders;
+}
+
+void track(const std::string& path) {
+  std::lock_guard<std::mutex> lock(gLiveMutex);
+  live().insert(path);
+}
+
+void untrack(const std::string& path) {
+  std::lock_guard<std::mutex> lock(gLiveMutex);
+  live().erase(path);
+}
+
+// A path made absolute and normal, without a trailing separator ("out/" and "out" are one folder).
+fs::path normalPath(const std::string& p) {
+  fs::path n = fs::absolute(fs::path(p)).lexically_normal();
+  if (!n.has_filename() && n.has_parent_path() && n != n.root_path()) n = n.parent_path();
+  return n;
+}
+
+// The target may be replaced: it does not exist, is an empty folder, or coneshadow wrote it.
+void checkReplaceable(const fs::path& target) {
+  std::error_code ec;
+  const fs::file_status st = fs::symlink_status(target, ec);
+  if (ec || !fs::exists(st)) return;
+  if (!fs::is_directory(st))
+    throw Error("the output path exists and is not a folder", target.string(), "choose a new or empty folder");
+  // The marker, or what earlier versions left: results.json (--out) or meta.json (--dump).
+  if (fs::is_empty(target, ec) || fs::exists(target / kOutputMarker) || fs::exists(target / "results.json") ||
+      fs::exists(target / "meta.json"))
+    return;
+  throw Error("the output folder holds files coneshadow did not write, and a run replaces its output folder as a whole",
+              target.string(), "choose a new or empty folder");
+}
+
+// Removes a folder that another thread may still be writing into: a few tries.
+void removeTree(const std::string& path) {
+  for (int attempt = 0; attempt < 5; ++attempt) {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+    if (!ec && !fs::exists(path, ec)) return;
+  }
+}
+
+}  // namespace
+
+bool pathWithin(const std::string& inner, const std::string& outer) {
+  const fs::path a = normalPath(inner), b = normalPath(outer);
+  auto ai = a.begin();
+  for (auto bi = b.begin(); bi != b.end(); ++bi, ++ai)
+    if (ai == a.end() || *ai != *bi) return false;
+  return true;
+}
+
+StagedDir::StagedDir(const std::string& target) {
+  const fs::path t = normalPath(target);
+  target_ = t.string();
+  if (t == t.root_path()) throw Error("cannot replace the root folder with the output", target_, "choose a new folder");
+  checkReplaceable(t);
+  std::error_code ec;
+  fs::create_directories(t.parent_path(), ec);
+  if (ec) throw Error("cannot create the output folder's parent: " + ec.message(), target_, "check the path and permissions");
+  staging_ = (t.parent_path() / ("." + t.filename().string() + ".staging-" + std::to_string(::getpid()))).string();
+  fs::remove_all(staging_, ec);
+  track(staging_);
+  fs::create_directory(staging_, ec);
+  if (ec) {
+    untrack(staging_);
+    throw Error("cannot write beside the output folder: " + ec.message(), target_, "check permissions");
+  }
+  std::ofstream marker(fs::path(staging_) / kOutputMarker);
+  marker << "written by coneshadow: the next run into this folder replaces it as a whole\n";
+  if (!marker) {
+    removeTree(staging_);
+    untrack(staging_);
+    throw Error("cannot write into the staging folder", staging_, "check permissions and free space");
+  }
+}
+
+StagedDir::~StagedDir() {
+  if (committed_) return;
+  removeTree(staging_);
+  untrack(staging_);
+}
+
+void StagedDir::commit() {
+  const fs::path t(target_);
+  checkReplaceable(t);  // again: the target may have changed while the run worked
+  std::error_code ec;
+  if (!fs::exists(fs::symlink_status(t, ec))) {
+    if (std::rename(staging_.c_str(), target_.c_str()) != 0)
+      throw Error("cannot move the output into place: " + std::string(std::strerror(errno)), target_);
+  } else if (::renameat2(AT_FDCWD, staging_.c_str(), AT_FDCWD, target_.c_str(), RENAME_EXCHANGE) != 0) {
+    if (errno != EINVAL && errno != ENOSYS)
+      throw Error("cannot swap the output into place: " + std::string(std::strerror(errno)), target_);
+    // A file system without the atomic exchange: the old folder aside, the new one in, the old one back
+    // if that fails.
+    const std::string aside = staging_ + ".old";
+    if (std::rename(target_.c_str(), aside.c_str()) != 0)
+      throw Error("cannot move the previous output aside: " + std::string(std::strerror(errno)), target_);
+    if (std::rename(staging_.c_str(), target_.c_str()) != 0) {
+      const std::string why = std::strerror(errno);
+      std::rename(aside.c_str(), target_.c_str());
+      throw Error("cannot move the output into place: " + why, target_);
+    }
+    removeTree(aside);
+    committed_ = true;
+    untrack(staging_);
+    return;
+  } else {
+    removeTree(staging_);  // the exchange left the previous output here
+  }
+  committed_ = true;
+  untrack(staging_);
+}
+
+void installInterruptCleanup() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    sigset_t set;
+    sigemptyset(&set);
+    sigaddset(&set, SIGINT);
+    sigaddset(&set, SIGTERM);
+    sigaddset(&set, SIGHUP);
+    if (pthread_sigmask(SIG_BLOCK, &set, nullptr) != 0) return;
+    std::thread([set] {
+      int sig = 0;
+      while (sigwait(&set, &sig) != 0) {
+      }
+      {
+        std::lock_guard<std::mutex> lock(gLiveMutex);
+        for (const std::string& path : live()) removeTree(path);
+      }
+      const char text[] = "coneshadow: interrupted: the run's unfinished output was removed\n";
+      [[maybe_unused]] ssize_t n = ::write(STDERR_FILENO, text, sizeof text - 1);
+      std::_Exit(128 + sig);
+    }).detach();
+  });
+}
+
+}  // namespace cs
