@@ -14,6 +14,7 @@
 
 #include "app/commands.h"
 #include "eval/registry.h"
+#include "tests/cli_support.h"
 #include "harness/harness.h"
 #include "raster/gbuffer.h"
 #include "raster/raster.h"
@@ -84,7 +85,9 @@ int run(const std::string& args) {
   for (std::string w; is >> w;) words.push_back(w);
   std::vector<char*> argv;
   for (std::string& w : words) argv.push_back(w.data());
-  return runMain(int(argv.size()), argv.data());
+  const int code = runMain(int(argv.size()), argv.data());
+  if (code == 0) cs::test::expectResultsMatchTheSchema(cs::test::outFolderOf(args));
+  return code;
 }
 
 fs::path outDir(const std::string& name) {
