@@ -2,18 +2,17 @@
 #include "app/svg_plot.h"
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <iomanip>
 #include <sstream>
 
-#include <fcntl.h>
-#include <sys/wait.h>
-#include <unistd.h>
+#include <cairo.h>
+#include <librsvg/rsvg.h>
 
 #include "core/error.h"
+#include "core/image_io.h"
 
 namespace cs {
 
@@ -119,46 +118,43 @@ std::string logPlotSvg(const std::vector<LogPanel>& panels, double width, double
 }
 
 void svgToPng(const std::string& svgPath, const std::string& pngPath) {
-  const std::string tmp = pngPath + ".tmp." + std::to_string(::getpid());
-  int errPipe[2];
-  if (::pipe(errPipe) != 0) throw Error(std::string("cannot run rsvg-convert: pipe: ") + std::strerror(errno), pngPath);
-  pid_t pid = ::fork();
-  if (pid < 0) {
-    ::close(errPipe[0]);
-    ::close(errPipe[1]);
-    throw Error(std::string("cannot run rsvg-convert: fork: ") + std::strerror(errno), pngPath);
+  GError* error = nullptr;
+  auto failure = [&](const std::string& what) {
+    std::string why = what;
+    if (error) {
+      why += std::string(": ") + error->message;
+      g_error_free(error);
+      error = nullptr;
+    }
+    return Error("cannot render the plot to PNG with librsvg: " + why, pngPath);
+  };
+  RsvgHandle* handle = rsvg_handle_new_from_file(svgPath.c_str(), &error);
+  if (!handle) throw failure("cannot read " + svgPath);
+  gdouble w = 0, h = 0;
+  if (!rsvg_handle_get_intrinsic_size_in_pixels(handle, &w, &h) || !(w >= 1 && h >= 1 && w <= 16384 && h <= 16384)) {
+    g_object_unref(handle);
+    throw failure(svgPath + " has no usable width and height");
   }
-  if (pid == 0) {
-    ::dup2(errPipe[1], STDERR_FILENO);
-    ::dup2(errPipe[1], STDOUT_FILENO);
-    ::close(errPipe[0]);
-    ::close(errPipe[1]);
-    execlp("rsvg-convert", "rsvg-convert", "--format=png", "-o", tmp.c_str(), svgPath.c_str(), (char*)nullptr);
-    std::fprintf(stderr, "cannot start rsvg-convert: %s", std::strerror(errno));
-    ::_exit(127);
-  }
-  ::close(errPipe[1]);
-  std::string message;
-  char buf[512];
-  ssize_t n;
-  while ((n = ::read(errPipe[0], buf, sizeof buf)) > 0 || (n < 0 && errno == EINTR))
-    if (n > 0) message.append(buf, size_t(n));
-  ::close(errPipe[0]);
-  int status = 0;
-  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  bool ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
-  if (ok && std::rename(tmp.c_str(), pngPath.c_str()) != 0) {
-    message = std::string("cannot rename into place: ") + std::strerror(errno);
-    ok = false;
-  }
-  if (!ok) {
-    std::remove(tmp.c_str());
-    while (!message.empty() && (message.back() == '\n' || message.back() == ' ')) message.pop_back();
-    std::string why = WIFEXITED(status) ? "exit " + std::to_string(WEXITSTATUS(status)) : "killed by a signal";
-    throw Error("rsvg-convert failed (" + why + (message.empty() ? "" : ": " + message) + ")", pngPath,
-                "install librsvg2-bin (tools/setup.sh does)");
-  }
+  cairo_surface_t* surface = cairo_image_surface_create(CAIRO_FORMAT_ARGB32, int(std::ceil(w)), int(std::ceil(h)));
+  cairo_t* cr = cairo_create(surface);
+  const RsvgRectangle viewport{0, 0, w, h};
+  const bool drawn = rsvg_handle_render_document(handle, cr, &viewport, &error);
+  cairo_destroy(cr);
+  g_object_unref(handle);
+  std::string png;
+  const cairo_status_t status =
+      drawn ? cairo_surface_write_to_png_stream(
+                  surface,
+                  [](void* closure, const unsigned char* data, unsigned int length) {
+                    static_cast<std::string*>(closure)->append(reinterpret_cast<const char*>(data), length);
+                    return CAIRO_STATUS_SUCCESS;
+                  },
+                  &png)
+            : CAIRO_STATUS_SUCCESS;
+  cairo_surface_destroy(surface);
+  if (!drawn) throw failure("cannot draw " + svgPath);
+  if (status != CAIRO_STATUS_SUCCESS) throw failure(std::string("cannot encode the PNG: ") + cairo_status_to_string(status));
+  writeFileAtomic(pngPath, png);
 }
 
 }  // namespace cs

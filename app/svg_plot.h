@@ -1,5 +1,5 @@
 // Log–log scatter/line plots as SVG (compare's speed-vs-error plot, the scaling sweeps) and the SVG → PNG
-// conversion through rsvg-convert (librsvg2-bin), run as a child process.
+// conversion, in process through librsvg and cairo.
 #pragma once
 #include <string>
 #include <vector>
@@ -34,8 +34,8 @@ struct LogPanel {
 std::string logPlotSvg(const std::vector<LogPanel>& panels, double width = 760, double panelHeight = 480,
                        size_t columns = 1);
 
-// Converts an SVG file to PNG with rsvg-convert. Throws cs::Error with rsvg-convert's message (or why it
-// could not be run) and leaves no file at pngPath on failure.
+// Converts an SVG file to PNG with librsvg and cairo, in process, written atomically. Throws cs::Error with
+// librsvg's message and leaves no file at pngPath on failure.
 void svgToPng(const std::string& svgPath, const std::string& pngPath);
 
 // "<" ">" "&" "\"" escaped for HTML/SVG text and attributes.

@@ -11,7 +11,7 @@ PACKAGES=(
   libembree-dev libtbb-dev libglm-dev libtinygltf-dev libstb-dev nlohmann-json3-dev
   libgtest-dev libbenchmark-dev libcli11-dev libassimp-dev libtinyexr-dev
   assimp-testmodels
-  librsvg2-bin chromium
+  librsvg2-dev chromium
 )
 
 missing=()
