@@ -29,6 +29,11 @@ TEST(Context, ReportsTheDeviceAndItsLimits) {
   EXPECT_GE(ctx.maxStorageBufferRange(), 1u << 27);
   EXPECT_GE(ctx.subgroupSize, 1u);
   EXPECT_NE(ctx.driverDescription().find("Vulkan 1."), std::string::npos);
+  // Robust buffer access is on wherever the device offers it (every conformant Vulkan device does).
+  VkPhysicalDeviceFeatures features;
+  vkGetPhysicalDeviceFeatures(ctx.physical, &features);
+  EXPECT_EQ(ctx.robustBufferAccess, features.robustBufferAccess == VK_TRUE);
+  EXPECT_TRUE(ctx.robustBufferAccess) << "Vulkan requires the feature of every device";
 }
 
 TEST(Context, UnknownDeviceNameIsAClearError) {

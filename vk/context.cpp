@@ -167,7 +167,11 @@ std::vector<std::string> listDevices() {
   for (size_t i = 0; i < devs.size(); ++i) {
     VkPhysicalDeviceProperties p;
     vkGetPhysicalDeviceProperties(devs[i], &p);
-    out.push_back(std::to_string(i) + ": " + p.deviceName + " (" + typeName(p.deviceType) + ")");
+    VkPhysicalDeviceFeatures f;
+    vkGetPhysicalDeviceFeatures(devs[i], &f);
+    out.push_back(std::to_string(i) + ": " + p.deviceName + " (" + typeName(p.deviceType) + ")" +
+                  (f.robustBufferAccess ? ", robust buffer access" : ", no robust buffer access") +
+                  (f.geometryShader ? "" : ", no geometry shader (rtw needs one)"));
   }
   vkDestroyInstance(instance, nullptr);
   return out;
@@ -277,6 +281,8 @@ std::unique_ptr<Context> createContext(const ContextOptions& options) {
   want.features.vertexPipelineStoresAndAtomics = have.features.vertexPipelineStoresAndAtomics;
   want.features.geometryShader = have.features.geometryShader;
   ctx->geometryShader = have.features.geometryShader == VK_TRUE;
+  want.features.robustBufferAccess = have.features.robustBufferAccess;
+  ctx->robustBufferAccess = have.features.robustBufferAccess == VK_TRUE;
 
   float priority = 1.0f;
   VkDeviceQueueCreateInfo qi{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};

@@ -60,6 +60,9 @@ struct Context {
   uint32_t subgroupSize = 0;
   bool hostVisibleDeviceLocal = false;   // unified memory (lavapipe, some iGPUs): no staging needed
   bool geometryShader = false;           // the device's geometryShader feature, enabled when it has it (RTW)
+  bool robustBufferAccess = false;       // enabled when the device offers it: an out-of-bounds access reads 0 or is
+                                         // dropped instead of touching other memory (a kernel bug cannot corrupt
+                                         // another buffer on a GPU; lavapipe bounds-checks either way)
   PFN_vkCmdPushDescriptorSetKHR cmdPushDescriptorSet = nullptr;
 
   HostCost cost;                    // see HostCost
