@@ -118,6 +118,13 @@ class Parser {
     if (depth > kMaxIncludeDepth)
       throw Error("includes nest deeper than " + std::to_string(kMaxIncludeDepth) + " files (a cycle?)", from);
     checkSceneInput(path.string(), from);
+    // A file that includes itself (directly or through others) is refused at its first repeat, not after
+    // kMaxIncludeDepth copies of everything it holds (a 60 KB file would fill gigabytes).
+    for (const fs::path& open : reading_) {
+      std::error_code ec;
+      if (fs::equivalent(open, path, ec))
+        throw Error("an include cycle: '" + path.string() + "' includes itself", from, "remove the include");
+    }
     std::ifstream in(path, std::ios::binary);
     if (!in) throw Error("cannot open '" + path.string() + "'", from.empty() ? path.string() : from,
                          "AFF includes are relative to the including file");
@@ -125,8 +132,10 @@ class Parser {
     ss << in.rdbuf();
     File f{path, tokenize(ss.str()), 0};
     std::vector<Group*> stack{&into};
+    reading_.push_back(path);
     while (f.pos < f.tokens.size()) statement(f, stack, depth);
     if (stack.size() != 1) throw Error("a '{' block is not closed by the end of the file", f.name() + ":" + std::to_string(f.tokens.back().line));
+    reading_.pop_back();
   }
 
  private:
@@ -139,6 +148,7 @@ class Parser {
 
   Parsed& out_;
   size_t depth_ = 0;  // open blocks over all the files being read (includes nest inside blocks)
+  std::vector<fs::path> reading_;  // the files being read, the outermost first
 
   static std::string at(const File& f, const Token& t) { return f.name() + ":" + std::to_string(t.line); }
   static std::string at(const File& f) {
@@ -172,6 +182,14 @@ class Parser {
     glm::dvec3 v;
     for (int i = 0; i < 3; ++i) v[i] = number(f, what);
     return v;
+  }
+  // n vectors, storage growing with what the file holds: a count of 2^26 in a 30-byte file is a claim, not
+  // 1.6 GB to allocate before the first vertex is missed.
+  std::vector<glm::dvec3> vec3s(File& f, uint32_t n, const char* what) {
+    std::vector<glm::dvec3> out;
+    out.reserve(std::min<size_t>(n, (f.tokens.size() - f.pos) / 3));
+    for (uint32_t i = 0; i < n; ++i) out.push_back(vec3(f, what));
+    return out;
   }
   static bool looksNumeric(const std::string& s) {
     char* end = nullptr;
@@ -383,15 +401,13 @@ class Parser {
   // three texture-coordinate indices when it has those.
   void mesh(File& f, Group& g, const Token& t) {
     expect(f, "vertices");
-    std::vector<glm::dvec3> p(count(f, "a vertex count"));
-    for (auto& v : p) v = vec3(f, "a vertex");
+    const std::vector<glm::dvec3> p = vec3s(f, count(f, "a vertex count"), "a vertex");
     std::vector<glm::dvec3> n;
     uint32_t uvs = 0;
     bool hasUv = false;
     std::string word = next(f, "normals, texturecoords or triangles").text;
     if (word == "normals") {
-      n.resize(count(f, "a normal count"));
-      for (auto& v : n) v = vec3(f, "a normal");
+      n = vec3s(f, count(f, "a normal count"), "a normal");
       word = next(f, "texturecoords or triangles").text;
     }
     if (word == "texturecoords") {

@@ -632,12 +632,19 @@ void Loader::validateBuffers() const {
 }
 
 void Loader::validateAccessors() const {
+  // An accessor without a buffer view is zeros the file does not store (sparse values may replace some): no
+  // more of them than the file's buffers hold bytes, or a few bytes of JSON could ask for terabytes.
+  size_t bufferBytes = 0;
+  for (const tinygltf::Buffer& b : model_.buffers) bufferBytes += b.data.size();
   for (size_t i = 0; i < model_.accessors.size(); ++i) {
     const tinygltf::Accessor& a = model_.accessors[i];
     const std::string name = "accessor " + std::to_string(i);
     const size_t elementSize = componentSize(a.componentType) * componentCount(a.type);
     if (elementSize == 0) bad(name + " has an unknown componentType or type");
     if (a.count == 0) bad(name + " has count 0");
+    if (a.bufferView < 0 && a.count > bufferBytes / elementSize)
+      bad(name + " has no buffer view and " + std::to_string(a.count) + " elements of " + std::to_string(elementSize) +
+          " bytes, more than the file's buffers hold (" + std::to_string(bufferBytes) + " bytes)");
     if (a.bufferView >= 0) {
       if (size_t(a.bufferView) >= model_.bufferViews.size())
         bad(name + " refers to buffer view " + std::to_string(a.bufferView) + ", which does not exist");

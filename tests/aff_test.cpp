@@ -6,6 +6,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
@@ -223,7 +224,7 @@ TEST_F(Aff, MalformedFilesAreOneLineErrorsNamingFileAndLine) {
       {"p 3\n 0 0 0\n 1 0 0\n 0 1 0\n}\n", "bad.aff:5: '}' closes no block"},
       {"xs 1 1 1 0 0 1 0 0 0 0\np 3\n", "bad.aff:2: expected '{', got 'p'"},
       {"i 0 missing.aff\n", "bad.aff:1: cannot open"},
-      {"i 0 bad.aff\n", "includes nest deeper than 32 files"},
+      {"i 0 bad.aff\n", "bad.aff:1: an include cycle: "},
       {[] {
          static std::string deep;
          for (int i = 0; i < 300; ++i) deep += "xs 1 1 1 0 0 1 0 0 0 0 {\n";
@@ -242,6 +243,40 @@ TEST_F(Aff, MalformedFilesAreOneLineErrorsNamingFileAndLine) {
   }
   std::ostringstream warn;
   EXPECT_THROW(loadAff((dir / "no_such.aff").string(), warn), Error);
+}
+
+// fuzz/aff_fuzzer's out-of-memory: 60 KB of spheres that included itself was read 33 times over, 6 GB of
+// triangles, before the include depth limit refused it. A cycle is now refused at its first repeat, directly
+// or through other files; a long chain of distinct files still meets the depth limit.
+TEST_F(Aff, AnIncludeCycleIsRefusedAtItsFirstRepeat) {
+  std::string spheres;
+  for (int i = 0; i < 100; ++i) spheres += "s 0 0 0 1\n";
+  const std::string self = errorOf(spheres + "i 0 bad.aff\n");
+  EXPECT_NE(self.find("bad.aff:101: an include cycle: '"), std::string::npos) << self;
+  write("b.aff", "p 3\n 0 0 0\n 1 0 0\n 0 1 0\ni 0 a.aff\n");
+  const std::string through = errorOf("i 0 b.aff\n", "a.aff");
+  EXPECT_NE(through.find("b.aff:5: an include cycle: '"), std::string::npos) << through;
+  EXPECT_NE(through.find("a.aff' includes itself"), std::string::npos) << through;
+  EXPECT_EQ(through.find('\n'), std::string::npos) << through;
+  for (int i = 0; i < 32; ++i) write("chain" + std::to_string(i) + ".aff", "i 0 chain" + std::to_string(i + 1) + ".aff\n");
+  write("chain32.aff", "p 3\n 0 0 0\n 1 0 0\n 0 1 0\n");
+  const std::string chain = errorOf("i 0 chain0.aff\n");
+  EXPECT_NE(chain.find("includes nest deeper than 32 files"), std::string::npos) << chain;
+}
+
+// Found while sizing fuzz/aff_fuzzer's limits: "m vertices 67108864" in a 30-byte file allocated 1.6 GB
+// (17 s under the sanitizers) before it missed its first vertex. Counts are claims: storage grows with what
+// the file holds. The peak memory of this process (ctest runs each test alone) shows it.
+TEST_F(Aff, AMeshCountLargerThanTheFileAllocatesNothingUpFront) {
+  rusage before{};
+  getrusage(RUSAGE_SELF, &before);
+  const std::string vertices = errorOf("m\nvertices 67108864\n0 0 0\n");
+  EXPECT_NE(vertices.find("bad.aff:3: the file ends where a vertex was expected"), std::string::npos) << vertices;
+  const std::string normals = errorOf("m\nvertices 3\n0 0 0\n1 0 0\n0 1 0\nnormals 67108864\n0 0 1\n");
+  EXPECT_NE(normals.find("the file ends where a normal was expected"), std::string::npos) << normals;
+  rusage after{};
+  getrusage(RUSAGE_SELF, &after);
+  EXPECT_LT(after.ru_maxrss - before.ru_maxrss, 256 * 1024) << "KiB more at the peak";
 }
 
 // ---- the BART scenes ------------------------------------------------------------------------------------
