@@ -243,7 +243,8 @@ Options parseArgs(int argc, char** argv) {
     sub->allow_extras();
     sub->add_option("scene", o.scene,
                     "a glTF 2.0 (.gltf/.glb), BART (.aff) or other 3-D file assimp reads (.obj, .ply, .stl, .fbx, .dae, "
-                    "...); default: the built-in scene");
+                    "...), or heightfield:N for a generated wavy height field of N triangles (e.g. heightfield:1M); default: the "
+                    "built-in scene");
     addFrameOptions(*sub, o, raw);
     addMethodSettings(*sub, o);
   }
@@ -274,7 +275,7 @@ Options parseArgs(int argc, char** argv) {
   compare->footer("writes into --out DIR (default compare, 256x256): results.json, results.csv, per-setting images,\n"
                   "<view>_closeups.png, report.md, report.html, speed_vs_error.svg/.png");
 
-  info->add_option("scene", o.scene, "a .gltf/.glb, .aff or other file assimp reads, or builtin");
+  info->add_option("scene", o.scene, "a .gltf/.glb, .aff or other file assimp reads, builtin, or heightfield:N (a generated height field of N triangles)");
   table->add_option("folders", o.folders, "folders written by coneshadow compare");
   (void)devices;
 

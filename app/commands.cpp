@@ -48,6 +48,9 @@ Scene loadSceneArg(const Options& o, std::ostream& log) {
   if (arg.empty() || arg == "builtin") {
     if (o.sceneTime) throw UsageError("--time places a BART (.aff) scene in time; the built-in scene has no time");
     scene = builtinScene();
+  } else if (const uint64_t triangles = parseHeightFieldArg(arg)) {
+    if (o.sceneTime) throw UsageError("--time places a BART (.aff) scene in time; a height field has no time");
+    scene = heightFieldScene(triangles);
   } else {
     if (!fs::exists(arg))
       throw Error("no such file", arg, "give a scene file (.gltf/.glb, .aff, .obj, .ply, ...), or omit SCENE for the built-in scene");

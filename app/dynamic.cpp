@@ -74,6 +74,9 @@ Motion loadMotion(const Options& o) {
   Motion m;
   if (path.empty() || path == "builtin") {
     m.gltf = std::make_unique<AnimatedScene>(builtinAnimatedScene());
+  } else if (const uint64_t triangles = parseHeightFieldArg(path)) {
+    m.gltf = std::make_unique<AnimatedScene>();  // a static scene
+    m.gltf->rest = heightFieldScene(triangles);
   } else {
     if (!fs::exists(path))
       throw Error("no such file", path, "give a scene file (.gltf/.glb, .aff, .obj, .ply, ...), or omit SCENE for the built-in scene");

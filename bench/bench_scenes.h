@@ -1,7 +1,8 @@
 // What the scene benchmarks share: the views named on their command line ("builtin": every view of the
 // built-in scene; "engine": assimp's 2CylinderEngine with its automatic camera and light; "museum": the
 // BART museum paper 002 measured on, its view and its camera track at t = 0 and 2.5 with the scene at
-// that time, lit by its first light; or a .gltf/.glb/.aff path), a view prepared by the frame harness, and
+// that time, lit by its first light; "heightfield:N": the generated height field of N triangles; or a
+// .gltf/.glb/.aff path), a view prepared by the frame harness, and
 // list parsing.
 #pragma once
 #include <algorithm>
@@ -43,6 +44,12 @@ inline std::vector<View> loadViews(const std::string& list, std::vector<std::uni
       scenes.push_back(std::make_unique<Scene>(builtinScene()));
       for (const Camera& c : scenes.back()->cameras)
         views.push_back({scenes.back().get(), c, scenes.back()->lights.at(0).position, "builtin/" + c.name});
+      continue;
+    }
+    if (const uint64_t triangles = parseHeightFieldArg(s)) {  // heightfield:N, generated, automatic camera
+      scenes.push_back(std::make_unique<Scene>(heightFieldScene(triangles)));
+      Scene& sc = *scenes.back();
+      views.push_back({&sc, automaticCamera(sc), sc.lights.at(0).position, sc.name + "/auto"});
       continue;
     }
     if (s == "museum") {

@@ -120,6 +120,17 @@ void addGroundPlane(Scene& scene, glm::vec3 lo, glm::vec3 hi);
 Scene builtinScene();
 std::vector<std::string> builtinViewNames();
 
+// A generated height field of about `triangles` triangles (n x n cells, two triangles each, the n whose
+// 2 n^2 is nearest): a 2 x 2 square at y = 0 carrying two octaves of waves (0.08 and 0.03 high) whose
+// crests shadow their neighbours, smooth normals, a point light 1.5 above its centre, no camera (the
+// automatic one sees all of it). The scale benchmark's and the memory budget's scene: any size, no
+// file. cs::Error outside [2, kMaxHeightFieldTriangles].
+inline constexpr uint64_t kMaxHeightFieldTriangles = 100000000;
+Scene heightFieldScene(uint64_t triangles);
+// The triangle count of a scene argument "heightfield:N" (N digits, optionally k = 10^3 or M = 10^6:
+// heightfield:10M); 0 for any other argument; UsageError for a malformed N.
+uint64_t parseHeightFieldArg(const std::string& arg);
+
 // Automatic camera / light for scenes that carry none: framing the bounds.
 Camera automaticCamera(const Scene& scene);
 PointLight automaticLight(const Scene& scene);

@@ -5,7 +5,7 @@
 # <!-- results:begin --> and <!-- results:end -->.
 # Environment: WIDTH, HEIGHT (default 1024), FRAMES (default 5), OUT (default build/readme-results),
 # ENGINE (the glTF file), MUSEUM (the BART museum's .aff; empty to leave it out), SKIP_BUILD=1 to use
-# the current build/ as is.
+# the current build/ as is, CLI (default build/app/coneshadow) to run another copy of the tool.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -18,7 +18,7 @@ if [ -z "${MUSEUM+set}" ]; then
   MUSEUM=../shared/scenes/bart/museum/museum5.aff
   [ -f shared/scenes/bart/museum/museum5.aff ] && MUSEUM=shared/scenes/bart/museum/museum5.aff
 fi
-CLI=build/app/coneshadow
+CLI=${CLI:-build/app/coneshadow}
 
 [ "${SKIP_BUILD:-0}" = 1 ] || ./tools/setup.sh
 [ -x "$CLI" ] || { echo "readme_results: $CLI is not built (run tools/setup.sh)" >&2; exit 1; }

@@ -22,6 +22,11 @@ ConeOptions coneOptions(const Settings& s) {
     throw UsageError("cone: --traversal-memory " + std::to_string(cone.traversalMemoryBytes) +
                      " is too small: the traversal needs at least " + std::to_string(least) +
                      " bytes (4 pairs and one chunk's scratch)");
+  cone.memoryBudgetBytes = s.bytes("memory-budget", 0);
+  if (s.has("memory-budget") && cone.memoryBudgetBytes < (uint64_t(1) << 20))
+    throw UsageError("cone: --memory-budget " + std::to_string(cone.memoryBudgetBytes) +
+                     " is too small: give at least 1M (the scene's triangles take 48 bytes each, the rays about "
+                     "100 bytes a pixel)");
   const bool unsorted = s.choice("ray-order", {"hilbert", "screen"}, "hilbert") == "screen";
   if (s.has("variant")) {
     applyConeVariant(s.choice("variant", coneVariantNames(), ""), cone);
@@ -66,6 +71,10 @@ MethodInfo coneMethodInfo() {
        {}},
       {"ray-order", "O", "hilbert (sorted rays, default) or screen (2x2 Morton screen order)", {"hilbert", "screen"}},
       {"traversal-memory", "BYTES", "bound on the traversal's pair buffers (default 64M; e.g. 256K)", {}},
+      {"memory-budget", "BYTES",
+       "cap on the cone path's device buffers and host working set together (e.g. 1G); the traversal gets what "
+       "the rest leaves, at most --traversal-memory; too small for the scene: an error with the bytes it needs",
+       {}},
       {"clusters", "on|off", "clusters of 64 triangles go down the tree's upper levels first (default on; the same mask)", {}},
       {"profile-stages", "on|off",
        "one submission per stage (compact, keys, sort, build, traversal, leaves) to time each by wall clock, "

@@ -10,6 +10,7 @@
 #include "core/error.h"
 #include "raster/raster.h"
 #include "eval/epsilon.h"
+#include "eval/settings.h"
 #include "sort/rays.h"
 #include "traversal/frame_triangles.comp.h"
 #include "traversal/unfinished_rays.comp.h"
@@ -23,6 +24,41 @@ double msSince(Clock::time_point t0) { return std::chrono::duration<double, std:
 
 constexpr uint32_t kOne = 0x3F800000u;  // 1.0f: the visibility words start lit
 constexpr uint64_t kMaxBatches = 64;     // batches one submission may hold (see runSubmitted)
+// Triangles written into the triangle buffers per upload (16 MiB; whole clusters): the host chunk and,
+// on a discrete GPU, the staging buffer hold no more.
+constexpr uint64_t kUploadTriangles = uint64_t(CLUSTER_SIZE) * 5461;
+
+// A 128-bit hash of a byte range (two independent multiply-rotate lanes over 8-byte words, as in
+// xxHash's rounds, finished with an avalanche): how the cone path tells that a scene changed without
+// keeping a copy of it. Two different scenes share a key with probability ~2^-128.
+struct SceneKey {
+  uint64_t a = 0, b = 0, bytes = ~uint64_t(0);
+  bool operator==(const SceneKey&) const = default;
+};
+SceneKey hashBytes(const void* data, size_t bytes) {
+  constexpr uint64_t P1 = 0x9E3779B185EBCA87ull, P2 = 0xC2B2AE3D27D4EB4Full, P3 = 0x165667B19E3779F9ull,
+                     P4 = 0x85EBCA77C2B2AE63ull;
+  auto rotl = [](uint64_t x, int r) { return (x << r) | (x >> (64 - r)); };
+  auto mix = [](uint64_t h) {
+    h ^= h >> 33, h *= 0xFF51AFD7ED558CCDull, h ^= h >> 33, h *= 0xC4CEB9FE1A85EC53ull;
+    return h ^ (h >> 33);
+  };
+  SceneKey k;
+  k.bytes = bytes;
+  k.a = P1 ^ bytes, k.b = P3 + bytes;
+  const auto* p = static_cast<const unsigned char*>(data);
+  size_t i = 0;
+  for (; i + 8 <= bytes; i += 8) {
+    uint64_t w;
+    std::memcpy(&w, p + i, 8);
+    k.a = rotl(k.a + w * P2, 31) * P1;
+    k.b = rotl(k.b ^ (w * P4), 27) * P3 + P2;
+  }
+  uint64_t tail = 0;
+  if (i < bytes) std::memcpy(&tail, p + i, bytes - i);
+  k.a = mix(k.a ^ tail), k.b = mix(k.b + tail * P1);
+  return k;
+}
 
 // Solid angle of triangle (a, b, c), vertices relative to the apex (Van Oosterom & Strackee); 0 for a
 // degenerate one.
@@ -68,9 +104,11 @@ class ConeMethod : public ShadowMethod {
       : ctx_(ctx),
         options_(options),
         tree_(ctx),
-        traversal_(options.arena.pairCapacity > 0 ? traversal::Traversal(ctx, options.arena)
-                                                   : traversal::Traversal(ctx, options.traversalMemoryBytes)),
         timer_(vk::createTimer(ctx, 64)) {
+    // Under a memory budget the arena is what the frame's other buffers leave of it (ensureTraversal).
+    if (options.arena.pairCapacity > 0) traversal_ = std::make_unique<traversal::Traversal>(ctx, options.arena);
+    else if (options.memoryBudgetBytes == 0)
+      traversal_ = std::make_unique<traversal::Traversal>(ctx, options.traversalMemoryBytes);
     frameTris_ = vk::createKernel(ctx, "frame triangles", spv_frame_triangles_comp, 2,
                                   sizeof(traversal::FrameTrianglesPush));
     if (options_.twoPass) unfinished_ = vk::createKernel(ctx, "unfinished rays", spv_unfinished_rays_comp, 3,
@@ -126,9 +164,6 @@ class ConeMethod : public ShadowMethod {
                             {"early_accept", options_.earlyAccept && options_.test == ConeTest::Precise},
                             {"two_pass", options_.twoPass},
                             {"epsilon", eps},
-                            {"traversal_memory_bytes", options_.traversalMemoryBytes},
-                            {"pair_capacity", traversal_.plan().pairCapacity},
-                            {"chunk_capacity", traversal_.plan().chunkCapacity},
                             {"frame", frame_.far ? "far" : "world"},
                             {"frame_scale", frame_.scale}};
     if (frame_.far) {
@@ -182,12 +217,27 @@ class ConeMethod : public ShadowMethod {
     stats["leaf_tests"] = ts.leafTests;
     stats["early_accepted_nodes"] = ts.earlyAccepted;
     stats["traversal_peak_bytes"] = ts.peakBytes;
+    if (traversal_) {
+      stats["traversal_memory_bytes"] = traversalMemory_;
+      stats["pair_capacity"] = traversal_->plan().pairCapacity;
+      stats["chunk_capacity"] = traversal_->plan().chunkCapacity;
+    }
     out.work = std::to_string(ts.pairsTested()) + " nodes visited, " + std::to_string(ts.leafTests) + " leaf tests";
     out.stages = std::move(stages);
     out.stats = std::move(stats);
     out.bytesAllocated = bytesAllocated();
     // Working set: everything resident for the frame, with the traversal's share at its measured peak.
-    out.peakBytes = out.bytesAllocated - traversal_.bytesAllocated() + ts.peakBytes;
+    out.peakBytes = out.bytesAllocated - (traversal_ ? traversal_->bytesAllocated() : 0) + ts.peakBytes;
+    // The budget (--memory-budget) holds the device buffers as allocated (the arena whole, not its peak)
+    // and the host working set of the upload; ensureTraversal() planned the arena to make it hold.
+    out.stats["host_peak_bytes"] = hostPeakBytes_;
+    if (options_.memoryBudgetBytes) {
+      const uint64_t used = out.bytesAllocated + hostPeakBytes_;
+      out.stats["memory_budget_bytes"] = options_.memoryBudgetBytes;
+      out.stats["memory_budget_used_bytes"] = used;
+      CS_CHECK(used <= options_.memoryBudgetBytes, "cone: the frame held " << used << " bytes, over its --memory-budget of "
+                                                                          << options_.memoryBudgetBytes);
+    }
     return out;
   }
 
@@ -247,11 +297,12 @@ class ConeMethod : public ShadowMethod {
                        2.0f * in.eps, &frame_);
     if (frame_.far && frameTrianglesStale()) recordFrameTriangles(cmd);
     boundary("build");
-    const bool clusters = options_.clusters && traversal_.clustersFit() && chunkTriangles_ >= CLUSTER_SIZE;
+    ensureTraversal(pixels);
+    const bool clusters = options_.clusters && traversal_->clustersFit() && chunkTriangles_ >= CLUSTER_SIZE;
     if (clusters) updateClusterSpheres(frame.light);
-    traversal_.recordBegin(cmd, in);
+    traversal_->recordBegin(cmd, in);
     std::vector<uint32_t> batchStarts;  // scene index of each batch's first triangle, in order
-    const uint32_t batch = traversal_.batchTriangles();
+    const uint32_t batch = traversal_->batchTriangles();
     uint64_t batches = 0;
     forEachTriangleBuffer(in, 0, triangleCount_, [&](const traversal::TraversalInput& part) {
       batches += (uint64_t(part.triangleCount) + batch - 1) / batch;
@@ -263,13 +314,13 @@ class ConeMethod : public ShadowMethod {
       forEachTriangleBuffer(in, 0, triangleCount_, [&](traversal::TraversalInput part) {
         const size_t b = size_t(part.triangles - triangles_.data());
         if (clusters) part.clusterSpheres = &clusterSpheres_[b];
-        for (uint32_t first : traversal_.record(cmd, part, boundary)) batchStarts.push_back(uint32_t(b) * chunkTriangles_ + first);
+        for (uint32_t first : traversal_->record(cmd, part, boundary)) batchStarts.push_back(uint32_t(b) * chunkTriangles_ + first);
       });
     stats["clusters"] = clusters && onDevice;
     stats["traversal_batch_triangles"] = batch;
     readback_.clear();
     const uint32_t maskSlot = readback_.add(visibility_, uint64_t(pixels) * 4);
-    const uint32_t stateSlot = readback_.add(traversal_.stateBuffer(), STATE_WORDS * 4);
+    const uint32_t stateSlot = readback_.add(traversal_->stateBuffer(), STATE_WORDS * 4);
     const uint32_t shapeSlot = readback_.add(tree_.shapeBuffer(), SHAPE_WORDS * 4);
     readback_.record(cmd);
     cmd.barrier();
@@ -288,7 +339,7 @@ class ConeMethod : public ShadowMethod {
     stats["tree_depth"] = shape[SHAPE_DEPTH];
     stats["tree_nodes"] = shape[SHAPE_NODES];
     const bool overflow = traversal::Traversal::overflowed(state);
-    traversal::TraversalStats ts = traversal_.statsFromState(state, shape[SHAPE_DEPTH], overflow);
+    traversal::TraversalStats ts = traversal_->statsFromState(state, shape[SHAPE_DEPTH], overflow);
 
     stats["traversal_path"] = "one submission";
     auto t1 = Clock::now();
@@ -313,7 +364,7 @@ class ConeMethod : public ShadowMethod {
     }
     readbackMs = msSince(t1);
 
-    if (onDevice) traversal_.learnBatch(state, ts, triangleCount_);
+    if (onDevice) traversal_->learnBatch(state, ts, triangleCount_);
     if (profile) {
       stats["stage_timing"] = "one submission per stage, host wall clock (--profile-stages)";
       for (auto& [n, ms] : wall) stages.push_back({n, ms});
@@ -382,6 +433,7 @@ class ConeMethod : public ShadowMethod {
       });
       stats["tree_depth"] = tree_.shape().depth;
       stats["tree_nodes"] = tree_.shape().nodes();
+      ensureTraversal(pixels);
       ts = runTwoPass(in, lit, g, stage, stats);
     } else {
       stats["tree_depth"] = 0;
@@ -399,9 +451,56 @@ class ConeMethod : public ShadowMethod {
     for (const vk::Buffer& b : triangles_) triangleBytes += b.size;
     for (const vk::Buffer& b : frameTriangles_) triangleBytes += b.size;
     return triangleBytes + (rays_ ? rays_->bytesAllocated() : 0) + visibility_.size + tree_.bytesAllocated() +
-           traversal_.bytesAllocated() + traversal_.flagBytes() + readback_.bytesAllocated() + clusterSphereBytes() +
+           (traversal_ ? traversal_->bytesAllocated() + traversal_->flagBytes() : 0) + readback_.bytesAllocated() +
+           clusterSphereBytes() +
            (compact_ ? compact_->bytesAllocated() : 0) +
            rayFlags_.size + remaining_.size + kept_.size;
+  }
+
+  // The traversal's arena and scratch. Without a budget: --traversal-memory, made once. Under
+  // --memory-budget: --traversal-memory or what the budget leaves after every other buffer of this frame
+  // (allocated by now: triangles, rays, tree, visibility; or estimated: the cluster spheres, the readback
+  // copy, the early-accept flags) and the host working set, whichever is smaller; remade when that
+  // changes (a new resolution or scene), so a warm frame allocates nothing.
+  void ensureTraversal(uint32_t pixels) {
+    if (!options_.memoryBudgetBytes || options_.arena.pairCapacity > 0) {
+      traversalMemory_ = options_.arena.pairCapacity > 0 ? traversal_->plan().bytes : options_.traversalMemoryBytes;
+      return;
+    }
+    const uint64_t budget = options_.memoryBudgetBytes;
+    uint64_t others = bytesAllocated() - (traversal_ ? traversal_->bytesAllocated() + traversal_->flagBytes() : 0);
+    others += expectedClusterSphereBytes() - std::min(expectedClusterSphereBytes(), clusterSphereBytes());
+    if (!ctx_.hostVisibleDeviceLocal)  // the mask and the counters copied for the readback
+      others += uint64_t(pixels) * 4 + (STATE_WORDS + SHAPE_WORDS) * 4 + 64 - std::min<uint64_t>(readback_.bytesAllocated(), uint64_t(pixels) * 4 + (STATE_WORDS + SHAPE_WORDS) * 4 + 64);
+    if (options_.earlyAccept && options_.test == ConeTest::Precise)  // a flag word per node
+      others += tree_.nodes().size / sizeof(cone::ConeNode) * 4 - std::min<uint64_t>(tree_.nodes().size / sizeof(cone::ConeNode) * 4, traversal_ ? traversal_->flagBytes() : 0);
+    const uint64_t fixed = others + hostPeakBytes_;
+    const uint64_t least = traversal::kMinPairs * sizeof(glm::uvec2) + traversal::chunkScratchBytes(1);
+    if (fixed + least > budget)
+      throw Error("--memory-budget " + byteSizeLabel(budget) + " cannot hold this frame: the cone path needs " +
+                      byteSizeLabel(others) + " on the device for " + std::to_string(triangleCount_) + " triangles at " +
+                      std::to_string(pixels) + " pixels, " + byteSizeLabel(hostPeakBytes_) +
+                      " of host working set, and at least " + byteSizeLabel(least) + " for the traversal",
+                  "cone path", "give --memory-budget " + byteSizeLabel(fixed + (uint64_t(1) << 20)) +
+                                   " or more (the traversal then runs chunked; more is faster), or fewer pixels");
+    const uint64_t memory = std::min(options_.traversalMemoryBytes, budget - fixed);
+    const traversal::ArenaPlan plan = traversal::planArena(memory, ctx_.maxStorageBufferRange());
+    if (!traversal_ || traversal_->plan().pairCapacity != plan.pairCapacity ||
+        traversal_->plan().chunkCapacity != plan.chunkCapacity) {
+      traversal_.reset();
+      traversal_ = std::make_unique<traversal::Traversal>(ctx_, memory);
+    }
+    traversalMemory_ = memory;
+  }
+
+  // The cluster spheres' bytes updateClusterSpheres() allocates for the current triangles.
+  uint64_t expectedClusterSphereBytes() const {
+    if (!options_.clusters || options_.twoPass || chunkTriangles_ < CLUSTER_SIZE) return 0;
+    uint64_t bytes = 0;
+    const uint64_t perBuffer = chunkTriangles_ / CLUSTER_SIZE, clusters = (triangleCount_ + CLUSTER_SIZE - 1) / CLUSTER_SIZE;
+    for (uint64_t b = 0; b < triangles_.size(); ++b)
+      bytes += std::max<uint64_t>(1, std::min(perBuffer, clusters - std::min(clusters, b * perBuffer))) * sizeof(glm::vec4);
+    return bytes;
   }
 
   uint64_t clusterSphereBytes() const {
@@ -467,7 +566,7 @@ class ConeMethod : public ShadowMethod {
     traversal::TraversalStats total;
     bool any = false;
     forEachTriangleBuffer(in, first, count, [&](const traversal::TraversalInput& part) {
-      traversal::TraversalStats ts = traversal_.run(part, &timer_);
+      traversal::TraversalStats ts = traversal_->run(part, &timer_);
       total = any ? combine(total, ts) : ts;
       any = true;
     });
@@ -534,44 +633,52 @@ class ConeMethod : public ShadowMethod {
     return combine(one, two);
   }
 
-  // Gathers the scene's triangles (vec4 x 3, world space) and uploads them when they changed (with
-  // two-pass, also when the light moved: the blockers, first in the buffer, depend on it). Triangles
-  // with a non-finite coordinate are dropped, as Embree drops them. Returns the wall ms, 0 if cached.
+  // Uploads the scene's triangles (vec4 x 3, world space) when they changed (with two-pass, also when the
+  // light moved: the blockers, first in the buffer, depend on it). Triangles with a non-finite coordinate
+  // are dropped, as Embree drops them. Returns the wall ms, 0 if cached.
+  // The host working set stays small beside the scene: the buffers' order of the kept triangles (4 bytes
+  // each; 8 more while clusters sort them, 9 while two-pass ranks them), the cluster bounds, and one
+  // chunk of at most kUploadBytes written into the buffers at a time. A change is seen from a 128-bit
+  // hash of the positions and the indices, not from a copy of them (hostPeakBytes_ counts all of it).
   double uploadTriangles(const Scene& scene, glm::vec3 light) {
-    if (cachedPositions_ == scene.positions && cachedIndices_ == scene.indices && !triangles_.empty() &&
+    const SceneKey positionsKey = hashBytes(scene.positions.data(), scene.positions.size() * sizeof(glm::vec3));
+    const SceneKey indicesKey = hashBytes(scene.indices.data(), scene.indices.size() * sizeof(uint32_t));
+    if (positionsKey == positionsKey_ && indicesKey == indicesKey_ && !triangles_.empty() &&
         (!options_.twoPass || cachedLight_ == light))
       return 0.0;
     auto t0 = Clock::now();
     CS_CHECK(scene.indices.size() % 3 == 0, "scene '" << scene.name << "': index count is not a multiple of 3");
-    std::vector<glm::vec4> tris;
-    tris.reserve(scene.indices.size());
-    droppedTriangles_ = 0;
+    const size_t sceneTriangles = scene.indices.size() / 3;
+    // The kept triangles and their bounds.
+    const bool sameIndices = indicesKey == indicesKey_ && droppedTriangles_ == 0;
+    std::vector<uint32_t> previous;  // the last order: clusters keep it while the index list stays
+    previous.swap(order_);
+    if (!sameIndices) std::vector<uint32_t>().swap(previous);
+    std::vector<uint32_t> kept;
+    kept.reserve(sceneTriangles);
     glm::vec3 lo(INFINITY), hi(-INFINITY);
-    for (size_t t = 0; t + 2 < scene.indices.size(); t += 3) {
-      glm::vec3 v[3];
+    for (size_t t = 0; t < sceneTriangles; ++t) {
       bool finite = true;
       for (int k = 0; k < 3; ++k) {
-        uint32_t i = scene.indices[t + k];
-        CS_CHECK(i < scene.positions.size(), "scene '" << scene.name << "': index " << t + k << " = " << i
+        const uint32_t i = scene.indices[3 * t + k];
+        CS_CHECK(i < scene.positions.size(), "scene '" << scene.name << "': index " << 3 * t + k << " = " << i
                                                        << " is past the " << scene.positions.size() << " vertices");
-        v[k] = scene.positions[i];
-        finite = finite && std::isfinite(v[k].x) && std::isfinite(v[k].y) && std::isfinite(v[k].z);
+        const glm::vec3 p = scene.positions[i];
+        finite = finite && std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
       }
-      if (!finite) {
-        droppedTriangles_++;
-        continue;
-      }
-      for (auto& p : v) {
-        lo = glm::min(lo, p);
-        hi = glm::max(hi, p);
-        tris.emplace_back(p, 1.0f);
+      if (!finite) continue;
+      kept.push_back(uint32_t(t));
+      for (int k = 0; k < 3; ++k) {
+        lo = glm::min(lo, scene.positions[scene.indices[3 * t + k]]);
+        hi = glm::max(hi, scene.positions[scene.indices[3 * t + k]]);
       }
     }
-    boundsLo_ = tris.empty() ? glm::vec3(0) : lo;
-    boundsHi_ = tris.empty() ? glm::vec3(0) : hi;
-    triangleCount_ = uint32_t(tris.size() / 3);
-    if (options_.twoPass) orderBlockersFirst(tris, light);
-    else if (options_.clusters) orderForClusters(tris, scene.indices != cachedIndices_);
+    droppedTriangles_ = sceneTriangles - kept.size();
+    boundsLo_ = kept.empty() ? glm::vec3(0) : lo;
+    boundsHi_ = kept.empty() ? glm::vec3(0) : hi;
+    triangleCount_ = uint32_t(kept.size());
+    auto vertex = [&](uint32_t t, int k) { return scene.positions[scene.indices[3 * size_t(t) + k]]; };
+
     // One buffer per `perBinding` triangles: a scene larger than one storage binding of the device
     // (128 MiB on lavapipe: 2.8 M triangles) is traversed binding by binding (traverse()).
     constexpr uint64_t kTriangleBytes = 3 * sizeof(glm::vec4);
@@ -581,63 +688,99 @@ class ConeMethod : public ShadowMethod {
     chunkTriangles_ = uint32_t(std::min<uint64_t>(perBinding, UINT32_MAX));
     if (chunkTriangles_ >= CLUSTER_SIZE) chunkTriangles_ -= chunkTriangles_ % CLUSTER_SIZE;  // whole clusters a buffer
     const size_t chunks = std::max<size_t>(1, (triangleCount_ + uint64_t(chunkTriangles_) - 1) / chunkTriangles_);
+    const bool clusters = options_.clusters && !options_.twoPass;
+
+    // The host working set of this upload, checked against the budget before any buffer is made.
+    const uint64_t n = kept.size();
+    const uint64_t chunkBytes = std::min<uint64_t>(kUploadTriangles, std::max<uint64_t>(n, 1)) * kTriangleBytes;
+    const uint64_t orderBytes = n * sizeof(uint32_t);
+    // two-pass: the solid angles, the blocker flags, the ranked candidates and the new order; clusters:
+    // the Morton keys and the new order
+    const uint64_t rankBytes = options_.twoPass ? n * (sizeof(double) + 1 + 2 * sizeof(uint32_t))
+                               : clusters       ? n * (sizeof(uint64_t) + sizeof(uint32_t))
+                                                : 0;
+    const uint64_t boundsBytes = clusters ? (n + CLUSTER_SIZE - 1) / CLUSTER_SIZE * sizeof(glm::dvec4) : 0;
+    const uint64_t staging = ctx_.hostVisibleDeviceLocal ? 0 : chunkBytes;
+    hostPeakBytes_ = orderBytes + std::max({rankBytes, orderBytes, boundsBytes + chunkBytes + staging});
+    if (options_.memoryBudgetBytes) {
+      uint64_t device = 0;
+      for (size_t c = 0; c < chunks; ++c)
+        device += std::max<uint64_t>(16, std::min<uint64_t>(chunkTriangles_, n - std::min<uint64_t>(n, c * chunkTriangles_)) * kTriangleBytes);
+      if (device + hostPeakBytes_ > options_.memoryBudgetBytes)
+        throw Error("--memory-budget " + byteSizeLabel(options_.memoryBudgetBytes) + " cannot hold this scene: its " +
+                        std::to_string(n) + " triangles take " + byteSizeLabel(device) + " on the device (48 bytes each) and " +
+                        byteSizeLabel(hostPeakBytes_) + " of host working set while they are uploaded",
+                    "cone path", "give --memory-budget well above " + byteSizeLabel(device + hostPeakBytes_) +
+                                     " (the frame's rays, tree and traversal come on top)");
+    }
+
+    // The buffers' order of the kept triangles: blockers first (two-pass), Morton order of the centroids
+    // (clusters; kept while the index list stays, so moving vertices keep their clusters), else scene order.
+    if (options_.twoPass) orderBlockersFirst(kept, vertex, light);
+    else if (clusters) orderForClusters(kept, previous, vertex);
+    order_.swap(kept);
+    std::vector<uint32_t>().swap(kept);
+
     triangles_.resize(chunks);
+    if (clusters) clusterWorld_.assign((n + CLUSTER_SIZE - 1) / CLUSTER_SIZE, glm::dvec4(0));
+    else std::vector<glm::dvec4>().swap(clusterWorld_);
+    std::vector<glm::vec4> chunk(chunkBytes / sizeof(glm::vec4));
+    const uint64_t perChunk = chunkBytes / kTriangleBytes;  // a multiple of CLUSTER_SIZE or all triangles
     for (size_t c = 0; c < chunks; ++c) {
       const uint64_t first = uint64_t(c) * chunkTriangles_;
-      const uint64_t count = std::min<uint64_t>(chunkTriangles_, triangleCount_ - std::min<uint64_t>(first, triangleCount_));
+      const uint64_t count = std::min<uint64_t>(chunkTriangles_, n - std::min<uint64_t>(first, n));
       const uint64_t bytes = std::max<uint64_t>(count * kTriangleBytes, 16);
       if (triangles_[c].size < bytes || triangles_[c].size > 2 * bytes) {
         triangles_[c].reset();
         triangles_[c] = vk::createBuffer(ctx_, bytes);
       }
-      if (count) vk::upload(ctx_, triangles_[c], tris.data() + 3 * first, count * kTriangleBytes);
+      for (uint64_t done = 0; done < count; done += perChunk) {
+        const uint64_t m = std::min(perChunk, count - done);
+        for (uint64_t t = 0; t < m; ++t)
+          for (int k = 0; k < 3; ++k) chunk[3 * t + k] = glm::vec4(vertex(order_[first + done + t], k), 1.0f);
+        if (clusters)  // chunks start on a cluster (perChunk and chunkTriangles_ are multiples of it)
+          for (uint64_t t = 0; t < m; t += CLUSTER_SIZE)
+            clusterWorld_[(first + done + t) / CLUSTER_SIZE] =
+                traversal::clusterBounds(chunk.data() + 3 * t, 3 * std::min<uint64_t>(CLUSTER_SIZE, m - t));
+        vk::upload(ctx_, triangles_[c], chunk.data(), m * kTriangleBytes, done * kTriangleBytes);
+      }
     }
-    if (options_.clusters && !options_.twoPass) clusterBounds(tris);
-    cachedPositions_ = scene.positions;
-    cachedIndices_ = scene.indices;
+    positionsKey_ = positionsKey;
+    indicesKey_ = indicesKey;
     uploads_++;
     cachedLight_ = light;
     return msSince(t0);
   }
 
   // Clusters (traversal.h, "Clusters"): the triangles in Morton order of their centroids over the
-  // bounds, so every CLUSTER_SIZE consecutive ones are close in space. The order is kept while the
-  // scene's index list stays (moving vertices: the clusters stay, their spheres follow); `reorder` makes it anew.
-  void orderForClusters(std::vector<glm::vec4>& tris, bool reorder) {
-    const size_t n = tris.size() / 3;
-    if (reorder || clusterOrder_.size() != n) {
-      std::vector<uint32_t> code(n);
-      const glm::vec3 lo = boundsLo_, ext = glm::max(boundsHi_ - boundsLo_, glm::vec3(1e-30f));
-      auto spread = [](uint32_t v) {  // 10 bits -> every third bit
-        v = (v | (v << 16)) & 0x030000FFu;
-        v = (v | (v << 8)) & 0x0300F00Fu;
-        v = (v | (v << 4)) & 0x030C30C3u;
-        return (v | (v << 2)) & 0x09249249u;
-      };
-      for (size_t t = 0; t < n; ++t) {
-        const glm::vec3 c = (glm::vec3(tris[3 * t]) + glm::vec3(tris[3 * t + 1]) + glm::vec3(tris[3 * t + 2])) / 3.0f;
-        const glm::vec3 u = glm::clamp((c - lo) / ext, 0.0f, 1.0f) * 1023.0f;
-        code[t] = (spread(uint32_t(u.x)) << 2) | (spread(uint32_t(u.y)) << 1) | spread(uint32_t(u.z));
-      }
-      clusterOrder_.resize(n);
-      for (size_t t = 0; t < n; ++t) clusterOrder_[t] = uint32_t(t);
-      std::stable_sort(clusterOrder_.begin(), clusterOrder_.end(), [&](uint32_t a, uint32_t b) { return code[a] < code[b]; });
+  // bounds, so every CLUSTER_SIZE consecutive ones are close in space. The previous order is kept when
+  // there is one (the same index list, no triangle dropped: moving vertices keep their clusters, whose
+  // spheres follow them).
+  template <class Vertex>
+  void orderForClusters(std::vector<uint32_t>& kept, std::vector<uint32_t>& previous, const Vertex& vertex) {
+    if (previous.size() == kept.size() && kept.size() > 0) {
+      kept.swap(previous);
+      return;
     }
-    std::vector<glm::vec4> ordered(tris.size());
-    for (size_t t = 0; t < n; ++t)
-      for (int k = 0; k < 3; ++k) ordered[3 * t + k] = tris[3 * size_t(clusterOrder_[t]) + k];
-    tris.swap(ordered);
-  }
-
-  // Each cluster's bounding sphere in world space, in double: the centre of its vertices' box and the
-  // largest distance to a vertex.
-  void clusterBounds(const std::vector<glm::vec4>& tris) {
-    const size_t n = tris.size() / 3, clusters = (n + CLUSTER_SIZE - 1) / CLUSTER_SIZE;
-    clusterWorld_.assign(clusters, glm::dvec4(0));
-    for (size_t k = 0; k < clusters; ++k) {
-      const size_t first = k * CLUSTER_SIZE, end = std::min(n, first + CLUSTER_SIZE);
-      clusterWorld_[k] = traversal::clusterBounds(tris.data() + 3 * first, 3 * (end - first));
+    std::vector<uint32_t>().swap(previous);
+    const glm::vec3 lo = boundsLo_, ext = glm::max(boundsHi_ - boundsLo_, glm::vec3(1e-30f));
+    auto spread = [](uint32_t v) {  // 10 bits -> every third bit
+      v = (v | (v << 16)) & 0x030000FFu;
+      v = (v | (v << 8)) & 0x0300F00Fu;
+      v = (v | (v << 4)) & 0x030C30C3u;
+      return (v | (v << 2)) & 0x09249249u;
+    };
+    std::vector<uint64_t> keys(kept.size());  // Morton code, then the position in scene order: stable
+    for (size_t t = 0; t < kept.size(); ++t) {
+      const glm::vec3 c = (vertex(kept[t], 0) + vertex(kept[t], 1) + vertex(kept[t], 2)) / 3.0f;
+      const glm::vec3 u = glm::clamp((c - lo) / ext, 0.0f, 1.0f) * 1023.0f;
+      const uint32_t code = (spread(uint32_t(u.x)) << 2) | (spread(uint32_t(u.y)) << 1) | spread(uint32_t(u.z));
+      keys[t] = (uint64_t(code) << 32) | t;
     }
+    std::sort(keys.begin(), keys.end());
+    std::vector<uint32_t> ordered(kept.size());
+    for (size_t t = 0; t < kept.size(); ++t) ordered[t] = kept[uint32_t(keys[t])];
+    kept.swap(ordered);
   }
 
   // The clusters' spheres relative to the light in the pass tests' coordinates (the world, or the far
@@ -679,37 +822,45 @@ class ConeMethod : public ShadowMethod {
 
   // Two-pass blockers (cone_method.h): triangles subtending at least blockerSolidAngle at the light, the
   // largest blockerMaxFraction of all at most, moved to the front in their scene order; sets blockerCount_.
-  void orderBlockersFirst(std::vector<glm::vec4>& tris, glm::vec3 light) {
-    const size_t n = tris.size() / 3;
+  template <class Vertex>
+  void orderBlockersFirst(std::vector<uint32_t>& kept, const Vertex& vertex, glm::vec3 light) {
+    const size_t n = kept.size();
     std::vector<double> omega(n);
     const glm::dvec3 l(light);
     for (size_t t = 0; t < n; ++t)
-      omega[t] = solidAngle(glm::dvec3(glm::vec3(tris[3 * t])) - l, glm::dvec3(glm::vec3(tris[3 * t + 1])) - l,
-                            glm::dvec3(glm::vec3(tris[3 * t + 2])) - l);
-    std::vector<uint32_t> candidates;
-    for (size_t t = 0; t < n; ++t)
-      if (omega[t] >= double(options_.blockerSolidAngle)) candidates.push_back(uint32_t(t));
+      omega[t] = solidAngle(glm::dvec3(vertex(kept[t], 0)) - l, glm::dvec3(vertex(kept[t], 1)) - l,
+                            glm::dvec3(vertex(kept[t], 2)) - l);
+    size_t candidates = 0;
+    for (size_t t = 0; t < n; ++t) candidates += omega[t] >= double(options_.blockerSolidAngle);
     const size_t cap = size_t(std::floor(double(options_.blockerMaxFraction) * double(n)));
-    if (candidates.size() > cap) {  // the largest `cap`, ties broken by scene order: deterministic
-      auto larger = [&](uint32_t a, uint32_t b) { return omega[a] != omega[b] ? omega[a] > omega[b] : a < b; };
-      std::nth_element(candidates.begin(), candidates.begin() + cap, candidates.end(), larger);
-      candidates.resize(cap);
-    }
     std::vector<uint8_t> isBlocker(n, 0);
-    for (uint32_t t : candidates) isBlocker[t] = 1;
-    std::vector<glm::vec4> ordered;
-    ordered.reserve(tris.size());
+    if (candidates <= cap) {
+      for (size_t t = 0; t < n; ++t) isBlocker[t] = omega[t] >= double(options_.blockerSolidAngle);
+    } else if (cap > 0) {  // the largest `cap`, ties broken by scene order: deterministic
+      std::vector<uint32_t> rank;
+      rank.reserve(candidates);
+      for (size_t t = 0; t < n; ++t)
+        if (omega[t] >= double(options_.blockerSolidAngle)) rank.push_back(uint32_t(t));
+      auto larger = [&](uint32_t a, uint32_t b) { return omega[a] != omega[b] ? omega[a] > omega[b] : a < b; };
+      std::nth_element(rank.begin(), rank.begin() + cap, rank.end(), larger);
+      for (size_t k = 0; k < cap; ++k) isBlocker[rank[k]] = 1;
+      candidates = cap;
+    } else {
+      candidates = 0;
+    }
+    std::vector<uint32_t> ordered;
+    ordered.reserve(n);
     for (int pass = 1; pass >= 0; --pass)
       for (size_t t = 0; t < n; ++t)
-        if (isBlocker[t] == pass) ordered.insert(ordered.end(), tris.begin() + 3 * t, tris.begin() + 3 * t + 3);
-    tris.swap(ordered);
-    blockerCount_ = uint32_t(candidates.size());
+        if (isBlocker[t] == pass) ordered.push_back(kept[t]);
+    kept.swap(ordered);
+    blockerCount_ = uint32_t(candidates);
   }
 
   vk::Context& ctx_;
   ConeOptions options_;
   cone::ConeTree tree_;
-  traversal::Traversal traversal_;
+  std::unique_ptr<traversal::Traversal> traversal_;
   vk::Timer timer_;
   std::unique_ptr<sort::LitRays> rays_;
   uint32_t raysWidth_ = 0, raysHeight_ = 0;
@@ -719,15 +870,16 @@ class ConeMethod : public ShadowMethod {
   vk::Readback readback_{ctx_};  // the mask and the counters, copied inside the frame's submission
   uint32_t triangleCount_ = 0;
   uint64_t droppedTriangles_ = 0;
-  std::vector<glm::vec3> cachedPositions_;
-  std::vector<uint32_t> cachedIndices_;
+  SceneKey positionsKey_, indicesKey_;  // of the uploaded scene (hashBytes)
+  std::vector<uint32_t> order_;         // scene triangle (the kept ones) of each triangle buffer slot, in order
+  uint64_t hostPeakBytes_ = 0;          // host working set of the last upload (uploadTriangles)
+  uint64_t traversalMemory_ = 0;        // the traversal's memory bound this frame (ensureTraversal)
   glm::vec3 cachedLight_{0};
   glm::vec3 boundsLo_{0}, boundsHi_{0};  // of the uploaded (finite) triangles
   cone::FrameChoice frame_;              // this frame's cone frame (world or far)
   std::vector<vk::Buffer> frameTriangles_;  // far frame: the triangles relative to the light in the frame
   uint64_t uploads_ = 0;                    // triangle uploads so far
   // clusters (traversal.h, "Clusters")
-  std::vector<uint32_t> clusterOrder_;       // scene triangle (finite ones, in order) of each buffer slot
   std::vector<glm::dvec4> clusterWorld_;     // per cluster: world centre, radius
   std::vector<vk::Buffer> clusterSpheres_;   // per triangle buffer: its clusters' spheres for this frame
   uint64_t clusterSpheresUpload_ = ~uint64_t(0);

@@ -65,6 +65,12 @@ struct ConeOptions {
   // Triangle clusters down the upper levels of the tree (traversal.h, "Clusters"; --clusters): the same
   // mask, fewer pairs tested on large scenes. One-pass frames in one submission only.
   bool clusters = true;
+  // --memory-budget: a cap on everything the cone path holds for a frame, device buffers and host working
+  // set together (0: none). The traversal's arena is what the other buffers leave, at most
+  // traversalMemoryBytes (a smaller arena is slower, never different); a budget that cannot hold the
+  // triangles, the frame's rays and tree and the smallest arena is refused with the bytes it needs.
+  // The device bytes count the arena whole; the host bytes are the upload's working set (cone_method.cpp).
+  uint64_t memoryBudgetBytes = 0;
   // Triangles per triangle buffer; 0 = as many as one storage binding of the device holds (48 bytes each:
   // 2.8 M on lavapipe's 128 MiB). A larger scene is traversed buffer by buffer, the same tree and mask
   // (tests set a small value to prove it).
@@ -93,6 +99,8 @@ struct ConeOptions {
 //               early_accepted_nodes, lit_samples, triangles, tree_depth, tree_nodes, pairs_tested, pairs_survived, leaf_tests,
 //               traversal (per pass: inputs, pairs tested, survivors, chunks; leaf pairs/tests/hits;
 //               submits; peak_bytes), traversal_memory_bytes, pair_capacity, chunk_capacity, epsilon.
+//               host_peak_bytes (the upload's host working set); under a budget memory_budget_bytes and
+//               memory_budget_used_bytes (device bytes allocated + host_peak_bytes, <= the budget).
 //   bytesAllocated / peakBytes: every buffer the method holds for the frame / the same with the
 //               traversal's share at its measured peak (<= traversalMemoryBytes).
 // Paper 002's variant names (Table 1): "Precise" (precise test, unsorted), "PreciseSorted" (precise,
