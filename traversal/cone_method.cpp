@@ -24,9 +24,8 @@ double msSince(Clock::time_point t0) { return std::chrono::duration<double, std:
 
 constexpr uint32_t kOne = 0x3F800000u;  // 1.0f: the visibility words start lit
 constexpr uint64_t kMaxBatches = 64;     // batches one submission may hold (see runSubmitted)
-// Triangles written into the triangle buffers per upload (16 MiB; whole clusters): the host chunk and,
-// on a discrete GPU, the staging buffer hold no more.
-constexpr uint64_t kUploadTriangles = uint64_t(CLUSTER_SIZE) * 5461;
+constexpr uint64_t kUploadTriangles = kConeUploadTriangles;
+static_assert(kUploadTriangles % CLUSTER_SIZE == 0, "uploads of whole clusters");
 
 // A 128-bit hash of a byte range (two independent multiply-rotate lanes over 8-byte words, as in
 // xxHash's rounds, finished with an avalanche): how the cone path tells that a scene changed without
@@ -221,6 +220,7 @@ class ConeMethod : public ShadowMethod {
       stats["traversal_memory_bytes"] = traversalMemory_;
       stats["pair_capacity"] = traversal_->plan().pairCapacity;
       stats["chunk_capacity"] = traversal_->plan().chunkCapacity;
+      stats["traversal_bytes"] = traversal_->bytesAllocated();
     }
     out.work = std::to_string(ts.pairsTested()) + " nodes visited, " + std::to_string(ts.leafTests) + " leaf tests";
     out.stages = std::move(stages);
@@ -711,7 +711,7 @@ class ConeMethod : public ShadowMethod {
                         std::to_string(n) + " triangles take " + byteSizeLabel(device) + " on the device (48 bytes each) and " +
                         byteSizeLabel(hostPeakBytes_) + " of host working set while they are uploaded",
                     "cone path", "give --memory-budget well above " + byteSizeLabel(device + hostPeakBytes_) +
-                                     " (the frame's rays, tree and traversal come on top)");
+                                     ": the frame's rays, tree and traversal come on top");
     }
 
     // The buffers' order of the kept triangles: blockers first (two-pass), Morton order of the centroids

@@ -109,6 +109,9 @@ struct ConeOptions {
 // "PreciseSEATP" (precise, sorted, early accept, two-pass). Sets o.test, o.sorted, o.earlyAccept and
 // o.twoPass for one of those names and returns true; false for any other name.
 bool applyConeVariant(const std::string& name, ConeOptions& o);
+// Triangles the upload writes into the triangle buffers at a time (16 MiB of vertices, whole clusters of
+// 64): the host chunk and, on a discrete GPU, the staging buffer hold no more.
+inline constexpr uint64_t kConeUploadTriangles = uint64_t(64) * 5461;
 // The seven names above, in Table 1's order.
 const std::vector<std::string>& coneVariantNames();
 // The variant name of these options: a Table 1 name, or for other combinations of the switches the same

@@ -1,0 +1,133 @@
+// The cone path under --memory-budget (cone_method.h, memoryBudgetBytes): the mask is the unbounded
+// run's bit for bit at every budget that holds the frame, what the frame held never passes the budget,
+// a budget that cannot hold the scene or the frame is refused with the bytes it needs, and the upload's
+// host working set is not a copy of the scene.
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+#include "core/scene.h"
+#include "tests/cli_support.h"
+#include "tests/cone_test_support.h"
+
+namespace cs::test {
+namespace {
+
+struct Budgeted {
+  std::vector<float> mask;
+  nlohmann::json stats;
+  uint64_t bytes = 0;
+};
+
+Budgeted runBudget(ReferenceFrame& f, uint64_t budget, const std::string& what) {
+  ConeOptions o;
+  o.memoryBudgetBytes = budget;
+  ConeRun r = runExactCone(f, o, what);
+  Budgeted b;
+  b.mask = std::move(r.mask);
+  b.stats = std::move(r.stats);
+  return b;
+}
+
+TEST(MemoryBudget, TheMaskIsTheUnboundedOneAtEveryBudgetThatHoldsTheFrame) {
+  const Scene scene = heightFieldScene(30000);
+  ReferenceFrame f(scene, automaticCamera(scene), scene.lights.at(0).position, 96);
+  const std::vector<float> plain = runExactCone(f, ConeOptions{}, "height field 30k, no budget").mask;
+
+  // A roomy budget: the traversal gets its default bound; the frame's other buffers and the host's
+  // working set are what is left of the budget's use once the traversal's bytes are taken out.
+  const uint64_t roomy = uint64_t(512) << 20;
+  Budgeted wide = runBudget(f, roomy, "budget 512M");
+  EXPECT_TRUE(sameBits(plain, wide.mask)) << "512M: mask differs";
+  EXPECT_EQ(wide.stats["traversal_memory_bytes"].get<uint64_t>(), traversal::kDefaultMemoryBytes);
+  const uint64_t used = wide.stats["memory_budget_used_bytes"].get<uint64_t>();
+  EXPECT_LE(used, roomy);
+  const uint64_t fixed = used - wide.stats["traversal_bytes"].get<uint64_t>();
+  EXPECT_GT(wide.stats["host_peak_bytes"].get<uint64_t>(), 0u);
+
+  // Tighter and tighter: the arena shrinks to what is left, down to the chunked traversal; same mask.
+  for (uint64_t spare : {uint64_t(8) << 20, uint64_t(1) << 20, uint64_t(64) << 10, uint64_t(16) << 10}) {
+    const uint64_t budget = fixed + spare;
+    Budgeted b = runBudget(f, budget, "budget fixed + " + std::to_string(spare));
+    EXPECT_TRUE(sameBits(plain, b.mask)) << "fixed + " << spare << ": mask differs";
+    EXPECT_LE(b.stats["memory_budget_used_bytes"].get<uint64_t>(), budget) << "fixed + " << spare;
+    EXPECT_LE(b.stats["traversal_memory_bytes"].get<uint64_t>(), spare) << "fixed + " << spare;
+    EXPECT_LE(b.stats["traversal_bytes"].get<uint64_t>(), spare) << "fixed + " << spare;
+  }
+}
+
+TEST(MemoryBudget, ABudgetThatCannotHoldTheSceneOrTheFrameIsRefusedWithTheBytesItNeeds) {
+  const Scene scene = heightFieldScene(30000);
+  ReferenceFrame f(scene, automaticCamera(scene), scene.lights.at(0).position, 64);
+  auto refusal = [&](uint64_t budget) -> std::string {
+    ConeOptions o;
+    o.memoryBudgetBytes = budget;
+    auto method = makeConeMethod(context(), o);
+    try {
+      method->run(f.input);
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "";
+  };
+  // 30,000 triangles take 1.4 MB on the device and 1.5 MB on the host while they are uploaded: 1 MB
+  // cannot hold them, which is found before anything is allocated.
+  const std::string scene1M = refusal(uint64_t(1) << 20);
+  EXPECT_NE(scene1M.find("--memory-budget 1M cannot hold this scene"), std::string::npos) << scene1M;
+  EXPECT_NE(scene1M.find(std::to_string(scene.triangleCount()) + " triangles"), std::string::npos) << scene1M;
+  // The triangles fit in 3 MB, the frame's rays, tree and traversal do not.
+  const std::string frame3M = refusal(uint64_t(3) << 20);
+  EXPECT_NE(frame3M.find("--memory-budget 3M cannot hold this frame"), std::string::npos) << frame3M;
+  EXPECT_NE(frame3M.find("give --memory-budget"), std::string::npos) << frame3M;
+}
+
+TEST(MemoryBudget, TheUploadsHostWorkingSetIsNotACopyOfTheScene) {
+  // More triangles than one upload chunk: the host holds the buffer order (4 bytes a triangle), the
+  // clusters' Morton keys while sorting (12 more) and one chunk, not the 48 bytes a triangle of the
+  // vertices the device gets (the upload used to hold two such copies and the scene's positions and
+  // indices a second time).
+  const Scene scene = heightFieldScene(2 * kConeUploadTriangles);
+  const uint64_t n = scene.triangleCount();
+  ReferenceFrame f(scene, automaticCamera(scene), scene.lights.at(0).position, 32);
+  ConeRun r = runExactCone(f, ConeOptions{}, "height field 700k at 32x32");
+  const uint64_t host = r.stats["host_peak_bytes"].get<uint64_t>();
+  EXPECT_LE(host, 16 * n + kConeUploadTriangles * 48 + n) << n << " triangles";
+  EXPECT_LT(host, 48 * n) << "the host held a copy of the triangles' vertices";
+}
+
+TEST(MemoryBudget, TheCliTakesItAndRefusesWhatCannotHoldWithNoOutput) {
+  namespace fs = std::filesystem;
+  const fs::path out = fs::temp_directory_path() / "coneshadow_memory_budget_test";
+  fs::remove_all(out);
+  CliRun ok = cli("render heightfield:20k --methods cone --memory-budget 64M --width 64 --height 64 --frames 1 --quiet --out " +
+                  out.string());
+  ASSERT_EQ(ok.code, 0) << ok.out;
+  std::ifstream in(out / "results.json");
+  const nlohmann::json rows = nlohmann::json::parse(in);
+  bool seen = false;
+  for (const nlohmann::json& row : rows)
+    if (row["method"] == "cone") {
+      seen = true;
+      EXPECT_EQ(row["stats"]["memory_budget_bytes"].get<uint64_t>(), uint64_t(64) << 20);
+      EXPECT_LE(row["stats"]["memory_budget_used_bytes"].get<uint64_t>(), uint64_t(64) << 20);
+      EXPECT_EQ(row["error"]["misclassified_outside_band"].get<uint64_t>(), 0u);
+    }
+  EXPECT_TRUE(seen) << ok.out;
+  fs::remove_all(out);
+
+  CliRun tiny = cli("render heightfield:20k --methods cone --memory-budget 1M --width 64 --height 64 --quiet --out " + out.string());
+  EXPECT_EQ(tiny.code, 1) << tiny.out;
+  EXPECT_NE(tiny.out.find("--memory-budget 1M cannot hold this scene"), std::string::npos) << tiny.out;
+  EXPECT_FALSE(fs::exists(out)) << "a refused run left its --out folder";
+
+  CliRun usage = cli("render heightfield:20k --methods cone --memory-budget 12 --width 64 --height 64 --quiet");
+  EXPECT_EQ(usage.code, 2) << usage.out;
+  EXPECT_NE(usage.out.find("--memory-budget 12 is too small"), std::string::npos) << usage.out;
+  CliRun shape = cli("info heightfield:12q");
+  EXPECT_EQ(shape.code, 2) << shape.out;
+}
+
+}  // namespace
+}  // namespace cs::test
