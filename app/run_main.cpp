@@ -1,6 +1,7 @@
 // The CLI as a function: parse, dispatch, and turn every failure into one line on stderr and a
 // documented exit code. Tests call it in-process, with methods they registered themselves.
 #include <iostream>
+#include <new>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,10 @@ int runMain(int argc, char** argv) {
   } catch (const UsageError& e) {
     std::cerr << "coneshadow: " << e.what() << "\n";
     return kExitUsage;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "coneshadow: error: out of host memory (a host allocation failed) (lower the resolution, give the "
+                 "cone path a --memory-budget, or raise the process's memory limit: ulimit -v)\n";
+    return kExitFailure;
   } catch (const std::exception& e) {
     std::cerr << "coneshadow: error: " << e.what() << "\n";
     return kExitFailure;

@@ -144,6 +144,12 @@ void StagedDir::commit() {
   untrack(staging_);
 }
 
+void removeLiveStagingOnCrash() {
+  std::unique_lock<std::mutex> lock(gLiveMutex, std::try_to_lock);
+  if (!lock.owns_lock()) return;
+  for (const std::string& path : live()) removeTree(path);
+}
+
 void installInterruptCleanup() {
   static std::once_flag once;
   std::call_once(once, [] {

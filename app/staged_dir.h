@@ -41,5 +41,8 @@ bool pathWithin(const std::string& inner, const std::string& outer);
 // starts the thread that cleans up on them. Call first thing in main, before any thread exists; calls
 // after the first do nothing.
 void installInterruptCleanup();
+// Removes every live staging folder, if no other thread is changing the list: what a Vulkan driver
+// crash runs before the process exits (vk::setDriverCrashCleanup); best effort.
+void removeLiveStagingOnCrash();
 
 }  // namespace cs

@@ -84,9 +84,13 @@ void occluded16(RTCScene scene, const ShadowRay* rays, int n, bool* occluded) {
 
 EmbreeDevice::EmbreeDevice(const std::string& config) {
   device_ = rtcNewDevice(config.empty() ? nullptr : config.c_str());
-  if (!device_)
-    throw Error(std::string("cannot create an Embree device: ") + errorName(rtcGetDeviceError(nullptr)),
-                "rtcNewDevice", "Embree 3 needs an SSE2-or-better x86-64 CPU and a valid config string");
+  if (!device_) {
+    const RTCError e = rtcGetDeviceError(nullptr);
+    throw Error(std::string("cannot create an Embree device: ") + errorName(e), "rtcNewDevice",
+                e == RTC_ERROR_OUT_OF_MEMORY ? "Embree's thread pool did not get its memory: raise the process's memory "
+                                               "limit (ulimit -v)"
+                                             : "Embree 3 needs an SSE2-or-better x86-64 CPU and a valid config string");
+  }
   rtcSetDeviceErrorFunction(device_, &EmbreeDevice::onError, this);
   rtcSetDeviceMemoryMonitorFunction(device_, &EmbreeDevice::onMemory, this);
 }
@@ -121,7 +125,12 @@ void EmbreeDevice::check(const std::string& where) {
     message.swap(error_);
   }
   if (message.empty() && code != RTC_ERROR_NONE) message = errorName(code);
-  if (!message.empty()) throw Error("Embree: " + message, where);
+  if (!message.empty())
+    throw Error("Embree: " + message, where,
+                code == RTC_ERROR_OUT_OF_MEMORY || code == RTC_ERROR_UNKNOWN || code == RTC_ERROR_NONE
+                    ? "Embree fails this way when its build or its threads cannot get memory: raise the process's "
+                      "memory limit (ulimit -v) or use a smaller scene"
+                    : "");
 }
 
 // ---- EmbreeReference -----------------------------------------------------------------------------------

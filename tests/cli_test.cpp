@@ -1,5 +1,6 @@
 // The coneshadow CLI as a newcomer runs it: exit codes, one-line errors, files written (and not written).
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -355,3 +356,58 @@ TEST(Cli, BadUserScenesAreOneLineEachAndWriteNothing) {
 }
 
 }  // namespace
+
+namespace cs::test {
+namespace {
+
+// Out of memory, host or device, at whatever point of a run the memory runs out (driver start-up,
+// Embree's thread pool, a Vulkan allocation, a host allocation): one line naming what failed and what
+// to do, exit 1, no output folder -- or, with enough memory, a complete result. The process's address
+// space is capped with prlimit (util-linux) from 100 MB, where the driver cannot start (or, below that,
+// the dynamic loader cannot map the libraries: not the program's to report), to 2 GB, where the run
+// completes. Not under AddressSanitizer, whose shadow memory needs terabytes of address space.
+TEST(Cli, EveryMemoryLimitGivesACompleteResultOrOneClearLineAndNoOutput) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "AddressSanitizer reserves more address space than any cap leaves";
+#else
+  namespace fs = std::filesystem;
+  if (std::system("command -v prlimit > /dev/null 2>&1") != 0) GTEST_SKIP() << "prlimit (util-linux) is not installed";
+  const fs::path out = fs::temp_directory_path() / "coneshadow_memory_limit_test";
+  bool failed = false, completed = false;
+  for (uint64_t mb = 100; mb <= 2000; mb += 150) {
+    fs::remove_all(out);
+    const std::string cmd = "prlimit --as=" + std::to_string(mb << 20) + " " + std::string(CONESHADOW_CLI) +
+                            " render --methods cone,cubesm --width 96 --height 96 --frames 1 --quiet --out " + out.string() +
+                            " 2>&1";
+    FILE* p = popen(cmd.c_str(), "r");
+    ASSERT_NE(p, nullptr);
+    std::string text;
+    char buf[4096];
+    for (size_t n; (n = fread(buf, 1, sizeof buf, p)) > 0;) text.append(buf, n);
+    const int status = pclose(p);
+    ASSERT_TRUE(WIFEXITED(status)) << mb << " MB: killed by a signal (a crash, not an error):\n" << text;
+    const int code = WEXITSTATUS(status);
+    if (code == 127 && text.find("error while loading shared libraries") != std::string::npos)
+      continue;  // the dynamic loader could not map the libraries: the program never started
+    if (code == 0) {
+      completed = true;
+      EXPECT_TRUE(fs::exists(out / "results.json")) << mb << " MB: exit 0 without results.json";
+      continue;
+    }
+    failed = true;
+    EXPECT_EQ(code, 1) << mb << " MB:\n" << text;
+    const size_t at = text.find("coneshadow: error: ");
+    ASSERT_NE(at, std::string::npos) << mb << " MB: no error line:\n" << text;
+    const std::string line = text.substr(at, text.find('\n', at) - at);
+    EXPECT_NE(line.find('('), std::string::npos) << mb << " MB: the error names no remedy: " << line;
+    EXPECT_EQ(line.find("std::bad_alloc"), std::string::npos) << mb << " MB: a bare exception name: " << line;
+    EXPECT_FALSE(fs::exists(out)) << mb << " MB: a failed run left its --out folder";
+  }
+  fs::remove_all(out);
+  EXPECT_TRUE(failed) << "no cap was small enough to fail: the test did not see the failure path";
+  EXPECT_TRUE(completed) << "no cap was large enough to complete";
+#endif
+}
+
+}  // namespace
+}  // namespace cs::test

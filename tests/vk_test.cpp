@@ -120,3 +120,49 @@ TEST(Validation, LayerIsActiveAndReportsAnInvalidCall) {
 
 }  // namespace
 }  // namespace cs
+
+namespace cs {
+namespace {
+
+TEST(Kernel, ABindingPastMaxStorageBufferRangeIsRefusedBeforeItIsRecorded) {
+  // A storage binding larger than the device's maxStorageBufferRange is undefined on a GPU; the range
+  // is refused when the dispatch is recorded, naming the kernel, the binding and both sizes.
+  auto& ctx = test::context();
+  vk::Kernel k = vk::createKernel(ctx, "iota", spv_iota_comp, 2, 8);
+  vk::Buffer a = vk::createBuffer(ctx, 64), b = vk::createBuffer(ctx, 64);
+  vk::BufferRange past(a, 0, ctx.maxStorageBufferRange() + 16);
+  vk::Commands cmd(ctx);
+  struct { uint32_t count, scale; } push{1, 1};
+  try {
+    cmd.dispatch(k, {past, b}, push, 1, 1);
+    FAIL() << "a binding past maxStorageBufferRange was recorded";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("iota: binding 0"), std::string::npos) << what;
+    EXPECT_NE(what.find("maxStorageBufferRange"), std::string::npos) << what;
+  }
+}
+
+TEST(Context, VulkanFailuresNameTheCallTheResultAndWhatToDo) {
+  // What a device loss or an exhausted heap turns into wherever VK_CHECK sees it (every Vulkan call).
+  auto message = [](VkResult r) {
+    try {
+      vk::fail(r, "vkQueueSubmit(queue, 1, &si, fence)", "vk/context.cpp", 1);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  const std::string lost = message(VK_ERROR_DEVICE_LOST);
+  EXPECT_NE(lost.find("vkQueueSubmit"), std::string::npos) << lost;
+  EXPECT_NE(lost.find("VK_ERROR_DEVICE_LOST"), std::string::npos) << lost;
+  EXPECT_NE(lost.find("--device"), std::string::npos) << lost;
+  const std::string oom = message(VK_ERROR_OUT_OF_DEVICE_MEMORY);
+  EXPECT_NE(oom.find("VK_ERROR_OUT_OF_DEVICE_MEMORY"), std::string::npos) << oom;
+  EXPECT_NE(oom.find("lower the resolution"), std::string::npos) << oom;
+  const std::string init = message(VK_ERROR_INITIALIZATION_FAILED);
+  EXPECT_NE(init.find("ulimit -v"), std::string::npos) << init;
+}
+
+}  // namespace
+}  // namespace cs

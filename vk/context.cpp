@@ -2,8 +2,14 @@
 #include "vk/context.h"
 
 #include <algorithm>
+#include <atomic>
+#include <csignal>
+#include <mutex>
 #include <cstring>
 #include <iostream>
+
+#include <errno.h>
+#include <unistd.h>
 
 namespace cs::vk {
 
@@ -28,7 +34,8 @@ void fail(VkResult r, const char* call, const char* file, int line) {
   if (r == VK_ERROR_OUT_OF_DEVICE_MEMORY || r == VK_ERROR_OUT_OF_HOST_MEMORY)
     hint = "lower the resolution or the memory bounds";
   else if (r == VK_ERROR_INCOMPATIBLE_DRIVER || r == VK_ERROR_INITIALIZATION_FAILED)
-    hint = "is a Vulkan driver installed? apt-get install mesa-vulkan-drivers";
+    hint = "no Vulkan driver could start: is one installed (apt-get install mesa-vulkan-drivers), and does the "
+           "process have the memory a driver needs (ulimit -v)?";
   else if (r == VK_ERROR_DEVICE_LOST)
     hint = "the GPU reset; try again or pick another device with --device";
   throw Error(std::string(call) + " returned " + resultName(r),
@@ -177,7 +184,53 @@ std::vector<std::string> listDevices() {
   return out;
 }
 
+namespace {
+
+std::atomic<int> gInDriver{0};
+std::atomic<const char*> gDriverCall{nullptr};
+std::atomic<void (*)()> gDriverCrashCleanup{nullptr};
+
+void onDriverCrash(int sig) {
+  if (gInDriver.load() <= 0) {  // not the driver's: the default action (a crash stays a crash)
+    signal(sig, SIG_DFL);
+    return;  // the faulting instruction runs again and takes the default action
+  }
+  const char* name = program_invocation_short_name;
+  const char* call = gDriverCall.load();
+  const char a[] = ": error: the Vulkan driver crashed in ";
+  const char b[] = " (drivers crash where they run out of memory: raise the process's memory limit (ulimit -v) or "
+                   "lower the resolution; otherwise update mesa-vulkan-drivers)\n";
+  [[maybe_unused]] ssize_t n = ::write(STDERR_FILENO, name, std::strlen(name));
+  n = ::write(STDERR_FILENO, a, sizeof a - 1);
+  n = ::write(STDERR_FILENO, call ? call : "a driver call", std::strlen(call ? call : "a driver call"));
+  n = ::write(STDERR_FILENO, b, sizeof b - 1);
+  if (void (*cleanup)() = gDriverCrashCleanup.load()) cleanup();
+  _exit(1);
+}
+
+}  // namespace
+
+DriverCall::DriverCall(const char* call) {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    struct sigaction sa {};
+    sa.sa_handler = &onDriverCrash;
+    sigemptyset(&sa.sa_mask);
+    for (int sig : {SIGSEGV, SIGBUS, SIGILL, SIGFPE}) sigaction(sig, &sa, nullptr);
+  });
+  previous_ = gDriverCall.exchange(call);
+  gInDriver.fetch_add(1);
+}
+
+DriverCall::~DriverCall() {
+  gInDriver.fetch_sub(1);
+  gDriverCall.store(previous_);
+}
+
+void setDriverCrashCleanup(void (*cleanup)()) { gDriverCrashCleanup.store(cleanup); }
+
 std::unique_ptr<Context> createContext(const ContextOptions& options) {
+  DriverCall guard("the driver's start (vkCreateInstance, vkCreateDevice)");
   auto ctx = std::make_unique<Context>();
   bool validation = options.validation;
   if (validation && !hasLayer("VK_LAYER_KHRONOS_validation"))
@@ -362,12 +415,16 @@ Buffer createBuffer(Context& ctx, VkDeviceSize size, Memory memory, VkBufferUsag
   VkMemoryAllocateInfo ai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
   ai.allocationSize = req.size;
   ai.memoryTypeIndex = type;
-  VkResult r = vkAllocateMemory(ctx.device, &ai, nullptr, &b.memory);
+  VkResult r;
+  {
+    DriverCall guard("vkAllocateMemory");
+    r = vkAllocateMemory(ctx.device, &ai, nullptr, &b.memory);
+  }
   ctx.cost.allocations++;
   if (r != VK_SUCCESS) {
     vkDestroyBuffer(ctx.device, b.buffer, nullptr);
     b.buffer = VK_NULL_HANDLE;
-    throw Error("cannot allocate " + std::to_string(size >> 20) + " MiB (" + resultName(r) + ")",
+    throw Error("cannot allocate a buffer of " + std::to_string(size) + " bytes (" + resultName(r) + ")",
                 ctx.deviceName(), "lower the resolution or the memory bounds");
   }
   VK_CHECK(vkBindBufferMemory(ctx.device, b.buffer, b.memory, 0));
@@ -496,7 +553,11 @@ Image createImage(Context& ctx, uint32_t width, uint32_t height, VkFormat format
   VkMemoryAllocateInfo ai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
   ai.allocationSize = req.size;
   ai.memoryTypeIndex = type;
-  VkResult r = vkAllocateMemory(ctx.device, &ai, nullptr, &t.memory);
+  VkResult r;
+  {
+    DriverCall guard("vkAllocateMemory");
+    r = vkAllocateMemory(ctx.device, &ai, nullptr, &t.memory);
+  }
   ctx.cost.allocations++;
   if (r != VK_SUCCESS)
     throw Error("cannot allocate a " + std::to_string(width) + "x" + std::to_string(height) + " render target (" +
@@ -582,7 +643,10 @@ VkPipeline createTrianglePipeline(Context& ctx, const TrianglePipelineDesc& desc
   pi.layout = desc.layout;
   pi.renderPass = desc.renderPass;
   VkPipeline pipeline = VK_NULL_HANDLE;
-  VK_CHECK(vkCreateGraphicsPipelines(ctx.device, VK_NULL_HANDLE, 1, &pi, nullptr, &pipeline));
+  {
+    DriverCall guard("vkCreateGraphicsPipelines (compiling a shader)");
+    VK_CHECK(vkCreateGraphicsPipelines(ctx.device, VK_NULL_HANDLE, 1, &pi, nullptr, &pipeline));
+  }
   return pipeline;
 }
 
@@ -650,7 +714,10 @@ Kernel createKernel(Context& ctx, const char* name, const uint32_t* spirv, size_
   ci.stage.pName = "main";
   ci.stage.pSpecializationInfo = entries.empty() ? nullptr : &si;
   ci.layout = k.layout;
-  VK_CHECK(vkCreateComputePipelines(ctx.device, VK_NULL_HANDLE, 1, &ci, nullptr, &k.pipeline));
+  {
+    DriverCall guard("vkCreateComputePipelines (compiling a kernel)");
+    VK_CHECK(vkCreateComputePipelines(ctx.device, VK_NULL_HANDLE, 1, &ci, nullptr, &k.pipeline));
+  }
   return k;
 }
 
@@ -733,6 +800,14 @@ static void pushBuffers(Context& ctx, VkCommandBuffer cb, const Kernel& kernel,
   uint32_t i = 0;
   for (auto& b : buffers) {
     CS_CHECK(b.buffer != VK_NULL_HANDLE, kernel.name << ": binding " << i << " is a null buffer");
+    // A storage binding past maxStorageBufferRange is undefined behaviour on a GPU (reads wrap or fault):
+    // refused here, before it is recorded, with the sizes. Callers that can exceed it split their data
+    // per binding (the cone path's triangle buffers) or check it up front (sort/, raster/).
+    const VkDeviceSize bound = b.range == VK_WHOLE_SIZE ? b.bufferSize - std::min(b.offset, b.bufferSize) : b.range;
+    if (bound > ctx.maxStorageBufferRange())
+      throw Error(kernel.name + ": binding " + std::to_string(i) + " would expose " + std::to_string(bound) +
+                      " bytes, above the device's maxStorageBufferRange of " + std::to_string(ctx.maxStorageBufferRange()),
+                  ctx.deviceName(), "lower the resolution or the memory bounds");
     infos[i] = {b.buffer, b.offset, b.range};
     writes[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
     writes[i].dstBinding = i;

@@ -26,6 +26,24 @@ const char* resultName(VkResult r);
     if (vk_check_r_ != VK_SUCCESS) ::cs::vk::fail(vk_check_r_, #call, __FILE__, __LINE__); \
   } while (0)
 
+// A driver call that can crash inside the driver when the process runs out of memory (lavapipe's device
+// creation and its shader compiler dereference failed allocations): while one is alive, a SIGSEGV,
+// SIGBUS, SIGILL or SIGFPE prints "<program>: error: the Vulkan driver crashed in <call> (...)", runs the
+// cleanup set below and exits 1. Anywhere else such a signal keeps its default action, so a bug of ours
+// stays a crash. The guarded calls: createContext, vkAllocateMemory, pipeline creation.
+class DriverCall {
+ public:
+  explicit DriverCall(const char* call);
+  ~DriverCall();
+  DriverCall(const DriverCall&) = delete;
+  DriverCall& operator=(const DriverCall&) = delete;
+
+ private:
+  const char* previous_;
+};
+// What a driver crash runs before exiting (the CLI removes its unfinished output folders); best effort.
+void setDriverCrashCleanup(void (*cleanup)());
+
 struct ContextOptions {
   std::string device;         // "" = automatic (discrete > integrated > virtual > cpu); else index or name substring
   bool validation = false;    // enable VK_LAYER_KHRONOS_validation and count its messages
@@ -207,9 +225,11 @@ struct BufferRange {
   VkBuffer buffer = VK_NULL_HANDLE;
   VkDeviceSize offset = 0;
   VkDeviceSize range = VK_WHOLE_SIZE;
+  VkDeviceSize bufferSize = 0;  // the whole buffer's bytes when known (a VK_WHOLE_SIZE range is checked by it)
   BufferRange() = default;
-  BufferRange(const Buffer& b) : buffer(b.buffer) {}  // NOLINT: implicit on purpose
-  BufferRange(const Buffer& b, VkDeviceSize off, VkDeviceSize len) : buffer(b.buffer), offset(off), range(len) {}
+  BufferRange(const Buffer& b) : buffer(b.buffer), bufferSize(b.size) {}  // NOLINT: implicit on purpose
+  BufferRange(const Buffer& b, VkDeviceSize off, VkDeviceSize len)
+      : buffer(b.buffer), offset(off), range(len), bufferSize(b.size) {}
 };
 
 // A compute pipeline whose set 0 holds `bindings` storage buffers (bindings 0..n-1), pushed with
