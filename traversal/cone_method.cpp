@@ -175,7 +175,7 @@ class ConeMethod : public ShadowMethod {
     traversal::TraversalInput in;
     in.tree = &tree_;
     in.samples = rays_->samples();
-    in.positions = g.position;
+    in.positions = vk::texels(g.position, VK_FORMAT_R32G32B32A32_SFLOAT);  // a storage or a texel binding
     in.visibility = &visibility_;
     in.light = frame.light;
     in.eps = eps;
@@ -682,8 +682,12 @@ class ConeMethod : public ShadowMethod {
     // One buffer per `perBinding` triangles: a scene larger than one storage binding of the device
     // (128 MiB on lavapipe: 2.8 M triangles) is traversed binding by binding (traverse()).
     constexpr uint64_t kTriangleBytes = 3 * sizeof(glm::vec4);
+    // (and within one texel buffer's maxTexelBufferElements: the traversal reads them as texels, three a
+    // triangle)
     const uint64_t perBinding =
-        options_.trianglesPerBinding ? options_.trianglesPerBinding : ctx_.maxStorageBufferRange() / kTriangleBytes;
+        options_.trianglesPerBinding
+            ? options_.trianglesPerBinding
+            : std::min<uint64_t>(ctx_.maxStorageBufferRange() / kTriangleBytes, ctx_.properties.limits.maxTexelBufferElements / 3);
     CS_CHECK(perBinding >= 1, "cone: a storage binding of this device cannot hold one triangle");
     chunkTriangles_ = uint32_t(std::min<uint64_t>(perBinding, UINT32_MAX));
     if (chunkTriangles_ >= CLUSTER_SIZE) chunkTriangles_ -= chunkTriangles_ % CLUSTER_SIZE;  // whole clusters a buffer

@@ -16,6 +16,8 @@ namespace cs::traversal {
 // ---- sizing ------------------------------------------------------------------------------------------
 
 namespace {
+// The test kernel reads triangles and nodes as uniform texel buffers of 16-byte texels (traverse_test.comp).
+constexpr VkFormat kTexelFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
 constexpr uint64_t kPairBytes = 8;          // uvec2
 constexpr uint64_t kStatsBytes = STAT_WORDS * 4;
 constexpr uint64_t kScanSlack = 2 * 4 * 256 + 16;  // scan scratch alignment (<= 256 B per array) + its dummy
@@ -136,9 +138,9 @@ Traversal::Traversal(vk::Context& ctx, uint64_t memoryBytes)
 Traversal::Traversal(vk::Context& ctx, const ArenaPlan& plan) : ctx_(ctx), plan_(plan) {
   CS_CHECK(plan_.pairCapacity >= kMinPairs && plan_.chunkCapacity >= 1, "traversal arena plan too small");
   batchTriangles_ = plan_.chunkCapacity;
-  test_ = vk::createKernel(ctx, "traverse test", spv_traverse_test_comp, 11, sizeof(TraversePush));
+  test_ = vk::createKernel(ctx, "traverse test", spv_traverse_test_comp, 11, sizeof(TraversePush), {}, 0x3u);
   scatter_ = vk::createKernel(ctx, "traverse scatter", spv_traverse_scatter_comp, 5, sizeof(TraversePush));
-  leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 6, sizeof(TraversePush));
+  leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 6, sizeof(TraversePush), {}, 0x9u);
   advance_ = vk::createKernel(ctx, "traverse advance", spv_traverse_advance_comp, 2, sizeof(AdvancePush));
   arena_ = vk::createBuffer(ctx, plan_.pairCapacity * kPairBytes);
   chunk_ = vk::createBuffer(ctx, uint64_t(plan_.chunkCapacity) * kPairBytes);
@@ -208,11 +210,11 @@ bool Traversal::expandChunk(Frame& f, uint32_t child, bool fromTriangles, uint64
   cmd.mark("start");
   vk::Grid g = vk::gridFor(count, TRAVERSE_THREADS, ctx_.maxWorkgroups());
   if (early)
-    cmd.dispatch(test_, {tris, f.in->tree->nodes(), chunk_, masks_, counts_, stats_, f.in->samples,
-                         f.in->positions, *f.in->visibility, flags_, stats_}, p, g.x, g.y);
+    cmd.dispatch(test_, {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), chunk_, masks_,
+                         counts_, stats_, f.in->samples, f.in->positions, *f.in->visibility, flags_, stats_}, p, g.x, g.y);
   else  // bindings 6-10 unused: any valid buffer
-    cmd.dispatch(test_, {tris, f.in->tree->nodes(), chunk_, masks_, counts_, stats_, stats_, stats_,
-                         stats_, stats_, stats_}, p, g.x, g.y);
+    cmd.dispatch(test_, {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), chunk_, masks_,
+                         counts_, stats_, stats_, stats_, stats_, stats_, stats_}, p, g.x, g.y);
   cmd.barrier();
   scan_->record(cmd, counts_, counts_, sort::Count(count), sort::GpuWord(stats_, STAT_TOTAL));
   cmd.dispatch(scatter_, {arena_, chunk_, masks_, counts_, stats_}, p, g.x, g.y);
@@ -262,7 +264,7 @@ void Traversal::leaves(Frame& f, uint32_t d) {
   cmd.barrier();
   cmd.mark("start");
   vk::Grid g = vk::gridFor(4 * pairs, TRAVERSE_THREADS, ctx_.maxWorkgroups());
-  cmd.dispatch(leaves_, {*f.in->triangles, arena_, f.in->samples, f.in->positions, *f.in->visibility, stats_}, p,
+  cmd.dispatch(leaves_, {vk::texels(*f.in->triangles, kTexelFormat), arena_, f.in->samples, f.in->positions, *f.in->visibility, stats_}, p,
                g.x, g.y);
   cmd.barrier();
   cmd.mark("leaves");
@@ -413,10 +415,11 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
     };
     const vk::Buffer& spheres = clusters ? *in.clusterSpheres : state_;
     if (early)
-      dispatch(test_, {tris, in.tree->nodes(), src, masks_, counts_, state_, in.samples, in.positions, *in.visibility,
-                       flags_, spheres});
+      dispatch(test_, {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), src, masks_, counts_,
+                       state_, in.samples, in.positions, *in.visibility, flags_, spheres});
     else
-      dispatch(test_, {tris, in.tree->nodes(), src, masks_, counts_, state_, state_, state_, state_, state_, spheres});
+      dispatch(test_, {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), src, masks_, counts_,
+                       state_, state_, state_, state_, state_, spheres});
     cmd.barrier();
     scan_->record(cmd, counts_, counts_, sort::Count::device(sort::GpuWord(state_, STATE_COUNT), capacity).withGroups(state_.buffer, STATE_SCAN_ARGS * 4),
                   sort::GpuWord(state_, STAT_TOTAL));
@@ -446,7 +449,7 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
       p.first = 0;
       p.countWord = STATE_LEAF_ARGS + 4 * c + 3;
       p.missingWord = STATE_LEAF_MISSING;
-      cmd.dispatchIndirect(leaves_, {*in.triangles, *buffers[(c - 1) % 2], in.samples, in.positions, *in.visibility, state_},
+      cmd.dispatchIndirect(leaves_, {vk::texels(*in.triangles, kTexelFormat), *buffers[(c - 1) % 2], in.samples, in.positions, *in.visibility, state_},
                            &p, sizeof(p), state_, (STATE_LEAF_ARGS + 4 * c) * 4);
     }
     cmd.barrier();

@@ -7,17 +7,17 @@
 // Counts nothing per test (shared or global atomics per invocation cost ~15 % on lavapipe): the host
 // counts 4 tests per pair, and the invocations past the last ray -- under the last node only -- count
 // themselves in STAT_MISSING.
-// bindings: 0 = triangles (vec4 x 3), 1 = arena (uvec2 pairs), 2 = samples (uint pixel index per sorted
-//           ray), 3 = positions (vec4 per pixel), 4 = visibility (uint per pixel), 5 = stats (the device
+// bindings: 0 = triangles (uniform texel buffer, RGBA32F, 3 texels a triangle), 1 = arena (uvec2 pairs), 2 = samples (uint pixel index per sorted
+//           ray), 3 = positions (uniform texel buffer, RGBA32F, one texel a pixel), 4 = visibility (uint per pixel), 5 = stats (the device
 //           path: the state words, the pair count at p.countWord)
 #include "traversal/precise_test.h"
 #include "traversal/traverse.glsl"
 
 layout(local_size_x = TRAVERSE_THREADS) in;
-layout(std430, binding = 0) readonly buffer Triangles { vec4 tris[]; };
+layout(binding = 0) uniform samplerBuffer tris;  // RGBA32F texels, three a triangle (traverse_test.comp)
 layout(std430, binding = 1) readonly buffer Arena { uvec2 pairs[]; };
 layout(std430, binding = 2) readonly buffer Samples { uint samples[]; };
-layout(std430, binding = 3) readonly buffer Positions { vec4 positions[]; };
+layout(binding = 3) uniform samplerBuffer positions;  // RGBA32F texels, one a pixel
 layout(std430, binding = 4) buffer Visibility { uint visibility[]; };
 layout(std430, binding = 5) buffer Stats { uint stats[]; };
 layout(push_constant) uniform Push { TraversePush p; };
@@ -33,12 +33,12 @@ void main() {
   }
   uint sampleIndex = samples[leaf];
   vec3 light = p.light.xyz;
-  vec3 samplePos = positions[sampleIndex].xyz;
+  vec3 samplePos = texelFetch(positions, int(sampleIndex)).xyz;
   vec4 ray = leafRay(samplePos, light);
   if (!leafRayUsable(ray, p.minLength)) return;
-  vec3 P0 = tris[3u * pair.x].xyz;
-  vec3 P1 = tris[3u * pair.x + 1u].xyz;
-  vec3 P2 = tris[3u * pair.x + 2u].xyz;
+  vec3 P0 = texelFetch(tris, int(3u * pair.x)).xyz;
+  vec3 P1 = texelFetch(tris, int(3u * pair.x + 1u)).xyz;
+  vec3 P2 = texelFetch(tris, int(3u * pair.x + 2u)).xyz;
   if (leafHit(samplePos, light, ray, p.eps, P0, P1, P2) && visibility[sampleIndex] != 0u)
     atomicAnd(visibility[sampleIndex], 0u);
 }

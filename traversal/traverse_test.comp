@@ -11,7 +11,7 @@
 // AND as the leaves, on the leaf range the implicit tree gives -- is marked in the flags (one word per
 // interior node, cleared per frame) and does not continue (no pair written). An input pair whose node is
 // flagged is dropped: its samples are all shadowed already (its children's tests go to STAT_MISSING).
-// bindings: 0 = triangles (vec4 x 3 per triangle, world space; in the far-light frame relative to the light), 1 = nodes (ConeNode), 2 = chunk (uvec2
+// bindings: 0 = triangles (uniform texel buffer, RGBA32F: 3 texels per triangle, world space; in the far-light frame relative to the light), 1 = nodes (uniform texel buffer, RGBA32F: 2 texels per ConeNode), 2 = chunk (uvec2
 //           input pairs), 3 = masks (uint per input), 4 = counts (uint per input), 5 = stats (uint[STAT_WORDS]),
 //           6 = samples (uint pixel per sorted ray), 7 = positions (vec4 per pixel), 8 = visibility (uint per
 //           pixel), 9 = flags (uint per interior node); 6-9 used with early accept only,
@@ -25,8 +25,11 @@
 #include "traversal/traverse.glsl"
 
 layout(local_size_x = TRAVERSE_THREADS) in;
-layout(std430, binding = 0) readonly buffer Triangles { vec4 tris[]; };
-layout(std430, binding = 1) readonly buffer Nodes { ConeNode nodes[]; };
+// Triangles and nodes are read as uniform texel buffers (RGBA32F, three texels a triangle, two a node):
+// the gathers this kernel makes per pair are its cost, and texel fetches of 16-byte texels are the fast
+// gather path on lavapipe and read through the texture cache on a GPU (TOOLCHAIN.md).
+layout(binding = 0) uniform samplerBuffer tris;
+layout(binding = 1) uniform samplerBuffer nodeTexels;
 layout(std430, binding = 2) readonly buffer Chunk { uvec2 pairs[]; };
 layout(std430, binding = 3) writeonly buffer Masks { uint masks[]; };
 layout(std430, binding = 4) writeonly buffer Counts { uint counts[]; };
@@ -37,6 +40,13 @@ layout(std430, binding = 8) buffer Visibility { uint visibility[]; };
 layout(std430, binding = 9) buffer Flags { uint flags[]; };
 layout(std430, binding = 10) readonly buffer Clusters { vec4 clusterSpheres[]; };
 layout(push_constant) uniform Push { TraversePush p; };
+
+ConeNode node(uint n) {
+  ConeNode c;
+  c.axisCos = texelFetch(nodeTexels, int(2u * n));
+  c.sinLen = texelFetch(nodeTexels, int(2u * n + 1u));
+  return c;
+}
 
 // This dispatch's counts and offsets: the push constants, or on the device path the words the advance
 // kernel wrote from the tree's shape (traverse_advance.comp).
@@ -85,7 +95,7 @@ void main() {
     vec4 sphere = clusterSpheres[pair.x];
     uint mask = 0u;
     for (uint c = r.x; c < r.y; c++)
-      if (sphereConeTriangle(nodes[childOffset + c], sphere, p.eps, p.coneScale)) mask |= 1u << (c - r.x);
+      if (sphereConeTriangle(node(childOffset + c), sphere, p.eps, p.coneScale)) mask |= 1u << (c - r.x);
     masks[i] = mask;
     counts[i] = bitCount(mask);
     uint expected = p.fromTriangles != 0u ? 1u : 4u;
@@ -95,9 +105,9 @@ void main() {
   vec3 light = p.light.xyz;
   // Relative to the light, exactly as the leaf test computes them from the light's end; in the far-light
   // frame, as frame_triangles.comp wrote them.
-  precise vec3 v0 = tris[3u * pair.x].xyz;
-  precise vec3 v1 = tris[3u * pair.x + 1u].xyz;
-  precise vec3 v2 = tris[3u * pair.x + 2u].xyz;
+  precise vec3 v0 = texelFetch(tris, int(3u * pair.x)).xyz;
+  precise vec3 v1 = texelFetch(tris, int(3u * pair.x + 1u)).xyz;
+  precise vec3 v2 = texelFetch(tris, int(3u * pair.x + 2u)).xyz;
   if (p.frameVertices == 0u) {
     v0 -= light;
     v1 -= light;
@@ -115,16 +125,16 @@ void main() {
   } else if (p.test == TRAVERSE_TEST_SPHERE) {
     vec4 sphere = boundingSphere(v0, v1, v2, scale);
     for (uint c = r.x; c < r.y; c++)
-      if (sphereConeTriangle(nodes[childOffset + c], sphere, p.eps, scale)) mask |= 1u << (c - r.x);
+      if (sphereConeTriangle(node(childOffset + c), sphere, p.eps, scale)) mask |= 1u << (c - r.x);
   } else {
     // The precise test, with the sphere test ANDed in: both conservative, and the sphere's margins are
     // the tighter ones for small triangles (traversal.h).
     PreciseTriangle t = preciseTriangle(v0, v1, v2, scale);  // once for the (up to) four children
     vec4 sphere = boundingSphere(v0, v1, v2, scale);
     for (uint c = r.x; c < r.y; c++) {
-      ConeNode node = nodes[childOffset + c];
-      if (!sphereConeTriangle(node, sphere, p.eps, scale) || !preciseConeTriangle(node, t, p.eps)) continue;
-      if (p.earlyAccept != 0u && preciseConeCovered(node, t, p.eps)) acceptChild(c, light);
+      ConeNode n = node(childOffset + c);
+      if (!sphereConeTriangle(n, sphere, p.eps, scale) || !preciseConeTriangle(n, t, p.eps)) continue;
+      if (p.earlyAccept != 0u && preciseConeCovered(n, t, p.eps)) acceptChild(c, light);
       else mask |= 1u << (c - r.x);
     }
   }

@@ -372,6 +372,8 @@ Buffer& Buffer::operator=(Buffer&& o) noexcept {
   if (this != &o) {
     reset();
     ctx = o.ctx, buffer = o.buffer, memory = o.memory, size = o.size, mapped = o.mapped;
+    views = std::move(o.views);
+    o.views.clear();
     o.buffer = VK_NULL_HANDLE, o.memory = VK_NULL_HANDLE, o.mapped = nullptr, o.size = 0;
   }
   return *this;
@@ -379,11 +381,41 @@ Buffer& Buffer::operator=(Buffer&& o) noexcept {
 
 void Buffer::reset() {
   if (ctx && buffer) {
+    for (auto& [format, view] : views) vkDestroyBufferView(ctx->device, view, nullptr);
     if (mapped) vkUnmapMemory(ctx->device, memory);
     vkDestroyBuffer(ctx->device, buffer, nullptr);
     vkFreeMemory(ctx->device, memory, nullptr);
   }
+  views.clear();
   buffer = VK_NULL_HANDLE, memory = VK_NULL_HANDLE, mapped = nullptr, size = 0;
+}
+
+BufferRange texels(const Buffer& b, VkFormat format) {
+  CS_CHECK(b.ctx && b.buffer, "texels(): not a buffer");
+  CS_CHECK(format == VK_FORMAT_R32G32B32A32_SFLOAT || format == VK_FORMAT_R32G32B32A32_UINT,
+           "texels(): 16-byte formats only");
+  BufferRange r(b);
+  for (auto& [f, view] : b.views)
+    if (f == format) {
+      r.view = view;
+      return r;
+    }
+  const uint64_t elements = b.size / 16;
+  const uint64_t limit = b.ctx->properties.limits.maxTexelBufferElements;
+  if (elements > limit)
+    throw Error("a texel buffer of " + std::to_string(elements) + " 16-byte texels, above the device's "
+                    "maxTexelBufferElements of " + std::to_string(limit),
+                b.ctx->deviceName(), "lower the resolution or the scene's triangles per buffer");
+  VkBufferViewCreateInfo vi{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
+  vi.buffer = b.buffer;
+  vi.format = format;
+  vi.offset = 0;
+  vi.range = elements * 16;
+  VkBufferView view = VK_NULL_HANDLE;
+  VK_CHECK(vkCreateBufferView(b.ctx->device, &vi, nullptr, &view));
+  const_cast<Buffer&>(b).views.emplace_back(format, view);
+  r.view = view;
+  return r;
 }
 
 Buffer createBuffer(Context& ctx, VkDeviceSize size, Memory memory, VkBufferUsageFlags extraUsage) {
@@ -392,8 +424,8 @@ Buffer createBuffer(Context& ctx, VkDeviceSize size, Memory memory, VkBufferUsag
   b.size = std::max<VkDeviceSize>(16, (size + 15) & ~VkDeviceSize(15));
   VkBufferCreateInfo bi{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
   bi.size = b.size;
-  bi.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT |
-             VK_BUFFER_USAGE_TRANSFER_DST_BIT | extraUsage;
+  bi.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT |
+             VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT | extraUsage;
   VK_CHECK(vkCreateBuffer(ctx.device, &bi, nullptr, &b.buffer));
   VkMemoryRequirements req;
   vkGetBufferMemoryRequirements(ctx.device, b.buffer, &req);
@@ -656,7 +688,7 @@ Kernel& Kernel::operator=(Kernel&& o) noexcept {
   if (this != &o) {
     reset();
     ctx = o.ctx, name = std::move(o.name), module = o.module, setLayout = o.setLayout, layout = o.layout;
-    pipeline = o.pipeline, bindings = o.bindings, pushBytes = o.pushBytes;
+    pipeline = o.pipeline, bindings = o.bindings, texelBindings = o.texelBindings, pushBytes = o.pushBytes;
     o.module = VK_NULL_HANDLE, o.setLayout = VK_NULL_HANDLE, o.layout = VK_NULL_HANDLE, o.pipeline = VK_NULL_HANDLE;
   }
   return *this;
@@ -672,11 +704,12 @@ void Kernel::reset() {
 }
 
 Kernel createKernel(Context& ctx, const char* name, const uint32_t* spirv, size_t spirvBytes, uint32_t bindings,
-                    uint32_t pushBytes, std::initializer_list<SpecConstant> spec) {
+                    uint32_t pushBytes, std::initializer_list<SpecConstant> spec, uint32_t texelBindings) {
   Kernel k;
   k.ctx = &ctx;
   k.name = name;
   k.bindings = bindings;
+  k.texelBindings = texelBindings;
   k.pushBytes = pushBytes;
   CS_CHECK(pushBytes <= ctx.properties.limits.maxPushConstantsSize,
            name << ": push constants of " << pushBytes << " bytes exceed the device's "
@@ -685,7 +718,8 @@ Kernel createKernel(Context& ctx, const char* name, const uint32_t* spirv, size_
 
   std::vector<VkDescriptorSetLayoutBinding> b(bindings);
   for (uint32_t i = 0; i < bindings; ++i)
-    b[i] = {i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+    b[i] = {i, (texelBindings & (1u << i)) ? VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+            1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   VkDescriptorSetLayoutCreateInfo li{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
   li.flags = VK_DESCRIPTOR_SET_LAYOUT_CREATE_PUSH_DESCRIPTOR_BIT_KHR;
   li.bindingCount = bindings;
@@ -795,6 +829,7 @@ static void pushBuffers(Context& ctx, VkCommandBuffer cb, const Kernel& kernel,
   CS_CHECK(buffers.size() == kernel.bindings,
            kernel.name << ": " << buffers.size() << " buffers given, kernel has " << kernel.bindings << " bindings");
   VkDescriptorBufferInfo infos[16];
+  VkBufferView views[16];
   VkWriteDescriptorSet writes[16];
   CS_CHECK(buffers.size() <= 16, kernel.name << ": too many bindings");
   uint32_t i = 0;
@@ -809,11 +844,18 @@ static void pushBuffers(Context& ctx, VkCommandBuffer cb, const Kernel& kernel,
                       " bytes, above the device's maxStorageBufferRange of " + std::to_string(ctx.maxStorageBufferRange()),
                   ctx.deviceName(), "lower the resolution or the memory bounds");
     infos[i] = {b.buffer, b.offset, b.range};
+    views[i] = b.view;
     writes[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
     writes[i].dstBinding = i;
     writes[i].descriptorCount = 1;
-    writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-    writes[i].pBufferInfo = &infos[i];
+    if (kernel.texelBindings & (1u << i)) {
+      CS_CHECK(b.view != VK_NULL_HANDLE, kernel.name << ": binding " << i << " is a texel buffer: pass vk::texels()");
+      writes[i].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
+      writes[i].pTexelBufferView = &views[i];
+    } else {
+      writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+      writes[i].pBufferInfo = &infos[i];
+    }
     ++i;
   }
   vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, kernel.pipeline);
