@@ -449,6 +449,49 @@ size_t jsonDepth(const json& root, size_t limit) {
   return deepest;
 }
 
+// Every number written with a fraction of zero (1.0, 12.0e0) becomes the integer it equals, so that
+// tinygltf, which reads an integer property only from a JSON integer (it skipped "indices": 1.0 and read
+// "byteOffset": 12.0 as 0), reads what the schema check validated: glTF's schema counts 1.0 as an
+// integer. Number properties take integers as well, so the rest of the file reads the same. Values of
+// 2^53 and more keep their form (no integer property is that large). Returns whether any changed.
+bool integralNumbersAsIntegers(json& root) {
+  bool changed = false;
+  std::vector<json*> stack{&root};
+  while (!stack.empty()) {
+    json* v = stack.back();
+    stack.pop_back();
+    if (v->is_structured()) {
+      for (json& e : *v) stack.push_back(&e);
+    } else if (v->is_number_float()) {
+      const double d = v->get<double>();
+      if (d == std::floor(d) && std::abs(d) < 9.007199254740992e15) {
+        *v = d >= 0 ? json(uint64_t(d)) : json(int64_t(d));
+        changed = true;
+      }
+    }
+  }
+  return changed;
+}
+
+// The GLB `bytes` with its JSON chunk replaced by `text` (padded with spaces to 4 bytes, as the
+// container wants), the chunks after it unchanged.
+std::vector<unsigned char> withGlbJson(const std::vector<unsigned char>& bytes, std::string text) {
+  while (text.size() % 4) text += ' ';
+  const uint32_t oldLength = readU32(&bytes[12]);
+  const size_t restAt = std::min<size_t>(bytes.size(), 20 + size_t(oldLength));
+  std::vector<unsigned char> out(bytes.begin(), bytes.begin() + 12);
+  auto put = [&](uint32_t v) {
+    for (int k = 0; k < 4; ++k) out.push_back(static_cast<unsigned char>(v >> (8 * k)));
+  };
+  put(uint32_t(text.size()));
+  out.insert(out.end(), {'J', 'S', 'O', 'N'});
+  out.insert(out.end(), text.begin(), text.end());
+  out.insert(out.end(), bytes.begin() + restAt, bytes.end());
+  const uint32_t total = uint32_t(out.size());
+  for (int k = 0; k < 4; ++k) out[8 + k] = static_cast<unsigned char>(total >> (8 * k));
+  return out;
+}
+
 tinygltf::Model parseFile(const std::string& path, std::ostream& warn) {
   const std::string ext = [&] {
     std::string e = std::filesystem::path(path).extension().string();
@@ -459,9 +502,9 @@ tinygltf::Model parseFile(const std::string& path, std::ostream& warn) {
     throw Error("unknown file type '" + ext + "'", path, "the glTF loader reads .gltf and .glb files");
   const bool binary = ext == ".glb";
 
-  const std::vector<unsigned char> bytes = readFile(path);
+  std::vector<unsigned char> bytes = readFile(path);
   if (bytes.size() > std::numeric_limits<unsigned int>::max()) throw Error("the file is larger than 4 GiB", path);
-  const std::string text = binary ? glbJson(bytes, path) : std::string(bytes.begin(), bytes.end());
+  std::string text = binary ? glbJson(bytes, path) : std::string(bytes.begin(), bytes.end());
   json j;
   try {
     j = json::parse(text);
@@ -491,6 +534,11 @@ tinygltf::Model parseFile(const std::string& path, std::ostream& warn) {
       if (!harmlessRequiredExtension(e.get<std::string>()))
         throw Error("requires the extension " + e.get<std::string>() + ", which coneshadow does not implement", path,
                     "re-export the file without it");
+
+  if (integralNumbersAsIntegers(j)) {  // what tinygltf reads is what was validated
+    text = j.dump();
+    if (binary) bytes = withGlbJson(bytes, text);
+  }
 
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(noImageDecode, nullptr);

@@ -421,6 +421,50 @@ TEST_F(TinyGltf, CameraNamesNeverBecomePathsOutsideTheOutputFolder) {
   EXPECT_GT(images, 4 * names.size());
 }
 
+// glTF's schema counts 1.0 as an integer; tinygltf read "indices": 2.0 as absent, "byteOffset": 36.0 as 0
+// and "mode": 4.0 as the default. The loader hands tinygltf the integers it validated, in .gltf and .glb.
+TEST_F(TinyGltf, IntegersWrittenAsWholeFloatsReadAsTheIntegersTheyAre) {
+  std::ostringstream warn;
+  const Scene plain = loadGltf(write(tinyDocument()), warn);
+  json doc = tinyDocument();
+  doc["scene"] = 0.0;
+  doc["scenes"][0]["nodes"] = {0.0, 1.0, 3.0, 4.0, 5.0};
+  doc["nodes"][0]["mesh"] = 0.0;
+  doc["nodes"][1]["children"] = {2.0};
+  doc["meshes"][0]["primitives"][0]["indices"] = 2.0;
+  doc["meshes"][0]["primitives"][0]["mode"] = 4.0;
+  doc["meshes"][1]["primitives"][0]["indices"] = 2.0;
+  doc["meshes"][1]["primitives"][2]["mode"] = 0.0;
+  doc["accessors"][1]["bufferView"] = 1.0;
+  doc["accessors"][2]["count"] = 3.0;
+  doc["accessors"][2]["componentType"] = 5123.0;
+  doc["bufferViews"][1]["byteOffset"] = 36.0;
+  doc["bufferViews"][2]["byteOffset"] = 72.0;
+  doc["bufferViews"][2]["byteLength"] = 6.0;
+  ASSERT_NE(doc.dump().find("\"byteOffset\":72.0"), std::string::npos) << "the test must write floats";
+  std::string glb;
+  {  // the same document as a GLB of one JSON chunk (its buffer stays a data URI)
+    std::string text = doc.dump();
+    while (text.size() % 4) text += ' ';
+    auto u32 = [&](uint32_t v) {
+      for (int k = 0; k < 4; ++k) glb += char(v >> (8 * k));
+    };
+    glb = "glTF";
+    u32(2);
+    u32(uint32_t(12 + 8 + text.size()));
+    u32(uint32_t(text.size()));
+    glb += "JSON" + text;
+  }
+  const std::string glbPath = (dir / "floats.glb").string();
+  std::ofstream(glbPath, std::ios::binary) << glb;
+  for (const std::string& path : {write(doc, "floats.gltf"), glbPath}) {
+    const Scene s = loadGltf(path, warn);
+    EXPECT_EQ(s.indices, plain.indices) << path;
+    EXPECT_EQ(s.positions, plain.positions) << path;
+    EXPECT_EQ(s.normals, plain.normals) << path;
+  }
+}
+
 TEST_F(TinyGltf, NodeTransformsPlaceTrianglesInWorldSpace) {
   std::ostringstream warn;
   const Scene s = loadGltf(write(tinyDocument()), warn);
