@@ -189,11 +189,14 @@ namespace {
 std::atomic<int> gInDriver{0};
 std::atomic<const char*> gDriverCall{nullptr};
 std::atomic<void (*)()> gDriverCrashCleanup{nullptr};
+constexpr int kCrashSignals[] = {SIGSEGV, SIGBUS, SIGILL, SIGFPE};
+struct sigaction gPreviousHandlers[4];  // what was installed before (the default, or a sanitizer's)
 
 void onDriverCrash(int sig) {
-  if (gInDriver.load() <= 0) {  // not the driver's: the default action (a crash stays a crash)
-    signal(sig, SIG_DFL);
-    return;  // the faulting instruction runs again and takes the default action
+  if (gInDriver.load() <= 0) {  // not the driver's: the previous handler takes it (a crash stays a crash)
+    for (int i = 0; i < 4; ++i)
+      if (kCrashSignals[i] == sig) sigaction(sig, &gPreviousHandlers[i], nullptr);
+    return;  // the faulting instruction runs again, under the previous handler
   }
   const char* name = program_invocation_short_name;
   const char* call = gDriverCall.load();
@@ -216,7 +219,7 @@ DriverCall::DriverCall(const char* call) {
     struct sigaction sa {};
     sa.sa_handler = &onDriverCrash;
     sigemptyset(&sa.sa_mask);
-    for (int sig : {SIGSEGV, SIGBUS, SIGILL, SIGFPE}) sigaction(sig, &sa, nullptr);
+    for (int i = 0; i < 4; ++i) sigaction(kCrashSignals[i], &sa, &gPreviousHandlers[i]);
   });
   previous_ = gDriverCall.exchange(call);
   gInDriver.fetch_add(1);
