@@ -176,19 +176,23 @@ class SchemaCheck {
     if (!v && required) bad(at(where, key), "is required but missing");
     return v;
   }
+  // A non-negative integer below 2^31, written as one or as a whole float (the schema's integers).
+  // tinygltf keeps indices in an int: 2^32 read as 0 and referred to element 0 silently. Sizes,
+  // offsets and counts fit too, as no scene file is over 2 GiB (kMaxSceneFileBytes).
   static bool isUint(const json& v) {
-    if (v.is_number_unsigned()) return true;
-    if (v.is_number_integer()) return v.get<int64_t>() >= 0;
+    constexpr double kLimit = 2147483647.0;
+    if (v.is_number_unsigned()) return double(v.get<uint64_t>()) <= kLimit;
+    if (v.is_number_integer()) return v.get<int64_t>() >= 0 && double(v.get<int64_t>()) <= kLimit;
     if (v.is_number_float()) {
       const double d = v.get<double>();
-      return d >= 0 && d == std::floor(d) && d < 9.007199254740992e15;
+      return d >= 0 && d == std::floor(d) && d <= kLimit;
     }
     return false;
   }
 
   void uint(const json& o, const std::string& w, const char* key, bool required = false) const {
     if (const json* v = get(o, w, key, required); v && !isUint(*v))
-      bad(at(w, key), "must be a non-negative integer, not " + v->dump());
+      bad(at(w, key), "must be a non-negative integer below 2^31, not " + v->dump());
   }
   void number(const json& o, const std::string& w, const char* key, bool required = false) const {
     if (const json* v = get(o, w, key, required); v && !v->is_number())

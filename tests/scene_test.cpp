@@ -463,6 +463,18 @@ TEST_F(TinyGltf, IntegersWrittenAsWholeFloatsReadAsTheIntegersTheyAre) {
     EXPECT_EQ(s.positions, plain.positions) << path;
     EXPECT_EQ(s.normals, plain.normals) << path;
   }
+  // An index tinygltf's int cannot hold (2^32 + 2 read as 2) is refused, not wrapped.
+  for (const json& index : {json(4294967298ull), json(4294967298.0)}) {
+    json big = tinyDocument();
+    big["meshes"][0]["primitives"][0]["indices"] = index;
+    try {
+      loadGltf(write(big, "big.gltf"), warn);
+      ADD_FAILURE() << "indices " << index.dump() << " loaded";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("indices must be a non-negative integer below 2^31"), std::string::npos)
+          << e.what();
+    }
+  }
 }
 
 TEST_F(TinyGltf, NodeTransformsPlaceTrianglesInWorldSpace) {
