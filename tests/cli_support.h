@@ -45,12 +45,13 @@ inline void expectResultsMatchTheSchema(const std::string& dir) {
 }
 
 struct CliRun {
-  int code = -1;
+  int code = -1;     // the exit status; -1 when a signal ended it (a crash)
   std::string out;  // stdout and stderr together
 };
 
-inline CliRun cli(const std::string& args) {
-  std::string cmd = std::string(CONESHADOW_CLI) + " " + args + " 2>&1";
+// `launcher` runs the CLI under another program ("prlimit --as=N "); empty: directly.
+inline CliRun cli(const std::string& args, const std::string& launcher = "") {
+  std::string cmd = launcher + std::string(CONESHADOW_CLI) + " " + args + " 2>&1";
   CliRun r;
   FILE* p = popen(cmd.c_str(), "r");
   if (!p) return r;

@@ -374,31 +374,27 @@ TEST(Cli, EveryMemoryLimitGivesACompleteResultOrOneClearLineAndNoOutput) {
   if (std::system("command -v prlimit > /dev/null 2>&1") != 0) GTEST_SKIP() << "prlimit (util-linux) is not installed";
   const fs::path out = fs::temp_directory_path() / "coneshadow_memory_limit_test";
   bool failed = false, completed = false;
+  auto capped = [](uint64_t mb, const std::string& args) {
+    CliRun r = cli(args, "prlimit --as=" + std::to_string(mb << 20) + " ");
+    // The dynamic loader could not map the libraries: the program never started (not its to report).
+    if (r.code == 127 && r.out.find("error while loading shared libraries") != std::string::npos) r.code = -2;
+    return r;
+  };
   for (uint64_t mb = 100; mb <= 2000; mb += 150) {
     fs::remove_all(out);
-    const std::string cmd = "prlimit --as=" + std::to_string(mb << 20) + " " + std::string(CONESHADOW_CLI) +
-                            " render --methods cone,cubesm --width 96 --height 96 --frames 1 --quiet --out " + out.string() +
-                            " 2>&1";
-    FILE* p = popen(cmd.c_str(), "r");
-    ASSERT_NE(p, nullptr);
-    std::string text;
-    char buf[4096];
-    for (size_t n; (n = fread(buf, 1, sizeof buf, p)) > 0;) text.append(buf, n);
-    const int status = pclose(p);
-    ASSERT_TRUE(WIFEXITED(status)) << mb << " MB: killed by a signal (a crash, not an error):\n" << text;
-    const int code = WEXITSTATUS(status);
-    if (code == 127 && text.find("error while loading shared libraries") != std::string::npos)
-      continue;  // the dynamic loader could not map the libraries: the program never started
-    if (code == 0) {
+    const CliRun r = capped(mb, "render --methods cone,cubesm --width 96 --height 96 --frames 1 --quiet --out " + out.string());
+    ASSERT_NE(r.code, -1) << mb << " MB: killed by a signal (a crash, not an error):\n" << r.out;
+    if (r.code == -2) continue;
+    if (r.code == 0) {
       completed = true;
       EXPECT_TRUE(fs::exists(out / "results.json")) << mb << " MB: exit 0 without results.json";
       continue;
     }
     failed = true;
-    EXPECT_EQ(code, 1) << mb << " MB:\n" << text;
-    const size_t at = text.find("coneshadow: error: ");
-    ASSERT_NE(at, std::string::npos) << mb << " MB: no error line:\n" << text;
-    const std::string line = text.substr(at, text.find('\n', at) - at);
+    EXPECT_EQ(r.code, 1) << mb << " MB:\n" << r.out;
+    const size_t at = r.out.find("coneshadow: error: ");
+    ASSERT_NE(at, std::string::npos) << mb << " MB: no error line:\n" << r.out;
+    const std::string line = r.out.substr(at, r.out.find('\n', at) - at);
     EXPECT_NE(line.find('('), std::string::npos) << mb << " MB: the error names no remedy: " << line;
     EXPECT_EQ(line.find("std::bad_alloc"), std::string::npos) << mb << " MB: a bare exception name: " << line;
     EXPECT_FALSE(fs::exists(out)) << mb << " MB: a failed run left its --out folder";
@@ -411,19 +407,10 @@ TEST(Cli, EveryMemoryLimitGivesACompleteResultOrOneClearLineAndNoOutput) {
   // a destructor and aborted): an answer or an error, never a signal.
   const std::string engine = std::string(CONESHADOW_ASSIMP_MODELS) + "/2CylinderEngine-glTF-Binary/2CylinderEngine.glb";
   for (uint64_t mb = 60; mb <= 400; mb += 20) {
-    const std::string cmd = "prlimit --as=" + std::to_string(mb << 20) + " " + std::string(CONESHADOW_CLI) + " info " +
-                            engine + " 2>&1";
-    FILE* p = popen(cmd.c_str(), "r");
-    ASSERT_NE(p, nullptr);
-    std::string text;
-    char buf[4096];
-    for (size_t n; (n = fread(buf, 1, sizeof buf, p)) > 0;) text.append(buf, n);
-    const int status = pclose(p);
-    ASSERT_TRUE(WIFEXITED(status)) << mb << " MB, info: killed by a signal:\n" << text;
-    const int code = WEXITSTATUS(status);
-    if (code == 127 && text.find("error while loading shared libraries") != std::string::npos) continue;
-    EXPECT_TRUE(code == 0 || (code == 1 && text.find("coneshadow: error: ") != std::string::npos))
-        << mb << " MB, info: exit " << code << ":\n" << text;
+    const CliRun r = capped(mb, "info " + engine);
+    ASSERT_NE(r.code, -1) << mb << " MB, info: killed by a signal:\n" << r.out;
+    EXPECT_TRUE(r.code == -2 || r.code == 0 || (r.code == 1 && r.out.find("coneshadow: error: ") != std::string::npos))
+        << mb << " MB, info: exit " << r.code << ":\n" << r.out;
   }
 #endif
 }
