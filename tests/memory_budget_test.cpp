@@ -58,6 +58,25 @@ TEST(MemoryBudget, TheMaskIsTheUnboundedOneAtEveryBudgetThatHoldsTheFrame) {
   }
 }
 
+// Early accept allocates a flag per node beside the traversal, two-pass a second ray list and tree:
+// each variant's budget holds them, and the mask stays its unbounded one.
+TEST(MemoryBudget, EveryVariantKeepsItsMaskUnderATightBudget) {
+  const Scene scene = heightFieldScene(30000);
+  ReferenceFrame f(scene, automaticCamera(scene), scene.lights.at(0).position, 96);
+  for (const std::string& variant : coneVariantNames()) {
+    ConeOptions o;
+    applyConeVariant(variant, o);
+    const std::vector<float> plain = runExactCone(f, o, variant + ", no budget").mask;
+    o.memoryBudgetBytes = uint64_t(512) << 20;
+    const nlohmann::json wide = runExactCone(f, o, variant + ", 512M").stats;
+    const uint64_t fixed = wide["memory_budget_used_bytes"].get<uint64_t>() - wide["traversal_bytes"].get<uint64_t>();
+    o.memoryBudgetBytes = fixed + (uint64_t(64) << 10);
+    ConeRun tight = runExactCone(f, o, variant + ", fixed + 64K");
+    EXPECT_TRUE(sameBits(plain, tight.mask)) << variant << ": mask differs under the budget";
+    EXPECT_LE(tight.stats["memory_budget_used_bytes"].get<uint64_t>(), o.memoryBudgetBytes) << variant;
+  }
+}
+
 TEST(MemoryBudget, ABudgetThatCannotHoldTheSceneOrTheFrameIsRefusedWithTheBytesItNeeds) {
   const Scene scene = heightFieldScene(30000);
   ReferenceFrame f(scene, automaticCamera(scene), scene.lights.at(0).position, 64);

@@ -470,10 +470,12 @@ class ConeMethod : public ShadowMethod {
     const uint64_t budget = options_.memoryBudgetBytes;
     uint64_t others = bytesAllocated() - (traversal_ ? traversal_->bytesAllocated() + traversal_->flagBytes() : 0);
     others += expectedClusterSphereBytes() - std::min(expectedClusterSphereBytes(), clusterSphereBytes());
-    if (!ctx_.hostVisibleDeviceLocal)  // the mask and the counters copied for the readback
-      others += uint64_t(pixels) * 4 + (STATE_WORDS + SHAPE_WORDS) * 4 + 64 - std::min<uint64_t>(readback_.bytesAllocated(), uint64_t(pixels) * 4 + (STATE_WORDS + SHAPE_WORDS) * 4 + 64);
-    if (options_.earlyAccept && options_.test == ConeTest::Precise)  // a flag word per node
-      others += tree_.nodes().size / sizeof(cone::ConeNode) * 4 - std::min<uint64_t>(tree_.nodes().size / sizeof(cone::ConeNode) * 4, traversal_ ? traversal_->flagBytes() : 0);
+    if (!ctx_.hostVisibleDeviceLocal) {  // the mask and the counters copied for the readback (once allocated: in `others`)
+      const uint64_t readback = uint64_t(pixels) * 4 + (STATE_WORDS + SHAPE_WORDS) * 4 + 64;
+      others += readback - std::min(readback, readback_.bytesAllocated());
+    }
+    if (options_.earlyAccept && options_.test == ConeTest::Precise)  // a flag word per node (not in `others`)
+      others += std::max<uint64_t>(tree_.nodes().size / sizeof(cone::ConeNode) * 4, traversal_ ? traversal_->flagBytes() : 0);
     const uint64_t fixed = others + hostPeakBytes_;
     const uint64_t least = traversal::kMinPairs * sizeof(glm::uvec2) + traversal::chunkScratchBytes(1);
     if (fixed + least > budget)
