@@ -676,14 +676,21 @@ INSTANTIATE_TEST_SUITE_P(
                  "node 4 refers to light 5"},
         Mutation{"CameraZeroFov", [](json& d) { d["cameras"][0]["perspective"]["yfov"] = 0; }, "camera 0 has yfov"},
         // Zeros the file does not store: a 2 KB file asking for 300 million of them took 24 GB before the
-        // kernel killed `coneshadow info`; 10^11 of them threw std::bad_alloc.
+        // kernel killed `coneshadow info`; 10^11 of them threw std::bad_alloc (now past the 2^31 bound
+        // every integer property has).
         Mutation{"ZerosPastTheBuffers",
+                 [](json& d) {
+                   d["accessors"][0].erase("bufferView");
+                   d["accessors"][0]["count"] = 300000000;
+                 },
+                 "accessor 0 has no buffer view and 300000000 elements of 12 bytes, more than the file's buffers "
+                 "hold (80 bytes)"},
+        Mutation{"CountPastTwoToThe31",
                  [](json& d) {
                    d["accessors"][0].erase("bufferView");
                    d["accessors"][0]["count"] = 100000000000;
                  },
-                 "accessor 0 has no buffer view and 100000000000 elements of 12 bytes, more than the file's buffers "
-                 "hold (80 bytes)"},
+                 "accessors[0].count must be a non-negative integer below 2^31, not 100000000000"},
         Mutation{"NoTriangles",
                  [](json& d) {
                    d["scenes"][0]["nodes"] = {3, 4};
