@@ -78,6 +78,14 @@ inline std::vector<View> loadViews(const std::string& list, std::vector<std::uni
   return views;
 }
 
+// The benchmarks' Vulkan context: --device D (index or name part; "" = automatic), no driver chatter.
+inline std::unique_ptr<vk::Context> benchContext(const std::string& device) {
+  vk::ContextOptions co;
+  co.device = device;
+  co.quiet = true;
+  return vk::createContext(co);
+}
+
 // A view prepared at size x size by the frame harness (samples, epsilon, the Embree reference timed over
 // `frames`, the band): what every method of a benchmark is judged on.
 struct ViewFrame {

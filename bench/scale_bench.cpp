@@ -111,10 +111,7 @@ int main(int argc, char** argv) {
     std::vector<uint32_t> sizes;
     for (const std::string& s : split(sizesArg)) sizes.push_back(uint32_t(std::stoul(s)));
 
-    vk::ContextOptions co;
-    co.device = device;
-    co.quiet = true;
-    auto ctx = vk::createContext(co);
+    auto ctx = bench::benchContext(device);
     std::printf("device: %s\nmedian of %d frame(s) after a warm-up; cone settings:%s\n"
                 "embree = BVH build + rays every frame; pairs = (triangle or cluster, node) tests; bytes in MiB\n\n",
                 ctx->driverDescription().c_str(), frames, settingsText.empty() ? " the defaults" : settingsText.c_str());

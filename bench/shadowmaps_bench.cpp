@@ -76,10 +76,7 @@ int main(int argc, char** argv) {
     }
     std::vector<std::unique_ptr<Scene>> scenes;
     std::vector<bench::View> views = bench::loadViews(scenesArg, scenes);
-    vk::ContextOptions co;
-    co.device = device;
-    co.quiet = true;
-    auto ctx = vk::createContext(co);
+    auto ctx = bench::benchContext(device);
     std::string settingsText;
     for (auto& [k, v] : given) settingsText += " --" + k + (v.empty() ? "" : " " + v);
     std::printf("device: %s\n%ux%u, median of %d frames after a warm-up; settings:%s\n\n", ctx->driverDescription().c_str(),

@@ -75,10 +75,7 @@ int main(int argc, char** argv) {
     for (const std::string& v : variants) cone.check(Settings("cone").with("variant", v));  // before any work
     std::vector<std::unique_ptr<Scene>> scenes;
     std::vector<bench::View> views = bench::loadViews(scenesArg, scenes);
-    vk::ContextOptions co;
-    co.device = device;
-    co.quiet = true;
-    auto ctx = vk::createContext(co);
+    auto ctx = bench::benchContext(device);
     std::printf("device: %s; Embree on the host CPU\n%ux%u, median of %d frames after a warm-up (a warm-up over "
                 "%.0f ms is the one timed frame); nodes visited = (triangle, node) pairs tested\n\n",
                 ctx->driverDescription().c_str(), size, size, frames, slowMs);
