@@ -416,7 +416,7 @@ BufferRange texels(const Buffer& b, VkFormat format) {
   vi.range = elements * 16;
   VkBufferView view = VK_NULL_HANDLE;
   VK_CHECK(vkCreateBufferView(b.ctx->device, &vi, nullptr, &view));
-  const_cast<Buffer&>(b).views.emplace_back(format, view);
+  b.views.emplace_back(format, view);
   r.view = view;
   return r;
 }

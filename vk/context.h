@@ -119,7 +119,7 @@ struct Buffer {
   void* mapped = nullptr;  // non-null when host visible
   // Views of the whole buffer as a uniform texel buffer, one per format, made on first use (texels())
   // and destroyed with the buffer.
-  std::vector<std::pair<VkFormat, VkBufferView>> views;
+  mutable std::vector<std::pair<VkFormat, VkBufferView>> views;  // a cache: texels() fills it on a const buffer
 
   Buffer() = default;
   Buffer(Buffer&& o) noexcept { *this = std::move(o); }
