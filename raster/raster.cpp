@@ -4,10 +4,12 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <vector>
 
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "raster/gbuffer.frag.h"
+#include "raster/gbuffer_id.frag.h"
 #include "raster/gbuffer.vert.h"
 #include "raster/raster_layout.h"
 
@@ -16,6 +18,7 @@ namespace cs {
 namespace {
 constexpr VkFormat kColorFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+constexpr VkFormat kTriangleFormat = VK_FORMAT_R32_UINT;
 
 }  // namespace
 
@@ -73,23 +76,27 @@ uint64_t Raster::bytesAllocated() const {
 
 void Raster::createPipeline() {
   VkDevice d = ctx_.device;
-  VkAttachmentDescription att[3]{};
-  for (int i = 0; i < 3; ++i) {
-    att[i].format = i < 2 ? kColorFormat : kDepthFormat;
+  triangleIds_ = ctx_.geometryShader;
+  // Colour attachments: position, normal (+ triangle ID), then the depth buffer.
+  const uint32_t colors = triangleIds_ ? 3 : 2;
+  VkAttachmentDescription att[4]{};
+  VkAttachmentReference colorRefs[3];
+  for (uint32_t i = 0; i <= colors; ++i) {
+    const bool depth = i == colors;
+    att[i].format = depth ? kDepthFormat : i == 2 ? kTriangleFormat : kColorFormat;
     att[i].samples = VK_SAMPLE_COUNT_1_BIT;
     att[i].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    att[i].storeOp = i < 2 ? VK_ATTACHMENT_STORE_OP_STORE : VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    att[i].storeOp = depth ? VK_ATTACHMENT_STORE_OP_DONT_CARE : VK_ATTACHMENT_STORE_OP_STORE;
     att[i].stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
     att[i].stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
     att[i].initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    att[i].finalLayout = i < 2 ? VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL : VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+    att[i].finalLayout = depth ? VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL : VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    if (!depth) colorRefs[i] = {i, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
   }
-  VkAttachmentReference colorRefs[2] = {{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL},
-                                        {1, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL}};
-  VkAttachmentReference depthRef{2, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL};
+  VkAttachmentReference depthRef{colors, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL};
   VkSubpassDescription sub{};
   sub.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
-  sub.colorAttachmentCount = 2;
+  sub.colorAttachmentCount = colors;
   sub.pColorAttachments = colorRefs;
   sub.pDepthStencilAttachment = &depthRef;
   // Make the colour writes visible to the copy that follows the pass.
@@ -101,7 +108,7 @@ void Raster::createPipeline() {
   dep.srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
   dep.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
   VkRenderPassCreateInfo rp{VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO};
-  rp.attachmentCount = 3;
+  rp.attachmentCount = colors + 1;
   rp.pAttachments = att;
   rp.subpassCount = 1;
   rp.pSubpasses = &sub;
@@ -110,7 +117,8 @@ void Raster::createPipeline() {
   VK_CHECK(vkCreateRenderPass(d, &rp, nullptr, &renderPass_));
 
   vert_ = vk::createShaderModule(ctx_, spv_gbuffer_vert, sizeof(spv_gbuffer_vert));
-  frag_ = vk::createShaderModule(ctx_, spv_gbuffer_frag, sizeof(spv_gbuffer_frag));
+  frag_ = triangleIds_ ? vk::createShaderModule(ctx_, spv_gbuffer_id_frag, sizeof(spv_gbuffer_id_frag))
+                       : vk::createShaderModule(ctx_, spv_gbuffer_frag, sizeof(spv_gbuffer_frag));
 
   VkPushConstantRange range{VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(RasterPush)};
   VkPipelineLayoutCreateInfo li{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
@@ -124,7 +132,7 @@ void Raster::createPipeline() {
   desc.layout = layout_;
   desc.renderPass = renderPass_;
   desc.vertexStreams = 2;       // position, normal
-  desc.colorAttachments = 2;    // position, normal + light term
+  desc.colorAttachments = triangleIds_ ? 3 : 2;  // position, normal + light term (, triangle)
   desc.depthCompare = VK_COMPARE_OP_LESS;
   pipeline_ = vk::createTrianglePipeline(ctx_, desc);
 }
@@ -151,12 +159,17 @@ void Raster::createTargets(uint32_t width, uint32_t height) {
                    VK_IMAGE_ASPECT_COLOR_BIT);
   normal_ = make(kColorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
                  VK_IMAGE_ASPECT_COLOR_BIT);
+  if (triangleIds_)
+    triangle_ = make(kTriangleFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                     VK_IMAGE_ASPECT_COLOR_BIT);
   depth_ = make(kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, VK_IMAGE_ASPECT_DEPTH_BIT);
-  VkImageView views[3] = {position_.view, normal_.view, depth_.view};
+  std::vector<VkImageView> views = {position_.view, normal_.view};
+  if (triangleIds_) views.push_back(triangle_.view);
+  views.push_back(depth_.view);
   VkFramebufferCreateInfo fi{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
   fi.renderPass = renderPass_;
-  fi.attachmentCount = 3;
-  fi.pAttachments = views;
+  fi.attachmentCount = uint32_t(views.size());
+  fi.pAttachments = views.data();
   fi.width = width;
   fi.height = height;
   fi.layers = 1;
@@ -170,7 +183,7 @@ void Raster::destroyTargets() {
   vkDeviceWaitIdle(d);
   if (framebuffer_) vkDestroyFramebuffer(d, framebuffer_, nullptr);
   framebuffer_ = VK_NULL_HANDLE;
-  for (vk::Image* t : {&position_, &normal_, &depth_}) t->reset();
+  for (vk::Image* t : {&position_, &normal_, &triangle_, &depth_}) t->reset();
   width_ = height_ = 0;
 }
 
@@ -178,9 +191,10 @@ RasterTiming Raster::render(const Camera& camera, glm::vec3 light, uint32_t widt
                             DeviceGBuffer& out, GBuffer* host) {
   if (width != width_ || height != height_) createTargets(width, height);
   VkDeviceSize bytes = VkDeviceSize(width) * height * sizeof(glm::vec4);
-  if (out.width != width || out.height != height || !out.position) {
+  if (out.width != width || out.height != height || !out.position || bool(out.triangle) != triangleIds_) {
     out.position = vk::createBuffer(ctx_, bytes);
     out.normal = vk::createBuffer(ctx_, bytes);
+    out.triangle = triangleIds_ ? vk::createBuffer(ctx_, VkDeviceSize(width) * height * 4) : vk::Buffer{};
     out.width = width;
     out.height = height;
   }
@@ -194,13 +208,15 @@ RasterTiming Raster::render(const Camera& camera, glm::vec3 light, uint32_t widt
   vk::Commands cmd(ctx_, &timer_);
   VkCommandBuffer cb = cmd.handle();
   cmd.mark("start");
-  VkClearValue clears[3]{};
-  clears[2].depthStencil = {1.0f, 0};
+  VkClearValue clears[4]{};
+  const uint32_t colors = triangleIds_ ? 3 : 2;
+  if (triangleIds_) clears[2].color.uint32[0] = RASTER_NO_TRIANGLE;
+  clears[colors].depthStencil = {1.0f, 0};
   VkRenderPassBeginInfo bi{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
   bi.renderPass = renderPass_;
   bi.framebuffer = framebuffer_;
   bi.renderArea = {{0, 0}, {width, height}};
-  bi.clearValueCount = 3;
+  bi.clearValueCount = colors + 1;
   bi.pClearValues = clears;
   vkCmdBeginRenderPass(cb, &bi, VK_SUBPASS_CONTENTS_INLINE);
   vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
@@ -220,6 +236,8 @@ RasterTiming Raster::render(const Camera& camera, glm::vec3 light, uint32_t widt
   region.imageExtent = {width, height, 1};
   vkCmdCopyImageToBuffer(cb, position_.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, out.position.buffer, 1, &region);
   vkCmdCopyImageToBuffer(cb, normal_.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, out.normal.buffer, 1, &region);
+  if (triangleIds_)
+    vkCmdCopyImageToBuffer(cb, triangle_.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, out.triangle.buffer, 1, &region);
   cmd.barrier();  // the buffers are read by compute (and the host) afterwards
   cmd.mark("raster");
   cmd.submit();

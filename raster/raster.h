@@ -10,11 +10,15 @@
 
 namespace cs {
 
-// The G-buffer resident on the GPU: two arrays of vec4 in the layout of GBuffer (row 0 at the top).
+// The G-buffer resident on the GPU: two arrays of vec4 in the layout of GBuffer (row 0 at the top), and
+// the index of the scene triangle each pixel sees (uint per pixel, RASTER_NO_TRIANGLE where none) on
+// devices with the geometryShader feature (a fragment stage's gl_PrimitiveID needs it); an empty buffer
+// elsewhere. Only the GPU copy carries the IDs (ASM's ID + depth test reads them there).
 struct DeviceGBuffer {
   uint32_t width = 0, height = 0;
   vk::Buffer position;  // vec4 per pixel
   vk::Buffer normal;    // vec4 per pixel
+  vk::Buffer triangle;  // uint per pixel; empty without triangle IDs
 };
 
 struct RasterTiming {
@@ -54,7 +58,8 @@ class Raster {
   VkPipelineLayout layout_ = VK_NULL_HANDLE;
   VkPipeline pipeline_ = VK_NULL_HANDLE;
   VkShaderModule vert_ = VK_NULL_HANDLE, frag_ = VK_NULL_HANDLE;
-  vk::Image position_, normal_, depth_;
+  bool triangleIds_ = false;  // the device has geometryShader: the third attachment (gbuffer_id.frag)
+  vk::Image position_, normal_, triangle_, depth_;
   VkFramebuffer framebuffer_ = VK_NULL_HANDLE;
   uint32_t width_ = 0, height_ = 0;
   uint64_t targetBytes_ = 0;

@@ -8,6 +8,9 @@ using mat4 = glm::mat4;
 using vec4 = glm::vec4;
 #endif
 
+// The G-buffer's triangle ID where no triangle was drawn.
+#define RASTER_NO_TRIANGLE 0xFFFFFFFFu
+
 struct RasterPush {
   mat4 viewProj;  // world -> clip, Vulkan conventions (y down, depth 0..1)
   vec4 eye;       // xyz: camera position

@@ -27,6 +27,10 @@ uint32_t asmMaxDepth(uint32_t nodeResolution, uint32_t cells) {
   return depth;
 }
 
+uint64_t asmSlotBytes(uint32_t nodeResolution, bool idTest) {
+  return uint64_t(sm::asmSlotStride(nodeResolution)) * 4 * (idTest ? 2 : 1);
+}
+
 // ---- the host's tree ----------------------------------------------------------------------------------
 
 AsmTree::AsmTree(uint32_t slots, uint32_t cells, uint32_t maxDepth) : nodes_(slots), cells_(cells), maxDepth_(maxDepth) {
@@ -155,12 +159,15 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
-uint32_t slotsFor(const AsmOptions& o) { return uint32_t(std::min<uint64_t>(o.memoryBytes / (uint64_t(sm::asmSlotStride(o.nodeResolution)) * 4), 1u << 20)); }
+uint32_t slotsFor(const AsmOptions& o) {
+  return uint32_t(std::min<uint64_t>(o.memoryBytes / asmSlotBytes(o.nodeResolution, o.idTest), 1u << 20));
+}
 
 class AdaptiveShadowMap : public ShadowMethod {
  public:
   AdaptiveShadowMap(vk::Context& ctx, const AsmOptions& options)
-      : ctx_(ctx), o_(options), pass_(ctx, options.cull), tree_(7, 2, 1), timer_(vk::createTimer(ctx, 16)), readback_(ctx) {
+      : ctx_(ctx), o_(options), pass_(ctx, options.cull, options.idTest), tree_(7, 2, 1), timer_(vk::createTimer(ctx, 16)),
+        readback_(ctx) {
     const uint32_t n = o_.nodeResolution, c = o_.cells;
     if (n < 16 || n > 4096)
       throw Error("ASM node resolution " + std::to_string(n) + " is outside [16, 4096]", "--asm-node-res",
@@ -168,15 +175,16 @@ class AdaptiveShadowMap : public ShadowMethod {
     if (c < 2 || c > 16 || n % c)
       throw Error("ASM: " + std::to_string(c) + " cells a side for nodes of " + std::to_string(n) + "²", "--asm-cells",
                   "use 2 to 16 cells dividing the node resolution");
-    const uint64_t slotBytes = uint64_t(sm::asmSlotStride(n)) * 4;
+    const uint64_t slotBytes = asmSlotBytes(n, o_.idTest);
     const uint32_t slots = slotsFor(o_);
     if (slots < 7)
       throw Error("an ASM pool of " + std::to_string(o_.memoryBytes >> 10) + " KiB holds " + std::to_string(slots) +
                       " nodes of " + std::to_string(n) + "²; the six roots and one child need " +
                       std::to_string((7 * slotBytes + 1023) >> 10) + " KiB",
                   "--asm-memory", "raise the memory or lower --asm-node-res");
-    if (uint64_t(slots) * slotBytes > ctx.maxStorageBufferRange())
-      throw Error("an ASM pool of " + std::to_string((uint64_t(slots) * slotBytes) >> 20) +
+    const uint64_t poolBytes = uint64_t(slots) * sm::asmSlotStride(n) * 4;  // one of the pools
+    if (poolBytes > ctx.maxStorageBufferRange())
+      throw Error("an ASM pool of " + std::to_string(poolBytes >> 20) +
                       " MiB exceeds one storage binding of this device (" +
                       std::to_string(ctx.maxStorageBufferRange() >> 20) + " MiB)",
                   "--asm-memory", "lower the memory");
@@ -187,8 +195,10 @@ class AdaptiveShadowMap : public ShadowMethod {
     tree_ = AsmTree(slots, c, o_.maxDepth);
     capacity_ = 16;
     while (capacity_ < 2 * slots) capacity_ *= 2;
-    kernel_ = vk::createKernel(ctx, "asm_frame", spv_asm_frame_comp, 8, sizeof(sm::AsmPush));
-    pool_ = vk::createBuffer(ctx, uint64_t(slots) * slotBytes);
+    kernel_ = vk::createKernel(ctx, "asm_frame", spv_asm_frame_comp, 10, sizeof(sm::AsmPush));
+    pool_ = vk::createBuffer(ctx, poolBytes);
+    idPool_ = vk::createBuffer(ctx, o_.idTest ? poolBytes : 16);  // unread without the ID test
+    noTriangles_ = vk::createBuffer(ctx, 16);
     hash_ = vk::createBuffer(ctx, uint64_t(capacity_) * 8, vk::Memory::HostVisible);
     benefit_ = vk::createBuffer(ctx, uint64_t(slots) * c * c * 4);
     used_ = vk::createBuffer(ctx, uint64_t(slots) * 4);
@@ -204,6 +214,10 @@ class AdaptiveShadowMap : public ShadowMethod {
       throw Error("asm: the frame carries no camera, and the analysis compares texels with the view's pixels",
                   "asm", "run it through the harness (render, compare)");
     const DeviceGBuffer& g = *frame.device;
+    if (o_.idTest && !g.triangle)
+      throw Error("asm: the ID + depth test needs the triangle under each pixel, and this frame's G-buffer has none",
+                  "--asm-id-test", "render the frame on a device with the geometryShader feature, or leave the test off");
+    const vk::Buffer& gTriangle = o_.idTest ? g.triangle : noTriangles_;
     const uint32_t pixels = g.width * g.height, n = o_.nodeResolution, c = o_.cells;
     const float eps = frame.epsilon > 0 ? frame.epsilon : EpsilonPolicy::forScene(*frame.scene).eps;
     MethodOutput out;
@@ -259,6 +273,7 @@ class AdaptiveShadowMap : public ShadowMethod {
     push.minDistance = 2.0f * eps;
     push.pcf = o_.pcf ? 1u : 0u;
     push.planeBias = o_.planeBias ? 1u : 0u;
+    push.idTest = o_.idTest ? 1u : 0u;
     const vk::Grid grid = vk::gridFor(std::max(pixels, 1u), ASM_THREADS, ctx_.maxWorkgroups());
     const uint32_t slots = uint32_t(tree_.nodes().size());
 
@@ -279,8 +294,8 @@ class AdaptiveShadowMap : public ShadowMethod {
       cmd.barrier();
       push.mode = ASM_MODE_ANALYSE;
       if (pixels)
-        cmd.dispatch(kernel_, {g.position, g.normal, pool_, hash_, benefit_, used_, visibility_, counters_}, push, grid.x,
-                     grid.y);
+        cmd.dispatch(kernel_, {g.position, g.normal, pool_, hash_, benefit_, used_, visibility_, counters_, idPool_, gTriangle},
+                     push, grid.x, grid.y);
       cmd.barrier();
       readback_.record(cmd);
       cmd.submit();
@@ -318,8 +333,8 @@ class AdaptiveShadowMap : public ShadowMethod {
       cmd.mark("nodes");
       push.mode = ASM_MODE_LOOKUP;
       if (pixels)
-        cmd.dispatch(kernel_, {g.position, g.normal, pool_, hash_, benefit_, used_, visibility_, counters_}, push, grid.x,
-                     grid.y);
+        cmd.dispatch(kernel_, {g.position, g.normal, pool_, hash_, benefit_, used_, visibility_, counters_, idPool_, gTriangle},
+                     push, grid.x, grid.y);
       cmd.barrier();
       cmd.mark("lookup");
       readback_.record(cmd);
@@ -335,8 +350,8 @@ class AdaptiveShadowMap : public ShadowMethod {
     out.totalMs = msSince(t0);
 
     const uint32_t deepest = tree_.deepest();
-    const uint64_t slotBytes = uint64_t(sm::asmSlotStride(n)) * 4;
-    out.bytesAllocated = pass_.bytesAllocated() + pool_.size + hash_.size + benefit_.size + used_.size + counters_.size +
+    const uint64_t slotBytes = asmSlotBytes(n, o_.idTest);
+    out.bytesAllocated = pass_.bytesAllocated() + pool_.size + idPool_.size + noTriangles_.size + hash_.size + benefit_.size + used_.size + counters_.size +
                          visibility_.size + readback_.bytesAllocated();
     out.peakBytes = out.bytesAllocated;
     out.work = std::to_string(tree_.resident()) + " nodes, depth " + std::to_string(deepest);
@@ -369,6 +384,7 @@ class AdaptiveShadowMap : public ShadowMethod {
                  {"triangles_drawn", pass_.takeTrianglesDrawn()},
                  {"pcf", o_.pcf},
                  {"plane_bias", o_.planeBias},
+                 {"id_test", o_.idTest},
                  {"constant_bias", o_.constantBias * eps},
                  {"slope_bias_texels", o_.slopeBias},
                  {"max_slope", o_.maxSlope},
@@ -396,6 +412,7 @@ class AdaptiveShadowMap : public ShadowMethod {
       region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
       region.imageExtent = {n + 1, n + 1, 1};
       pass_.recordCopy(cmd, {region}, pool_);
+      if (o_.idTest) pass_.recordCopyIds(cmd, {region}, idPool_);
     }
     cmd.barrier();
   }
@@ -417,6 +434,7 @@ class AdaptiveShadowMap : public ShadowMethod {
           region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
           region.imageExtent = {side, side, 1};
           pass_.recordCopy(cmd, {region}, pool_);
+          if (o_.idTest) pass_.recordCopyIds(cmd, {region}, idPool_);
         }
         cmd.submit();
         ms.push_back(msSince(t) / 6.0);
@@ -446,6 +464,8 @@ class AdaptiveShadowMap : public ShadowMethod {
   vk::Kernel kernel_;
   uint32_t capacity_ = 0;
   vk::Buffer pool_;      // (N + 1)² floats per slot
+  vk::Buffer idPool_;    // (N + 1)² triangle IDs per slot with the ID + depth test; 16 bytes otherwise
+  vk::Buffer noTriangles_;  // bound in place of the G-buffer's triangle IDs without the test
   vk::Buffer hash_;      // (key, slot) per entry, host-visible, written before each submission
   vk::Buffer benefit_;   // uint per slot and cell
   vk::Buffer used_;      // uint per slot

@@ -45,6 +45,11 @@ struct AsmOptions {
   bool pcf = true;
   bool planeBias = false;
   bool cull = true;                // per-node frustum culling (depth_pass.h); the same result
+  // §4.2's ID + depth test (--asm-id-test): every node also stores, per texel, the triangle nearest the
+  // light, and a tap whose triangle is the sample's own is lit; other taps take the depth comparison.
+  // Doubles a node's bytes ((N + 1)² · 8); needs triangle IDs in the G-buffer and the depth pass (the
+  // device's geometryShader feature).
+  bool idTest = false;
 };
 
 // The host's tree: which node sits in which pool slot, when it was last used, what it was created for.
@@ -100,10 +105,13 @@ class AsmTree {
 // MethodOutput: visibility per pixel in [0, 1] (PCF) or {0, 1}; stages "analysis", "nodes" (the new
 // nodes' geometry passes and copies; the first frame: the roots), "lookup"; stats: nodes_resident,
 // nodes_created, nodes_evicted, nodes_replaced, candidates, refused, frame (frames since the last flush),
-// deepest, effective_resolution (N·C^deepest), pool_slots, pool_bytes, node_cost_a_ms_per_texel,
+// deepest, effective_resolution (N·C^deepest), pool_slots, pool_bytes (both pools), id_test, node_cost_a_ms_per_texel,
 // node_cost_b_ms, analysed_samples, straddling, coarser_than_pixel, triangles_drawn, bias terms. Throws
 // cs::Error on limits (N, C, memory for the six roots and one child, one storage binding).
 std::unique_ptr<ShadowMethod> makeAdaptiveShadowMap(vk::Context& ctx, const AsmOptions& options = {});
+
+// Bytes of one pool slot: (N + 1)² distances, and as many triangle IDs with the ID + depth test.
+uint64_t asmSlotBytes(uint32_t nodeResolution, bool idTest);
 
 // The deepest level the face coordinates of fp32 resolve: N·C^L texels a side <= 2^21.
 uint32_t asmMaxDepth(uint32_t nodeResolution, uint32_t cells);

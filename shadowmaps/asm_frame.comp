@@ -9,11 +9,15 @@
 //   child would hold the footprint gains one unit of benefit.
 //   ASM_MODE_LOOKUP (§4.4): visibility from the finest node's nearest texel or 2x2 PCF, the shared
 //   slope-scaled or receiver-plane bias with that node's texel.
+// With pc.idTest (§4.2, ID + depth) a tap is lit when the triangle nearest the light there is the
+// sample's own (from the G-buffer), and only otherwise by the depth comparison.
 // Both modes mark every node a walk passes through as used (the host's LRU, §3.2).
 // bindings: 0 = position (vec4 per pixel), 1 = normal (vec4 per pixel, w = N·L̂), 2 = pool (float per
 //           texel, (N + 1)² per slot), 3 = hash (uvec2 (key, slot) per entry), 4 = benefit (uint per slot
 //           and cell, C² per slot), 5 = used (uint per slot), 6 = visibility (float per pixel),
-//           7 = counters (uint[4]: analysed, straddling, coarser than the pixel, benefit given)
+//           7 = counters (uint[4]: analysed, straddling, coarser than the pixel, benefit given),
+//           8 = ID pool (uint per texel, the pool's layout; read with pc.idTest), 9 = triangle (uint per
+//           pixel, the G-buffer's; read with pc.idTest)
 #include "shadowmaps/asm_shared.h"
 layout(local_size_x = ASM_THREADS) in;
 layout(std430, binding = 0) readonly buffer Position { vec4 position[]; };
@@ -24,6 +28,8 @@ layout(std430, binding = 4) buffer Benefit { uint benefit[]; };
 layout(std430, binding = 5) buffer Used { uint used[]; };
 layout(std430, binding = 6) writeonly buffer Visibility { float visibility[]; };
 layout(std430, binding = 7) buffer Counters { uint counters[]; };
+layout(std430, binding = 8) readonly buffer IdPool { uint idPool[]; };
+layout(std430, binding = 9) readonly buffer Triangle { uint triangle[]; };
 layout(push_constant) uniform Push { AsmPush pc; };
 
 uint findSlot(uint key) {
@@ -87,6 +93,7 @@ void main() {
   uvec2 local = base - node * N;
   float reach = dist - slopeScaledBias(dist, cosTheta, 2.0f / res, pc.constantBias, pc.slopeBias, pc.maxSlope);
   float slack = 0.25 * dist * 2.0f / res;
+  uint ownTriangle = pc.idTest != 0u ? triangle[i] : SM_NO_TRIANGLE;
   float l[4];
   for (uint k = 0u; k < 4u; ++k) {
     uvec2 tap = local + uvec2(k & 1u, k >> 1u);
@@ -94,7 +101,9 @@ void main() {
                   ? planeReach(dF, nF, 2.0 * (vec2(base + uvec2(k & 1u, k >> 1u)) + 0.5) / res - 1.0, reach,
                                pc.constantBias, slack)
                   : reach;
-    l[k] = pool[origin + tap.y * stride + tap.x] >= r ? 1.0 : 0.0;
+    uint t = origin + tap.y * stride + tap.x;
+    bool sameTriangle = ownTriangle != SM_NO_TRIANGLE && idPool[t] == ownTriangle;
+    l[k] = sameTriangle || pool[t] >= r ? 1.0 : 0.0;
   }
 
   if (!analyse) {

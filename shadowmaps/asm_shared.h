@@ -24,7 +24,8 @@ namespace cs::sm {
 // A node at depth L of face f is a window of N x N texels of the face at N·C^L texels a side (N the node
 // resolution, C the cells per axis): node (x, y) of depth L holds face texels [x·N, x·N + N] x [y·N, y·N
 // + N] (one texel of apron right and below, so a 2x2 footprint whose base lies in the node stays in it)
-// in pool slot s at s·(N + 1)² (row-major). Its cell (i, j) is the region the child node (x·C + i,
+// in pool slot s at s·(N + 1)² (row-major); with the ID + depth test a second pool of the same layout
+// holds each texel's nearest triangle. Its cell (i, j) is the region the child node (x·C + i,
 // y·C + j) at depth L + 1 covers. The resident nodes are found through an open-addressing hash of their
 // keys, pageKey(face, L, x, y): `capacity` (a power of two) pairs (key, slot), empty keys
 // SM_INVALID_KEY, linear probing, built by the host every frame.
@@ -68,7 +69,8 @@ struct AsmPush {
   float minDistance;   // samples this close to the light are lit (the epsilon policy's empty ray)
   uint pcf;            // 1: 2x2 percentage-closer filter, 0: nearest texel
   uint planeBias;      // 1: receiver-plane bias per tap
-  uint pad0, pad1;
+  uint idTest;         // 1: paper 001 §4.2's ID + depth test: a tap whose triangle is the sample's is lit
+  uint pad0;
 };
 
 #ifdef __cplusplus

@@ -6,6 +6,8 @@
 
 #include "shadowmaps/depth.frag.h"
 #include "shadowmaps/depth.vert.h"
+#include "shadowmaps/depth_id.frag.h"
+#include "shadowmaps/depth_id.vert.h"
 #include "shadowmaps/depth_warp.frag.h"
 #include "shadowmaps/depth_warp.geom.h"
 #include "shadowmaps/depth_warp.vert.h"
@@ -17,6 +19,7 @@ namespace cs::sm {
 namespace {
 constexpr VkFormat kColorFormat = VK_FORMAT_R32_SFLOAT;
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+constexpr VkFormat kIdFormat = VK_FORMAT_R32_UINT;
 
 }  // namespace
 
@@ -36,7 +39,14 @@ glm::mat4 windowClip(uint32_t face, double res, double x0, double y0, double w, 
   return glm::mat4(m);
 }
 
-DepthPass::DepthPass(vk::Context& ctx, bool culling) : ctx_(ctx), culling_(culling) { createPipeline(); }
+DepthPass::DepthPass(vk::Context& ctx, bool culling, bool triangleIds)
+    : ctx_(ctx), culling_(culling), triangleIds_(triangleIds) {
+  if (triangleIds_ && !ctx_.geometryShader)
+    throw Error("triangle IDs in the light's depth pass (ASM's ID + depth test) need the geometryShader feature, "
+                "which this device lacks",
+                ctx_.deviceName(), "run without --asm-id-test on this device");
+  createPipeline();
+}
 
 DepthPass::~DepthPass() {
   destroyTargets();
@@ -99,7 +109,9 @@ double DepthPass::setGeometry(const Scene& scene) {
 
 void DepthPass::createPipeline() {
   VkDevice d = ctx_.device;
-  VkAttachmentDescription att[2]{};
+  // Attachments: the distance (, the triangle ID), then the depth buffer.
+  const uint32_t colors = triangleIds_ ? 2 : 1;
+  VkAttachmentDescription att[3]{};
   att[0].format = kColorFormat;
   att[0].samples = VK_SAMPLE_COUNT_1_BIT;
   att[0].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
@@ -108,16 +120,21 @@ void DepthPass::createPipeline() {
   att[0].stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
   att[0].initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
   att[0].finalLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-  att[1] = att[0];
-  att[1].format = kDepthFormat;
-  att[1].storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-  att[1].finalLayout = VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
-  VkAttachmentReference colorRef{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
-  VkAttachmentReference depthRef{1, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL};
+  if (triangleIds_) {
+    att[1] = att[0];
+    att[1].format = kIdFormat;
+  }
+  att[colors] = att[0];
+  att[colors].format = kDepthFormat;
+  att[colors].storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  att[colors].finalLayout = VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+  VkAttachmentReference colorRefs[2] = {{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL},
+                                        {1, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL}};
+  VkAttachmentReference depthRef{colors, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL};
   VkSubpassDescription sub{};
   sub.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
-  sub.colorAttachmentCount = 1;
-  sub.pColorAttachments = &colorRef;
+  sub.colorAttachmentCount = colors;
+  sub.pColorAttachments = colorRefs;
   sub.pDepthStencilAttachment = &depthRef;
   // Passes follow each other on one target: the previous pass's copy (transfer read) and depth writes
   // must finish before this pass clears; this pass's colour must be written before the copy reads it.
@@ -137,7 +154,7 @@ void DepthPass::createPipeline() {
   deps[1].srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
   deps[1].dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
   VkRenderPassCreateInfo rp{VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO};
-  rp.attachmentCount = 2;
+  rp.attachmentCount = colors + 1;
   rp.pAttachments = att;
   rp.subpassCount = 1;
   rp.pSubpasses = &sub;
@@ -145,8 +162,10 @@ void DepthPass::createPipeline() {
   rp.pDependencies = deps;
   VK_CHECK(vkCreateRenderPass(d, &rp, nullptr, &renderPass_));
 
-  vert_ = vk::createShaderModule(ctx_, spv_depth_vert, sizeof(spv_depth_vert));
-  frag_ = vk::createShaderModule(ctx_, spv_depth_frag, sizeof(spv_depth_frag));
+  vert_ = triangleIds_ ? vk::createShaderModule(ctx_, spv_depth_id_vert, sizeof(spv_depth_id_vert))
+                       : vk::createShaderModule(ctx_, spv_depth_vert, sizeof(spv_depth_vert));
+  frag_ = triangleIds_ ? vk::createShaderModule(ctx_, spv_depth_id_frag, sizeof(spv_depth_id_frag))
+                       : vk::createShaderModule(ctx_, spv_depth_frag, sizeof(spv_depth_frag));
 
   VkPushConstantRange range{VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(DepthPush)};
   VkPipelineLayoutCreateInfo li{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
@@ -160,7 +179,7 @@ void DepthPass::createPipeline() {
   desc.layout = layout_;
   desc.renderPass = renderPass_;
   desc.vertexStreams = 1;
-  desc.colorAttachments = 1;
+  desc.colorAttachments = colors;
   desc.colorWriteMask = VK_COLOR_COMPONENT_R_BIT;
   desc.depthCompare = VK_COMPARE_OP_GREATER;  // reversed Z: depth = near / z_f, larger is nearer
   pipeline_ = vk::createTrianglePipeline(ctx_, desc);
@@ -190,11 +209,15 @@ void DepthPass::ensureTargets(uint32_t largest, uint32_t smallest) {
     t.size = size;
     make(t.color, size, kColorFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
          VK_IMAGE_ASPECT_COLOR_BIT);
+    if (triangleIds_)
+      make(t.ids, size, kIdFormat, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+           VK_IMAGE_ASPECT_COLOR_BIT);
     make(t.depth, size, kDepthFormat, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, VK_IMAGE_ASPECT_DEPTH_BIT);
-    VkImageView views[2] = {t.color.view, t.depth.view};
+    VkImageView views[3] = {t.color.view, t.ids.view, t.depth.view};
+    if (!triangleIds_) views[1] = t.depth.view;
     VkFramebufferCreateInfo fi{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
     fi.renderPass = renderPass_;
-    fi.attachmentCount = 2;
+    fi.attachmentCount = triangleIds_ ? 3 : 2;
     fi.pAttachments = views;
     fi.width = size;
     fi.height = size;
@@ -210,6 +233,7 @@ void DepthPass::destroyTargets() {
   for (Target& t : targets_) {
     if (t.framebuffer) vkDestroyFramebuffer(d, t.framebuffer, nullptr);
     t.color.reset();
+    t.ids.reset();
     t.depth.reset();
   }
   targets_.clear();
@@ -223,14 +247,16 @@ VkCommandBuffer DepthPass::beginPass(vk::Commands& cmd, uint32_t w, uint32_t h) 
   current_ = 0;
   while (targets_[current_].size < std::max(w, h)) ++current_;
   VkCommandBuffer cb = cmd.handle();
-  VkClearValue clears[2]{};
+  VkClearValue clears[3]{};
+  const uint32_t colors = triangleIds_ ? 2 : 1;
   clears[0].color.float32[0] = SM_EMPTY_DEPTH;
-  clears[1].depthStencil = {0.0f, 0};  // reversed Z: 0 is infinitely far
+  if (triangleIds_) clears[1].color.uint32[0] = SM_NO_TRIANGLE;
+  clears[colors].depthStencil = {0.0f, 0};  // reversed Z: 0 is infinitely far
   VkRenderPassBeginInfo bi{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
   bi.renderPass = renderPass_;
   bi.framebuffer = targets_[current_].framebuffer;
   bi.renderArea = {{0, 0}, {w, h}};
-  bi.clearValueCount = 2;
+  bi.clearValueCount = colors + 1;
   bi.pClearValues = clears;
   vkCmdBeginRenderPass(cb, &bi, VK_SUBPASS_CONTENTS_INLINE);
   VkViewport viewport{0, 0, float(w), float(h), 0.0f, 1.0f};
@@ -246,7 +272,7 @@ void DepthPass::drawClusters(VkCommandBuffer cb, uint32_t face, double u0, doubl
   vkCmdBindVertexBuffers(cb, 0, 1, &vertices_.buffer, &offset);
   vkCmdBindIndexBuffer(cb, indices_.buffer, 0, VK_INDEX_TYPE_UINT32);
   if (!culling_) {
-    vkCmdDrawIndexed(cb, indexCount_, 1, 0, 0, 0);
+    vkCmdDrawIndexed(cb, indexCount_, 1, 0, 0, 0);  // firstInstance: the first triangle (depth_id.vert)
     ctx_.cost.dispatches++;
     drawn_ += indexCount_ / 3;
     return;
@@ -256,7 +282,7 @@ void DepthPass::drawClusters(VkCommandBuffer cb, uint32_t face, double u0, doubl
   const double nv0 = std::sqrt(1 + v0 * v0), nv1 = std::sqrt(1 + v1 * v1);
   uint32_t runFirst = 0, runCount = 0;
   auto flush = [&] {
-    if (runCount) vkCmdDrawIndexed(cb, runCount, 1, runFirst, 0, 0), ctx_.cost.dispatches++;
+    if (runCount) vkCmdDrawIndexed(cb, runCount, 1, runFirst, 0, runFirst / 3), ctx_.cost.dispatches++;
     drawn_ += runCount / 3;
     runCount = 0;
   };
@@ -341,6 +367,7 @@ void DepthPass::createWarpedPipeline() {
 
 void DepthPass::recordWarped(vk::Commands& cmd, uint32_t face, uint32_t resolution, const vk::Buffer& warp,
                              uint32_t cells, glm::vec3 light, float nearPlane, float tessTexels) {
+  CS_CHECK(!triangleIds_, "the warped depth pass writes no triangle IDs: make its DepthPass without them");
   if (!warpedPipeline_) createWarpedPipeline();
   VkCommandBuffer cb = beginPass(cmd, resolution, resolution);
   if (indexCount_) {
@@ -371,6 +398,13 @@ void DepthPass::recordWarped(vk::Commands& cmd, uint32_t face, uint32_t resoluti
 void DepthPass::recordCopy(vk::Commands& cmd, const std::vector<VkBufferImageCopy>& regions, const vk::Buffer& dst) {
   if (regions.empty()) return;
   vkCmdCopyImageToBuffer(cmd.handle(), targets_[current_].color.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, dst.buffer,
+                         uint32_t(regions.size()), regions.data());
+}
+
+void DepthPass::recordCopyIds(vk::Commands& cmd, const std::vector<VkBufferImageCopy>& regions, const vk::Buffer& dst) {
+  CS_CHECK(triangleIds_, "recordCopyIds: this depth pass writes no triangle IDs");
+  if (regions.empty()) return;
+  vkCmdCopyImageToBuffer(cmd.handle(), targets_[current_].ids.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, dst.buffer,
                          uint32_t(regions.size()), regions.data());
 }
 

@@ -33,7 +33,10 @@ inline constexpr uint32_t kClusterTriangles = 64;
 
 class DepthPass {
  public:
-  explicit DepthPass(vk::Context& ctx, bool culling = true);
+  // triangleIds: every target also holds, per texel, the index of the scene triangle nearest the light
+  // (R32UI, SM_NO_TRIANGLE where none; depth_id.frag), for ASM's ID + depth test. Needs the device's
+  // geometryShader feature (an Error naming it otherwise); the warped pass (RTW) does not write them.
+  explicit DepthPass(vk::Context& ctx, bool culling = true, bool triangleIds = false);
   ~DepthPass();
   DepthPass(const DepthPass&) = delete;
   DepthPass& operator=(const DepthPass&) = delete;
@@ -62,6 +65,9 @@ class DepthPass {
   // Copies rectangles of the target the last recordWindow or recordWarped rendered into `dst` (4-byte
   // texels). No barrier: the caller adds one before reading `dst`.
   void recordCopy(vk::Commands& cmd, const std::vector<VkBufferImageCopy>& regions, const vk::Buffer& dst);
+  // The same rectangles of the triangle-ID target (4-byte texels); only with triangleIds.
+  void recordCopyIds(vk::Commands& cmd, const std::vector<VkBufferImageCopy>& regions, const vk::Buffer& dst);
+  bool triangleIds() const { return triangleIds_; }
 
   uint32_t triangleCount() const { return indexCount_ / 3; }
   // Bounds of the uploaded geometry's finite positions (computed with each upload; lo > hi when none):
@@ -93,6 +99,7 @@ class DepthPass {
 
   vk::Context& ctx_;
   bool culling_;
+  bool triangleIds_;
   std::vector<Cluster> clusters_;
   uint64_t drawn_ = 0;
   vk::Buffer vertices_, indices_;
@@ -110,7 +117,7 @@ class DepthPass {
   VkPipeline warpedPipeline_ = VK_NULL_HANDLE;
   VkShaderModule warpedVert_ = VK_NULL_HANDLE, warpedGeom_ = VK_NULL_HANDLE, warpedFrag_ = VK_NULL_HANDLE;
   struct Target {
-    vk::Image color, depth;
+    vk::Image color, ids, depth;  // ids: only with triangleIds
     VkFramebuffer framebuffer = VK_NULL_HANDLE;
     uint32_t size = 0;
   };

@@ -83,7 +83,8 @@ AsmOptions asmOptions(const Settings& s) {
     throw UsageError("asm: --asm-cells " + std::to_string(o.cells) + " does not divide the node resolution " +
                      std::to_string(o.nodeResolution));
   o.memoryBytes = s.bytes("asm-memory", o.memoryBytes);
-  const uint64_t nodeBytes = uint64_t(o.nodeResolution + 1) * (o.nodeResolution + 1) * 4;
+  o.idTest = s.onOff("asm-id-test", o.idTest);
+  const uint64_t nodeBytes = asmSlotBytes(o.nodeResolution, o.idTest);
   if (o.memoryBytes < 7 * nodeBytes)
     throw UsageError("asm: --asm-memory " + byteSizeLabel(o.memoryBytes) + " holds fewer than the six roots and one "
                      "child of " + std::to_string(o.nodeResolution) + "² (" + byteSizeLabel(7 * nodeBytes) + ")");
@@ -157,6 +158,10 @@ MethodInfo asmMethodInfo() {
       {"asm-analysis", "K", "analyse every K-th pixel in x and y (default 1; the paper's eighth is about 3)", {}},
       {"asm-max-depth", "L", "deepest node level (default: as deep as fp32 face coordinates resolve)", {}},
       {"asm-lod-bias", "L", "refine until texels are 2^L times finer than pixels (default 0: matched, the paper's)", {}},
+      {"asm-id-test", "on|off",
+       "paper 001's ID + depth test: a texel whose nearest triangle is the sample's own lights it, the depth "
+       "comparison decides the rest (default off; twice the bytes a node; needs the geometryShader feature)",
+       {}},
       {"sm-no-pcf", "", "one depth tap instead of 2x2 PCF", {}},
       kPlaneBias,
       kCull,
@@ -175,6 +180,7 @@ MethodInfo asmMethodInfo() {
     points.push_back({"asm@32M,node512", at32.with("asm-node-res", "512").without("asm-cells")});
     points.push_back({"asm@32M,lod+1", at32.with("asm-lod-bias", "1")});
     points.push_back({"asm@32M,analysis3x", at32.with("asm-analysis", "3")});
+    points.push_back({"asm@32M,id", at32.with("asm-id-test", "on")});
     return points;
   };
   return m;

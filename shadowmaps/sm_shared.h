@@ -36,6 +36,7 @@ using glm::sqrt;
 #define SM_LIST_THREADS 256       // per-list-entry kernels
 #define SM_INVALID_KEY 0xFFFFFFFFu
 #define SM_MAX_LEVEL 12u          // page keys hold 12-bit page coordinates: levels 0..12
+#define SM_NO_TRIANGLE 0xFFFFFFFFu     // the triangle-ID target where no geometry was drawn (as RASTER_NO_TRIANGLE)
 #define SM_EMPTY_DEPTH 3.0e38f    // stored where no geometry was drawn: every sample is in front of it
 
 // Counters word indices (RMSM's small counter buffer).

@@ -273,6 +273,41 @@ TEST(Asm, AMovedLightFlushesTheTree) {
   EXPECT_EQ(out.stats["flushes"], 2);
 }
 
+// Paper 001 §4.2's ID + depth test: with no bias at all the depth comparison alone shadows receivers
+// with their own triangles (acne), and the ID test lights them; where the IDs differ (across triangle
+// and mesh boundaries, and under real occluders) the depth comparison still decides, so the true
+// shadow stays. Its pool of IDs doubles the bytes a node.
+TEST(Asm, TheIdTestLightsTheSamplesOwnTriangleWhereTheDepthAloneSelfShadows) {
+  if (!test::context().geometryShader) GTEST_SKIP() << "no geometryShader: no triangle IDs";
+  for (const char* view : {"wall", "room"}) {
+    Frame f = builtinFrame(view, 160, 120);
+    AsmOptions o;
+    o.constantBias = 0;
+    o.slopeBias = 0;
+    o.pcf = false;
+    auto depthOnly = makeAdaptiveShadowMap(test::context(), o);
+    o.idTest = true;
+    auto idDepth = makeAdaptiveShadowMap(test::context(), o);
+    MethodOutput a, b;
+    for (int k = 0; k < 3; ++k) a = depthOnly->run(f.input()), b = idDepth->run(f.input());
+    const ErrorStats ea = f.compare(a.visibility), eb = f.compare(b.visibility);
+    std::printf("%s, no bias: depth alone %llu false shadows, %llu false light; ID + depth %llu, %llu\n", view,
+                (unsigned long long)ea.falseShadow, (unsigned long long)ea.falseLight,
+                (unsigned long long)eb.falseShadow, (unsigned long long)eb.falseLight);
+    size_t shadowed = 0;  // lit samples the reference shadows
+    for (size_t i = 0; i < f.host.size(); ++i) shadowed += f.host.isLit(i) && f.reference[i] < 0.5f;
+    EXPECT_GT(ea.falseShadow, 200u) << view << ": without bias the depth test alone must show acne";
+    EXPECT_LT(eb.falseShadow, ea.falseShadow / 20) << view;
+    EXPECT_LT(eb.misclassified, ea.misclassified / 10) << view;
+    // Where a small occluder falls inside the texel of the sample's own triangle the ID test lights it
+    // (the paper's price); the shadows stay but for a few percent of their samples.
+    EXPECT_LT(double(eb.falseLight), 0.03 * double(shadowed)) << view << ": " << shadowed << " shadowed samples";
+    EXPECT_EQ(b.stats["id_test"], true);
+    EXPECT_EQ(b.stats["pool_bytes"].get<uint64_t>() / b.stats["pool_slots"].get<uint64_t>(),
+              2 * a.stats["pool_bytes"].get<uint64_t>() / a.stats["pool_slots"].get<uint64_t>());
+  }
+}
+
 TEST(Asm, SettingsOutsideTheirLimitsAreErrorsNamingTheSetting) {
   auto message = [](AsmOptions o) -> std::string {
     try {

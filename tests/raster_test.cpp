@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include "raster/raster.h"
+#include "raster/raster_layout.h"
+#include "tests/shadowmap_test_support.h"
 #include "tests/test_context.h"
 
 namespace cs {
@@ -118,6 +120,41 @@ TEST(Raster, PositionsNormalsAndLightTermMatchTheAnalyticScene) {
     }
   EXPECT_GT(checked, int(w * h) / 2);
   EXPECT_GT(background, 0);
+}
+
+// The third attachment (devices with geometryShader): each pixel names the scene triangle its sample lies
+// on, and pixels without geometry name none — what ASM's ID + depth test compares with the light's.
+TEST(Raster, TriangleIdsNameTheTriangleUnderEachPixel) {
+  auto& ctx = test::context();
+  if (!ctx.geometryShader) GTEST_SKIP() << "no geometryShader: the G-buffer carries no triangle IDs";
+  Scene scene = planeAndSphere();
+  Camera cam;
+  cam.eye = {3.0f, 4.0f, 5.0f};
+  cam.target = {0.3f, 0.5f, -0.2f};
+  cam.yfov = 0.9f;
+  const uint32_t w = 160, h = 120;
+  Raster raster(ctx, scene);
+  DeviceGBuffer dev;
+  GBuffer gb;
+  raster.render(cam, {-1.0f, 4.0f, 2.0f}, w, h, dev, &gb);
+  ASSERT_TRUE(dev.triangle);
+  std::vector<uint32_t> ids(size_t(w) * h);
+  vk::download(ctx, dev.triangle, ids.data(), ids.size() * 4);
+  size_t sphere = 0, plane = 0, wrong = 0;
+  for (size_t i = 0; i < ids.size(); ++i) {
+    if (!gb.hasGeometry(i)) {
+      EXPECT_EQ(ids[i], RASTER_NO_TRIANGLE) << i;
+      continue;
+    }
+    const glm::vec3 p(gb.position[i]);
+    // A twentieth of the pixel's footprint: rasterizers snap vertices to 1/256 of a pixel or finer.
+    const float pixel = 2 * std::tan(0.5f * cam.yfov) / float(h) * glm::length(p - cam.eye);
+    wrong += !smtest::onTriangle(scene, ids[i], p, 0.05 * pixel);
+    (ids[i] < 2 ? plane : sphere)++;
+  }
+  EXPECT_GT(plane, 1000u);
+  EXPECT_GT(sphere, 1000u);
+  EXPECT_EQ(wrong, 0u) << "pixels whose sample is not on the triangle they name";
 }
 
 TEST(Raster, RowZeroIsTheTopOfTheImage) {

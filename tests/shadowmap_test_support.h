@@ -1,6 +1,7 @@
 // Shared by the shadow-map tests: small analytic scenes, their cameras, and a rasterized frame with its
 // Embree reference (the G-buffer on the GPU and on the host, the camera it was seen from).
 #pragma once
+#include <cmath>
 #include <utility>
 #include <vector>
 
@@ -56,6 +57,24 @@ inline Camera squareCloseCamera() {
   c.znear = 0.05f;
   c.zfar = 60.0f;
   return c;
+}
+
+// Whether p lies on triangle `tri` of `s` within `slack` (world units) of its plane and inside each of its
+// edges' lines (a point on a shared edge belongs to both triangles). Rasterizers snap vertices to a
+// sub-pixel grid, so a sample may lie a small fraction of a pixel outside the exact triangle.
+inline bool onTriangle(const Scene& s, uint32_t tri, glm::vec3 p, double slack) {
+  if (size_t(tri) * 3 + 2 >= s.indices.size()) return false;
+  const glm::dvec3 v[3] = {glm::dvec3(s.positions[s.indices[3 * size_t(tri)]]),
+                           glm::dvec3(s.positions[s.indices[3 * size_t(tri) + 1]]),
+                           glm::dvec3(s.positions[s.indices[3 * size_t(tri) + 2]])};
+  const glm::dvec3 q(p), n = glm::cross(v[1] - v[0], v[2] - v[0]);
+  const double len = glm::length(n);
+  if (!(len > 0) || std::abs(glm::dot(n, q - v[0])) / len > slack) return false;
+  for (int e = 0; e < 3; ++e) {  // signed distance from q to edge e's line, positive inside
+    const glm::dvec3 a = v[e], b = v[(e + 1) % 3];
+    if (glm::dot(glm::cross(b - a, q - a), n) / (len * glm::length(b - a)) < -slack) return false;
+  }
+  return true;
 }
 
 // A closed box around the light: every direction hits a wall at a distance known in closed form.

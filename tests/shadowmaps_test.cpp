@@ -771,6 +771,63 @@ TEST(Rmsm, RenderedPagesHoldTheDistanceAlongEachTexelCentre) {
   EXPECT_LE(wrong, texels / 500) << wrong << " of " << texels << " texels hold another distance";
 }
 
+// The depth pass's triangle IDs (ASM's ID + depth test): in windows of every face, culled into runs of
+// clusters that start mid-buffer, each texel names the triangle its stored distance lands on along the
+// texel's centre direction, and texels nothing covers name none. A run whose base triangle were lost
+// would name triangles thousands of indices away.
+TEST(ShadowMaps, DepthPassTriangleIdsNameTheTriangleAtEachTexelsDistance) {
+  auto& ctx = test::context();
+  if (!ctx.geometryShader) GTEST_SKIP() << "no geometryShader: no triangle IDs";
+  const Scene scene = builtinScene();
+  const glm::vec3 light = scene.lights.at(0).position;
+  const float eps = EpsilonPolicy::forScene(scene).eps;
+  sm::DepthPass pass(ctx, /*culling=*/true, /*triangleIds=*/true);
+  pass.setGeometry(scene);
+  const uint32_t res = 256, x0 = 40, y0 = 72, side = 129;
+  pass.ensureTargets(side, side);
+  vk::Buffer dist = vk::createBuffer(ctx, uint64_t(side) * side * 4), ids = vk::createBuffer(ctx, uint64_t(side) * side * 4);
+  size_t texels = 0, empty = 0, wrong = 0;
+  uint64_t drawn = 0;
+  for (uint32_t face = 0; face < 6; ++face) {
+    {
+      vk::Commands cmd(ctx);
+      pass.recordWindow(cmd, face, res, x0, y0, side, side, light, eps);
+      VkBufferImageCopy region{};
+      region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+      region.imageExtent = {side, side, 1};
+      pass.recordCopy(cmd, {region}, dist);
+      pass.recordCopyIds(cmd, {region}, ids);
+      cmd.submit();
+    }
+    drawn += pass.takeTrianglesDrawn();
+    std::vector<float> d(size_t(side) * side);
+    std::vector<uint32_t> t(d.size());
+    vk::download(ctx, dist, d.data(), d.size() * 4);
+    vk::download(ctx, ids, t.data(), t.size() * 4);
+    const uint32_t axis = face >> 1;
+    for (uint32_t y = 0; y < side; ++y)
+      for (uint32_t x = 0; x < side; ++x) {
+        const size_t k = size_t(y) * side + x;
+        if (d[k] >= SM_EMPTY_DEPTH) {
+          EXPECT_EQ(t[k], SM_NO_TRIANGLE) << "face " << face << " texel " << x << "," << y;
+          ++empty;
+          continue;
+        }
+        glm::dvec3 dir;
+        dir[axis] = (face & 1) ? -1 : 1;
+        dir[(axis + 1) % 3] = 2 * (x0 + x + 0.5) / res - 1;
+        dir[(axis + 2) % 3] = 2 * (y0 + y + 0.5) / res - 1;
+        const glm::vec3 p = light + glm::vec3(glm::normalize(dir) * double(d[k]));
+        ++texels;
+        wrong += !onTriangle(scene, t[k], p, 0.05 * 2.0 / res * d[k]);  // a twentieth of a texel
+      }
+  }
+  std::printf("depth-pass triangle IDs: %zu of %zu texels off, %zu empty\n", wrong, texels, empty);
+  EXPECT_GT(texels, 50000u);
+  EXPECT_LT(drawn, 6 * uint64_t(pass.triangleCount())) << "the windows must cull clusters";
+  EXPECT_LE(wrong, texels / 1000) << wrong << " of " << texels << " texels name a triangle their distance is not on";
+}
+
 // Frustum culling changes the work, never the result.
 TEST(ShadowMaps, FrustumCullingLeavesTheShadowsUnchanged) {
   Frame f = builtinFrame("ceiling", 128, 96);
