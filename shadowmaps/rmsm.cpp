@@ -259,6 +259,8 @@ struct Rmsm::State {
   vk::Buffer requestBuf, flags, compacted, uniqueBuf, lod, visibility;
   std::unique_ptr<sort::Compact> compact;
   std::unique_ptr<sort::RadixSort> sorter;
+  sort::IndirectGroups groups;
+  vk::Readback readback;
   // Residency: the key of the page in each pool slot (slots 0..resident.size()-1 are taken).
   std::vector<uint32_t> resident;
   uint32_t cacheLimit = 0;       // cached mode: finest level of the resident pages (the fallback lowers it)
@@ -268,7 +270,8 @@ struct Rmsm::State {
   Analysis last;                 // the last frame's analysis, for the test hooks
 
   State(vk::Context& c, const RmsmOptions& o)
-      : ctx(c), opt(o), layout(sm::rmsmLayout(o, c.maxStorageBufferRange())), pass(c, o.cull), timer(vk::createTimer(c, 64)) {
+      : ctx(c), opt(o), layout(sm::rmsmLayout(o, c.maxStorageBufferRange())), pass(c, o.cull), timer(vk::createTimer(c, 64)),
+        groups(c), readback(c) {
     CS_CHECK(o.constantBias >= 0 && o.slopeBias >= 0 && o.maxSlope >= 0, "rmsm biases must be >= 0");
     const uint32_t push = sizeof(sm::RmsmPush);
     requests = vk::createKernel(c, "rmsm_requests", spv_rmsm_requests_comp, 7, push);
@@ -282,7 +285,7 @@ struct Rmsm::State {
     vk::upload(c, windowBuf, windows.data(), sizeof(windows));
     tableBuf = vk::createBuffer(c, layout.tableBytes);
     pool = vk::createBuffer(c, layout.poolBytes);
-    counters = vk::createBuffer(c, SM_COUNT_WORDS * 4);
+    counters = vk::createBuffer(c, SM_COUNT_WORDS * 4, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
     updates = vk::createBuffer(c, uint64_t(2) * layout.poolPages * 8);
     vk::Commands cmd(c);
     cmd.fill(tableBuf, 0);
@@ -297,7 +300,8 @@ struct Rmsm::State {
            (compact ? compact->bytesAllocated() : 0) + (sorter ? sorter->bytesAllocated() : 0);
   }
   uint64_t bytesAllocated() const {
-    return pass.bytesAllocated() + tableBuf.size + pool.size + counters.size + updates.size + pixelBytes();
+    return pass.bytesAllocated() + tableBuf.size + pool.size + counters.size + updates.size + pixelBytes() +
+           readback.bytesAllocated();
   }
 
   void ensurePixels(uint32_t w, uint32_t h) {
@@ -337,10 +341,11 @@ struct Rmsm::State {
     return p;
   }
 
-  // Steps 1-8 of Algorithm 2: requests -> prune -> compact on the GPU; the pruned count read back (one
-  // word) so that sort -> uniquify -> compact run on exactly that many keys rather than on the bound of
-  // two per pixel (a device count would size every dispatch and scratch scan for the bound); then the
-  // unique pages on the host.
+  // Steps 1-8 of Algorithm 2 in one submission: requests -> prune -> compact -> sort -> uniquify ->
+  // compact, every count on the GPU (the sort and the compactions take the pruned count as a device
+  // count bounded by two requests a pixel; the uniquify pass is dispatched indirectly for it), the
+  // counters read back with it; then the unique pages on the host (the allocation of steps 9-10 is the
+  // host's), one more copy sized by the unique count.
   Analysis analyse(const DeviceGBuffer& g, glm::vec3 light, float eps, uint32_t levelLimit, bool filter,
                    bool clearTables, Stages& stages) {
     const uint32_t pixels = width * height, slots = 2 * pixels;
@@ -349,11 +354,13 @@ struct Rmsm::State {
     Analysis a;
     timer.restart();
     {
+      readback.clear();
+      const uint32_t countersSlot = readback.add(counters, sizeof(a.counters));
       vk::Commands cmd(ctx, &timer);
+      cmd.mark("start");  // first: every command of the submission falls in a stage
       if (clearTables) cmd.fill(tableBuf, 0);
       cmd.fill(counters, 0);
       cmd.barrier();
-      cmd.mark("start");
       vk::Grid grid = vk::gridFor(pixels, SM_PIXEL_THREADS, ctx.maxWorkgroups());
       cmd.dispatch(requests, {g.position, g.normal, tableBuf, lod, requestBuf, counters, windowBuf}, p, grid.x, grid.y);
       cmd.barrier();
@@ -363,34 +370,24 @@ struct Rmsm::State {
       cmd.mark("prune");
       compact->record(cmd, flags, sort::Count(slots), compacted, sort::GpuWord(counters, SM_COUNT_PRUNED), requestBuf);
       cmd.mark("compact");
+      const sort::Count pruned = sort::Count::device(sort::GpuWord(counters, SM_COUNT_PRUNED), slots);
+      sorter->record(cmd, compacted, vk::BufferRange(), pruned, 31);
+      groups.record(cmd, pruned, SM_LIST_THREADS, counters, SM_COUNT_UNIQUE_ARGS);
+      cmd.barrier();
+      cmd.mark("sort");
+      p.count = slots;  // the kernel clamps the device count to it
+      cmd.dispatchIndirect(unique, {compacted, flags, counters}, &p, sizeof(p), counters, SM_COUNT_UNIQUE_ARGS * 4);
+      cmd.barrier();
+      compact->record(cmd, flags, pruned, uniqueBuf, sort::GpuWord(counters, SM_COUNT_UNIQUE), compacted);
+      cmd.mark("uniquify");
+      readback.record(cmd);
       cmd.submit();
+      readback.read(countersSlot, a.counters);
     }
     for (auto& [n, ms] : timer.intervals()) stages.add(n, ms);
-    auto t0 = Clock::now();
-    vk::download(ctx, counters, a.counters, sizeof(a.counters));
-    const uint32_t pruned = std::min(a.counters[SM_COUNT_PRUNED], slots);
-    stages.add("readback", msSince(t0));
-    timer.restart();
-    if (pruned > 0) {
-      vk::Commands cmd(ctx, &timer);
-      cmd.mark("start");
-      sorter->record(cmd, compacted, vk::BufferRange(), sort::Count(pruned), 31);
-      cmd.mark("sort");
-      p.count = pruned;
-      vk::Grid listGrid = vk::gridFor(pruned, SM_LIST_THREADS, ctx.maxWorkgroups());
-      cmd.dispatch(unique, {compacted, flags, counters}, p, listGrid.x, listGrid.y);
-      cmd.barrier();
-      compact->record(cmd, flags, sort::Count(pruned), uniqueBuf, sort::GpuWord(counters, SM_COUNT_UNIQUE), compacted);
-      cmd.mark("uniquify");
-      cmd.submit();
-      for (auto& [n, ms] : timer.intervals()) stages.add(n, ms);
-    } else {
-      stages.add("sort", 0.0);
-      stages.add("uniquify", 0.0);
-    }
-    t0 = Clock::now();
-    vk::download(ctx, counters, a.counters, sizeof(a.counters));
-    a.unique = vk::download<uint32_t>(ctx, uniqueBuf, std::min(a.counters[SM_COUNT_UNIQUE], pruned));
+    const auto t0 = Clock::now();
+    const uint32_t unique = std::min(a.counters[SM_COUNT_UNIQUE], std::min(a.counters[SM_COUNT_PRUNED], slots));
+    a.unique = unique ? vk::download<uint32_t>(ctx, uniqueBuf, unique) : std::vector<uint32_t>{};
     stages.add("readback", msSince(t0));
     return a;
   }
@@ -509,7 +506,13 @@ MethodOutput Rmsm::run(const FrameInput& frame) {
   // Phase 2: page tables, superpages, lookup.
   auto tRender = Clock::now();
   s.timer.restart();
+  MethodOutput out;
+  out.visibility.resize(pixels);
+  uint32_t misses = 0;
   {
+    s.readback.clear();
+    const uint32_t visibilitySlot = s.readback.add(s.visibility, uint64_t(pixels) * 4),
+                   missesSlot = s.readback.add(s.counters, 4, SM_COUNT_MISSES * 4);
     vk::Commands cmd(s.ctx, &s.timer);
     cmd.mark("start");
     s.recordAllocation(cmd, pages, !s.opt.cached);
@@ -543,22 +546,19 @@ MethodOutput Rmsm::run(const FrameInput& frame) {
                  grid.x, grid.y);
     cmd.barrier();
     cmd.mark("lookup");
+    s.readback.record(cmd);
     cmd.submit();
+    if (pixels) s.readback.read(visibilitySlot, out.visibility);
+    s.readback.read(missesSlot, std::span<uint32_t>(&misses, 1));
   }
   for (auto& [n, ms] : s.timer.intervals()) stages.add(n, ms);
   if (s.opt.cached) {
     s.cacheValid = true;
     s.cacheLight = frame.light;
   }
-  MethodOutput out;
   const double renderWallMs = msSince(tRender);
   out.totalMs = msSince(t0);
-
   auto t1 = Clock::now();
-  out.visibility.resize(pixels);
-  if (pixels) vk::download(s.ctx, s.visibility, out.visibility.data(), uint64_t(pixels) * 4);
-  uint32_t misses = 0;
-  vk::download(s.ctx, s.counters, &misses, 4, SM_COUNT_MISSES * 4);
 
   std::vector<uint32_t> perLevel(L.maxLevel + 1, 0);
   for (uint32_t k : s.resident) perLevel[sm::keyLevel(k)]++;
@@ -606,8 +606,7 @@ MethodOutput Rmsm::run(const FrameInput& frame) {
                {"epsilon", eps},
                {"gpu_and_host_ms", gpuMs},
                {"analysis_wall_ms", analysisWallMs},  // steps 1-8: submits, waits and readbacks included
-               {"render_wall_ms", renderWallMs},      // page tables, superpages and lookup: recording included
-               {"readback_ms", msSince(t1)}};
+               {"render_wall_ms", renderWallMs}};     // page tables, superpages, lookup and readback: recording included
   return out;
 }
 

@@ -46,7 +46,8 @@ using glm::sqrt;
 #define SM_COUNT_MISSES 3u        // lookups that found no page at any level (0 with full-resolution analysis)
 #define SM_COUNT_ISOLATED 4u      // lit samples with no usable neighbour for the derivatives
 #define SM_COUNT_FACES 5u         // bit f set: some lit sample lies on cube face f
-#define SM_COUNT_WORDS 8u
+#define SM_COUNT_UNIQUE_ARGS 8u   // words 8-10: the uniquify dispatch's grid for the pruned count (indirect)
+#define SM_COUNT_WORDS 12u
 
 // ---- cube faces ------------------------------------------------------------------------------------
 // Face f = 2·axis + (component < 0): the major axis of the direction d from the light (ties go to x,

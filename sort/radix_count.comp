@@ -2,7 +2,9 @@
 #extension GL_GOOGLE_include_directive : require
 // Radix sort, step 1 of a pass: each tile's digit histogram, written digit-major
 // (hist[digit * tiles + tile]) so one exclusive scan of the table gives every (digit, tile) its first
-// output position. Tiles past the device count write zeros.
+// output position. Tiles past the device count write zeros; with a device count the dispatch is indirect
+// (sort::IndirectGroups: only the tiles the count fills), and tile 0 also zeroes the entries of the
+// tiles [used, tiles) that were not launched.
 // bindings: 0 = keys (uint[], read as uvec4), 1 = hist (uint[], (digitMask + 1) * tiles),
 //           2 = countWords (device count)
 #include "sort/sort_layout.h"
@@ -32,4 +34,9 @@ void main() {
   }
   barrier();
   for (uint d = t; d <= pc.digitMask; d += SORT_THREADS) hist[d * pc.tiles + tile] = bins[d];
+  if (tile == 0u) {
+    uint used = max(ceilDiv(n, SORT_TILE), 1u);
+    uint rest = pc.tiles - min(used, pc.tiles);
+    for (uint e = t; e < rest * (pc.digitMask + 1u); e += SORT_THREADS) hist[(e / rest) * pc.tiles + used + e % rest] = 0u;
+  }
 }

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "sort/compact_scatter.comp.h"
+#include "sort/groups_for.comp.h"
 #include "sort/radix_count.comp.h"
 #include "sort/radix_scatter.comp.h"
 #include "sort/scan_block.comp.h"
@@ -189,6 +190,23 @@ void Compact::record(vk::Commands& cmd, const vk::BufferRange& flags, Count coun
   cmd.barrier();
 }
 
+// ---- indirect dispatch arguments ----------------------------------------------------------------
+
+IndirectGroups::IndirectGroups(vk::Context& ctx)
+    : ctx_(ctx), kernel_(vk::createKernel(ctx, "groups_for", spv_groups_for_comp, 2, sizeof(GroupsPush))) {}
+
+void IndirectGroups::record(vk::Commands& cmd, const Count& count, uint32_t perGroup, const vk::Buffer& args,
+                            uint32_t index) {
+  CS_CHECK(count.onDevice() && perGroup > 0, "indirect groups need a device count and a group size");
+  CS_CHECK((uint64_t(index) + 3) * 4 <= args.size, "indirect groups: arguments at " << index << " past the buffer");
+  const uint32_t maxPerDim = std::min(ctx_.properties.limits.maxComputeWorkGroupCount[0],
+                                      ctx_.properties.limits.maxComputeWorkGroupCount[1]);
+  CS_CHECK(uint64_t(ceilDiv(count.max, perGroup)) <= uint64_t(maxPerDim) * maxPerDim,
+           "indirect groups: " << count.max << " elements need more workgroups than a 2-D grid holds");
+  GroupsPush push{count.max, count.word.index, perGroup, index, maxPerDim, 0, 0, 0};
+  cmd.dispatch(kernel_, {bindWord(count.word, args), args}, push, 1);
+}
+
 // ---- radix sort ---------------------------------------------------------------------------------
 
 namespace {
@@ -206,17 +224,18 @@ uint32_t checkedHistogram(const vk::Context& ctx, uint32_t capacity) {
 }  // namespace
 
 RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity)
-    : ctx_(ctx), capacity_(capacity), scan_(ctx, checkedHistogram(ctx, capacity)) {
+    : ctx_(ctx), capacity_(capacity), scan_(ctx, checkedHistogram(ctx, capacity)), groups_(ctx) {
   altKeys_ = vk::createBuffer(ctx, VkDeviceSize(capacity) * 4);
   altValues_ = vk::createBuffer(ctx, VkDeviceSize(capacity) * 4);
   hist_ = vk::createBuffer(ctx, histogramEntries(capacity) * 4);
   dummy_ = dummyBuffer(ctx);
+  args_ = vk::createBuffer(ctx, 16, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
   count_ = vk::createKernel(ctx, "radix_count", spv_radix_count_comp, 3, sizeof(RadixPush));
   scatter_ = vk::createKernel(ctx, "radix_scatter", spv_radix_scatter_comp, 6, sizeof(RadixPush));
 }
 
 uint64_t RadixSort::bytesAllocated() const {
-  return altKeys_.size + altValues_.size + hist_.size + dummy_.size + scan_.bytesAllocated();
+  return altKeys_.size + altValues_.size + hist_.size + dummy_.size + args_.size + scan_.bytesAllocated();
 }
 
 void RadixSort::record(vk::Commands& cmd, const vk::BufferRange& keys, const vk::BufferRange& values, Count count,
@@ -244,20 +263,32 @@ void RadixSort::record(vk::Commands& cmd, const vk::BufferRange& keys, const vk:
   }
   const vk::BufferRange countBinding = bindWord(count.word, dummy_);
   const vk::Grid g = groups(ctx_, tiles);
+  const bool indirect = count.onDevice();
+  if (indirect) {  // the tiles the device count fills (radix_count.comp's tile 0 zeroes the others' entries)
+    groups_.record(cmd, count, SORT_TILE, args_, 0);
+    cmd.barrier();
+  }
   for (uint32_t p = 0; p < passes; ++p) {
     const uint32_t shift = p * RADIX_BITS, bits = std::min<uint32_t>(RADIX_BITS, keyBits - shift);
     RadixPush push{count.max, count.word.index, countFlags(count) | (hasValues ? FLAG_HAS_VALUES : 0u), shift,
                    (1u << bits) - 1u, tiles, 0, 0};
     const uint32_t entries = (1u << bits) * tiles;
     // Count: digit histogram per tile, digit-major.
-    cmd.dispatch(count_, {src.keys, range(hist_, 0, VkDeviceSize(entries) * 4), countBinding}, push, g.x, g.y);
+    if (indirect)
+      cmd.dispatchIndirect(count_, {src.keys, range(hist_, 0, VkDeviceSize(entries) * 4), countBinding}, &push,
+                           sizeof(push), args_);
+    else
+      cmd.dispatch(count_, {src.keys, range(hist_, 0, VkDeviceSize(entries) * 4), countBinding}, push, g.x, g.y);
     cmd.barrier();
     // Scan: every (digit, tile) learns where its keys start.
     scan_.record(cmd, range(hist_, 0, VkDeviceSize(entries) * 4), range(hist_, 0, VkDeviceSize(entries) * 4), entries);
     // Scatter: stable rank inside the tile, written from that start.
-    cmd.dispatch(scatter_, {src.keys, src.values, dst.keys, dst.values, range(hist_, 0, VkDeviceSize(entries) * 4),
-                            countBinding},
-                 push, g.x, g.y);
+    const std::initializer_list<vk::BufferRange> scatterBuffers = {
+        src.keys, src.values, dst.keys, dst.values, range(hist_, 0, VkDeviceSize(entries) * 4), countBinding};
+    if (indirect)
+      cmd.dispatchIndirect(scatter_, scatterBuffers, &push, sizeof(push), args_);
+    else
+      cmd.dispatch(scatter_, scatterBuffers, push, g.x, g.y);
     cmd.barrier();
     // Swap.
     std::swap(src, dst);

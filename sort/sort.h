@@ -142,13 +142,30 @@ class Compact {
   vk::Kernel scatter_;
 };
 
+// ---- indirect dispatch arguments ----------------------------------------------------------------
+// Writes, as a VkDispatchIndirectCommand at element `index` of `args` (a buffer made with
+// VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT), the 2-D grid vk::gridFor would make for ceil(min(device count,
+// count.max) / perGroup) workgroups: a dispatch sized by an earlier kernel's output without a readback.
+// The launched kernel must still check its index against the device count. No barrier: the caller adds
+// one before the indirect dispatch.
+class IndirectGroups {
+ public:
+  explicit IndirectGroups(vk::Context& ctx);
+  void record(vk::Commands& cmd, const Count& count, uint32_t perGroup, const vk::Buffer& args, uint32_t index);
+
+ private:
+  vk::Context& ctx_;
+  vk::Kernel kernel_;
+};
+
 // ---- radix sort ---------------------------------------------------------------------------------
 class RadixSort {
  public:
   RadixSort(vk::Context& ctx, uint32_t capacity);
   // Sorts the first `count` (key, value) pairs by the low `keyBits` bits of the key (higher bits are
   // ignored and travel with the key), stably, in place: the results are back in `keys` and `values`.
-  // `values` may be empty (buffer == VK_NULL_HANDLE) to sort keys alone. ceil(keyBits / 8) passes.
+  // `values` may be empty (buffer == VK_NULL_HANDLE) to sort keys alone. ceil(keyBits / 8) passes. With
+  // a device count the passes are dispatched indirectly for the tiles it fills, not for count.max.
   void record(vk::Commands& cmd, const vk::BufferRange& keys, const vk::BufferRange& values, Count count,
               uint32_t keyBits = 32);
   uint32_t capacity() const { return capacity_; }
@@ -158,8 +175,9 @@ class RadixSort {
   vk::Context& ctx_;
   uint32_t capacity_;
   Scan scan_;  // of the histogram table
+  IndirectGroups groups_;  // a device count: the count and scatter passes launch only the tiles it fills
   vk::Kernel count_, scatter_;
-  vk::Buffer altKeys_, altValues_, hist_, dummy_;
+  vk::Buffer altKeys_, altValues_, hist_, dummy_, args_;
 };
 
 }  // namespace cs::sort

@@ -71,6 +71,16 @@ struct ScanPush {
   uint pad0, pad1, pad2;
 };
 
+// groups_for.comp: indirect dispatch arguments for a device count.
+struct GroupsPush {
+  uint count;       // upper bound on the device count
+  uint countIndex;  // element of the count binding that holds the device count
+  uint perGroup;    // elements a workgroup of the dispatch takes
+  uint argsIndex;   // element of the args binding where (x, y, z) go
+  uint maxPerDim;   // the device's workgroups per grid dimension
+  uint pad0, pad1, pad2;
+};
+
 // radix_count.comp, radix_scatter.comp
 struct RadixPush {
   uint count;       // element count, or its upper bound when FLAG_COUNT_FROM_BUFFER is set
@@ -105,6 +115,7 @@ struct KeysPush {
 };
 
 #ifdef __cplusplus
+static_assert(sizeof(GroupsPush) == 32, "GroupsPush layout");
 static_assert(sizeof(ScanPush) == 32 && offsetof(ScanPush, totalIndex) == 16, "ScanPush layout");
 static_assert(sizeof(RadixPush) == 32 && offsetof(RadixPush, tiles) == 20, "RadixPush layout");
 static_assert(sizeof(LitPush) == 32 && offsetof(LitPush, domain) == 16, "LitPush layout");

@@ -847,6 +847,25 @@ TEST(ShadowMaps, FrustumCullingLeavesTheShadowsUnchanged) {
   EXPECT_LT(rCulled.stats["triangles_drawn"].get<uint64_t>(), rAll.stats["triangles_drawn"].get<uint64_t>() / 2);
 }
 
+// What an RMSM frame costs the host once warm: the analysis in one submission (every count on the GPU,
+// the uniquify pass dispatched indirectly) and the page tables, superpages and lookup in a second, with
+// one copy of the unique pages between them (the host allocates the pages); nothing allocated. The mask is the same frame after frame.
+TEST(Rmsm, AWarmFrameIsTwoSubmissionsAndThreeHostSyncs) {
+  Frame f = builtinFrame("room", 128, 96);
+  Rmsm rmsm(test::context(), RmsmOptions{});
+  const MethodOutput first = rmsm.run(f.input());
+  auto& cost = test::context().cost;
+  const vk::HostCost before = cost;
+  const MethodOutput warm = rmsm.run(f.input());
+  EXPECT_EQ(cost.submits - before.submits, 2u);
+  // The copy of the unique pages is a submission and a wait where memory is not host visible.
+  EXPECT_EQ(cost.hostSyncs - before.hostSyncs, test::context().hostVisibleDeviceLocal ? 2u : 3u);
+  EXPECT_EQ(cost.allocations - before.allocations, 0u);
+  EXPECT_EQ(warm.visibility, first.visibility);
+  EXPECT_GT(warm.stats["unique_pages"].get<uint64_t>(), 10u);
+  EXPECT_LT(f.compare(warm.visibility).misclassifiedFraction, 0.05);
+}
+
 // Nothing in view, or nothing lit: a whole frame of 1s and no pages.
 TEST(Rmsm, AFrameWithoutLitSamplesIsAllLit) {
   Camera away = squareCamera();

@@ -347,7 +347,9 @@ TEST(RadixSort, SortsKeysAloneUpToACountReadFromTheGpu) {
   const uint32_t bound = 90000;
   std::vector<uint32_t> keys = randomWords(bound, 8);
   sort::RadixSort sorter(ctx, bound);
-  for (uint32_t n : {0u, 1u, 2049u, 77777u}) {
+  // Larger counts before smaller ones: the indirect passes launch only the tiles a count fills, and the
+  // histogram entries a larger count left in the others must not reach the scan.
+  for (uint32_t n : {0u, 1u, 2049u, 77777u, 2049u, 1u, 0u, 90000u}) {
     vk::Buffer k = gpuArray(ctx, keys), words = gpuArray(ctx, {0, n});
     vk::Commands cmd(ctx);
     sorter.record(cmd, k, vk::BufferRange(), Count::device(GpuWord(words, 1), bound));
@@ -355,6 +357,34 @@ TEST(RadixSort, SortsKeysAloneUpToACountReadFromTheGpu) {
     std::vector<uint32_t> want = keys;
     std::sort(want.begin(), want.begin() + n);
     EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, k, bound), want, "device count " << n);
+  }
+}
+
+// The indirect grid for a device count is the one vk::gridFor makes on the host for the same count
+// (clamped to the bound), 2-D past the device's workgroups per dimension, and zero workgroups for zero.
+TEST(IndirectGroups, WriteTheHostsGridForTheDeviceCount) {
+  auto& ctx = test::context();
+  sort::IndirectGroups groups(ctx);
+  const uint32_t maxPerDim = std::min(ctx.properties.limits.maxComputeWorkGroupCount[0],
+                                      ctx.properties.limits.maxComputeWorkGroupCount[1]);
+  const uint32_t beyond = 3 * maxPerDim + 7;  // items of one per workgroup: a 2-D grid
+  struct Case {
+    uint32_t count, bound, perGroup;
+  };
+  for (const Case c : {Case{0, 100, 64}, Case{1, 100, 64}, Case{64, 100, 64}, Case{65, 100, 64}, Case{500, 100, 64},
+                       Case{beyond, beyond, 1}, Case{beyond, 2 * maxPerDim, 1}}) {
+    vk::Buffer words = gpuArray(ctx, {7, c.count}), args = gpuArray(ctx, std::vector<uint32_t>(8, 99));
+    vk::Commands cmd(ctx);
+    groups.record(cmd, Count::device(GpuWord(words, 1), c.bound), c.perGroup, args, 2);
+    cmd.barrier();
+    cmd.submit();
+    const std::vector<uint32_t> got = vk::download<uint32_t>(ctx, args, 8);
+    const vk::Grid want = vk::gridFor(std::min(c.count, c.bound), c.perGroup, maxPerDim);
+    EXPECT_EQ(got[2], want.x) << c.count << " of at most " << c.bound;
+    EXPECT_EQ(got[3], want.y) << c.count;
+    EXPECT_EQ(got[4], 1u);
+    EXPECT_EQ(got[1], 99u) << "words before the arguments stay";
+    EXPECT_EQ(got[5], 99u) << "words after them stay";
   }
 }
 
