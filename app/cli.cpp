@@ -167,7 +167,8 @@ std::string usageText() {
          "                                        reference per view; writes a report (also --animate N,\n"
          "                                        --scaling, --light-distances D1,D2: separate runs)\n"
          "  coneshadow info SCENE                 triangles (flattened over node instances), bounds, cameras, lights\n"
-         "  coneshadow results-table DIR...       markdown table of the compare results in each DIR (the README's)\n"
+         "  coneshadow results-table [--host-cost] DIR...\n"
+         "                                        markdown table of the compare results in each DIR (the README's)\n"
          "  coneshadow devices                    list the Vulkan devices\n"
          "  coneshadow help [COMMAND]             this text, or a command's options (also COMMAND --help)\n"
          "  coneshadow --version\n"
@@ -277,6 +278,10 @@ Options parseArgs(int argc, char** argv) {
 
   info->add_option("scene", o.scene, "a .gltf/.glb, .aff or other file assimp reads, builtin, or heightfield:N (a generated height field of N triangles)");
   table->add_option("folders", o.folders, "folders written by coneshadow compare");
+  table->add_flag("--host-cost", o.hostCost,
+                  "instead: the first method's time over the reference's and every other method's (default "
+                  "settings, same run), and each method's host cost a frame (submissions / host syncs / KiB "
+                  "read back / allocations / dispatches)");
   (void)devices;
 
   std::vector<std::string> args(argv + 1, argv + argc);

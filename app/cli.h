@@ -45,6 +45,7 @@ struct Options {
   std::vector<uint32_t> scalingSizes;  // --scaling-sizes N1,N2 (hidden): the resolution sweep's sizes
   std::vector<double> lightDistances;  // --light-distances D1,D2: the light sweep, in scene diagonals
   std::vector<std::string> folders;  // results-table DIR...
+  bool hostCost = false;             // results-table --host-cost
   // The methods' settings as given, in order: name without the dashes, value ("" for a switch).
   std::vector<std::pair<std::string, std::string>> settings;
 };

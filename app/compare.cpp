@@ -31,7 +31,7 @@ namespace cs {
 std::vector<CompareSetting> compareSettings(const Options& o) {
   std::vector<CompareSetting> out;
   for (const MethodInfo* m : chosenMethods(o))
-    for (SweepPoint& p : sweepOf(*m, settingsFor(o, *m))) out.push_back({m, p.label, std::move(p.settings)});
+    for (SweepPoint& p : sweepOf(*m, settingsFor(o, *m))) out.push_back({m, p.label, std::move(p.settings), p.defaults});
   return out;
 }
 
@@ -571,7 +571,7 @@ int runCompare(const Options& o) {
       Row row;
       row.setting = s.label;
       row.stem = stem;
-      row.result = resultRow(*s.method, s.label, *frame, j);
+      row.result = resultRow(*s.method, s.label, *frame, j, s.defaults);
       row.result.provenance = provenance;
       row.msMin = j.runs.minMs;
       row.msMax = j.runs.maxMs;

@@ -17,6 +17,7 @@ struct CompareSetting {
   const MethodInfo* method = nullptr;
   std::string label;   // "cubesm@512", "rmsm@16M", "cone@64M", "embree"
   Settings settings;
+  bool defaults = false;  // SweepPoint::defaults
 };
 
 // The sweeps of the chosen methods (MethodInfo::sweep), in the registry's order.

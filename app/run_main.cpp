@@ -20,7 +20,7 @@ int runMain(int argc, char** argv) {
       std::cout << options.text;
       return kExitOk;
     }
-    if (options.command == "results-table") return runResultsTable(options.folders, std::cout);
+    if (options.command == "results-table") return runResultsTable(options.folders, std::cout, options.hostCost);
     if (options.command == "devices") return runDevices(options);
     if (options.command == "info") return runInfo(options);
     if (options.command == "compare") return runCompare(options);

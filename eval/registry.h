@@ -27,6 +27,7 @@ struct SettingSpec {
 struct SweepPoint {
   std::string label;  // "cubesm@512", "rmsm (cached)"
   Settings settings;
+  bool defaults = false;  // the point the method's default settings give (its row in summaries)
 };
 
 struct MethodInfo {

@@ -139,11 +139,12 @@ std::string methodDevice(const MethodInfo& info, const std::string& vulkanDevice
 }
 
 FrameResult resultRow(const MethodInfo& info, const std::string& setting, const PreparedFrame& frame,
-                      const Judged& judged) {
+                      const Judged& judged, bool defaults) {
   FrameResult r = makeFrameResult(frame.scene->name, frame.spec.view, info.name, frame.gbuffer,
                                   methodDevice(info, frame.deviceName), judged.runs.output, judged.error);
   nlohmann::json& st = r.stats;
   st["setting"] = setting;
+  st["defaults"] = defaults;
   st["gpu"] = frame.deviceName;
   st["frames"] = judged.runs.totals.size();
   st["total_ms_min"] = judged.runs.minMs;

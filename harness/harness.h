@@ -117,8 +117,9 @@ Judged judge(const MethodInfo& info, const Settings& settings, vk::Context& ctx,
 
 // The results row of a judged method: the method's output and error, and the statistics every row
 // carries (frames, min/max, the clock, determinism, raster time, lit and band samples, the device).
+// defaults: the setting is the method's defaults (stats "defaults": true; a single-setting run is).
 FrameResult resultRow(const MethodInfo& info, const std::string& setting, const PreparedFrame& frame,
-                      const Judged& judged);
+                      const Judged& judged, bool defaults = true);
 
 // Where a method runs, as rows name it: the Vulkan device, or "cpu (<name>)".
 std::string methodDevice(const MethodInfo& info, const std::string& vulkanDevice);

@@ -134,7 +134,8 @@ MethodInfo rtwMethodInfo() {
   m.sweep = [](const Settings& s) {
     std::vector<SweepPoint> points;
     for (uint32_t r : {512u, 1024u})
-      points.push_back({"rtw@" + std::to_string(r), s.with("rtw-resolution", std::to_string(r)).without("rtw-cells")});
+      points.push_back({"rtw@" + std::to_string(r), s.with("rtw-resolution", std::to_string(r)).without("rtw-cells"),
+                        r == RtwOptions{}.resolution});
     const Settings at1024 = s.with("rtw-resolution", "1024").without("rtw-cells");
     points.push_back({"rtw@1024,forward", at1024.with("rtw-analysis", "forward").without("rtw-importance")});
     points.push_back({"rtw@1024,hybrid", at1024.with("rtw-analysis", "hybrid").without("rtw-importance")});
@@ -175,7 +176,7 @@ MethodInfo asmMethodInfo() {
   m.sweep = [](const Settings& s) {
     std::vector<SweepPoint> points;
     for (uint64_t mem : {8ull << 20, 32ull << 20})
-      points.push_back({"asm@" + byteSizeLabel(mem), s.with("asm-memory", std::to_string(mem))});
+      points.push_back({"asm@" + byteSizeLabel(mem), s.with("asm-memory", std::to_string(mem)), mem == AsmOptions{}.memoryBytes});
     const Settings at32 = s.with("asm-memory", std::to_string(32ull << 20));
     points.push_back({"asm@32M,node512", at32.with("asm-node-res", "512").without("asm-cells")});
     points.push_back({"asm@32M,lod+1", at32.with("asm-lod-bias", "1")});
@@ -202,7 +203,7 @@ MethodInfo cubeShadowMapMethodInfo() {
   m.sweep = [](const Settings& s) {
     std::vector<SweepPoint> points;
     for (uint32_t r : {512u, 1024u, 2048u})
-      points.push_back({"cubesm@" + std::to_string(r), s.with("sm-resolution", std::to_string(r))});
+      points.push_back({"cubesm@" + std::to_string(r), s.with("sm-resolution", std::to_string(r)), r == CubeSmOptions{}.resolution});
     return points;
   };
   return m;
@@ -240,7 +241,7 @@ MethodInfo rmsmMethodInfo() {
   m.sweep = [](const Settings& s) {
     std::vector<SweepPoint> points;
     for (uint64_t pool : {4ull << 20, 16ull << 20})
-      points.push_back({"rmsm@" + byteSizeLabel(pool), s.with("rmsm-pool", std::to_string(pool))});
+      points.push_back({"rmsm@" + byteSizeLabel(pool), s.with("rmsm-pool", std::to_string(pool)), pool == RmsmOptions{}.poolBytes});
     const Settings at16 = s.with("rmsm-pool", std::to_string(16ull << 20));
     points.push_back({"rmsm@16M,max4096", at16.with("rmsm-max-res", "4096")});
     points.push_back({"rmsm@16M,lod+1", at16.with("rmsm-lod-bias", "1")});

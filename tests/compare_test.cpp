@@ -480,21 +480,35 @@ nlohmann::json resultRow(const std::string& view, const std::string& method, con
           {"error", {{"misclassified_fraction_outside_band", outsideBand}}}};
 }
 
-TEST(ResultsTable, RatiosComeFromTheSameRun) {
+TEST(ResultsTable, EverySettingHasItsColumnAndTheHostCostTableItsRatiosFromTheSameRun) {
+  cs::registerBuiltinMethods();  // the reference's name
   nlohmann::json run = nlohmann::json::array();
   run.push_back(resultRow("a", "embree", "embree", 10, 0));
   run.push_back(resultRow("a", "cone", "cone@64M", 30, 0));
   run.push_back(resultRow("a", "cone", "cone@65.5K", 45, 0));
   run.push_back(resultRow("a", "rmsm", "rmsm@16M", 60, 0.0125));
+  run.push_back(resultRow("a", "cubesm", "cubesm@2048", 15, 0.001));
   run.push_back(resultRow("b", "embree", "embree", 20, 0));
   run.push_back(resultRow("b", "cone", "cone@64M", 10, 0));
+  run[1]["stats"].update({{"submits_per_frame", 1}, {"host_syncs_per_frame", 1}, {"readback_bytes_per_frame", 4096},
+                          {"allocations_per_frame", 0}, {"dispatches_per_frame", 250}, {"defaults", true}});
+  run[2]["stats"]["defaults"] = false;
   std::string t = cs::resultsTable({run});
   EXPECT_NE(t.find("Device: `gpu0`"), std::string::npos) << t;
-  EXPECT_NE(t.find("| scene / view | size | embree | cone@64M | cone@65.5K | rmsm@16M | cone / Embree | cone / rmsm@16M |"),
+  EXPECT_NE(t.find("| scene / view | size | embree | cone@64M | cone@65.5K | rmsm@16M | cubesm@2048 |\n"),
             std::string::npos) << t;
-  EXPECT_NE(t.find("| s / a | 64x32 | 10.0 ms / 0 % | 30.0 ms / 0 % | 45.0 ms / 0 % | 60.0 ms / 1.250 % | 3.00x | 0.50x |"),
+  EXPECT_NE(t.find("| s / a | 64x32 | 10.0 ms / 0 % | 30.0 ms / 0 % | 45.0 ms / 0 % | 60.0 ms / 1.250 % | 15.0 ms / 0.100 % |"),
             std::string::npos) << t;
-  EXPECT_NE(t.find("| s / b | 64x32 | 20.0 ms / 0 % | 10.0 ms / 0 % | - | - | 0.50x | - |"), std::string::npos) << t;
+  EXPECT_NE(t.find("| s / b | 64x32 | 20.0 ms / 0 % | 10.0 ms / 0 % | - | - | - |"), std::string::npos) << t;
+  EXPECT_EQ(t.find("x |"), std::string::npos) << "no ratios in the settings table: they are the host-cost table's";
+  std::string h = cs::hostCostTable({run});
+  // cone@64M is cone's default (marked), cubesm's only setting is its default; rmsm has none marked: its first.
+  EXPECT_NE(h.find("| scene / view | size | cone@64M / embree | cone@64M / rmsm@16M | cone@64M / cubesm@2048 | cone@64M | "
+                   "rmsm@16M | cubesm@2048 |"),
+            std::string::npos) << h;
+  EXPECT_NE(h.find("| s / a | 64x32 | 3.00x | 0.50x | 2.00x | 1 / 1 / 4 / 0 / 250 | - | - |"), std::string::npos) << h;
+  EXPECT_NE(h.find("| s / b | 64x32 | 0.50x | - | - | - | - | - |"), std::string::npos) << h;
+  EXPECT_EQ(h.find(" ms"), std::string::npos) << "no times in the host-cost table: they are the settings table's";
 }
 
 TEST(Compare, UnknownMethodIsAUsageErrorNamingIt) {

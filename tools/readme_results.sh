@@ -1,67 +1,137 @@
 #!/usr/bin/env bash
-# Regenerates the README's results table from one command: runs `coneshadow compare` on the built-in
-# scene, on 2CylinderEngine and (when ../shared/scenes/bart is there) on the BART museum at t = 2.5,
-# formats their results.json with `coneshadow results-table`, and rewrites README.md between
-# <!-- results:begin --> and <!-- results:end -->.
-# Environment: WIDTH, HEIGHT (default 1024), FRAMES (default 5), OUT (default build/readme-results),
-# ENGINE (the glTF file), MUSEUM (the BART museum's .aff; empty to leave it out), SKIP_BUILD=1 to use
-# the current build/ as is, CLI (default build/app/coneshadow) to run another copy of the tool.
+# Regenerates every measured figure of the README from one run of the commands below, on one machine,
+# and rewrites each section between its <!-- NAME:begin --> and <!-- NAME:end --> markers, every one
+# stamped with this run's date and device. No figure is written twice: the frame bench's settings table
+# holds the times, its host-cost table the ratios from those times, and the other benchmarks measure
+# what that table does not (variants as ratios to the default, the sort primitives, dynamic scenes,
+# scaling, large scenes, far lights).
+#   results    every method setting per view at SIZE² (bench/frame_bench, i.e. `coneshadow compare`)
+#   host-cost  the cone path's time against its peers and each method's host cost (same run, SMALL² and SIZE²)
+#   variants   paper 002's variants (bench/variants_bench)
+#   sort       GPU sort primitives against the CPU (bench/sort_bench)
+#   dynamic    moving scenes (`coneshadow compare --animate`)
+#   scaling    resolution and triangle count (`coneshadow compare --scaling`)
+#   scale      height fields to 10 M triangles (bench/scale_bench)
+#   far        the light's distance (`coneshadow compare --light-distances`)
+# and copies the plots the README shows into docs/img/.
+# Environment: SIZE (default 1024) and SMALL (512), the frame bench's sizes; FRAMES (default 3); OUT
+# (default build/readme-results); README (default README.md) and IMG (default docs/img); SKIP_BUILD=1
+# to use the current build/ as is; BUILD (default build) to run another build's binaries while this one
+# changes; QUICK=1 (a check of the script: the scale bench on one small field). About 40 minutes on
+# 2 CPU cores with lavapipe.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
-WIDTH=${WIDTH:-1024}
-HEIGHT=${HEIGHT:-1024}
-FRAMES=${FRAMES:-5}
+SIZE=${SIZE:-1024}
+SMALL=${SMALL:-512}
+FRAMES=${FRAMES:-3}
 OUT=${OUT:-build/readme-results}
-ENGINE=${ENGINE:-/usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb}
-if [ -z "${MUSEUM+set}" ]; then
-  MUSEUM=../shared/scenes/bart/museum/museum5.aff
-  [ -f shared/scenes/bart/museum/museum5.aff ] && MUSEUM=shared/scenes/bart/museum/museum5.aff
-fi
-CLI=${CLI:-build/app/coneshadow}
+README=${README:-README.md}
+IMG=${IMG:-docs/img}
+BUILD=${BUILD:-build}
+CLI=$BUILD/app/coneshadow
+ENGINE=/usr/share/assimp/models/glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb
+MUSEUM=../shared/scenes/bart/museum/museum5.aff
+[ -f shared/scenes/bart/museum/museum5.aff ] && MUSEUM=shared/scenes/bart/museum/museum5.aff
 
 [ "${SKIP_BUILD:-0}" = 1 ] || ./tools/setup.sh
-[ -x "$CLI" ] || { echo "readme_results: $CLI is not built (run tools/setup.sh)" >&2; exit 1; }
-[ -f "$ENGINE" ] || { echo "readme_results: $ENGINE not found (Debian package assimp-testmodels)" >&2; exit 1; }
-grep -q '^<!-- results:begin -->$' README.md && grep -q '^<!-- results:end -->$' README.md || {
-  echo "readme_results: README.md lacks the <!-- results:begin --> / <!-- results:end --> lines" >&2; exit 1; }
-
-args="--width $WIDTH --height $HEIGHT --frames $FRAMES"
-cmd_builtin="$CLI compare $args --out $OUT/builtin"
-cmd_engine="$CLI compare $ENGINE $args --out $OUT/engine"
-cmds=("$cmd_builtin" "$cmd_engine")
-dirs=("$OUT/builtin" "$OUT/engine")
-if [ -n "$MUSEUM" ] && [ -f "$MUSEUM" ]; then
-  cmds+=("$CLI compare $MUSEUM --time 2.5 $args --out $OUT/museum")
-  dirs+=("$OUT/museum")
-elif [ -n "$MUSEUM" ]; then
-  echo "readme_results: $MUSEUM not found: the museum is left out (MUSEUM= to silence this)" >&2
-fi
-for cmd in "${cmds[@]}"; do
-  echo "readme_results: $cmd"
-  $cmd --quiet
+for b in "$CLI" "$BUILD/bench/frame_bench" "$BUILD/bench/variants_bench" "$BUILD/bench/sort_bench" "$BUILD/bench/scale_bench"; do
+  [ -x "$b" ] || { echo "readme_results: $b is not built (run tools/setup.sh)" >&2; exit 1; }
 done
-table=$("$CLI" results-table "${dirs[@]}")
+[ -f "$ENGINE" ] || { echo "readme_results: $ENGINE not found (Debian package assimp-testmodels)" >&2; exit 1; }
+[ -f "$MUSEUM" ] || { echo "readme_results: $MUSEUM not found (the BART scenes, ../shared/scenes/bart)" >&2; exit 1; }
+for name in results host-cost variants sort dynamic scaling scale far; do
+  grep -q "^<!-- $name:begin -->\$" "$README" && grep -q "^<!-- $name:end -->\$" "$README" || {
+    echo "readme_results: $README lacks the <!-- $name:begin --> / <!-- $name:end --> lines" >&2; exit 1; }
+done
 
-section=$(mktemp)
-trap 'rm -f "$section" README.md.tmp.$$' EXIT
-{
-  echo "<!-- results:begin -->"
-  echo "Generated by \`tools/readme_results.sh\` (WIDTH=$WIDTH HEIGHT=$HEIGHT FRAMES=$FRAMES) on $(date -u +%Y-%m-%d),"
-  echo "every view of each scene at ${WIDTH}x${HEIGHT}, median of $FRAMES frame(s) after a warm-up; commands:"
-  echo
-  echo '```'
-  for cmd in "${cmds[@]}"; do echo "$cmd"; done
-  echo "$CLI results-table ${dirs[*]}"
-  echo '```'
-  echo
-  echo "$table"
-  echo "<!-- results:end -->"
-} > "$section"
-awk -v section="$section" '
-  $0 == "<!-- results:begin -->" { while ((getline line < section) > 0) print line; skip = 1; next }
-  $0 == "<!-- results:end -->" { skip = 0; next }
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+mkdir -p "$OUT"
+date=$(date -u +%Y-%m-%d)
+device=unknown
+
+# run NAME COMMAND...: runs it, keeps its output in $work/NAME.out and the command line in $work/NAME.cmd.
+run() {
+  local name=$1
+  shift
+  echo "readme_results: $*" >&2
+  echo "$*" >> "$work/$name.cmd"
+  "$@" >> "$work/$name.out"
+}
+# tables FILE: the markdown tables of a report, its "## view" headings as bold lines.
+tables() { awk '/^## / { sub(/^## /, ""); print ""; print "**" $0 "**"; print ""; next } /^\|/ { print }' "$1"; }
+# section NAME: the header every section starts with (its date, device and commands), then stdin.
+section() {
+  local name=$1
+  {
+    echo "<!-- $name:begin -->"
+    echo "Run on $date by \`tools/readme_results.sh\` (SIZE=$SIZE SMALL=$SMALL FRAMES=$FRAMES), device \`$device\`; command(s):"
+    echo
+    echo '```'
+    cat "$work/$name.cmd"
+    echo '```'
+    echo
+    cat
+    echo "<!-- $name:end -->"
+  } > "$work/$name.section"
+}
+
+# ---- the frames: every method and setting per view, at 512² and SIZE² ----------------------------
+run frames "$BUILD/bench/frame_bench" --sizes "$SMALL,$SIZE" --frames "$FRAMES" --scenes builtin,engine,museum \
+  --out "$OUT/frames"
+device=$(sed -n 's/^device: //p' "$work/frames.out" | head -1)
+cp "$work/frames.cmd" "$work/results.cmd"
+"$CLI" results-table "$OUT/frames/builtin_$SIZE" "$OUT/frames/engine_$SIZE" "$OUT/frames/museum_$SIZE" |
+  section results
+cp "$work/frames.cmd" "$work/host-cost.cmd"
+"$CLI" results-table --host-cost "$OUT/frames/builtin_$SMALL" "$OUT/frames/builtin_$SIZE" "$OUT/frames/engine_$SMALL" \
+  "$OUT/frames/engine_$SIZE" "$OUT/frames/museum_$SMALL" "$OUT/frames/museum_$SIZE" | section host-cost
+mkdir -p "$IMG"
+cp "$OUT/frames/builtin_$SIZE/speed_vs_error.png" "$IMG"/speed_vs_error_builtin.png
+cp "$OUT/frames/museum_$SIZE/speed_vs_error.png" "$IMG"/speed_vs_error_museum.png
+cp "$OUT/frames/builtin_$SIZE/error_vs_bytes.png" "$IMG"/error_vs_bytes_builtin.png
+
+# ---- the other benchmarks -------------------------------------------------------------------------
+run variants "$BUILD/bench/variants_bench" --size "$SIZE" --frames "$FRAMES" --scenes builtin,engine,museum
+grep -v '^device:' "$work/variants.out" | section variants
+
+run sort "$BUILD/bench/sort_bench" --runs 9
+{ echo '```'; grep -v '^device:' "$work/sort.out"; echo '```'; } | section sort
+
+run dynamic "$CLI" compare --animate 8 --width 256 --height 256 --methods embree,cone,rmsm --out "$OUT/dynamic-builtin" --quiet
+run dynamic "$CLI" compare "$ENGINE" --animate 8 --moving-camera --width 256 --height 256 --methods embree,cone,rmsm \
+  --out "$OUT/dynamic-engine" --quiet
+run dynamic "$CLI" compare "$MUSEUM" --animate 8 --width 256 --height 256 --methods embree,cone,rmsm \
+  --out "$OUT/dynamic-museum" --quiet
+for d in builtin engine museum; do
+  echo; echo "**$(head -1 "$OUT/dynamic-$d/dynamic.md" | sed 's/^# coneshadow compare --animate: //')**"
+  tables "$OUT/dynamic-$d/dynamic.md" | sed 's/^\*\*\(.*\)\*\*$/*\1*/'
+done | section dynamic
+
+run scaling "$CLI" compare --scaling --views wall --frames "$FRAMES" --out "$OUT/scaling" --quiet
+tables "$OUT/scaling/scaling.md" | section scaling
+cp "$OUT/scaling/scaling_triangles.png" "$IMG"/scaling_triangles.png
+cp "$OUT/scaling/scaling_resolution.png" "$IMG"/scaling_resolution.png
+
+if [ "${QUICK:-0}" = 1 ]; then  # a check of this script, not a result: one small field
+  run scale "$BUILD/bench/scale_bench" --sizes "$SMALL,$SIZE" --frames 1 --memory-budget 1G --scenes heightfield:100k
+else
+  run scale "$BUILD/bench/scale_bench" --sizes "$SMALL,$SIZE" --frames 1 --memory-budget 1G
+fi
+{ echo '```'; grep -v '^device:' "$work/scale.out"; echo '```'; } | section scale
+
+run far "$CLI" compare "$ENGINE" --light-distances 1,10,100,1000,10000,100000 --width 256 --height 256 \
+  --frames "$FRAMES" --out "$OUT/far" --quiet
+tables "$OUT/far/light_distances.md" | section far
+cp "$OUT/far/light_distances.png" "$IMG"/light_distances_engine.png
+
+# ---- every section into the README at once --------------------------------------------------------
+awk -v dir="$work" '
+  /^<!-- [a-z-]+:begin -->$/ { name = $2; sub(/:begin$/, "", name); file = dir "/" name ".section"
+                               while ((getline line < file) > 0) print line; skip = 1; next }
+  /^<!-- [a-z-]+:end -->$/ { skip = 0; next }
   !skip { print }
-' README.md > "README.md.tmp.$$"
-mv "README.md.tmp.$$" README.md
-echo "readme_results: README.md results section rewritten from ${dirs[*]}"
+' "$README" > "$work/readme"
+mv "$work/readme" "$README"
+echo "readme_results: every results section of $README rewritten ($date, $device)"

@@ -92,7 +92,8 @@ MethodInfo coneMethodInfo() {
     const uint64_t def = s.bytes("traversal-memory", traversal::kDefaultMemoryBytes);
     std::vector<SweepPoint> points;
     for (uint64_t mem : {def, std::max<uint64_t>(def / 64, 4096), std::max<uint64_t>(def / 1000, 4096)})
-      points.push_back({std::string(kMethod) + "@" + byteSizeLabel(mem), s.with("traversal-memory", std::to_string(mem))});
+      points.push_back({std::string(kMethod) + "@" + byteSizeLabel(mem), s.with("traversal-memory", std::to_string(mem)),
+                        mem == def});
     return points;
   };
   return m;
