@@ -17,7 +17,7 @@
 # Environment: SIZE (default 1024) and SMALL (512), the frame bench's sizes; FRAMES (default 3); OUT
 # (default build/readme-results); README (default README.md) and IMG (default docs/img); SKIP_BUILD=1
 # to use the current build/ as is; BUILD (default build) to run another build's binaries while this one
-# changes; QUICK=1 (a check of the script: the scale bench on one small field). About 40 minutes on
+# changes; QUICK=1 (a check of the script: the scale bench on one small field). About 20 minutes on
 # 2 CPU cores with lavapipe.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -55,8 +55,10 @@ device=unknown
 run() {
   local name=$1
   shift
+  local shown="$*"
+  shown=${shown//"$BUILD/"/build/}  # the README names the build a newcomer makes, whichever copy ran
   echo "readme_results: $*" >&2
-  echo "$*" >> "$work/$name.cmd"
+  echo "$shown" >> "$work/$name.cmd"
   "$@" >> "$work/$name.out"
 }
 # tables FILE: the markdown tables of a report, its "## view" headings as bold lines.
