@@ -1,6 +1,8 @@
 // Resolution-matched shadow maps over six cube faces: see rmsm.h for the algorithm and its steps.
 #include "shadowmaps/rmsm.h"
 
+#include "shadowmaps/rmsm_inspect.h"
+
 #include <array>
 
 #include <algorithm>
@@ -193,7 +195,7 @@ struct Stages {
       }
     // Pages, their tables and the superpage passes are RMSM's shadow structure, rebuilt every frame (and
     // the uploaded triangles when the geometry changes); the lookup answers the samples.
-    static const char* kRebuild[] = {"upload", "allocate", "page_tables", "superpages"};
+    static const char* kRebuild[] = {"upload", "allocate", "page_tables", "superpages", "pages_and_lookup"};
     StageKind kind = name == "lookup" ? StageKind::Lookup : StageKind::PerFrame;
     for (const char* r : kRebuild)
       if (name == r) kind = StageKind::Rebuild;
@@ -250,7 +252,7 @@ struct Rmsm::State {
   sm::RmsmLayout layout;
   sm::DepthPass pass;
   vk::Timer timer;
-  vk::Kernel requests, prune, unique, tables, lookup, probe;
+  vk::Kernel requests, prune, unique, tables, lookup;
   vk::Buffer tableBuf, pool, counters, updates;  // persistent across frames
   vk::Buffer windowBuf;                          // the faces' windows (fitWindows), vec4 per face
   std::array<glm::vec4, 6> windows;
@@ -267,7 +269,7 @@ struct Rmsm::State {
   bool cacheValid = false;
   glm::vec3 cacheLight{0};
   uint64_t cacheFlushes = 0;
-  Analysis last;                 // the last frame's analysis, for the test hooks
+  Analysis last;                 // the last frame's analysis, for RmsmInspector
 
   State(vk::Context& c, const RmsmOptions& o)
       : ctx(c), opt(o), layout(sm::rmsmLayout(o, c.maxStorageBufferRange())), pass(c, o.cull), timer(vk::createTimer(c, 64)),
@@ -279,7 +281,6 @@ struct Rmsm::State {
     unique = vk::createKernel(c, "rmsm_unique", spv_rmsm_unique_comp, 3, push);
     tables = vk::createKernel(c, "rmsm_tables", spv_rmsm_tables_comp, 2, push);
     lookup = vk::createKernel(c, "rmsm_lookup", spv_rmsm_lookup_comp, 8, push);
-    probe = vk::createKernel(c, "rmsm_probe", spv_rmsm_probe_comp, 5, push);
     windows.fill(glm::vec4(0, 0, 1, 0));
     windowBuf = vk::createBuffer(c, sizeof(windows), vk::Memory::HostVisible);
     vk::upload(c, windowBuf, windows.data(), sizeof(windows));
@@ -381,10 +382,13 @@ struct Rmsm::State {
       compact->record(cmd, flags, pruned, uniqueBuf, sort::GpuWord(counters, SM_COUNT_UNIQUE), compacted);
       cmd.mark("uniquify");
       readback.record(cmd);
+      const auto ts = Clock::now();
       cmd.submit();
       readback.read(countersSlot, a.counters);
+      if (!ctx.timestampsTrusted()) stages.add("analysis", msSince(ts));  // recording excluded, as timestamps do
     }
-    for (auto& [n, ms] : timer.intervals()) stages.add(n, ms);
+    if (ctx.timestampsTrusted())
+      for (auto& [n, ms] : timer.intervals()) stages.add(n, ms);
     const auto t0 = Clock::now();
     const uint32_t unique = std::min(a.counters[SM_COUNT_UNIQUE], std::min(a.counters[SM_COUNT_PRUNED], slots));
     a.unique = unique ? vk::download<uint32_t>(ctx, uniqueBuf, unique) : std::vector<uint32_t>{};
@@ -547,11 +551,14 @@ MethodOutput Rmsm::run(const FrameInput& frame) {
     cmd.barrier();
     cmd.mark("lookup");
     s.readback.record(cmd);
+    const auto ts = Clock::now();
     cmd.submit();
     if (pixels) s.readback.read(visibilitySlot, out.visibility);
     s.readback.read(missesSlot, std::span<uint32_t>(&misses, 1));
+    if (!s.ctx.timestampsTrusted()) stages.add("pages_and_lookup", msSince(ts));
   }
-  for (auto& [n, ms] : s.timer.intervals()) stages.add(n, ms);
+  if (s.ctx.timestampsTrusted())
+    for (auto& [n, ms] : s.timer.intervals()) stages.add(n, ms);
   if (s.opt.cached) {
     s.cacheValid = true;
     s.cacheLight = frame.light;
@@ -607,30 +614,39 @@ MethodOutput Rmsm::run(const FrameInput& frame) {
                {"gpu_and_host_ms", gpuMs},
                {"analysis_wall_ms", analysisWallMs},  // steps 1-8: submits, waits and readbacks included
                {"render_wall_ms", renderWallMs}};     // page tables, superpages, lookup and readback: recording included
+  out.stats["stage_timing"] = s.ctx.timestampsTrusted()
+                                  ? "GPU timestamps per stage; readback and allocate on the host clock"
+                                  : "this device's timestamps are not trusted inside a submission: each submission's "
+                                    "wall clock (analysis, pages_and_lookup), readback and allocate on the host clock";
   return out;
 }
 
 // ---- test hooks ----------------------------------------------------------------------------------------
 
-std::vector<uint32_t> Rmsm::debugRequests() const {
+// ---- RmsmInspector (tests) -------------------------------------------------------------------------
+
+std::vector<uint32_t> RmsmInspector::requests() const {
+  const auto& s_ = rmsm_.s_;
   return vk::download<uint32_t>(s_->ctx, s_->requestBuf, size_t(2) * s_->width * s_->height);
 }
 
-std::vector<uint32_t> Rmsm::debugCompacted() const {
+std::vector<uint32_t> RmsmInspector::compacted() const {
+  const auto& s_ = rmsm_.s_;
   return vk::download<uint32_t>(s_->ctx, s_->compacted, s_->last.counters[SM_COUNT_PRUNED]);
 }
 
-std::vector<uint32_t> Rmsm::debugUniquePages() const { return s_->last.unique; }
+std::vector<uint32_t> RmsmInspector::uniquePages() const { return rmsm_.s_->last.unique; }
 
-std::vector<uint32_t> Rmsm::debugResidentPages() const { return s_->resident; }
+std::vector<uint32_t> RmsmInspector::residentPages() const { return rmsm_.s_->resident; }
 
-std::vector<float> Rmsm::debugPool() const {
+std::vector<float> RmsmInspector::pool() const {
+  const auto& s_ = rmsm_.s_;
   return vk::download<float>(s_->ctx, s_->pool, size_t(s_->layout.poolPages) * (s_->layout.pageSize + 1) *
                                                     (s_->layout.pageSize + 1));
 }
 
-void Rmsm::debugInstallPages(const std::vector<uint32_t>& keys, float (*texel)(uint32_t, uint32_t, uint32_t)) {
-  State& s = *s_;
+void RmsmInspector::installPages(const std::vector<uint32_t>& keys, float (*texel)(uint32_t, uint32_t, uint32_t)) {
+  Rmsm::State& s = *rmsm_.s_;
   std::vector<uint32_t> sorted(keys);
   std::sort(sorted.begin(), sorted.end());
   sorted.erase(std::unique(sorted.begin(), sorted.end()), sorted.end());
@@ -650,8 +666,9 @@ void Rmsm::debugInstallPages(const std::vector<uint32_t>& keys, float (*texel)(u
   vk::upload(s.ctx, s.pool, data.data(), data.size() * 4);
 }
 
-std::vector<glm::uvec4> Rmsm::debugProbe(const std::vector<Probe>& probes) {
-  State& s = *s_;
+std::vector<glm::uvec4> RmsmInspector::probe(const std::vector<Probe>& probes) {
+  Rmsm::State& s = *rmsm_.s_;
+  if (!probe_.pipeline) probe_ = vk::createKernel(s.ctx, "rmsm_probe", spv_rmsm_probe_comp, 5, sizeof(sm::RmsmPush));
   std::vector<glm::uvec4> queries;
   for (const Probe& q : probes) {
     uint32_t sb, tb;
@@ -665,7 +682,7 @@ std::vector<glm::uvec4> Rmsm::debugProbe(const std::vector<Probe>& probes) {
   p.count = uint32_t(queries.size());
   vk::Commands cmd(s.ctx);
   vk::Grid grid = vk::gridFor(queries.size(), SM_LIST_THREADS, s.ctx.maxWorkgroups());
-  cmd.dispatch(s.probe, {in, s.tableBuf, s.pool, out, s.windowBuf}, p, grid.x, grid.y);
+  cmd.dispatch(probe_, {in, s.tableBuf, s.pool, out, s.windowBuf}, p, grid.x, grid.y);
   cmd.barrier();
   cmd.submit();
   return vk::download<glm::uvec4>(s.ctx, out, queries.size());

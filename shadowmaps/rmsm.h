@@ -154,23 +154,8 @@ class Rmsm : public ShadowMethod {
 
   const sm::RmsmLayout& layout() const;
 
-  // ---- test hooks (state of the last run) ----
-  std::vector<uint32_t> debugRequests() const;       // 2 per pixel, SM_INVALID_KEY where none
-  std::vector<uint32_t> debugCompacted() const;      // pruned + compacted, before the sort (GPU order)
-  std::vector<uint32_t> debugUniquePages() const;    // sorted unique pages the GPU returned (pre-fallback)
-  std::vector<uint32_t> debugResidentPages() const;  // pages in the pool, by slot
-  std::vector<float> debugPool() const;              // the pool, (P+1)² texels per slot
-  // Makes exactly `keys` resident (through the page-table kernel) and fills each page's texels, apron
-  // included, with `texel(key, X, Y)` (X, Y: texel coordinates within the page's level of its face).
-  void debugInstallPages(const std::vector<uint32_t>& keys, float (*texel)(uint32_t key, uint32_t x, uint32_t y));
-  // findTexel() of rmsm.glsl for each query: (found, level, bits of the lower texel, of its diagonal).
-  struct Probe {
-    uint32_t face = 0, level = 0;
-    float s = 0, t = 0;
-  };
-  std::vector<glm::uvec4> debugProbe(const std::vector<Probe>& probes);
-
  private:
+  friend class RmsmInspector;  // the tests' view of the last run (rmsm_inspect.h)
   struct State;
   std::unique_ptr<State> s_;
 };

@@ -20,6 +20,7 @@
 #include "shadowmaps/cube_sm.h"
 #include "shadowmaps/depth_pass.h"
 #include "shadowmaps/rmsm.h"
+#include "shadowmaps/rmsm_inspect.h"
 #include "shadowmaps/sm_shared.h"
 #include "tests/shadowmap_test_support.h"
 #include "tests/test_context.h"
@@ -478,7 +479,7 @@ TEST(Rmsm, PruningAndUniquifyMatchACpuReferenceOnARealFrame) {
   Frame f = renderFrame(std::move(scene), *cam, light, 160, 128);
   Rmsm rmsm(test::context(), RmsmOptions{});
   MethodOutput out = rmsm.run(f.input());
-  const std::vector<uint32_t> gpu = rmsm.debugRequests();
+  const std::vector<uint32_t> gpu = RmsmInspector(rmsm).requests();
   ASSERT_EQ(gpu.size(), 2 * f.host.size());
 
   // The requests themselves: fp rounding (log2 at a level boundary, a texel boundary) may move a few.
@@ -511,10 +512,10 @@ TEST(Rmsm, PruningAndUniquifyMatchACpuReferenceOnARealFrame) {
   EXPECT_LT(kept.size() * 5, valid) << "pruning should drop most requests on coherent surfaces";
   std::vector<uint32_t> sorted = kept;
   std::sort(sorted.begin(), sorted.end());
-  EXPECT_EQ(rmsm.debugCompacted(), sorted);  // compaction + radix sort
+  EXPECT_EQ(RmsmInspector(rmsm).compacted(), sorted);  // compaction + radix sort
   std::vector<uint32_t> unique = sorted;
   unique.erase(std::unique(unique.begin(), unique.end()), unique.end());
-  EXPECT_EQ(rmsm.debugUniquePages(), unique);
+  EXPECT_EQ(RmsmInspector(rmsm).uniquePages(), unique);
   // Pruning loses no page: the unique pages are exactly the distinct requests.
   std::set<uint32_t> distinct;
   for (uint32_t k : gpu)
@@ -544,11 +545,11 @@ TEST(Rmsm, PageTableLookupsReturnTheInstalledPage) {
     uint32_t level = 1 + rng() % 5, n = 1u << level;
     pages.insert(sm::pageKey(rng() % 6, level, rng() % n, rng() % n));
   }
-  rmsm.debugInstallPages(std::vector<uint32_t>(pages.begin(), pages.end()), patternTexel);
-  std::vector<Rmsm::Probe> probes;
+  RmsmInspector(rmsm).installPages(std::vector<uint32_t>(pages.begin(), pages.end()), patternTexel);
+  std::vector<RmsmInspector::Probe> probes;
   std::uniform_real_distribution<float> u(0, 1);
   for (int i = 0; i < 4000; ++i) {
-    Rmsm::Probe p{uint32_t(rng() % 6), uint32_t(rng() % 6), u(rng), u(rng)};
+    RmsmInspector::Probe p{uint32_t(rng() % 6), uint32_t(rng() % 6), u(rng), u(rng)};
     if (i < 600) {  // aim at installed pages, and at their edges
       auto it = pages.begin();
       std::advance(it, rng() % pages.size());
@@ -561,10 +562,10 @@ TEST(Rmsm, PageTableLookupsReturnTheInstalledPage) {
     }
     probes.push_back(p);
   }
-  std::vector<glm::uvec4> got = rmsm.debugProbe(probes);
+  std::vector<glm::uvec4> got = RmsmInspector(rmsm).probe(probes);
   ASSERT_EQ(got.size(), probes.size());
   for (size_t i = 0; i < probes.size(); ++i) {
-    const Rmsm::Probe& p = probes[i];
+    const RmsmInspector::Probe& p = probes[i];
     // CPU: walk the installed set from p.level toward the root.
     int level = int(p.level);
     uint32_t X = 0, Y = 0, key = 0;
@@ -585,8 +586,8 @@ TEST(Rmsm, PageTableLookupsReturnTheInstalledPage) {
     EXPECT_EQ(diagonal, patternTexel(key, X + 1, Y + 1)) << i;
   }
   // Replacing the resident set clears the old entries.
-  rmsm.debugInstallPages({sm::pageKey(3, 0, 0, 0)}, patternTexel);
-  got = rmsm.debugProbe({{3, 5, 0.3f, 0.6f}, {1, 5, 0.3f, 0.6f}});
+  RmsmInspector(rmsm).installPages({sm::pageKey(3, 0, 0, 0)}, patternTexel);
+  got = RmsmInspector(rmsm).probe({{3, 5, 0.3f, 0.6f}, {1, 5, 0.3f, 0.6f}});
   EXPECT_EQ(got[0].x, 1u);
   EXPECT_EQ(got[0].y, 0u);
   EXPECT_EQ(got[1].x, 0u);
@@ -672,7 +673,7 @@ TEST(Rmsm, ReducedAnalysisRequestsFewerPagesAndStaysCloseToTheFullAnalysis) {
                 out.stats["backup_pages"].get<uint32_t>(), 100 * error);
     EXPECT_EQ(out.stats["analysis_step"], k);
     // Only pixels on the grid ask; about 1/k² of the full analysis's requests.
-    const std::vector<uint32_t> req = sparse.debugRequests();
+    const std::vector<uint32_t> req = RmsmInspector(sparse).requests();
     for (uint32_t i = 0; i < f.host.size(); ++i) {
       const uint32_t x = i % f.host.width, y = i / f.host.width;
       if (x % k || y % k) {
@@ -741,8 +742,8 @@ TEST(Rmsm, RenderedPagesHoldTheDistanceAlongEachTexelCentre) {
   MethodOutput out = rmsm.run(f.input());
   EXPECT_GT(out.stats["superpages"].get<int>(), 10);
   EXPECT_LT(f.compare(out.visibility).misclassifiedFraction, 1e-4);  // nothing casts a shadow in a box
-  const std::vector<uint32_t> pages = rmsm.debugResidentPages();
-  const std::vector<float> pool = rmsm.debugPool();
+  const std::vector<uint32_t> pages = RmsmInspector(rmsm).residentPages();
+  const std::vector<float> pool = RmsmInspector(rmsm).pool();
   std::set<uint32_t> faces;
   size_t texels = 0, wrong = 0;
   for (size_t slot = 0; slot < pages.size(); ++slot) {

@@ -1,5 +1,7 @@
 // The Vulkan context: buffers both ways, kernels with push descriptors, grid maths, timestamps, errors.
 #include <numeric>
+#include <set>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -85,6 +87,28 @@ TEST(Kernel, DispatchesOverATwoDimensionalGridAndTimesIt) {
     EXPECT_EQ(t[0].first, "iota");
     EXPECT_GE(t[0].second, 0.0);
   }
+}
+
+// The host's binding count is checked against the kernel's SPIR-V when the kernel is made, and the
+// workgroup shape it declares is read from it.
+TEST(Vk, AKernelsBindingsAreCheckedAgainstItsSpirv) {
+  auto& ctx = test::context();
+  const vk::SpirvInterface iface = vk::spirvInterface(spv_iota_comp, sizeof(spv_iota_comp));
+  EXPECT_EQ(iface.bindings, (std::set<uint32_t>{0, 1}));
+  EXPECT_EQ(iface.localSize[0], 64u);
+  EXPECT_EQ(iface.localSize[1], 1u);
+  for (uint32_t wrong : {1u, 3u}) {
+    try {
+      vk::createKernel(ctx, "iota", spv_iota_comp, wrong, 8);
+      ADD_FAILURE() << wrong << " bindings accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("iota: the host binds " + std::to_string(wrong) + " buffers"),
+                std::string::npos) << e.what();
+    }
+  }
+  EXPECT_EQ(vk::createKernel(ctx, "iota", spv_iota_comp, 2, 8).localSize[0], 64u);
+  const uint32_t notSpirv[6] = {1, 2, 3, 4, 5, 6};
+  EXPECT_THROW(vk::spirvInterface(notSpirv, sizeof(notSpirv)), Error);
 }
 
 TEST(Kernel, WrongBindingCountIsAnErrorNotACrash) {

@@ -242,11 +242,6 @@ class ConeMethod : public ShadowMethod {
   }
 
  private:
-  // Whether this device's timestamps may time stages inside one submission (see cone_method.h).
-  bool timestampsTrusted() const {
-    return ctx_.properties.deviceType != VK_PHYSICAL_DEVICE_TYPE_CPU && ctx_.timestampPeriodNs() > 0;
-  }
-
   // The frame as one recording (traversal.h, "One submission"): compaction, keys, sort, the tree's shape
   // and build, the far frame's triangles, the traversal and the readback, submitted once -- or, with
   // profileStages, submitted at each stage's end. Falls back to the chunked traversal (several submits)
@@ -368,7 +363,7 @@ class ConeMethod : public ShadowMethod {
     if (profile) {
       stats["stage_timing"] = "one submission per stage, host wall clock (--profile-stages)";
       for (auto& [n, ms] : wall) stages.push_back({n, ms});
-    } else if (timestampsTrusted()) {
+    } else if (ctx_.timestampsTrusted()) {
       stats["stage_timing"] = "one submission; stages from GPU timestamps";
       for (const char* n : {"compact", "keys", "sort", "build", "traversal", "leaves"})
         if (timestamps.contains(n)) stages.push_back({n, timestamps[n].get<double>()});

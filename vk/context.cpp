@@ -706,9 +706,35 @@ void Kernel::reset() {
   pipeline = VK_NULL_HANDLE, layout = VK_NULL_HANDLE, setLayout = VK_NULL_HANDLE, module = VK_NULL_HANDLE;
 }
 
+SpirvInterface spirvInterface(const uint32_t* spirv, size_t spirvBytes) {
+  constexpr uint32_t kMagic = 0x07230203, kOpExecutionMode = 16, kOpDecorate = 71, kLocalSize = 17,
+                     kBinding = 33;
+  SpirvInterface out;
+  const size_t words = spirvBytes / 4;
+  CS_CHECK(words >= 5 && spirv[0] == kMagic, "not a SPIR-V module (" << spirvBytes << " bytes)");
+  for (size_t at = 5; at < words;) {
+    const uint32_t count = spirv[at] >> 16, op = spirv[at] & 0xFFFF;
+    CS_CHECK(count > 0 && at + count <= words, "malformed SPIR-V at word " << at);
+    if (op == kOpDecorate && count >= 4 && spirv[at + 2] == kBinding) out.bindings.insert(spirv[at + 3]);
+    if (op == kOpExecutionMode && count >= 6 && spirv[at + 2] == kLocalSize)
+      for (int d = 0; d < 3; ++d) out.localSize[d] = spirv[at + 3 + d];
+    at += count;
+  }
+  return out;
+}
+
 Kernel createKernel(Context& ctx, const char* name, const uint32_t* spirv, size_t spirvBytes, uint32_t bindings,
                     uint32_t pushBytes, std::initializer_list<SpecConstant> spec, uint32_t texelBindings) {
+  // The host's binding count against what the kernel declares: a kernel reading a binding the host never
+  // pushes, or a host pushing buffers the kernel does not declare, is a bug to stop here, not a wrong
+  // answer or a driver crash later.
+  const SpirvInterface iface = spirvInterface(spirv, spirvBytes);
+  const uint32_t declared = iface.bindings.empty() ? 0 : *iface.bindings.rbegin() + 1;
+  CS_CHECK(declared == bindings && iface.bindings.size() == bindings,
+           name << ": the host binds " << bindings << " buffers, the kernel declares " << iface.bindings.size()
+                << " bindings (highest " << (declared ? int(declared) - 1 : -1) << ")");
   Kernel k;
+  for (int d = 0; d < 3; ++d) k.localSize[d] = iface.localSize[d];
   k.ctx = &ctx;
   k.name = name;
   k.bindings = bindings;

@@ -7,6 +7,7 @@
 #include <initializer_list>
 #include <memory>
 #include <span>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -102,6 +103,13 @@ struct Context {
   VkDeviceSize maxStorageBufferRange() const { return properties.limits.maxStorageBufferRange; }
   uint32_t maxWorkgroups() const { return properties.limits.maxComputeWorkGroupCount[0]; }
   double timestampPeriodNs() const { return properties.limits.timestampPeriod; }
+  // Whether timestamps written inside one submission time the commands between them. Not on a CPU
+  // device: lavapipe runs draws and dispatches on worker threads behind the command stream, and a stage's
+  // timestamps there were measured holding another stage's work (a 48-byte fill "taking" 50 ms); methods
+  // time whole submissions by the wall clock instead.
+  bool timestampsTrusted() const {
+    return properties.deviceType != VK_PHYSICAL_DEVICE_TYPE_CPU && properties.limits.timestampPeriod > 0;
+  }
 };
 
 std::unique_ptr<Context> createContext(const ContextOptions& options);
@@ -257,6 +265,7 @@ struct Kernel {
   uint32_t bindings = 0;
   uint32_t texelBindings = 0;  // bit i: binding i is a uniform texel buffer
   uint32_t pushBytes = 0;
+  uint32_t localSize[3] = {1, 1, 1};  // the workgroup shape the SPIR-V declares (LocalSize)
 
   Kernel() = default;
   Kernel(Kernel&& o) noexcept { *this = std::move(o); }
@@ -272,6 +281,13 @@ struct SpecConstant {
   uint32_t value;
 };
 
+// What a compute module's SPIR-V declares: its descriptor bindings (set 0) and its workgroup shape.
+struct SpirvInterface {
+  std::set<uint32_t> bindings;
+  uint32_t localSize[3] = {1, 1, 1};
+};
+SpirvInterface spirvInterface(const uint32_t* spirv, size_t spirvBytes);
+// A kernel whose bindings are not exactly 0 .. bindings - 1 in its SPIR-V is an error naming it.
 Kernel createKernel(Context& ctx, const char* name, const uint32_t* spirv, size_t spirvBytes,
                     uint32_t bindings, uint32_t pushBytes, std::initializer_list<SpecConstant> spec = {},
                     uint32_t texelBindings = 0);
