@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "core/error.h"
 #include "core/scene.h"
 #include "eval/method.h"
 #include "harness/harness.h"
@@ -27,6 +28,12 @@ inline std::vector<std::string> split(const std::string& s) {
   for (std::string item; std::getline(ss, item, ',');)
     if (!item.empty()) out.push_back(item);
   return out;
+}
+
+// The value after option argv[i] (i moves onto it); a UsageError naming the option when there is none.
+inline std::string optionValue(int argc, char** argv, int& i) {
+  if (i + 1 >= argc) throw UsageError(std::string(argv[i]) + " needs a value");
+  return argv[++i];
 }
 
 struct View {

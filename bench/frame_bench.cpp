@@ -48,10 +48,7 @@ int main(int argc, char** argv) {
   try {
     for (int i = 1; i < argc; ++i) {
       const std::string a = argv[i];
-      auto next = [&]() -> std::string {
-        if (i + 1 >= argc) throw UsageError(a + " needs a value");
-        return argv[++i];
-      };
+      auto next = [&] { return bench::optionValue(argc, argv, i); };
       if (a == "--sizes") sizesArg = next();
       else if (a == "--frames") frames = std::max(1, std::stoi(next()));
       else if (a == "--scenes") scenesArg = next();

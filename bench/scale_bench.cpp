@@ -85,10 +85,7 @@ int main(int argc, char** argv) {
     const MethodInfo& cone = methodOrUsageError("cone");
     for (int i = 1; i < argc; ++i) {
       std::string a = argv[i];
-      auto next = [&]() -> std::string {
-        if (i + 1 >= argc) throw UsageError(a + " needs a value");
-        return argv[++i];
-      };
+      auto next = [&] { return bench::optionValue(argc, argv, i); };
       const SettingSpec* setting = nullptr;
       for (const SettingSpec& s : cone.settings)
         if ("--" + s.name == a) setting = &s;
