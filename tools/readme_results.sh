@@ -9,6 +9,7 @@
 #   host-cost  the cone path's time against its peers and each method's host cost (same run, SMALL² and SIZE²)
 #   variants   paper 002's variants (bench/variants_bench)
 #   sort       GPU sort primitives against the CPU (bench/sort_bench)
+#   access     what one memory access of each kind costs a kernel (bench/access_bench)
 #   dynamic    moving scenes (`coneshadow compare --animate`)
 #   scaling    resolution and triangle count (`coneshadow compare --scaling`)
 #   scale      height fields to 10 M triangles (bench/scale_bench)
@@ -35,12 +36,12 @@ MUSEUM=../shared/scenes/bart/museum/museum5.aff
 [ -f shared/scenes/bart/museum/museum5.aff ] && MUSEUM=shared/scenes/bart/museum/museum5.aff
 
 [ "${SKIP_BUILD:-0}" = 1 ] || ./tools/setup.sh
-for b in "$CLI" "$BUILD/bench/frame_bench" "$BUILD/bench/variants_bench" "$BUILD/bench/sort_bench" "$BUILD/bench/scale_bench"; do
+for b in "$CLI" "$BUILD"/bench/{frame_bench,variants_bench,sort_bench,access_bench,scale_bench}; do
   [ -x "$b" ] || { echo "readme_results: $b is not built (run tools/setup.sh)" >&2; exit 1; }
 done
 [ -f "$ENGINE" ] || { echo "readme_results: $ENGINE not found (Debian package assimp-testmodels)" >&2; exit 1; }
 [ -f "$MUSEUM" ] || { echo "readme_results: $MUSEUM not found (the BART scenes, ../shared/scenes/bart)" >&2; exit 1; }
-for name in results host-cost variants sort dynamic scaling scale far; do
+for name in results host-cost variants sort access dynamic scaling scale far; do
   grep -q "^<!-- $name:begin -->\$" "$README" && grep -q "^<!-- $name:end -->\$" "$README" || {
     echo "readme_results: $README lacks the <!-- $name:begin --> / <!-- $name:end --> lines" >&2; exit 1; }
 done
@@ -100,6 +101,9 @@ grep -v '^device:' "$work/variants.out" | section variants
 
 run sort "$BUILD/bench/sort_bench" --runs 9
 { echo '```'; grep -v '^device:' "$work/sort.out"; echo '```'; } | section sort
+
+run access "$BUILD/bench/access_bench" --runs 7
+grep -v '^device:' "$work/access.out" | section access
 
 run dynamic "$CLI" compare --animate 8 --width 256 --height 256 --methods embree,cone,rmsm --out "$OUT/dynamic-builtin" --quiet
 run dynamic "$CLI" compare "$ENGINE" --animate 8 --moving-camera --width 256 --height 256 --methods embree,cone,rmsm \
