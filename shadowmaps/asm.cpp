@@ -321,6 +321,7 @@ class AdaptiveShadowMap : public ShadowMethod {
 
     // 3. The new nodes, then the lookup on the refined tree.
     std::vector<float> visibility(pixels);
+    double submitMs = 0;
     {
       timer_.restart();
       readback_.clear();
@@ -338,11 +339,14 @@ class AdaptiveShadowMap : public ShadowMethod {
       cmd.barrier();
       cmd.mark("lookup");
       readback_.record(cmd);
+      const auto ts = Clock::now();
       cmd.submit();
+      submitMs = msSince(ts);
       if (pixels) readback_.read(vSlot, visibility);
       readback_.read(uSlot, used);
     }
-    for (auto& [stage, ms] : timer_.intervals())
+    // Where timestamps cannot split the submission, it is one stage (vk::Timer::intervalsOr).
+    for (auto& [stage, ms] : timer_.intervalsOr("nodes_and_lookup", submitMs))
       out.stages.push_back({stage, ms, stage == "lookup" ? StageKind::Lookup : StageKind::Rebuild});
     tree_.markUsed(used, frame_);
     created_ += ref.created.size();

@@ -353,6 +353,7 @@ struct Rmsm::State {
     sm::RmsmPush p = push(light, eps, levelLimit);
     p.cachedFilter = filter ? 1u : 0u;
     Analysis a;
+    double submitMs = 0;
     timer.restart();
     {
       readback.clear();
@@ -384,11 +385,10 @@ struct Rmsm::State {
       readback.record(cmd);
       const auto ts = Clock::now();
       cmd.submit();
+      submitMs = msSince(ts);  // recording excluded, as timestamps do
       readback.read(countersSlot, a.counters);
-      if (!ctx.timestampsTrusted()) stages.add("analysis", msSince(ts));  // recording excluded, as timestamps do
     }
-    if (ctx.timestampsTrusted())
-      for (auto& [n, ms] : timer.intervals()) stages.add(n, ms);
+    for (auto& [n, ms] : timer.intervalsOr("analysis", submitMs)) stages.add(n, ms);
     const auto t0 = Clock::now();
     const uint32_t unique = std::min(a.counters[SM_COUNT_UNIQUE], std::min(a.counters[SM_COUNT_PRUNED], slots));
     a.unique = unique ? vk::download<uint32_t>(ctx, uniqueBuf, unique) : std::vector<uint32_t>{};
@@ -513,6 +513,7 @@ MethodOutput Rmsm::run(const FrameInput& frame) {
   MethodOutput out;
   out.visibility.resize(pixels);
   uint32_t misses = 0;
+  double submitMs = 0;
   {
     s.readback.clear();
     const uint32_t visibilitySlot = s.readback.add(s.visibility, uint64_t(pixels) * 4),
@@ -553,12 +554,11 @@ MethodOutput Rmsm::run(const FrameInput& frame) {
     s.readback.record(cmd);
     const auto ts = Clock::now();
     cmd.submit();
+    submitMs = msSince(ts);
     if (pixels) s.readback.read(visibilitySlot, out.visibility);
     s.readback.read(missesSlot, std::span<uint32_t>(&misses, 1));
-    if (!s.ctx.timestampsTrusted()) stages.add("pages_and_lookup", msSince(ts));
   }
-  if (s.ctx.timestampsTrusted())
-    for (auto& [n, ms] : s.timer.intervals()) stages.add(n, ms);
+  for (auto& [n, ms] : s.timer.intervalsOr("pages_and_lookup", submitMs)) stages.add(n, ms);
   if (s.opt.cached) {
     s.cacheValid = true;
     s.cacheLight = frame.light;

@@ -208,6 +208,7 @@ class Rtw : public ShadowMethod {
     ip.minDistance = 2.0f * eps;
 
     timer_.restart();
+    double submitMs = 0;
     readback_.clear();
     const uint32_t visSlot = readback_.add(visibility_, uint64_t(pixels) * 4);
     // The knots, active flags and live ranges come back (stats); the inverse tables stay on the device.
@@ -293,10 +294,13 @@ class Rtw : public ShadowMethod {
       cmd.barrier();
       cmd.mark("lookup");
       readback_.record(cmd);
+      const auto ts = Clock::now();
       cmd.submit();
+      submitMs = msSince(ts);
     }
+    // Where timestamps cannot split the submission, it is one stage (vk::Timer::intervalsOr).
     if (uploadMs > 0) out.stages.push_back({"upload", uploadMs, StageKind::Rebuild});
-    for (auto& [name, ms] : timer_.intervals())
+    for (auto& [name, ms] : timer_.intervalsOr("analysis_warp_faces_and_lookup", submitMs))
       out.stages.push_back({name, ms, name == "lookup" ? StageKind::Lookup : StageKind::Rebuild});
     out.totalMs = msSince(t0);
 

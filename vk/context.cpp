@@ -830,6 +830,11 @@ std::vector<std::pair<std::string, double>> Timer::intervals() const {
   return out;
 }
 
+std::vector<std::pair<std::string, double>> Timer::intervalsOr(const std::string& whole, double wallMs) const {
+  if (ctx && ctx->timestampsTrusted()) return intervals();
+  return {{whole, wallMs}};
+}
+
 // ---- commands -----------------------------------------------------------------------------------
 
 Commands::Commands(Context& ctx, Timer* timer) : ctx_(ctx), timer_(timer) {

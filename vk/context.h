@@ -314,6 +314,10 @@ struct Timer {
   void restart();  // forget the marks so the timer can record another frame
   // (name, ms) for each interval between consecutive marks, named by the later mark's name.
   std::vector<std::pair<std::string, double>> intervals() const;
+  // intervals() where the device's timestamps time the commands between them (Context::timestampsTrusted);
+  // elsewhere one interval, `whole`, of `wallMs` (the submission's wall clock), so a method's stages add up
+  // to its frame on every device.
+  std::vector<std::pair<std::string, double>> intervalsOr(const std::string& whole, double wallMs) const;
 };
 Timer createTimer(Context& ctx, uint32_t capacity = 256);
 
