@@ -58,7 +58,7 @@ const MethodInfo& referenceMethod() {
 
 std::vector<SweepPoint> sweepOf(const MethodInfo& info, const Settings& settings) {
   if (info.sweep) return info.sweep(settings);
-  return {{info.name, settings}};
+  return {{info.name, settings, true}};  // a method without a sweep runs its defaults
 }
 
 std::vector<SweepPoint> dynamicRowsOf(const MethodInfo& info, const Settings& settings, bool staticGeometry) {

@@ -565,7 +565,6 @@ MethodOutput Rmsm::run(const FrameInput& frame) {
   }
   const double renderWallMs = msSince(tRender);
   out.totalMs = msSince(t0);
-  auto t1 = Clock::now();
 
   std::vector<uint32_t> perLevel(L.maxLevel + 1, 0);
   for (uint32_t k : s.resident) perLevel[sm::keyLevel(k)]++;

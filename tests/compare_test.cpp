@@ -168,6 +168,19 @@ TEST(Compare, TinyBuiltinRunWritesConsistentReports) {
   }
   EXPECT_EQ(views.size(), 2u);
   EXPECT_EQ(views["wall"], views["room"]);
+
+  // Each method's sweep marks one row a view as its default setting; the host-cost table reads those.
+  std::map<std::string, int> defaults, rowsOf;
+  for (auto& row : results) {
+    rowsOf[row.at("method").get<std::string>()]++;
+    if (row.at("stats").value("defaults", false)) defaults[row.at("method").get<std::string>()]++;
+  }
+  for (auto& [method, n] : rowsOf) EXPECT_EQ(defaults[method], 2) << method << ": one default row a view";
+  CliRun h = cli("results-table --host-cost " + out.string());
+  ASSERT_EQ(h.code, 0) << h.out;
+  EXPECT_NE(h.out.find("| scene / view | size | cone@64M / embree | cone@64M / "), std::string::npos) << h.out;
+  EXPECT_NE(h.out.find("| builtin / room | 48x32 | "), std::string::npos) << h.out;
+  EXPECT_EQ(h.out.find(" ms"), std::string::npos) << "times are the settings table's:\n" << h.out;
   if (coneRows == 0) GTEST_LOG_(INFO) << "built without the cone path: no cone rows to check";
   else EXPECT_EQ(coneRows, 6u) << "cone at three traversal budgets on two views";
 
