@@ -12,6 +12,7 @@
 // bindings: 0 = source (vec4[]), 1 = the same source as floats, 2 = the source as a texel buffer,
 //           3 = out (float per invocation, and vec4 stores in mode 5), 4 = global atomics (uint[4096])
 #extension GL_GOOGLE_include_directive : require
+#include "core/shared.h"
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer Src4 { vec4 src4[]; };
 layout(std430, binding = 1) readonly buffer Src1 { float src1[]; };
@@ -34,7 +35,7 @@ uint hash(uint x) {
 }
 
 void main() {
-  uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * 64u + gl_LocalInvocationIndex;
+  uint i = CS_FLAT_INDEX(64u);
   if (pc.mode == 3u) {
     for (uint b = gl_LocalInvocationIndex; b < 256u; b += 64u) bins[b] = 0u;
     barrier();

@@ -34,7 +34,7 @@ ConeNode child(uint c) {
 }
 
 void main() {
-  uint j = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * CONE_BUILD_THREADS + gl_LocalInvocationID.x;
+  uint j = CS_FLAT_INDEX(CONE_BUILD_THREADS);
   if (p.fromShape != 0u) {
     uint depth = shape[SHAPE_DEPTH];
     if (p.height == 0u || p.height > depth) return;

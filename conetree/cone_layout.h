@@ -28,40 +28,21 @@
 #define CONE_DIV(a, b) ((a) / (b))
 #endif
 
+#include "core/shared.h"
+
 #ifdef __cplusplus
 #include <cstddef>
-#include <cstdint>
-
-#include <glm/glm.hpp>
 #ifndef CONE_CPU_NAMESPACE
 #define CONE_CPU_NAMESPACE cs::cone
 #endif
-// The C++ names of the GLSL built-ins the shared headers call, one list for all of them.
+// The C++ names of the GLSL built-ins the shared cone headers call: glm's, unless a test brings its own.
 #ifndef CONE_CPU_MATH
-#define CONE_CPU_MATH \
-  using glm::abs;     \
-  using glm::atan;    \
-  using glm::cos;     \
-  using glm::cross;   \
-  using glm::dot;     \
-  using glm::length;  \
-  using glm::max;     \
-  using glm::min;     \
-  using glm::normalize; \
-  using glm::sin;     \
-  using glm::sqrt;
+#define CONE_CPU_MATH CS_GLSL_MATH
 #endif
 namespace CONE_CPU_NAMESPACE {
 namespace glsl {  // the code below is GLSL; these names let C++ read it as written
-using uint = uint32_t;
-using glm::uvec2;
-using glm::vec2;
-using glm::vec3;
-using glm::vec4;
+CS_GLSL_TYPES
 CONE_CPU_MATH
-#define CONE_FN inline
-#else
-#define CONE_FN
 #endif
 
 struct ConeNode {
@@ -121,36 +102,36 @@ struct BuildPush {
 // ---- implicit indexing (pure; unit-tested on the CPU in tests/conetree_test.cpp) -----------------
 
 // Elements at `height` levels above the leaves: ceil(n / 4^height), written without overflow.
-CONE_FN uint countAtHeight(uint n, uint height) {
+CS_FN uint countAtHeight(uint n, uint height) {
   if (n == 0u) return 0u;
   if (height >= 16u) return 1u;  // a shift by 32 would be undefined
   return ((n - 1u) >> (2u * height)) + 1u;
 }
 
 // Depth of the leaves: the smallest D >= 1 with 4^D >= n (a single ray still gets a root above it).
-CONE_FN uint treeDepth(uint n) {
+CS_FN uint treeDepth(uint n) {
   uint d = 1u;
   while (countAtHeight(n, d) > 1u) d++;
   return d;
 }
 
 // Nodes at depth d (0 = root) of a tree with `depth` levels above its n leaves.
-CONE_FN uint levelCount(uint n, uint depth, uint d) { return countAtHeight(n, depth - d); }
+CS_FN uint levelCount(uint n, uint depth, uint d) { return countAtHeight(n, depth - d); }
 
 // First slot of depth d in the node array; levelOffset(n, depth, depth) = interior node count.
-CONE_FN uint levelOffset(uint n, uint depth, uint d) {
+CS_FN uint levelOffset(uint n, uint depth, uint d) {
   uint offset = 0u;
   for (uint i = 0u; i < d; i++) offset += levelCount(n, depth, i);
   return offset;
 }
 
 // Children of node j whose own level has `childLevelCount` elements: [first, end).
-CONE_FN uvec2 childRange(uint j, uint childLevelCount) {
+CS_FN uvec2 childRange(uint j, uint childLevelCount) {
   return uvec2(4u * j, min(4u * j + 4u, childLevelCount));
 }
 
 // Leaves under node j at depth d of a tree with `depth` levels over n leaves: [first, end).
-CONE_FN uvec2 leafRange(uint j, uint n, uint depth, uint d) {
+CS_FN uvec2 leafRange(uint j, uint n, uint depth, uint d) {
   uint shift = 2u * (depth - d);
   return uvec2(j << shift, min((j + 1u) << shift, n));
 }
@@ -180,5 +161,4 @@ static_assert(sizeof(BuildPush) == 128 && offsetof(BuildPush, count) == 16 && of
 constexpr uint32_t kMaxLeaves = 1u << 30;
 }  // namespace CONE_CPU_NAMESPACE
 #endif
-#undef CONE_FN
 #endif

@@ -21,47 +21,40 @@
 
 #define CONE_PI 3.14159265358979f
 #define CONE_PAD 1.52587890625e-05f  // 2^-16: the (1, CONE_PAD) rotation widens a half-angle by atan(2^-16)
-#define CONE_FLT_MAX 3.402823466e+38f
 
 #ifdef __cplusplus
-#include <cmath>
 namespace CONE_CPU_NAMESPACE {
 namespace glsl {  // the built-ins' C++ names: CONE_CPU_MATH (cone_layout.h)
-#define CONE_FN inline
-#define CONE_PRECISE
-#else
-#define CONE_FN
-#define CONE_PRECISE precise
 #endif
 
 // The leaf ray of a sample: xyz = w = sample - light (light -> sample, exactly as every kernel computes
 // it), w = its length L. Every kernel that needs a leaf ray calls this, so all agree bit for bit.
-CONE_FN vec4 leafRay(vec3 samplePosition, vec3 light) {
-  CONE_PRECISE vec3 w = samplePosition - light;
-  CONE_PRECISE float L = length(w);
+CS_FN vec4 leafRay(vec3 samplePosition, vec3 light) {
+  CS_PRECISE vec3 w = samplePosition - light;
+  CS_PRECISE float L = length(w);
   return vec4(w, L);
 }
 
 // A world point in the cone frame (cone_layout.h, ConeFrame): R (x - C).
-CONE_FN vec3 toConeFrame(vec3 x, ConeFrame f) {
+CS_FN vec3 toConeFrame(vec3 x, ConeFrame f) {
   vec3 d = x - vec3(f.centre);
   return vec3(dot(vec3(f.rowX), d), dot(vec3(f.rowY), d), dot(vec3(f.rowZ), d));
 }
 
 // A ray is degenerate (never tested, in no cone) unless its length is finite and above minLength.
-CONE_FN bool leafRayUsable(vec4 ray, float minLength) { return ray.w > minLength && ray.w <= CONE_FLT_MAX; }
+CS_FN bool leafRayUsable(vec4 ray, float minLength) { return ray.w > minLength && ray.w <= CS_FLT_MAX; }
 
-CONE_FN ConeNode emptyCone() {
+CS_FN ConeNode emptyCone() {
   ConeNode c;
   c.axisCos = vec4(0.0f, 0.0f, 1.0f, 1.0f);
-  c.sinLen = vec4(0.0f, CONE_FLT_MAX, -1.0f, 0.0f);
+  c.sinLen = vec4(0.0f, CS_FLT_MAX, -1.0f, 0.0f);
   return c;
 }
 
-CONE_FN bool coneIsEmpty(ConeNode c) { return !(c.sinLen.z >= 0.0f); }
+CS_FN bool coneIsEmpty(ConeNode c) { return !(c.sinLen.z >= 0.0f); }
 
 // The cone of one usable leaf ray: half-angle 0 (the parent's padding absorbs the normalisation).
-CONE_FN ConeNode rayCone(vec4 ray) {
+CS_FN ConeNode rayCone(vec4 ray) {
   ConeNode c;
   c.axisCos = vec4(CONE_DIV(vec3(ray), ray.w), 1.0f);
   c.sinLen = vec4(0.0f, ray.w, ray.w, 0.0f);
@@ -69,14 +62,14 @@ CONE_FN ConeNode rayCone(vec4 ray) {
 }
 
 // Some unit vector perpendicular to unit a.
-CONE_FN vec3 anyPerpendicular(vec3 a) {
+CS_FN vec3 anyPerpendicular(vec3 a) {
   vec3 t = abs(a.x) < 0.57f ? vec3(1.0f, 0.0f, 0.0f) : vec3(0.0f, 1.0f, 0.0f);
   return normalize(cross(a, t));
 }
 
 // Approximate minimal cone around two cones (axis and the approximate angle in sinLen.w only; the
 // exact pair is computed by coneEnclose). Either may be empty.
-CONE_FN ConeNode coneMergeApprox(ConeNode A, ConeNode B) {
+CS_FN ConeNode coneMergeApprox(ConeNode A, ConeNode B) {
   if (coneIsEmpty(A)) return B;
   if (coneIsEmpty(B)) return A;
   vec3 a1 = vec3(A.axisCos);
@@ -115,7 +108,7 @@ CONE_FN ConeNode coneMergeApprox(ConeNode A, ConeNode B) {
 // (cos, sin) of angle(axis, child axis) + child half-angle, both factors from dot/cross (scale-free).
 // y < 0 when the sum reaches pi: the addition formulas wrap at 2 pi, so sums past pi are caught first by
 // theta + alpha >= pi <=> cos(alpha) <= -cos(theta) (either rounding way is safe: y < 0 near pi anyway).
-CONE_FN vec2 coneReach(vec3 axis, ConeNode child) {
+CS_FN vec2 coneReach(vec3 axis, ConeNode child) {
   vec3 a = vec3(child.axisCos);
   float ct = dot(axis, a);
   float st = length(cross(axis, a));
@@ -127,7 +120,7 @@ CONE_FN vec2 coneReach(vec3 axis, ConeNode child) {
 
 // True when the angle of pair p exceeds that of pair q (both in [0, pi]): sin(p - q) > 0, well
 // conditioned everywhere; it is 0 only for equal angles or for exactly 0 against pi, where cos decides.
-CONE_FN bool angleGreater(vec2 p, vec2 q) {
+CS_FN bool angleGreater(vec2 p, vec2 q) {
   float s = p.y * q.x - p.x * q.y;
   return s != 0.0f ? s > 0.0f : p.x < q.x;
 }
@@ -137,7 +130,7 @@ CONE_FN bool angleGreater(vec2 p, vec2 q) {
 // within Θ of the frame's z, the cross products and (cos, sin) sums above round to ~ulp·scale instead of
 // ~ulp, and the padding keeps its 256-fold cover of that); the whole sphere when a reach passes pi or
 // anything is not finite.
-CONE_FN ConeNode coneEnclose(ConeNode node, ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, uint n, float pad) {
+CS_FN ConeNode coneEnclose(ConeNode node, ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, uint n, float pad) {
   vec3 axis = vec3(node.axisCos);
   vec2 best = vec2(1.0f, 0.0f);
   bool whole = false;
@@ -146,13 +139,13 @@ CONE_FN ConeNode coneEnclose(ConeNode node, ConeNode c0, ConeNode c1, ConeNode c
     ConeNode c = i == 0u ? c0 : (i == 1u ? c1 : (i == 2u ? c2 : c3));
     if (coneIsEmpty(c)) continue;
     vec2 p = coneReach(axis, c);
-    if (!(p.y >= 0.0f) || !(abs(p.x) <= CONE_FLT_MAX)) whole = true;  // past pi, or NaN/inf
+    if (!(p.y >= 0.0f) || !(abs(p.x) <= CS_FLT_MAX)) whole = true;  // past pi, or NaN/inf
     if (angleGreater(p, best)) best = p;
   }
   // Widen: rotate by (1, pad), i.e. by atan(pad).
   vec2 w = vec2(best.x - pad * best.y, best.y + pad * best.x);
   float len = length(w);
-  if (whole || !(w.y >= 0.0f) || !(len > 0.0f) || !(len <= CONE_FLT_MAX)) {
+  if (whole || !(w.y >= 0.0f) || !(len > 0.0f) || !(len <= CS_FLT_MAX)) {
     node.axisCos.w = -1.0f;
     node.sinLen.x = 0.0f;
     node.sinLen.w = CONE_PI;
@@ -167,7 +160,7 @@ CONE_FN ConeNode coneEnclose(ConeNode node, ConeNode c0, ConeNode c1, ConeNode c
 
 // The parent of up to four children (n = 1..4; entries past n are ignored; empty children skipped),
 // widened by `pad` (coneEnclose).
-CONE_FN ConeNode coneParent(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, uint n, float pad) {
+CS_FN ConeNode coneParent(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, uint n, float pad) {
   ConeNode left = c0;
   if (n > 1u) left = coneMergeApprox(c0, c1);
   ConeNode right = emptyCone();
@@ -176,7 +169,7 @@ CONE_FN ConeNode coneParent(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, 
   ConeNode merged = coneMergeApprox(left, right);
   if (coneIsEmpty(merged)) return emptyCone();
   // Lmin/Lmax over the children (exact: min and max do not round).
-  float lmin = CONE_FLT_MAX, lmax = -1.0f;
+  float lmin = CS_FLT_MAX, lmax = -1.0f;
   for (uint i = 0u; i < 4u; i++) {
     if (i >= n) break;
     ConeNode c = i == 0u ? c0 : (i == 1u ? c1 : (i == 2u ? c2 : c3));
@@ -189,14 +182,14 @@ CONE_FN ConeNode coneParent(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, 
   return coneEnclose(merged, c0, c1, c2, c3, n, pad);
 }
 
-CONE_FN ConeNode coneParent(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, uint n) {
+CS_FN ConeNode coneParent(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, uint n) {
   return coneParent(c0, c1, c2, c3, n, CONE_PAD);
 }
 
 // A cone of the far-light frame as a disc on the plane z = 1 (its axis's point there, the tangent of its
 // half-angle): the approximate merges of coneParentFar work on these. w = 0: empty; w = -1: not a
 // disc (axis not in front, or not finite).
-CONE_FN vec4 coneDisc(ConeNode c) {
+CS_FN vec4 coneDisc(ConeNode c) {
   if (coneIsEmpty(c)) return vec4(0.0f);
   vec3 a = vec3(c.axisCos);
   if (!(a.z > 0.0f) || !(c.axisCos.w > 0.0f)) return vec4(0.0f, 0.0f, 0.0f, -1.0f);
@@ -204,7 +197,7 @@ CONE_FN vec4 coneDisc(ConeNode c) {
 }
 
 // The smallest disc holding discs p and q (xy centre, z radius; w as coneDisc).
-CONE_FN vec4 discMerge(vec4 p, vec4 q) {
+CS_FN vec4 discMerge(vec4 p, vec4 q) {
   if (p.w == 0.0f) return q;
   if (q.w == 0.0f || p.w < 0.0f) return p;
   if (q.w < 0.0f) return q;
@@ -224,9 +217,9 @@ CONE_FN vec4 discMerge(vec4 p, vec4 q) {
 // world merge does, with + * / sqrt only; the axis through the merged disc's centre. When a child is no
 // disc (never in the far frame), the normalised sum of the axes instead, inside their hull; a sum that
 // is not finite after normalising gives the whole sphere through coneEnclose.
-CONE_FN ConeNode coneParentFar(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, uint n, float pad) {
+CS_FN ConeNode coneParentFar(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, uint n, float pad) {
   vec3 sum = vec3(0.0f);
-  float lmin = CONE_FLT_MAX, lmax = -1.0f;
+  float lmin = CS_FLT_MAX, lmax = -1.0f;
   for (uint i = 0u; i < 4u; i++) {
     if (i >= n) break;
     ConeNode c = i == 0u ? c0 : (i == 1u ? c1 : (i == 2u ? c2 : c3));
@@ -252,7 +245,7 @@ CONE_FN ConeNode coneParentFar(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c
 
 // The cone of a leaf ray in the far-light frame: half-angle beta and lengths L -+ sigma, so that it also
 // holds the ray to the same sample as the world-space leaf test sees it (traversal.h, "Far-light frame").
-CONE_FN ConeNode rayConeWidened(vec4 ray, float beta, float sigma) {
+CS_FN ConeNode rayConeWidened(vec4 ray, float beta, float sigma) {
   ConeNode c = rayCone(ray);
   c.axisCos.w = 1.0f;
   c.sinLen.x = beta;
@@ -279,6 +272,4 @@ using glsl::rayConeWidened;
 using glsl::toConeFrame;
 }  // namespace CONE_CPU_NAMESPACE
 #endif
-#undef CONE_FN
-#undef CONE_PRECISE
 #endif

@@ -6,6 +6,8 @@
 
 #include <glm/glm.hpp>
 
+#include "core/shared.h"
+
 namespace cs {
 
 struct GBuffer {
@@ -14,12 +16,12 @@ struct GBuffer {
   std::vector<glm::vec4> position;
   // xyz: world unit normal, turned to face the camera (two-sided); w: the direct-light term of the point
   // light, max(0, N·L̂) — the "light buffer". A sample is *lit* (takes part in shadow work and in the
-  // error metric) when it has geometry and w > 0.
+  // error metric) when it has geometry and w > 0: litSample (core/shared.h), the rule every kernel asks.
   std::vector<glm::vec4> normal;
 
   size_t size() const { return size_t(width) * height; }
   bool hasGeometry(size_t i) const { return position[i].w > 0.5f; }
-  bool isLit(size_t i) const { return hasGeometry(i) && normal[i].w > 0.0f; }
+  bool isLit(size_t i) const { return litSample(position[i], normal[i]); }
   size_t litCount() const {
     size_t n = 0;
     for (size_t i = 0; i < size(); ++i) n += isLit(i);

@@ -2,7 +2,7 @@
 // gbuffer_id.frag (the latter defines GBUFFER_TRIANGLE_ID).
 //   out 0: world position (fp32), w = 1 (0 where nothing was drawn: the clear value)
 //   out 1: unit normal turned towards the camera, w = max(0, N·L̂) — the light buffer
-//   out 2 (GBUFFER_TRIANGLE_ID): the scene triangle's index (RASTER_NO_TRIANGLE where nothing was drawn).
+//   out 2 (GBUFFER_TRIANGLE_ID): the scene triangle's index (CS_NO_TRIANGLE where nothing was drawn).
 //     gl_PrimitiveID in a fragment stage needs the device's geometryShader feature, hence two shaders.
 #include "raster/raster_layout.h"
 

@@ -210,7 +210,7 @@ RasterTiming Raster::render(const Camera& camera, glm::vec3 light, uint32_t widt
   cmd.mark("start");
   VkClearValue clears[4]{};
   const uint32_t colors = triangleIds_ ? 3 : 2;
-  if (triangleIds_) clears[2].color.uint32[0] = RASTER_NO_TRIANGLE;
+  if (triangleIds_) clears[2].color.uint32[0] = CS_NO_TRIANGLE;
   clears[colors].depthStencil = {1.0f, 0};
   VkRenderPassBeginInfo bi{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
   bi.renderPass = renderPass_;

@@ -11,7 +11,7 @@
 namespace cs {
 
 // The G-buffer resident on the GPU: two arrays of vec4 in the layout of GBuffer (row 0 at the top), and
-// the index of the scene triangle each pixel sees (uint per pixel, RASTER_NO_TRIANGLE where none) on
+// the index of the scene triangle each pixel sees (uint per pixel, CS_NO_TRIANGLE where none) on
 // devices with the geometryShader feature (a fragment stage's gl_PrimitiveID needs it); an empty buffer
 // elsewhere. Only the GPU copy carries the IDs (ASM's ID + depth test reads them there).
 struct DeviceGBuffer {

@@ -1,15 +1,14 @@
 // Push constants of the camera pass, shared by GLSL and C++ (one layout, two languages).
 #ifndef CONESHADOW_RASTER_LAYOUT_H
 #define CONESHADOW_RASTER_LAYOUT_H
+
+#include "core/shared.h"
+
 #ifdef __cplusplus
-#include <glm/glm.hpp>
 namespace cs {
 using mat4 = glm::mat4;
 using vec4 = glm::vec4;
 #endif
-
-// The G-buffer's triangle ID where no triangle was drawn.
-#define RASTER_NO_TRIANGLE 0xFFFFFFFFu
 
 struct RasterPush {
   mat4 viewProj;  // world -> clip, Vulkan conventions (y down, depth 0..1)

@@ -44,7 +44,7 @@ uint findSlot(uint key) {
 }
 
 void main() {
-  uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * ASM_THREADS + gl_LocalInvocationIndex;
+  uint i = CS_FLAT_INDEX(ASM_THREADS);
   if (i >= pc.width * pc.height) return;
   bool analyse = pc.mode == ASM_MODE_ANALYSE;
   if (analyse && ((i % pc.width) % pc.analysisStep != 0u || (i / pc.width) % pc.analysisStep != 0u)) return;
@@ -53,7 +53,7 @@ void main() {
   float cosTheta = nl.w;
   vec3 d = p.xyz - pc.light.xyz;
   float dist = length(d);
-  if (!(p.w > 0.5 && cosTheta > 0.0) || dist <= pc.minDistance) {
+  if (!litSample(p, nl) || dist <= pc.minDistance) {
     if (!analyse) visibility[i] = 1.0;
     return;
   }
@@ -93,7 +93,7 @@ void main() {
   uvec2 local = base - node * N;
   float reach = dist - slopeScaledBias(dist, cosTheta, 2.0f / res, pc.constantBias, pc.slopeBias, pc.maxSlope);
   float slack = 0.25 * dist * 2.0f / res;
-  uint ownTriangle = pc.idTest != 0u ? triangle[i] : SM_NO_TRIANGLE;
+  uint ownTriangle = pc.idTest != 0u ? triangle[i] : CS_NO_TRIANGLE;
   float l[4];
   for (uint k = 0u; k < 4u; ++k) {
     uvec2 tap = local + uvec2(k & 1u, k >> 1u);
@@ -102,7 +102,7 @@ void main() {
                                pc.constantBias, slack)
                   : reach;
     uint t = origin + tap.y * stride + tap.x;
-    bool sameTriangle = ownTriangle != SM_NO_TRIANGLE && idPool[t] == ownTriangle;
+    bool sameTriangle = ownTriangle != CS_NO_TRIANGLE && idPool[t] == ownTriangle;
     l[k] = sameTriangle || pool[t] >= r ? 1.0 : 0.0;
   }
 

@@ -9,9 +9,6 @@
 
 #ifdef __cplusplus
 namespace cs::sm {
-#define ASM_FN inline
-#else
-#define ASM_FN
 #endif
 
 #define ASM_THREADS 256       // asm_frame.comp: one invocation per pixel
@@ -29,12 +26,12 @@ namespace cs::sm {
 // y·C + j) at depth L + 1 covers. The resident nodes are found through an open-addressing hash of their
 // keys, pageKey(face, L, x, y): `capacity` (a power of two) pairs (key, slot), empty keys
 // SM_INVALID_KEY, linear probing, built by the host every frame.
-ASM_FN uint asmHash(uint key, uint capacity) {
+CS_FN uint asmHash(uint key, uint capacity) {
   uint h = key * 0x9E3779B1u;
   h ^= h >> 15u;
   return h & (capacity - 1u);
 }
-ASM_FN uint asmSlotStride(uint nodeRes) { return (nodeRes + 1u) * (nodeRes + 1u); }
+CS_FN uint asmSlotStride(uint nodeRes) { return (nodeRes + 1u) * (nodeRes + 1u); }
 
 // The analysis's resolution test (paper 001 §3.1: the shadow map's texel is larger than the eye's
 // pixel). Both as areas on the receiving surface, from the raster pass's own geometry rather than the
@@ -43,11 +40,11 @@ ASM_FN uint asmSlotStride(uint nodeRes) { return (nodeRes + 1u) * (nodeRes + 1u)
 // in direction d (|d| / z_f = `stretch` >= 1, the cube map's off-axis factor), covers
 // (2·lightDistance / (res·stretch))² / cosLight. The cosines are clamped at 0.05 (grazing surfaces
 // count as 20× stretched, not infinitely).
-ASM_FN float asmPixelArea(float pixelAngle, float eyeDistance, float cosView) {
+CS_FN float asmPixelArea(float pixelAngle, float eyeDistance, float cosView) {
   float side = pixelAngle * eyeDistance;
   return side * side / max(cosView, 0.05f);
 }
-ASM_FN float asmTexelArea(float res, float lightDistance, float stretch, float cosLight) {
+CS_FN float asmTexelArea(float res, float lightDistance, float stretch, float cosLight) {
   float side = 2.0f * lightDistance / (res * stretch);
   return side * side / max(cosLight, 0.05f);
 }
@@ -78,5 +75,4 @@ static_assert(sizeof(AsmPush) == 96 && offsetof(AsmPush, width) == 32 && offseto
               "AsmPush layout");
 }  // namespace cs::sm
 #endif
-#undef ASM_FN
 #endif

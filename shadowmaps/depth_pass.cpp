@@ -250,7 +250,7 @@ VkCommandBuffer DepthPass::beginPass(vk::Commands& cmd, uint32_t w, uint32_t h) 
   VkClearValue clears[3]{};
   const uint32_t colors = triangleIds_ ? 2 : 1;
   clears[0].color.float32[0] = SM_EMPTY_DEPTH;
-  if (triangleIds_) clears[1].color.uint32[0] = SM_NO_TRIANGLE;
+  if (triangleIds_) clears[1].color.uint32[0] = CS_NO_TRIANGLE;
   clears[colors].depthStencil = {0.0f, 0};  // reversed Z: 0 is infinitely far
   VkRenderPassBeginInfo bi{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
   bi.renderPass = renderPass_;

@@ -34,7 +34,7 @@ inline constexpr uint32_t kClusterTriangles = 64;
 class DepthPass {
  public:
   // triangleIds: every target also holds, per texel, the index of the scene triangle nearest the light
-  // (R32UI, SM_NO_TRIANGLE where none; depth_id.frag), for ASM's ID + depth test. Needs the device's
+  // (R32UI, CS_NO_TRIANGLE where none; depth_id.frag), for ASM's ID + depth test. Needs the device's
   // geometryShader feature (an Error naming it otherwise); the warped pass (RTW) does not write them.
   explicit DepthPass(vk::Context& ctx, bool culling = true, bool triangleIds = false);
   ~DepthPass();

@@ -20,14 +20,14 @@ layout(push_constant) uniform Push { RmsmPush pc; };
 #include "shadowmaps/rmsm.glsl"
 
 void main() {
-  uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * SM_PIXEL_THREADS + gl_LocalInvocationIndex;
+  uint i = CS_FLAT_INDEX(SM_PIXEL_THREADS);
   if (i >= pc.width * pc.height) return;
   vec4 p = position[i];
   float cosTheta = normal[i].w;
   float lambda = lod[i];
   vec3 d = p.xyz - pc.light.xyz;
   float dist = length(d);
-  if (!(p.w > 0.5 && cosTheta > 0.0) || dist <= pc.minDistance || lambda < 0.0) {
+  if (!litSample(p, normal[i]) || dist <= pc.minDistance || lambda < 0.0) {
     visibility[i] = 1.0;
     return;
   }

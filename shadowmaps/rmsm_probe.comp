@@ -16,7 +16,7 @@ layout(push_constant) uniform Push { RmsmPush pc; };
 #include "shadowmaps/rmsm.glsl"
 
 void main() {
-  uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * SM_LIST_THREADS + gl_LocalInvocationIndex;
+  uint i = CS_FLAT_INDEX(SM_LIST_THREADS);
   if (i >= pc.count) return;
   uvec4 q = queries[i];
   uint found, base;

@@ -18,7 +18,7 @@ shared uint groupValid;
 void main() {
   if (gl_LocalInvocationIndex == 0u) groupValid = 0u;
   barrier();
-  uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * SM_PIXEL_THREADS + gl_LocalInvocationIndex;
+  uint i = CS_FLAT_INDEX(SM_PIXEL_THREADS);
   uint valid = 0u;
   if (i < pc.width * pc.height) {
     uint x = i % pc.width, y = i / pc.width, step = pc.analysisStep;

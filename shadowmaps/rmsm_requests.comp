@@ -81,7 +81,7 @@ int analyse(uint i) {
   vec4 p = position[i];
   vec4 n = normal[i];
   vec3 d = p.xyz - pc.light.xyz;
-  if (!(p.w > 0.5 && n.w > 0.0) || length(d) <= pc.minDistance) return -1;
+  if (!litSample(p, n) || length(d) <= pc.minDistance) return -1;
   uint face = cubeFace(d);
   vec2 st = windowST(faceST(faceSpace(face, d)), windows[face]);
 
@@ -123,7 +123,7 @@ int analyse(uint i) {
 void main() {
   if (gl_LocalInvocationIndex == 0u) groupFaces = 0u;
   barrier();
-  int face = analyse((gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * SM_PIXEL_THREADS + gl_LocalInvocationIndex);
+  int face = analyse(CS_FLAT_INDEX(SM_PIXEL_THREADS));
   // The faces in use: only a reduced analysis needs them (its backup level, rmsm.h).
   if (pc.analysisStep > 1u && face >= 0) atomicOr(groupFaces, 1u << uint(face));
   barrier();

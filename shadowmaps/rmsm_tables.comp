@@ -10,7 +10,7 @@ layout(std430, binding = 1) writeonly buffer Tables { uint tables[]; };
 layout(push_constant) uniform Push { RmsmPush pc; };
 
 void main() {
-  uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * SM_LIST_THREADS + gl_LocalInvocationIndex;
+  uint i = CS_FLAT_INDEX(SM_LIST_THREADS);
   if (i >= pc.count) return;
   uvec2 u = updates[pc.first + i];
   tables[u.x] = u.y;

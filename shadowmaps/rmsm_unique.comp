@@ -11,7 +11,7 @@ layout(std430, binding = 2) readonly buffer Counters { uint counters[]; };
 layout(push_constant) uniform Push { RmsmPush pc; };
 
 void main() {
-  uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * SM_LIST_THREADS + gl_LocalInvocationIndex;
+  uint i = CS_FLAT_INDEX(SM_LIST_THREADS);
   uint count = min(counters[SM_COUNT_PRUNED], pc.count);
   if (i >= count) return;
   flags[i] = (i == 0u || keys[i] != keys[i - 1u]) ? 1u : 0u;

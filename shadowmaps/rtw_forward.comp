@@ -38,7 +38,7 @@ vec3 pointAt(uint face, int x, int y, float dist) {
 
 void main() {
   uint m = pc.forwardRes;
-  uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * RTW_THREADS + gl_LocalInvocationIndex;
+  uint i = CS_FLAT_INDEX(RTW_THREADS);
   if (i >= 6u * m * m) return;
   uint face = i / (m * m);
   int x = int(i % m), y = int((i / m) % m);

@@ -19,12 +19,12 @@ layout(std430, binding = 4) readonly buffer View { RtwView view; };
 layout(push_constant) uniform Push { RtwImportancePush pc; };
 
 void main() {
-  uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * RTW_THREADS + gl_LocalInvocationIndex;
+  uint i = CS_FLAT_INDEX(RTW_THREADS);
   if (i >= pc.width * pc.height) return;
   vec4 p = position[i];
   vec4 nl = normal[i];
   vec3 d = p.xyz - pc.light.xyz;
-  if (!(p.w > 0.5 && nl.w > 0.0) || length(d) <= pc.minDistance) return;
+  if (!litSample(p, nl) || length(d) <= pc.minDistance) return;
   uint face = cubeFace(d);
   vec2 st = faceST(faceSpace(face, d));
   float value = 1.0f;

@@ -47,13 +47,13 @@ float unwarpTexel(uint face, uint axis, float j) {
 }
 
 void main() {
-  uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * RTW_THREADS + gl_LocalInvocationIndex;
+  uint i = CS_FLAT_INDEX(RTW_THREADS);
   if (i >= pc.width * pc.height) return;
   vec4 p = position[i];
   float cosTheta = normal[i].w;
   vec3 d = p.xyz - pc.light.xyz;
   float dist = length(d);
-  if (!(p.w > 0.5 && cosTheta > 0.0) || dist <= pc.minDistance) {
+  if (!litSample(p, normal[i]) || dist <= pc.minDistance) {
     visibility[i] = 1.0;
     return;
   }

@@ -9,9 +9,6 @@
 
 #ifdef __cplusplus
 namespace cs::sm {
-#define RTW_FN inline
-#else
-#define RTW_FN
 #endif
 
 #define RTW_THREADS 256          // per-pixel and per-texel kernels
@@ -47,26 +44,26 @@ namespace cs::sm {
 // one's end: the warped pass clips every triangle to it, so no vertex lies in the culled cells beyond
 // the live ones (there the warp is flat, and a straight warped edge to such a vertex would stand for
 // none of the true edge's path through the live cells).
-RTW_FN uint rtwKnotBase(uint face, uint axis, uint cells) { return (face * 2u + axis) * (cells + 1u); }
-RTW_FN uint rtwActiveIndex(uint face, uint cells) { return 12u * (cells + 1u) + face; }
-RTW_FN uint rtwRangeIndex(uint face, uint axis, uint cells) { return 12u * (cells + 1u) + 8u + (face * 2u + axis) * 2u; }
+CS_FN uint rtwKnotBase(uint face, uint axis, uint cells) { return (face * 2u + axis) * (cells + 1u); }
+CS_FN uint rtwActiveIndex(uint face, uint cells) { return 12u * (cells + 1u) + face; }
+CS_FN uint rtwRangeIndex(uint face, uint axis, uint cells) { return 12u * (cells + 1u) + 8u + (face * 2u + axis) * 2u; }
 // Then per face and axis the inverse at the texel centres: R values, texel j's centre (j + 1/2) / R
 // unwarped (what the warped pass's fragments and the receiver-plane taps need; a table, not a search).
-RTW_FN uint rtwInverseBase(uint face, uint axis, uint cells, uint resolution) {
+CS_FN uint rtwInverseBase(uint face, uint axis, uint cells, uint resolution) {
   return 12u * (cells + 1u) + 32u + (face * 2u + axis) * resolution;
 }
-RTW_FN uint rtwWarpWords(uint cells, uint resolution) { return 12u * (cells + 1u) + 32u + 12u * resolution; }
+CS_FN uint rtwWarpWords(uint cells, uint resolution) { return 12u * (cells + 1u) + 32u + 12u * resolution; }
 
 // The cell of unwarped coordinate s in [0, 1] (clamped: the end cells extend the map linearly).
-RTW_FN uint rtwCell(float s, uint cells) {
+CS_FN uint rtwCell(float s, uint cells) {
   return uint(clamp(floor(s * float(cells)), 0.0f, float(cells - 1u)));
 }
 // Warped coordinate of s, from the two knots of its cell (k0 = K[k], k1 = K[k + 1], k = rtwCell(s)).
-RTW_FN float rtwWarpIn(float s, uint cell, uint cells, float k0, float k1) {
+CS_FN float rtwWarpIn(float s, uint cell, uint cells, float k0, float k1) {
   return k0 + (s * float(cells) - float(cell)) * (k1 - k0);
 }
 // Unwarped coordinate of warped s' inside cell `cell` (k0 <= s' <= k1); a culled cell maps to its start.
-RTW_FN float rtwUnwarpIn(float sw, uint cell, uint cells, float k0, float k1) {
+CS_FN float rtwUnwarpIn(float sw, uint cell, uint cells, float k0, float k1) {
   float f = k1 > k0 ? clamp((sw - k0) / (k1 - k0), 0.0f, 1.0f) : 0.0f;
   return (float(cell) + f) / float(cells);
 }
@@ -75,15 +72,15 @@ RTW_FN float rtwUnwarpIn(float sw, uint cell, uint cells, float k0, float k1) {
 // I_D: the desired view's projected size of a sample falls as 1/q with its view depth q (§5.2; the paper
 // uses 1 - depth, which is 1/q up to the projection's constants: the warp is scale-free). Depths below
 // qMin (the camera's near plane) count as qMin.
-RTW_FN float rtwDistanceImportance(float q, float qMin) { return 1.0f / max(q, qMin); }
+CS_FN float rtwDistanceImportance(float q, float qMin) { return 1.0f / max(q, qMin); }
 // I_SN: a bonus beta for surfaces facing the view direction (§5.4). `facing` = -N·v̂ with v̂ the unit
 // direction from the eye to the sample.
-RTW_FN float rtwNormalImportance(float facing, float beta) { return 1.0f + beta * clamp(facing, 0.0f, 1.0f); }
+CS_FN float rtwNormalImportance(float facing, float beta) { return 1.0f + beta * clamp(facing, 0.0f, 1.0f); }
 // I_E: a texel of the light's depth image whose distance d differs from a neighbour's dn by more than the
 // threshold is a shadow edge (§5.3). Empty neighbours (no geometry, dn >= SM_EMPTY_DEPTH / 2) receive no
 // shadow and make no edge. The threshold: the constant bias plus the depth a surface `slope` (tanθ)
 // steep changes over one texel of the depth image (2/m of face coordinate at m texels a side).
-RTW_FN bool rtwDepthEdge(float d, float dn, float constantBias, float texelAngle, float slope) {
+CS_FN bool rtwDepthEdge(float d, float dn, float constantBias, float texelAngle, float slope) {
   if (!(dn < 0.5f * SM_EMPTY_DEPTH)) return false;
   return abs(d - dn) > constantBias + slope * max(d, dn) * texelAngle;
 }
@@ -157,5 +154,4 @@ static_assert(sizeof(RtwDepthPush) == 48, "RtwDepthPush layout");
 static_assert(sizeof(RtwLookupPush) == 64, "RtwLookupPush layout");
 }  // namespace cs::sm
 #endif
-#undef RTW_FN
 #endif

@@ -6,29 +6,13 @@
 #ifndef CONESHADOW_SM_SHARED_H
 #define CONESHADOW_SM_SHARED_H
 
+#include "core/shared.h"
+
 #ifdef __cplusplus
 #include <cstddef>
-#include <cstdint>
-
-#include <glm/glm.hpp>
 namespace cs::sm {
-using uint = uint32_t;
-using glm::mat4;
-using glm::uvec2;
-using glm::uvec4;
-using glm::vec2;
-using glm::vec3;
-using glm::vec4;
-using glm::abs;
-using glm::clamp;
-using glm::floor;
-using glm::log2;
-using glm::max;
-using glm::min;
-using glm::sqrt;
-#define SM_FN inline
-#else
-#define SM_FN
+CS_GLSL_TYPES
+CS_GLSL_MATH
 #endif
 
 // ---- workgroup shapes and constants --------------------------------------------------------------
@@ -36,7 +20,6 @@ using glm::sqrt;
 #define SM_LIST_THREADS 256       // per-list-entry kernels
 #define SM_INVALID_KEY 0xFFFFFFFFu
 #define SM_MAX_LEVEL 12u          // page keys hold 12-bit page coordinates: levels 0..12
-#define SM_NO_TRIANGLE 0xFFFFFFFFu     // the triangle-ID target where no geometry was drawn (as RASTER_NO_TRIANGLE)
 #define SM_EMPTY_DEPTH 3.0e38f    // stored where no geometry was drawn: every sample is in front of it
 
 // Counters word indices (RMSM's small counter buffer).
@@ -56,14 +39,14 @@ using glm::sqrt;
 // coordinates are s = (u + 1) / 2, t = (v + 1) / 2 — texel column s·R, row t·R at R texels a side.
 // (Selects rather than d[axis]: a vector indexed by a per-invocation value becomes a gather through
 // memory on SIMD CPUs — lavapipe — and made the request kernel several times slower.)
-SM_FN uint cubeFace(vec3 d) {
+CS_FN uint cubeFace(vec3 d) {
   vec3 a = abs(d);
   if (a.x >= a.y && a.x >= a.z) return d.x < 0.0f ? 1u : 0u;
   if (a.y >= a.z) return d.y < 0.0f ? 3u : 2u;
   return d.z < 0.0f ? 5u : 4u;
 }
 
-SM_FN vec3 faceSpace(uint face, vec3 d) {
+CS_FN vec3 faceSpace(uint face, vec3 d) {
   uint axis = face >> 1u;
   vec3 f = axis == 0u ? vec3(d.y, d.z, d.x) : (axis == 1u ? vec3(d.z, d.x, d.y) : d);
   f.z = (face & 1u) != 0u ? -f.z : f.z;
@@ -71,19 +54,19 @@ SM_FN vec3 faceSpace(uint face, vec3 d) {
 }
 
 // (s, t) in [0, 1]² of a face-space point with z_f > 0.
-SM_FN vec2 faceST(vec3 f) { return vec2(0.5f + 0.5f * f.x / f.z, 0.5f + 0.5f * f.y / f.z); }
+CS_FN vec2 faceST(vec3 f) { return vec2(0.5f + 0.5f * f.x / f.z, 0.5f + 0.5f * f.y / f.z); }
 
 // RMSM's fitted faces: window w = (s0, t0, zoom, 0) maps the part [s0, s0 + 1/zoom] x [t0, t0 + 1/zoom]
 // of a face onto the quadtree's [0, 1]² (rmsm.h); (0, 0, 1, 0) is the whole face.
-SM_FN vec2 windowST(vec2 st, vec4 w) { return (st - vec2(w.x, w.y)) * w.z; }
+CS_FN vec2 windowST(vec2 st, vec4 w) { return (st - vec2(w.x, w.y)) * w.z; }
 // The face coordinate (u, v in [-1, 1]) of window coordinate x (texels of a level with `res` a side).
-SM_FN vec2 windowFaceUV(vec2 x, float res, vec4 w) { return 2.0f * (vec2(w.x, w.y) + x / (res * w.z)) - 1.0f; }
+CS_FN vec2 windowFaceUV(vec2 x, float res, vec4 w) { return 2.0f * (vec2(w.x, w.y) + x / (res * w.z)) - 1.0f; }
 
 // ---- level of detail (paper 000, eq. 1) -----------------------------------------------------------
 // dX, dY: the screen-space derivatives of (s, t). ℓ = log2(sqrt(|dX × dY|)): the log2 of the side of a
 // texel that matches the pixel's footprint, in units of the face. -inf (here: -1e30) when the footprint
 // has no area (a surface seen edge-on from the light needs infinite resolution).
-SM_FN float lodFromDerivatives(vec2 dX, vec2 dY) {
+CS_FN float lodFromDerivatives(vec2 dX, vec2 dY) {
   float area = abs(dX.x * dY.y - dX.y * dY.x);
   return area > 0.0f ? 0.5f * log2(area) : -1.0e30f;
 }
@@ -91,25 +74,25 @@ SM_FN float lodFromDerivatives(vec2 dX, vec2 dY) {
 // The continuous quadtree level λ of an LOD ℓ: level L holds P·2^L texels a side (P = 2^log2Page), so
 // the level whose texels match is λ = -ℓ - log2 P, clamped to [0, maxLevel]. The lookup blends the two
 // nearest integer levels floor(λ) and floor(λ) + 1 with weight fract(λ) (paper 000 §3.3.1).
-SM_FN float quadtreeLevel(float lod, uint log2Page, uint maxLevel) {
+CS_FN float quadtreeLevel(float lod, uint log2Page, uint maxLevel) {
   return clamp(-lod - float(log2Page), 0.0f, float(maxLevel));
 }
 
 // The level a frame uses for a sample of level λ (in [0, maxLevel]) after the pool fallback lowered the
 // finest level to `limit` (rmsm.h coarsenToFit).
-SM_FN float frameLevel(float lambda, uint limit) { return min(lambda, float(limit)); }
+CS_FN float frameLevel(float lambda, uint limit) { return min(lambda, float(limit)); }
 
 // ---- texel addressing -------------------------------------------------------------------------------
 // The 2x2 bilinear footprint of (s, t) at R texels a side: its lower texel b = floor(s·R - 1/2) (clamped
 // to [0, R - 1]) and b + 1, weights from the fraction. A page is requested for, and looked up by, the
 // page of b; pages are stored with a one-texel apron on their high sides, so b + 1 is in the same page.
-SM_FN vec2 footprintCoord(vec2 st, float res) { return st * res - vec2(0.5f); }
-SM_FN vec2 footprintBase(vec2 x, float res) { return clamp(floor(x), vec2(0.0f), vec2(res - 1.0f)); }
+CS_FN vec2 footprintCoord(vec2 st, float res) { return st * res - vec2(0.5f); }
+CS_FN vec2 footprintBase(vec2 x, float res) { return clamp(floor(x), vec2(0.0f), vec2(res - 1.0f)); }
 
 // ---- page keys --------------------------------------------------------------------------------------
 // key = face << 28 | level << 24 | Morton(px, py): 31 bits, so sorting keys orders pages by face, then
 // level, then Z-order — the pages of one superpage are consecutive in the sorted list.
-SM_FN uint spreadBits12(uint v) {
+CS_FN uint spreadBits12(uint v) {
   v &= 0xFFFu;
   v = (v | (v << 8u)) & 0x00FF00FFu;
   v = (v | (v << 4u)) & 0x0F0F0F0Fu;
@@ -117,7 +100,7 @@ SM_FN uint spreadBits12(uint v) {
   v = (v | (v << 1u)) & 0x55555555u;
   return v;
 }
-SM_FN uint compactBits12(uint v) {
+CS_FN uint compactBits12(uint v) {
   v &= 0x55555555u;
   v = (v | (v >> 1u)) & 0x33333333u;
   v = (v | (v >> 2u)) & 0x0F0F0F0Fu;
@@ -125,20 +108,20 @@ SM_FN uint compactBits12(uint v) {
   v = (v | (v >> 8u)) & 0x0000FFFFu;
   return v;
 }
-SM_FN uint pageKey(uint face, uint level, uint px, uint py) {
+CS_FN uint pageKey(uint face, uint level, uint px, uint py) {
   return (face << 28u) | (level << 24u) | spreadBits12(px) | (spreadBits12(py) << 1u);
 }
-SM_FN uint keyFace(uint key) { return key >> 28u; }
-SM_FN uint keyLevel(uint key) { return (key >> 24u) & 0xFu; }
-SM_FN uint keyPageX(uint key) { return compactBits12(key & 0xFFFFFFu); }
-SM_FN uint keyPageY(uint key) { return compactBits12((key & 0xFFFFFFu) >> 1u); }
+CS_FN uint keyFace(uint key) { return key >> 28u; }
+CS_FN uint keyLevel(uint key) { return (key >> 24u) & 0xFu; }
+CS_FN uint keyPageX(uint key) { return compactBits12(key & 0xFFFFFFu); }
+CS_FN uint keyPageY(uint key) { return compactBits12((key & 0xFFFFFFu) >> 1u); }
 
 // ---- page tables --------------------------------------------------------------------------------------
 // Per face a mip hierarchy of tables, level L = 2^L x 2^L entries (one per page), levels 0..maxLevel in
 // order, faces one after another. Entry 0 = no page; otherwise pool slot + 1.
-SM_FN uint levelOffset(uint level) { return ((1u << (2u * level)) - 1u) / 3u; }
-SM_FN uint faceTableEntries(uint maxLevel) { return levelOffset(maxLevel + 1u); }
-SM_FN uint tableIndex(uint face, uint level, uint px, uint py, uint maxLevel) {
+CS_FN uint levelOffset(uint level) { return ((1u << (2u * level)) - 1u) / 3u; }
+CS_FN uint faceTableEntries(uint maxLevel) { return levelOffset(maxLevel + 1u); }
+CS_FN uint tableIndex(uint face, uint level, uint px, uint py, uint maxLevel) {
   return face * faceTableEntries(maxLevel) + levelOffset(level) + (py << level) + px;
 }
 
@@ -148,7 +131,7 @@ SM_FN uint tableIndex(uint face, uint level, uint px, uint py, uint maxLevel) {
 // per face side spans at most texelAngle = 2/R of face coordinate, i.e. dist·2/R sideways (the most, at
 // the face centre). A tap up to `slope` texels sideways sees the receiver's own plane up to
 // slope · dist·2/R · tanθ nearer; tanθ is clamped to maxSlope (grazing receivers would need unbounded bias).
-SM_FN float slopeScaledBias(float dist, float cosTheta, float texelAngle, float constantBias, float slopeBias,
+CS_FN float slopeScaledBias(float dist, float cosTheta, float texelAngle, float constantBias, float slopeBias,
                             float maxSlope) {
   float c = max(cosTheta, 1.0e-6f);
   float tanTheta = min(sqrt(max(1.0f - c * c, 0.0f)) / c, maxSlope);
@@ -161,7 +144,7 @@ SM_FN float slopeScaledBias(float dist, float cosTheta, float texelAngle, float 
 // minus constantBias and `slack` (curved receivers, rounding). Exact for planar receivers at any angle,
 // so grazing surfaces need no large bias (less acne and less light leaking at contacts). Where the ray
 // runs within ~0.6° of the plane, or meets it behind the light, the tap falls back to `fallbackReach`.
-SM_FN float planeReach(vec3 dFace, vec3 nFace, vec2 uv, float fallbackReach, float constantBias, float slack) {
+CS_FN float planeReach(vec3 dFace, vec3 nFace, vec2 uv, float fallbackReach, float constantBias, float slack) {
   vec3 r = vec3(uv.x, uv.y, 1.0f);
   float lenR = length(r);
   float den = dot(nFace, r);
@@ -220,5 +203,4 @@ static_assert(sizeof(RmsmPush) == 80 && offsetof(RmsmPush, constantBias) == 48 &
               "RmsmPush layout");
 }  // namespace cs::sm
 #endif
-#undef SM_FN
 #endif

@@ -27,29 +27,17 @@
 #define RAY_KEY_FACE_SHIFT 28
 #define RAY_KEY_BITS 31
 #define RAY_KEY_DEGENERATE 0x7FFFFFFFu
-#define SORT_FLT_MAX 3.402823466e+38f  // FLT_MAX as a float literal in both languages
 
 #ifdef __cplusplus
-#include <cstdint>
-
-#include <glm/glm.hpp>
 namespace cs::sort {
 namespace glsl {  // the functions below are GLSL; these names let C++ read them as written
-using uint = uint32_t;
-using glm::abs;
-using glm::clamp;
-using glm::floor;
-using glm::uvec2;
-using glm::vec3;
-using glm::vec4;
-#define CS_SHARED inline
-#else
-#define CS_SHARED
+CS_GLSL_TYPES
+CS_GLSL_MATH
 #endif
 
 // Index of cell (x, y) along the Hilbert curve over a 2^order x 2^order grid (order 1..16). The curve
 // starts at (0, 0) and ends at (2^order - 1, 0); consecutive indices are edge-neighbouring cells.
-CS_SHARED uint hilbertIndex(uint x, uint y, uint order) {
+CS_FN uint hilbertIndex(uint x, uint y, uint order) {
   uint d = 0u;
   for (uint s = 1u << (order - 1u); s > 0u; s >>= 1u) {
     uint rx = (x & s) != 0u ? 1u : 0u;
@@ -72,10 +60,10 @@ CS_SHARED uint hilbertIndex(uint x, uint y, uint order) {
 }
 
 // Which of the six direction faces d belongs to (2 * axis + negative), or 7 for a degenerate d.
-CS_SHARED uint rayFace(vec3 d) {
+CS_FN uint rayFace(vec3 d) {
   vec3 a = abs(d);
   // NaN fails every comparison and +-inf exceeds FLT_MAX: both are degenerate, as is d == 0.
-  if (!(a.x <= SORT_FLT_MAX && a.y <= SORT_FLT_MAX && a.z <= SORT_FLT_MAX)) return 7u;
+  if (!(a.x <= CS_FLT_MAX && a.y <= CS_FLT_MAX && a.z <= CS_FLT_MAX)) return 7u;
   uint axis = 2u;
   if (a.x >= a.y && a.x >= a.z)
     axis = 0u;
@@ -88,7 +76,7 @@ CS_SHARED uint rayFace(vec3 d) {
 
 // The face-local cell of d on the 2^order grid: (d[axis+1], d[axis+2]) / |d[axis]| mapped from
 // [-1, 1] to cells 0 .. 2^order - 1 (the value 1 itself goes to the last cell). d must not be degenerate.
-CS_SHARED uvec2 rayCell(vec3 d, uint face, uint order) {
+CS_FN uvec2 rayCell(vec3 d, uint face, uint order) {
   uint axis = face >> 1u;
   float m = abs(d[axis]);
   float u = d[(axis + 1u) % 3u] / m;
@@ -99,7 +87,7 @@ CS_SHARED uvec2 rayCell(vec3 d, uint face, uint order) {
 }
 
 // The 32-bit sort key of the ray with direction d (see the header comment).
-CS_SHARED uint rayKey(vec3 d) {
+CS_FN uint rayKey(vec3 d) {
   uint face = rayFace(d);
   if (face == 7u) return RAY_KEY_DEGENERATE;
   uvec2 c = rayCell(d, face, uint(RAY_KEY_HILBERT_ORDER));
@@ -112,8 +100,8 @@ CS_SHARED uint rayKey(vec3 d) {
 // [0, 1]^2 (values outside clamped to the edge cells): the whole grid spans the scene's projection, where
 // the face grid of rayKey would give a far light's rays a handful of cells. Degenerate (d_f.z <= 0 or not
 // finite): RAY_KEY_DEGENERATE.
-CS_SHARED uint frameRayKey(vec3 d, vec4 rect) {
-  if (!(d.z > 0.0f) || !(abs(d.x) <= SORT_FLT_MAX && abs(d.y) <= SORT_FLT_MAX && d.z <= SORT_FLT_MAX))
+CS_FN uint frameRayKey(vec3 d, vec4 rect) {
+  if (!(d.z > 0.0f) || !(abs(d.x) <= CS_FLT_MAX && abs(d.y) <= CS_FLT_MAX && d.z <= CS_FLT_MAX))
     return RAY_KEY_DEGENERATE;
   float u = (d.x / d.z - rect.x) * rect.z;
   float v = (d.y / d.z - rect.y) * rect.w;
@@ -124,7 +112,7 @@ CS_SHARED uint frameRayKey(vec3 d, vec4 rect) {
 }
 
 // Morton (Z) order: the even bits of i give x, the odd bits y.
-CS_SHARED uint mortonEvenBits(uint v) {
+CS_FN uint mortonEvenBits(uint v) {
   v &= 0x55555555u;
   v = (v | (v >> 1u)) & 0x33333333u;
   v = (v | (v >> 2u)) & 0x0F0F0F0Fu;
@@ -135,7 +123,7 @@ CS_SHARED uint mortonEvenBits(uint v) {
 
 // The pixel (x, y) at position i of the unsorted screen order over tiles of 2^MORTON_TILE_BITS pixels
 // a side, tilesX tiles per row. May lie outside the image when its size is not a multiple of the tile.
-CS_SHARED uvec2 screenOrderPixel(uint i, uint tilesX) {
+CS_FN uvec2 screenOrderPixel(uint i, uint tilesX) {
   uint tile = i >> (2u * uint(MORTON_TILE_BITS));
   uint local = i & ((1u << (2u * uint(MORTON_TILE_BITS))) - 1u);
   uint tx = tile % tilesX, ty = tile / tilesX;
@@ -157,5 +145,4 @@ constexpr uint32_t kRayKeyBits = RAY_KEY_BITS;
 constexpr uint32_t kRayKeyHilbertOrder = RAY_KEY_HILBERT_ORDER;
 }  // namespace cs::sort
 #endif
-#undef CS_SHARED
 #endif

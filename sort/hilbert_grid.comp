@@ -12,7 +12,7 @@ layout(std430, binding = 2) writeonly buffer RayOut { uint rayOut[]; };
 layout(push_constant) uniform Push { uint order; uint directions; };
 
 void main() {
-  uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * PIXEL_THREADS + gl_LocalInvocationIndex;
+  uint i = CS_FLAT_INDEX(PIXEL_THREADS);
   uint side = 1u << order;
   if (i < side * side) outIndex[i] = hilbertIndex(i % side, i / side, order);
   if (i < directions) rayOut[i] = rayKey(dirs[i].xyz);

@@ -15,7 +15,7 @@ layout(std430, binding = 3) writeonly buffer PixelOf { uint pixelOf[]; };
 layout(push_constant) uniform Push { LitPush pc; };
 
 void main() {
-  uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * PIXEL_THREADS + gl_LocalInvocationIndex;
+  uint i = CS_FLAT_INDEX(PIXEL_THREADS);
   if (i >= pc.domain) return;
   uint pixel = i;
   bool inside = true;
@@ -25,5 +25,5 @@ void main() {
     pixel = inside ? p.y * pc.width + p.x : 0u;
     pixelOf[i] = pixel;
   }
-  flags[i] = inside && position[pixel].w > 0.5 && normal[pixel].w > 0.0 ? 1u : 0u;
+  flags[i] = inside && litSample(position[pixel], normal[pixel]) ? 1u : 0u;
 }

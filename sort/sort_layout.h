@@ -3,6 +3,8 @@
 #ifndef CONESHADOW_SORT_LAYOUT_H
 #define CONESHADOW_SORT_LAYOUT_H
 
+#include "core/shared.h"
+
 // ---- workgroup shapes ---------------------------------------------------------------------------
 // Chosen for lavapipe, where the primitives run in CI and in the benchmark, and kept legal and correct
 // everywhere. Measured there (2 threads): a barrier costs one coroutine switch per 8-wide subgroup, so
@@ -52,12 +54,8 @@
 // ---- push constants -----------------------------------------------------------------------------
 #ifdef __cplusplus
 #include <cstddef>
-#include <cstdint>
-
-#include <glm/glm.hpp>
 namespace cs::sort {
-using uint = uint32_t;
-using vec4 = glm::vec4;
+CS_GLSL_TYPES
 #endif
 
 // scan_reduce.comp, scan_block.comp, compact_scatter.comp. The count a kernel works on is the base

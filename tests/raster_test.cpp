@@ -143,7 +143,7 @@ TEST(Raster, TriangleIdsNameTheTriangleUnderEachPixel) {
   size_t sphere = 0, plane = 0, wrong = 0;
   for (size_t i = 0; i < ids.size(); ++i) {
     if (!gb.hasGeometry(i)) {
-      EXPECT_EQ(ids[i], RASTER_NO_TRIANGLE) << i;
+      EXPECT_EQ(ids[i], CS_NO_TRIANGLE) << i;
       continue;
     }
     const glm::vec3 p(gb.position[i]);

@@ -810,7 +810,7 @@ TEST(ShadowMaps, DepthPassTriangleIdsNameTheTriangleAtEachTexelsDistance) {
       for (uint32_t x = 0; x < side; ++x) {
         const size_t k = size_t(y) * side + x;
         if (d[k] >= SM_EMPTY_DEPTH) {
-          EXPECT_EQ(t[k], SM_NO_TRIANGLE) << "face " << face << " texel " << x << "," << y;
+          EXPECT_EQ(t[k], CS_NO_TRIANGLE) << "face " << face << " texel " << x << "," << y;
           ++empty;
           continue;
         }

@@ -56,17 +56,12 @@
 #ifdef __cplusplus
 namespace CONE_CPU_NAMESPACE {
 namespace glsl {
-#define CONE_FN inline
-#define CONE_PRECISE
-#else
-#define CONE_FN
-#define CONE_PRECISE precise
 #endif
 
 // Vertex v (length lv) strictly outside the cone (axis a, pair cs) by the margin:
 // |v| sin(theta_v - alpha) >= margin |v|. A vertex at the apex itself (v = 0) passes: a triangle may
 // touch the apex, which no ray counts (hits need tau > eps > 0), and be rejected all the same.
-CONE_FN bool coneOutside(vec3 v, float lv, vec3 a, vec2 cs) {
+CS_FN bool coneOutside(vec3 v, float lv, vec3 a, vec2 cs) {
   return length(cross(v, a)) * cs.x - dot(v, a) * cs.y >= CONE_TEST_MARGIN * lv;
 }
 
@@ -91,7 +86,7 @@ struct PreciseTriangle {
 // (products of an axial ~|v| and a lateral ~|v|·scale component) and ~ulp·lj·lk·scale² along z, so the
 // error of n.r for any ray r of a cone is ~ulp·lj·lk·scale² and that of det = n.vi ~ulp·li·lj·lk·scale²:
 // the margins below are those bounds times 2^-16 / ulp = 256, as everywhere in this file.
-CONE_FN vec4 edgePlane(vec3 vi, vec3 vj, vec3 vk, float li, float lj, float lk, float scale) {
+CS_FN vec4 edgePlane(vec3 vi, vec3 vj, vec3 vk, float li, float lj, float lk, float scale) {
   vec3 n = cross(vj, vk);
   float o = dot(n, vi);                             // = det, the same for all three edges when exact
   if (!(abs(o) > CONE_TEST_MARGIN * li * lj * lk * scale * scale)) return vec4(0.0f);
@@ -101,7 +96,7 @@ CONE_FN vec4 edgePlane(vec3 vi, vec3 vj, vec3 vk, float li, float lj, float lk, 
   return vec4(n, CONE_TEST_MARGIN * scale * (lj * lk * scale + length(n)));
 }
 
-CONE_FN PreciseTriangle preciseTriangle(vec3 v0, vec3 v1, vec3 v2, float scale) {
+CS_FN PreciseTriangle preciseTriangle(vec3 v0, vec3 v1, vec3 v2, float scale) {
   PreciseTriangle t;
   t.v0 = v0;
   t.v1 = v1;
@@ -123,11 +118,11 @@ CONE_FN PreciseTriangle preciseTriangle(vec3 v0, vec3 v1, vec3 v2, float scale) 
 }
 
 // Directions anywhere (scale 1).
-CONE_FN PreciseTriangle preciseTriangle(vec3 v0, vec3 v1, vec3 v2) { return preciseTriangle(v0, v1, v2, 1.0f); }
+CS_FN PreciseTriangle preciseTriangle(vec3 v0, vec3 v1, vec3 v2) { return preciseTriangle(v0, v1, v2, 1.0f); }
 
 // The cone lies strictly on the far side of the (oriented) edge plane e, beyond its margin: the angle
 // phi between its normal and the axis exceeds pi/2 + alpha, evaluated as |n| cos(phi - alpha) < -margin.
-CONE_FN bool edgeSeparates(vec4 e, vec3 a, float c, float s) {
+CS_FN bool edgeSeparates(vec4 e, vec3 a, float c, float s) {
   vec3 n = vec3(e);
   return dot(n, a) * c + length(cross(n, a)) * s < -e.w;
 }
@@ -138,7 +133,7 @@ CONE_FN bool edgeSeparates(vec4 e, vec3 a, float c, float s) {
 // cancels along z (both ~|v|) to an error of ~ulp |v|, a tilt of ulp |v| / |p| that can exceed the cones;
 // the cross products round to ~ulp |v| scale, so the tilt, the on-axis guard and the margin of n.v scale
 // with the frame (the world frame keeps the subtraction and its bounds as they were).
-CONE_FN bool tangentSeparates(vec3 vi, float li, PreciseTriangle t, vec3 a, float c, float s) {
+CS_FN bool tangentSeparates(vec3 vi, float li, PreciseTriangle t, vec3 a, float c, float s) {
   bool far = t.scale < 1.0f;
   float z = dot(vi, a);
   vec3 p = far ? cross(a, cross(vi, a)) : vi - z * a;
@@ -159,7 +154,7 @@ CONE_FN bool tangentSeparates(vec3 vi, float li, PreciseTriangle t, vec3 a, floa
 // False only when no ray of the cone -- directions within its half-angle of its axis -- can meet the
 // triangle (given relative to the cone's apex, the light) at a distance tau with eps < tau < Lmax - eps:
 // the leaf test counts hits in (eps, L - eps) and L <= Lmax. eps = 0 asks about the whole cone.
-CONE_FN bool preciseConeTriangle(ConeNode cone, PreciseTriangle t, float eps) {
+CS_FN bool preciseConeTriangle(ConeNode cone, PreciseTriangle t, float eps) {
   if (coneIsEmpty(cone)) return false;
   vec3 a = vec3(cone.axisCos);
   float c = cone.axisCos.w;
@@ -213,14 +208,14 @@ CONE_FN bool preciseConeTriangle(ConeNode cone, PreciseTriangle t, float eps) {
 //    every direction lies in (eps, Lmin - eps), the slab's far side over the smallest m.r against
 //    Lmin - eps, its near side over the largest against eps, each with the relative margin.
 // Narrow cones only (cos alpha > CONE_WIDE_COS); an empty cone or an unreliable edge plane is never covered.
-CONE_FN bool edgeContains(vec4 e, vec3 a, float c, float s) {
+CS_FN bool edgeContains(vec4 e, vec3 a, float c, float s) {
   vec3 n = vec3(e);
   float nl = length(n);
   // |n| cos(phi + alpha) = min over the cone of n.r (alpha < pi/2 here), against the normal's error.
   return e.w > 0.0f && dot(n, a) * c - length(cross(n, a)) * s > e.w + 4.0f * CONE_TEST_MARGIN * nl;
 }
 
-CONE_FN bool preciseConeCovered(ConeNode cone, PreciseTriangle t, float eps) {
+CS_FN bool preciseConeCovered(ConeNode cone, PreciseTriangle t, float eps) {
   if (coneIsEmpty(cone)) return false;
   vec3 a = vec3(cone.axisCos);
   float c = cone.axisCos.w;
@@ -244,25 +239,25 @@ CONE_FN bool preciseConeCovered(ConeNode cone, PreciseTriangle t, float eps) {
   return dfar * k < lo * (CONE_DIV(lmin, k) - eps * k) && dnear > hi * eps * k * k;
 }
 
-CONE_FN bool preciseConeTriangle(ConeNode cone, vec3 v0, vec3 v1, vec3 v2, float eps) {
+CS_FN bool preciseConeTriangle(ConeNode cone, vec3 v0, vec3 v1, vec3 v2, float eps) {
   return preciseConeTriangle(cone, preciseTriangle(v0, v1, v2), eps);
 }
 
-CONE_FN bool preciseConeTriangle(ConeNode cone, vec3 v0, vec3 v1, vec3 v2) {
+CS_FN bool preciseConeTriangle(ConeNode cone, vec3 v0, vec3 v1, vec3 v2) {
   return preciseConeTriangle(cone, preciseTriangle(v0, v1, v2), 0.0f);
 }
 
 // v with the ray's major axis kz moved last, cyclically (kx = kz + 1, ky = kz + 2), and x, y swapped when
 // the major component is negative (keeps the winding). Selects, not dynamic indexing: GPUs (and
 // lavapipe) index vector components by a variable through memory.
-CONE_FN vec3 shearOrder(vec3 v, int kz, bool flip) {
+CS_FN vec3 shearOrder(vec3 v, int kz, bool flip) {
   vec3 r = kz == 0 ? vec3(v.y, v.z, v.x) : (kz == 1 ? vec3(v.z, v.x, v.y) : v);
   return flip ? vec3(r.y, r.x, r.z) : r;
 }
 
 // The leaf test: ray = leafRay(sample, light) (xyz = w = sample - light, w = L), triangle relative to the
 // light. True when it meets the triangle at a distance tau from the light with eps < tau < L - eps.
-CONE_FN bool leafRayHitsTriangle(vec4 ray, float eps, vec3 v0, vec3 v1, vec3 v2) {
+CS_FN bool leafRayHitsTriangle(vec4 ray, float eps, vec3 v0, vec3 v1, vec3 v2) {
   vec3 w = vec3(ray);
   float L = ray.w;
   vec3 aw = abs(w);
@@ -273,20 +268,20 @@ CONE_FN bool leafRayHitsTriangle(vec4 ray, float eps, vec3 v0, vec3 v1, vec3 v2)
   vec3 A = shearOrder(v0, kz, flip);
   vec3 B = shearOrder(v1, kz, flip);
   vec3 C = shearOrder(v2, kz, flip);
-  CONE_PRECISE float Sx = CONE_DIV(d.x, d.z);
-  CONE_PRECISE float Sy = CONE_DIV(d.y, d.z);
-  CONE_PRECISE float Sz = CONE_DIV(1.0f, d.z);
-  CONE_PRECISE float Ax = A.x - Sx * A.z;
-  CONE_PRECISE float Ay = A.y - Sy * A.z;
-  CONE_PRECISE float Bx = B.x - Sx * B.z;
-  CONE_PRECISE float By = B.y - Sy * B.z;
-  CONE_PRECISE float Cx = C.x - Sx * C.z;
-  CONE_PRECISE float Cy = C.y - Sy * C.z;
-  CONE_PRECISE float U = Cx * By - Cy * Bx;
-  CONE_PRECISE float V = Ax * Cy - Ay * Cx;
-  CONE_PRECISE float W = Bx * Ay - By * Ax;
+  CS_PRECISE float Sx = CONE_DIV(d.x, d.z);
+  CS_PRECISE float Sy = CONE_DIV(d.y, d.z);
+  CS_PRECISE float Sz = CONE_DIV(1.0f, d.z);
+  CS_PRECISE float Ax = A.x - Sx * A.z;
+  CS_PRECISE float Ay = A.y - Sy * A.z;
+  CS_PRECISE float Bx = B.x - Sx * B.z;
+  CS_PRECISE float By = B.y - Sy * B.z;
+  CS_PRECISE float Cx = C.x - Sx * C.z;
+  CS_PRECISE float Cy = C.y - Sy * C.z;
+  CS_PRECISE float U = Cx * By - Cy * Bx;
+  CS_PRECISE float V = Ax * Cy - Ay * Cx;
+  CS_PRECISE float W = Bx * Ay - By * Ax;
   if ((U < 0.0f || V < 0.0f || W < 0.0f) && (U > 0.0f || V > 0.0f || W > 0.0f)) return false;
-  CONE_PRECISE float det = U + V + W;
+  CS_PRECISE float det = U + V + W;
   // The ray (nearly) in the triangle's plane, or a projection degenerate within rounding: the signs of
   // U, V, W are noise there (all three can agree by chance, and T / det is then anything). Require det
   // to clear twice a bound on its rounding: sheared coordinates are off by <= 8 ulp of the vertex's
@@ -304,13 +299,13 @@ CONE_FN bool leafRayHitsTriangle(vec4 ray, float eps, vec3 v0, vec3 v1, vec3 v2)
                  eA * bC + eC * bA + 2.0f * eA * eC + CONE_ULP2 * (bA * bC + abs(V)) +
                  eB * bA + eA * bB + 2.0f * eA * eB + CONE_ULP2 * (bA * bB + abs(W));
   if (!(abs(det) > 2.0f * errDet)) return false;
-  CONE_PRECISE float T = U * (Sz * A.z) + V * (Sz * B.z) + W * (Sz * C.z);
+  CS_PRECISE float T = U * (Sz * A.z) + V * (Sz * B.z) + W * (Sz * C.z);
   float tau = CONE_DIV(T, det) * L;  // T / det: the hit as a fraction of w
   return tau > eps && tau < L - eps;
 }
 
 // Largest |coordinate| over three vectors (the max norm of a triangle's vertices in some frame).
-CONE_FN float maxAbs3(vec3 a, vec3 b, vec3 c) {
+CS_FN float maxAbs3(vec3 a, vec3 b, vec3 c) {
   vec3 m = max(abs(a), max(abs(b), abs(c)));
   return max(m.x, max(m.y, m.z));
 }
@@ -327,13 +322,13 @@ CONE_FN float maxAbs3(vec3 a, vec3 b, vec3 c) {
 // hair from the light inherits ulp(L) the same way. From the nearer end, the error is an ulp of the
 // triangle's distance to that end, never more than relative to the light, so the traversal's margins
 // (relative to |P - light|) still cover every hit this test reports.
-CONE_FN bool leafHit(vec3 p, vec3 light, vec4 ray, float eps, vec3 P0, vec3 P1, vec3 P2) {
-  CONE_PRECISE vec3 a0 = P0 - light;
-  CONE_PRECISE vec3 a1 = P1 - light;
-  CONE_PRECISE vec3 a2 = P2 - light;
-  CONE_PRECISE vec3 b0 = P0 - p;
-  CONE_PRECISE vec3 b1 = P1 - p;
-  CONE_PRECISE vec3 b2 = P2 - p;
+CS_FN bool leafHit(vec3 p, vec3 light, vec4 ray, float eps, vec3 P0, vec3 P1, vec3 P2) {
+  CS_PRECISE vec3 a0 = P0 - light;
+  CS_PRECISE vec3 a1 = P1 - light;
+  CS_PRECISE vec3 a2 = P2 - light;
+  CS_PRECISE vec3 b0 = P0 - p;
+  CS_PRECISE vec3 b1 = P1 - p;
+  CS_PRECISE vec3 b2 = P2 - p;
   if (maxAbs3(b0, b1, b2) < maxAbs3(a0, a1, a2))
     return leafRayHitsTriangle(vec4(-vec3(ray), ray.w), eps, b0, b1, b2);
   return leafRayHitsTriangle(ray, eps, a0, a1, a2);
@@ -349,6 +344,4 @@ using glsl::preciseTriangle;
 using glsl::PreciseTriangle;
 }  // namespace CONE_CPU_NAMESPACE
 #endif
-#undef CONE_FN
-#undef CONE_PRECISE
 #endif

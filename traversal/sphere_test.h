@@ -21,29 +21,26 @@
 #ifdef __cplusplus
 namespace CONE_CPU_NAMESPACE {
 namespace glsl {
-#define SPHERE_FN inline
-#else
-#define SPHERE_FN
 #endif
 
 // xyz: centre relative to the apex; w: radius, padded so the sphere holds the three vertices. `scale`:
 // the frame's angular scale (precise_test.h, edgePlane): the radius is measured from the rounded centre,
 // so what it must cover is the rounding of v_i - c, a few ulp of the components across z (~|v| scale in
 // the far frame; the components along z are within a factor 2 of each other and subtract exactly).
-SPHERE_FN vec4 boundingSphere(vec3 v0, vec3 v1, vec3 v2, float scale) {
+CS_FN vec4 boundingSphere(vec3 v0, vec3 v1, vec3 v2, float scale) {
   vec3 c = (v0 + v1 + v2) * (1.0f / 3.0f);
   float r = max(length(v0 - c), max(length(v1 - c), length(v2 - c)));
   float big = max(length(v0), max(length(v1), length(v2)));
   return vec4(c, r * (1.0f + CONE_TEST_MARGIN) + CONE_TEST_MARGIN * big * scale);
 }
 
-SPHERE_FN vec4 boundingSphere(vec3 v0, vec3 v1, vec3 v2) { return boundingSphere(v0, v1, v2, 1.0f); }
+CS_FN vec4 boundingSphere(vec3 v0, vec3 v1, vec3 v2) { return boundingSphere(v0, v1, v2, 1.0f); }
 
 // False only when no ray of the cone can meet the sphere (and so the triangle) at a distance tau from the
 // apex with eps < tau < Lmax - eps. `scale`: the frame's angular scale. The distances along the ray keep
 // their margin relative to |c|; the distance across it (|c x a| cos - (c.a) sin) rounds to ~ulp |c| scale
 // in the far frame (the axis and the centre both within Θ of z), its margin scaled with it.
-SPHERE_FN bool sphereConeTriangle(ConeNode cone, vec4 sphere, float eps, float scale) {
+CS_FN bool sphereConeTriangle(ConeNode cone, vec4 sphere, float eps, float scale) {
   if (coneIsEmpty(cone)) return false;
   vec3 a = vec3(cone.axisCos);
   float c = cone.axisCos.w;
@@ -63,9 +60,9 @@ SPHERE_FN bool sphereConeTriangle(ConeNode cone, vec4 sphere, float eps, float s
   return !(dist > r + CONE_TEST_MARGIN * (lc * scale + r));
 }
 
-SPHERE_FN bool sphereConeTriangle(ConeNode cone, vec4 sphere, float eps) { return sphereConeTriangle(cone, sphere, eps, 1.0f); }
+CS_FN bool sphereConeTriangle(ConeNode cone, vec4 sphere, float eps) { return sphereConeTriangle(cone, sphere, eps, 1.0f); }
 
-SPHERE_FN bool sphereConeTriangle(ConeNode cone, vec3 v0, vec3 v1, vec3 v2, float eps) {
+CS_FN bool sphereConeTriangle(ConeNode cone, vec3 v0, vec3 v1, vec3 v2, float eps) {
   return sphereConeTriangle(cone, boundingSphere(v0, v1, v2), eps);
 }
 
@@ -73,7 +70,7 @@ SPHERE_FN bool sphereConeTriangle(ConeNode cone, vec3 v0, vec3 v1, vec3 v2, floa
 // i.e. the light is strictly on the side its normal N = (v1 - v0) x (v2 - v0) points to: N.v0 < 0 with v0
 // relative to the light, beyond a rounding margin. Triangles within rounding of edge-on are kept (the
 // margin bounds N.v0's error by |e1| |e2| |v0|, so slivers with a noisy normal are kept too).
-SPHERE_FN bool facesLight(vec3 v0, vec3 v1, vec3 v2) {
+CS_FN bool facesLight(vec3 v0, vec3 v1, vec3 v2) {
   vec3 e1 = v1 - v0;
   vec3 e2 = v2 - v0;
   vec3 N = cross(e1, e2);
@@ -88,5 +85,4 @@ using glsl::facesLight;
 using glsl::sphereConeTriangle;
 }  // namespace CONE_CPU_NAMESPACE
 #endif
-#undef SPHERE_FN
 #endif

@@ -3,6 +3,8 @@
 #ifndef CONESHADOW_TRAVERSAL_LAYOUT_H
 #define CONESHADOW_TRAVERSAL_LAYOUT_H
 
+#include "core/shared.h"
+
 #define TRAVERSE_THREADS 64
 
 // Counters the kernels add to (uint each, per submit; the host reads and clears them).
@@ -60,12 +62,8 @@
 
 #ifdef __cplusplus
 #include <cstddef>
-#include <cstdint>
-
-#include <glm/glm.hpp>
 namespace cs::traversal {
-using uint = uint32_t;
-using vec4 = glm::vec4;
+CS_GLSL_TYPES
 #endif
 
 // traverse_test.comp, traverse_scatter.comp, traverse_leaves.comp. A pair is uvec2(triangle, node index

@@ -5,7 +5,7 @@
 #include "traversal/traversal_layout.h"
 
 uint flatIndex() {
-  return (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * TRAVERSE_THREADS + gl_LocalInvocationID.x;
+  return CS_FLAT_INDEX(TRAVERSE_THREADS);
 }
 
 #endif

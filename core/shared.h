@@ -1,0 +1,75 @@
+// The prelude of every file that GLSL and C++ both compile (the *_layout.h and *_shared.h headers, the
+// cone tests, the Hilbert key): one function qualifier, the GLSL names C++ needs to read the code as
+// written, the constants and rules more than one stage states, the flat invocation index.
+//
+//   CS_FN          before every shared function: `inline` in C++, nothing in GLSL
+//   CS_PRECISE     before a value whose rounding a conservative test bounds: GLSL's `precise` (no fused or
+//                  reassociated arithmetic), nothing in C++ (which does not contract across statements here)
+//   CS_GLSL_TYPES  inside a C++ namespace: uint, vec2..4, uvec2..4, mat4 as GLSL spells them
+//   CS_GLSL_MATH   inside a C++ namespace: the built-ins the shared code calls, from glm. The cone headers
+//                  take theirs through CONE_CPU_MATH (conetree/cone_layout.h), which a test may replace with
+//                  an emulation of the worst arithmetic a GPU is allowed.
+//   CS_FLAT_INDEX(threads)  GLSL compute only: the invocation's index in a one-dimensional launch of
+//                  `threads`-wide workgroups spread over a 2D grid, x first (vk::gridFor).
+//   litSample(position, normal)  the lit-sample rule: the G-buffer has geometry at the pixel (position.w
+//                  is 1) and the direct-light term N·L there is positive (normal.w). Every method, the
+//                  compaction, the metric and GBuffer::isLit ask this function and no other.
+#ifndef CONESHADOW_CORE_SHARED_H
+#define CONESHADOW_CORE_SHARED_H
+
+#define CS_FLT_MAX 3.402823466e+38f  // FLT_MAX as a float literal in both languages
+#define CS_NO_TRIANGLE 0xFFFFFFFFu   // "no triangle" in every triangle-ID image and list
+
+#ifdef __cplusplus
+#include <cmath>
+#include <cstdint>
+
+#include <glm/glm.hpp>
+#define CS_FN inline
+#define CS_PRECISE
+#define CS_GLSL_TYPES   \
+  using uint = uint32_t; \
+  using glm::mat4;      \
+  using glm::uvec2;     \
+  using glm::uvec3;     \
+  using glm::uvec4;     \
+  using glm::vec2;      \
+  using glm::vec3;      \
+  using glm::vec4;
+#define CS_GLSL_MATH   \
+  using glm::abs;      \
+  using glm::atan;     \
+  using glm::ceil;     \
+  using glm::clamp;    \
+  using glm::cos;      \
+  using glm::cross;    \
+  using glm::dot;      \
+  using glm::floor;    \
+  using glm::length;   \
+  using glm::log2;     \
+  using glm::max;      \
+  using glm::min;      \
+  using glm::normalize; \
+  using glm::sin;      \
+  using glm::sqrt;
+namespace cs::shared {
+CS_GLSL_TYPES
+#else
+#define CS_FN
+#define CS_PRECISE precise
+#define CS_GLSL_TYPES
+#define CS_GLSL_MATH
+#define CS_FLAT_INDEX(threads) \
+  ((gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * (threads) + gl_LocalInvocationIndex)
+#endif
+
+CS_FN bool litSample(vec4 position, vec4 normal) { return position.w > 0.5f && normal.w > 0.0f; }
+
+#ifdef __cplusplus
+}  // namespace cs::shared
+namespace cs {
+using shared::litSample;
+}
+#endif
+
+#endif
