@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include "tests/iota.comp.h"
+#include "traversal/traversal_layout.h"
+#include "traversal/traverse_test.comp.h"
 #include "tests/test_context.h"
 
 namespace cs {
@@ -91,7 +93,7 @@ TEST(Kernel, DispatchesOverATwoDimensionalGridAndTimesIt) {
 
 // The host's binding count is checked against the kernel's SPIR-V when the kernel is made, and the
 // workgroup shape it declares is read from it.
-TEST(Vk, AKernelsBindingsAreCheckedAgainstItsSpirv) {
+TEST(Vk, AKernelsBindingsAndPushConstantsAreCheckedAgainstItsSpirv) {
   auto& ctx = test::context();
   const vk::SpirvInterface iface = vk::spirvInterface(spv_iota_comp, sizeof(spv_iota_comp));
   EXPECT_EQ(iface.bindings, (std::set<uint32_t>{0, 1}));
@@ -107,6 +109,21 @@ TEST(Vk, AKernelsBindingsAreCheckedAgainstItsSpirv) {
     }
   }
   EXPECT_EQ(vk::createKernel(ctx, "iota", spv_iota_comp, 2, 8).localSize[0], 64u);
+  // The push-constant block's size, from its members' offsets and types: two uints, and a shared-layout
+  // struct of vec4s and uints.
+  EXPECT_EQ(iface.pushBytes, 8u);
+  EXPECT_EQ(vk::spirvInterface(spv_traverse_test_comp, sizeof(spv_traverse_test_comp)).pushBytes,
+            uint32_t(sizeof(traversal::TraversePush)));
+  for (uint32_t wrong : {4u, 16u}) {
+    try {
+      vk::createKernel(ctx, "iota", spv_iota_comp, 2, wrong);
+      ADD_FAILURE() << wrong << " push bytes accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("iota: the host pushes " + std::to_string(wrong) +
+                                           " bytes of constants, the kernel's push-constant block is 8 bytes"),
+                std::string::npos) << e.what();
+    }
+  }
   const uint32_t notSpirv[6] = {1, 2, 3, 4, 5, 6};
   EXPECT_THROW(vk::spirvInterface(notSpirv, sizeof(notSpirv)), Error);
 }

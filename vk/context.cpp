@@ -8,6 +8,8 @@
 #include <cstring>
 #include <iostream>
 
+#include <functional>
+#include <map>
 #include <errno.h>
 #include <unistd.h>
 
@@ -707,19 +709,73 @@ void Kernel::reset() {
 }
 
 SpirvInterface spirvInterface(const uint32_t* spirv, size_t spirvBytes) {
-  constexpr uint32_t kMagic = 0x07230203, kOpExecutionMode = 16, kOpDecorate = 71, kLocalSize = 17,
-                     kBinding = 33;
+  // Opcodes, decorations and the storage class this reads (SPIR-V specification, section 3).
+  constexpr uint32_t kMagic = 0x07230203, kOpExecutionMode = 16, kOpTypeInt = 21, kOpTypeFloat = 22,
+                     kOpTypeVector = 23, kOpTypeMatrix = 24, kOpTypeArray = 28, kOpTypeStruct = 30,
+                     kOpTypePointer = 32, kOpConstant = 43, kOpVariable = 59, kOpDecorate = 71,
+                     kOpMemberDecorate = 72, kLocalSize = 17, kBinding = 33, kArrayStride = 6, kMatrixStride = 7,
+                     kOffset = 35, kPushConstant = 9;
+  struct Type {
+    uint32_t op = 0, a = 0, b = 0;    // int/float: a = width; vector/matrix: a = element, b = count;
+                                      // array: a = element, b = length's constant; pointer: a = pointee
+    std::vector<uint32_t> members;    // struct member types
+  };
   SpirvInterface out;
   const size_t words = spirvBytes / 4;
   CS_CHECK(words >= 5 && spirv[0] == kMagic, "not a SPIR-V module (" << spirvBytes << " bytes)");
+  std::map<uint32_t, Type> types;
+  std::map<uint32_t, uint32_t> constants, arrayStride;
+  std::map<std::pair<uint32_t, uint32_t>, uint32_t> offsets, matrixStride;  // (struct, member)
+  uint32_t pushPointer = 0;
   for (size_t at = 5; at < words;) {
     const uint32_t count = spirv[at] >> 16, op = spirv[at] & 0xFFFF;
     CS_CHECK(count > 0 && at + count <= words, "malformed SPIR-V at word " << at);
-    if (op == kOpDecorate && count >= 4 && spirv[at + 2] == kBinding) out.bindings.insert(spirv[at + 3]);
-    if (op == kOpExecutionMode && count >= 6 && spirv[at + 2] == kLocalSize)
-      for (int d = 0; d < 3; ++d) out.localSize[d] = spirv[at + 3 + d];
+    const uint32_t* w = spirv + at;
+    if (op == kOpDecorate && count >= 4 && w[2] == kBinding) out.bindings.insert(w[3]);
+    if (op == kOpDecorate && count >= 4 && w[2] == kArrayStride) arrayStride[w[1]] = w[3];
+    if (op == kOpMemberDecorate && count >= 5 && w[3] == kOffset) offsets[{w[1], w[2]}] = w[4];
+    if (op == kOpMemberDecorate && count >= 5 && w[3] == kMatrixStride) matrixStride[{w[1], w[2]}] = w[4];
+    if (op == kOpExecutionMode && count >= 6 && w[2] == kLocalSize)
+      for (int d = 0; d < 3; ++d) out.localSize[d] = w[3 + d];
+    if ((op == kOpTypeInt || op == kOpTypeFloat) && count >= 3) types[w[1]] = {op, w[2], 0, {}};
+    if ((op == kOpTypeVector || op == kOpTypeMatrix || op == kOpTypeArray) && count >= 4)
+      types[w[1]] = {op, w[2], w[3], {}};
+    if (op == kOpTypeStruct && count >= 2) types[w[1]] = {op, 0, 0, std::vector<uint32_t>(w + 2, w + count)};
+    if (op == kOpTypePointer && count >= 4) types[w[1]] = {op, w[3], w[2], {}};
+    if (op == kOpConstant && count >= 4) constants[w[2]] = w[3];
+    if (op == kOpVariable && count >= 4 && w[3] == kPushConstant) pushPointer = w[1];
     at += count;
   }
+  if (pushPointer == 0) return out;
+  // Sizes as the block's explicit layout gives them; `stride`: a matrix member's MatrixStride.
+  std::function<uint64_t(uint32_t, uint32_t, int)> sizeOf = [&](uint32_t id, uint32_t stride, int depth) -> uint64_t {
+    auto t = types.find(id);
+    CS_CHECK(t != types.end() && depth < 16, "SPIR-V push-constant block: unreadable type %" << id);
+    const Type& ty = t->second;
+    switch (ty.op) {
+      case kOpTypeInt:
+      case kOpTypeFloat: return ty.a / 8;
+      case kOpTypeVector: return ty.b * sizeOf(ty.a, 0, depth + 1);
+      case kOpTypeMatrix: return ty.b * (stride ? stride : sizeOf(ty.a, 0, depth + 1));
+      case kOpTypeArray: {
+        auto s = arrayStride.find(id);
+        return uint64_t(constants[ty.b]) * (s != arrayStride.end() ? s->second : sizeOf(ty.a, 0, depth + 1));
+      }
+      case kOpTypeStruct: {
+        uint64_t end = 0;
+        for (uint32_t m = 0; m < ty.members.size(); ++m) {
+          auto ms = matrixStride.find({id, m});
+          end = std::max<uint64_t>(end, offsets[{id, m}] +
+                                            sizeOf(ty.members[m], ms != matrixStride.end() ? ms->second : 0, depth + 1));
+        }
+        return end;
+      }
+      default: CS_CHECK(false, "SPIR-V push-constant block: unexpected type op " << ty.op); return 0;
+    }
+  };
+  auto p = types.find(pushPointer);
+  CS_CHECK(p != types.end() && p->second.op == kOpTypePointer, "SPIR-V push-constant variable without its type");
+  out.pushBytes = uint32_t(sizeOf(p->second.a, 0, 0));
   return out;
 }
 
@@ -733,6 +789,10 @@ Kernel createKernel(Context& ctx, const char* name, const uint32_t* spirv, size_
   CS_CHECK(declared == bindings && iface.bindings.size() == bindings,
            name << ": the host binds " << bindings << " buffers, the kernel declares " << iface.bindings.size()
                 << " bindings (highest " << (declared ? int(declared) - 1 : -1) << ")");
+  // The push struct the host fills against the kernel's block: one struct per kernel, declared once in
+  // the shared layout headers, so a size mismatch means the two sides read different structs.
+  CS_CHECK(iface.pushBytes == pushBytes, name << ": the host pushes " << pushBytes << " bytes of constants, the kernel's "
+                                               << "push-constant block is " << iface.pushBytes << " bytes");
   Kernel k;
   for (int d = 0; d < 3; ++d) k.localSize[d] = iface.localSize[d];
   k.ctx = &ctx;

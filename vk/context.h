@@ -285,9 +285,11 @@ struct SpecConstant {
 struct SpirvInterface {
   std::set<uint32_t> bindings;
   uint32_t localSize[3] = {1, 1, 1};
+  uint32_t pushBytes = 0;  // the push-constant block's size: its last member's offset plus that member's size
 };
 SpirvInterface spirvInterface(const uint32_t* spirv, size_t spirvBytes);
-// A kernel whose bindings are not exactly 0 .. bindings - 1 in its SPIR-V is an error naming it.
+// A kernel whose bindings are not exactly 0 .. bindings - 1 in its SPIR-V, or whose push-constant block
+// is not the size of the struct the host pushes (pushBytes), is an error naming it.
 Kernel createKernel(Context& ctx, const char* name, const uint32_t* spirv, size_t spirvBytes,
                     uint32_t bindings, uint32_t pushBytes, std::initializer_list<SpecConstant> spec = {},
                     uint32_t texelBindings = 0);
