@@ -1,6 +1,6 @@
 // sort/: general-purpose GPU primitives on uint32 arrays — exclusive scan, stream compaction and a stable
 // LSD radix sort of (key, value) pairs — used by the cone path (002 §3.5: compact the lit samples, sort
-// their rays by Hilbert key; sort/rays.h), by traversal's pair compaction and by RMSM's page requests.
+// their rays by Hilbert key; rays/rays.h), by traversal's pair compaction and by RMSM's page requests.
 // Knows no cones and no pages.
 //
 // Contract shared by all three:

@@ -35,15 +35,7 @@
 #define SORT_TILE (SORT_THREADS * SORT_ITEMS)
 #define SORT_RAKE 8  // workgroup scan segments of the ranking step (SORT_THREADS / SORT_RAKE of them)
 
-// Per-pixel kernels (lit flags, ray keys, test kernels).
-#define PIXEL_THREADS 256
-
-// Unsorted ("screen") order: square tiles of 2^MORTON_TILE_BITS pixels a side, row-major, Morton
-// (Z) order inside a tile. Four consecutive samples are a 2x2 block, 16 a 4x4 block, ... up to the
-// 64x64 tile; tiles follow each other along rows.
-#define MORTON_TILE_BITS 6
-
-// ---- flags (ScanPush.flags, CompactPush.flags, RadixPush.flags, KeysPush.flags) ------------------
+// ---- flags (ScanPush.flags, CompactPush.flags, RadixPush.flags, rays/'s KeysPush.flags) ------------------
 #define FLAG_COUNT_FROM_BUFFER 1u  // the element count is min(countBuffer[countIndex], push.count)
 #define FLAG_NONZERO_AS_ONE 2u     // reduce: count nonzero elements instead of summing them
 #define FLAG_ADD_OFFSETS 4u        // scan: add the scanned block sums of the next level
@@ -90,35 +82,10 @@ struct RadixPush {
   uint pad0, pad1;
 };
 
-// lit_flags.comp
-struct LitPush {
-  uint width, height;
-  uint order;       // 0: row-major (domain index = pixel index), 1: tiled Morton (see MORTON_TILE_BITS)
-  uint tilesX;      // Morton tiles per row
-  uint domain;      // elements enumerated: width * height, or tilesX * tilesY * tile area
-  uint pad0, pad1, pad2;
-};
-
-// ray_keys.comp
-struct KeysPush {
-  vec4 light;       // xyz: the point light
-  uint count;       // rays, or their upper bound when FLAG_COUNT_FROM_BUFFER is set
-  uint countIndex;
-  uint flags;
-  uint framed;      // 1: keys in a rotated frame (frameRayKey), the rows, origin, light and rect below
-  vec4 rowX, rowY, rowZ;  // the frame's rotation, rows (world -> frame)
-  vec4 origin;            // xyz: the frame's origin (world)
-  vec4 lightFrame;        // xyz: the light in the frame
-  vec4 rect;              // (u0, v0, 1 / (u1 - u0), 1 / (v1 - v0)): what the keys' grid covers of z = 1
-};
-
 #ifdef __cplusplus
 static_assert(sizeof(GroupsPush) == 32, "GroupsPush layout");
 static_assert(sizeof(ScanPush) == 32 && offsetof(ScanPush, totalIndex) == 16, "ScanPush layout");
 static_assert(sizeof(RadixPush) == 32 && offsetof(RadixPush, tiles) == 20, "RadixPush layout");
-static_assert(sizeof(LitPush) == 32 && offsetof(LitPush, domain) == 16, "LitPush layout");
-static_assert(sizeof(KeysPush) == 128 && offsetof(KeysPush, count) == 16 && offsetof(KeysPush, rowX) == 32,
-              "KeysPush layout");
 static_assert(SORT_TILE < 65536, "packed 16-bit rank counters would carry");
 static_assert(SORT_THREADS % SORT_RAKE == 0 && SCAN_THREADS % SCAN_RAKE == 0, "rake segments");
 static_assert(RADIX_BITS >= 1 && RADIX_BITS <= 8, "radix digit width");

@@ -1,5 +1,5 @@
 // sort/: scan, compaction and radix sort against CPU references over lengths that straddle the block and
-// tile sizes; the Hilbert index and ray keys of sort/hilbert.h on both sides of the GLSL/C++ contract;
+// tile sizes; the Hilbert index and ray keys of rays/hilbert.h on both sides of the GLSL/C++ contract;
 // the lit samples of a rastered scene in ray order, and how much closer sorted neighbours are.
 #include <algorithm>
 #include <cmath>
@@ -12,9 +12,9 @@
 
 #include "core/scene.h"
 #include "raster/raster.h"
-#include "sort/hilbert.h"
-#include "sort/hilbert_grid.comp.h"
-#include "sort/rays.h"
+#include "rays/hilbert.h"
+#include "rays/hilbert_grid.comp.h"
+#include "rays/rays.h"
 #include "sort/sort.h"
 #include "tests/test_context.h"
 
@@ -84,7 +84,7 @@ TEST(SortSizing, RadixPassesAndTilesCoverTheKeysAndTheCount) {
   EXPECT_EQ(sort::radixPasses(1), 1u);
   EXPECT_EQ(sort::radixPasses(8), 1u);
   EXPECT_EQ(sort::radixPasses(9), 2u);
-  EXPECT_EQ(sort::radixPasses(sort::kRayKeyBits), 4u);
+  EXPECT_EQ(sort::radixPasses(rays::kRayKeyBits), 4u);
   EXPECT_EQ(sort::radixPasses(32), 4u);
   EXPECT_EQ(sort::sortTiles(0), 0u);
   EXPECT_EQ(sort::sortTiles(SORT_TILE), 1u);
@@ -114,24 +114,24 @@ TEST(SortSizing, CountsBeyondOneStorageBindingAreAClearError) {
 
 TEST(SortSizing, ScreenDomainCoversTheImageWithWholeMortonTiles) {
   const uint32_t tile = 1u << MORTON_TILE_BITS;
-  EXPECT_EQ(sort::screenDomain(1024, 1024, sort::RayOrder::ScreenMorton).size, 1024u * 1024u);
-  sort::ScreenDomain d = sort::screenDomain(1920, 1080, sort::RayOrder::ScreenMorton);
+  EXPECT_EQ(rays::screenDomain(1024, 1024, rays::RayOrder::ScreenMorton).size, 1024u * 1024u);
+  rays::ScreenDomain d = rays::screenDomain(1920, 1080, rays::RayOrder::ScreenMorton);
   EXPECT_EQ(d.tilesX, 30u);
   EXPECT_EQ(d.tilesY, 17u);
   EXPECT_EQ(d.size, uint64_t(30) * 17 * tile * tile);
-  EXPECT_EQ(sort::screenDomain(1920, 1080, sort::RayOrder::Hilbert).size, 1920u * 1080u);
+  EXPECT_EQ(rays::screenDomain(1920, 1080, rays::RayOrder::Hilbert).size, 1920u * 1080u);
   // Every pixel of an odd-sized image appears exactly once in the Morton enumeration.
   const uint32_t w = 100, h = 70;
-  d = sort::screenDomain(w, h, sort::RayOrder::ScreenMorton);
+  d = rays::screenDomain(w, h, rays::RayOrder::ScreenMorton);
   std::vector<int> seen(w * h, 0);
   for (uint32_t i = 0; i < d.size; ++i) {
-    glm::uvec2 p = sort::screenOrderPixel(i, d.tilesX);
+    glm::uvec2 p = rays::screenOrderPixel(i, d.tilesX);
     if (p.x < w && p.y < h) seen[p.y * w + p.x]++;
   }
   EXPECT_EQ(std::count(seen.begin(), seen.end(), 1), long(w * h));
   // Four consecutive positions form a 2x2 block.
   for (uint32_t i = 0; i < 64; i += 4) {
-    glm::uvec2 a = sort::screenOrderPixel(i, 2), b = sort::screenOrderPixel(i + 3, 2);
+    glm::uvec2 a = rays::screenOrderPixel(i, 2), b = rays::screenOrderPixel(i + 3, 2);
     EXPECT_EQ(b - a, glm::uvec2(1, 1)) << i;
     EXPECT_EQ(a % 2u, glm::uvec2(0, 0)) << i;
   }
@@ -394,11 +394,11 @@ TEST(IndirectGroups, WriteTheHostsGridForTheDeviceCount) {
 std::vector<uint32_t> gpuHilbert(uint32_t order, const std::vector<glm::vec4>& dirs, std::vector<uint32_t>* rayKeys) {
   auto& ctx = test::context();
   const uint32_t cells = 1u << (2 * order);
-  vk::Kernel k = vk::createKernel(ctx, "hilbert_grid", spv_hilbert_grid_comp, 3, 8);
+  vk::Kernel k = vk::createKernel(ctx, "hilbert_grid", spv_hilbert_grid_comp, 3, sizeof(rays::HilbertGridPush));
   vk::Buffer out = vk::createBuffer(ctx, cells * 4), d = vk::createBuffer(ctx, std::max<size_t>(dirs.size(), 1) * 16);
   vk::Buffer keys = vk::createBuffer(ctx, std::max<size_t>(dirs.size(), 1) * 4);
   vk::upload(ctx, d, dirs.data(), dirs.size() * 16);
-  struct { uint32_t order, directions; } push{order, uint32_t(dirs.size())};
+  rays::HilbertGridPush push{order, uint32_t(dirs.size())};
   vk::Grid g = vk::gridFor(std::max<size_t>(cells, dirs.size()), PIXEL_THREADS, ctx.maxWorkgroups());
   vk::Commands cmd(ctx);
   cmd.dispatch(k, {out, d, keys}, push, g.x, g.y);
@@ -427,7 +427,7 @@ TEST(Hilbert, GpuAndCpuMatchAnIndependentReferenceOnEveryCellOfSmallGrids) {
     std::vector<uint32_t> gpu = gpuHilbert(order, {}, nullptr), cpu, want;
     const uint32_t side = 1u << order;
     for (uint32_t i = 0; i < side * side; ++i) {
-      cpu.push_back(sort::hilbertIndex(i % side, i / side, order));
+      cpu.push_back(rays::hilbertIndex(i % side, i / side, order));
       want.push_back(referenceHilbert(side, i % side, i / side));
     }
     EXPECT_SAME_ARRAY(gpu, want, "GPU, order " << order);
@@ -435,10 +435,10 @@ TEST(Hilbert, GpuAndCpuMatchAnIndependentReferenceOnEveryCellOfSmallGrids) {
   }
   // The ray key's own order on a sample of cells.
   std::mt19937 rng(5);
-  const uint32_t order = sort::kRayKeyHilbertOrder, side = 1u << order;
+  const uint32_t order = rays::kRayKeyHilbertOrder, side = 1u << order;
   for (int i = 0; i < 100000; ++i) {
     uint32_t x = rng() % side, y = rng() % side;
-    ASSERT_EQ(sort::hilbertIndex(x, y, order), referenceHilbert(side, x, y)) << x << "," << y;
+    ASSERT_EQ(rays::hilbertIndex(x, y, order), referenceHilbert(side, x, y)) << x << "," << y;
   }
 }
 
@@ -448,7 +448,7 @@ TEST(Hilbert, ConsecutiveIndicesAreNeighbouringCells) {
     std::vector<glm::ivec2> cellOf(side * side, glm::ivec2(-1));
     for (uint32_t y = 0; y < side; ++y)
       for (uint32_t x = 0; x < side; ++x) {
-        uint32_t d = sort::hilbertIndex(x, y, order);
+        uint32_t d = rays::hilbertIndex(x, y, order);
         ASSERT_LT(d, side * side);
         ASSERT_EQ(cellOf[d], glm::ivec2(-1)) << "index " << d << " used twice at order " << order;
         cellOf[d] = glm::ivec2(x, y);
@@ -464,26 +464,26 @@ TEST(Hilbert, ConsecutiveIndicesAreNeighbouringCells) {
 
 TEST(RayKeys, FaceIsTheMajorAxisWithTiesGoingToTheLowestAxis) {
   using glm::vec3;
-  EXPECT_EQ(sort::rayFace(vec3(2, 1, -1)), 0u);
-  EXPECT_EQ(sort::rayFace(vec3(-2, 1, 1)), 1u);
-  EXPECT_EQ(sort::rayFace(vec3(0.5f, 3, 1)), 2u);
-  EXPECT_EQ(sort::rayFace(vec3(0.5f, -3, 1)), 3u);
-  EXPECT_EQ(sort::rayFace(vec3(0, 0, 1e-30f)), 4u);
-  EXPECT_EQ(sort::rayFace(vec3(0, 0, -5)), 5u);
-  EXPECT_EQ(sort::rayFace(vec3(1, 1, 0)), 0u) << "x == y: x";
-  EXPECT_EQ(sort::rayFace(vec3(-1, 1, 1)), 1u) << "x == y == z: x, negative";
-  EXPECT_EQ(sort::rayFace(vec3(0, -2, 2)), 3u) << "y == z: y";
-  EXPECT_EQ(sort::rayFace(vec3(-0.0f, -0.0f, 0)), 7u) << "zero length";
+  EXPECT_EQ(rays::rayFace(vec3(2, 1, -1)), 0u);
+  EXPECT_EQ(rays::rayFace(vec3(-2, 1, 1)), 1u);
+  EXPECT_EQ(rays::rayFace(vec3(0.5f, 3, 1)), 2u);
+  EXPECT_EQ(rays::rayFace(vec3(0.5f, -3, 1)), 3u);
+  EXPECT_EQ(rays::rayFace(vec3(0, 0, 1e-30f)), 4u);
+  EXPECT_EQ(rays::rayFace(vec3(0, 0, -5)), 5u);
+  EXPECT_EQ(rays::rayFace(vec3(1, 1, 0)), 0u) << "x == y: x";
+  EXPECT_EQ(rays::rayFace(vec3(-1, 1, 1)), 1u) << "x == y == z: x, negative";
+  EXPECT_EQ(rays::rayFace(vec3(0, -2, 2)), 3u) << "y == z: y";
+  EXPECT_EQ(rays::rayFace(vec3(-0.0f, -0.0f, 0)), 7u) << "zero length";
   // Face corners and edges land on the grid's corners and edges; the centre on the middle cells.
-  const uint32_t last = (1u << sort::kRayKeyHilbertOrder) - 1, mid = 1u << (sort::kRayKeyHilbertOrder - 1);
-  EXPECT_EQ(sort::rayCell(vec3(1, -1, -1), 0, sort::kRayKeyHilbertOrder), glm::uvec2(0, 0));
-  EXPECT_EQ(sort::rayCell(vec3(1, 1, 1), 0, sort::kRayKeyHilbertOrder), glm::uvec2(last, last));
-  EXPECT_EQ(sort::rayCell(vec3(1, 0, 0), 0, sort::kRayKeyHilbertOrder), glm::uvec2(mid, mid));
-  EXPECT_EQ(sort::rayCell(vec3(-4, 4, -4), 1, sort::kRayKeyHilbertOrder), glm::uvec2(last, 0)) << "-x face: (y, z) / 4";
-  EXPECT_EQ(sort::rayKey(vec3(1, -1, -1)) >> RAY_KEY_FACE_SHIFT, 0u);
-  EXPECT_EQ(sort::rayKey(vec3(0, 0, -1)) >> RAY_KEY_FACE_SHIFT, 5u);
+  const uint32_t last = (1u << rays::kRayKeyHilbertOrder) - 1, mid = 1u << (rays::kRayKeyHilbertOrder - 1);
+  EXPECT_EQ(rays::rayCell(vec3(1, -1, -1), 0, rays::kRayKeyHilbertOrder), glm::uvec2(0, 0));
+  EXPECT_EQ(rays::rayCell(vec3(1, 1, 1), 0, rays::kRayKeyHilbertOrder), glm::uvec2(last, last));
+  EXPECT_EQ(rays::rayCell(vec3(1, 0, 0), 0, rays::kRayKeyHilbertOrder), glm::uvec2(mid, mid));
+  EXPECT_EQ(rays::rayCell(vec3(-4, 4, -4), 1, rays::kRayKeyHilbertOrder), glm::uvec2(last, 0)) << "-x face: (y, z) / 4";
+  EXPECT_EQ(rays::rayKey(vec3(1, -1, -1)) >> RAY_KEY_FACE_SHIFT, 0u);
+  EXPECT_EQ(rays::rayKey(vec3(0, 0, -1)) >> RAY_KEY_FACE_SHIFT, 5u);
   // Scaling a direction does not move it.
-  EXPECT_EQ(sort::rayKey(vec3(0.3f, -0.2f, 0.9f)), sort::rayKey(vec3(3, -2, 9) * 0.25f * 0.4f));
+  EXPECT_EQ(rays::rayKey(vec3(0.3f, -0.2f, 0.9f)), rays::rayKey(vec3(3, -2, 9) * 0.25f * 0.4f));
 }
 
 TEST(RayKeys, ZeroLengthAndNonFiniteRaysGetTheDegenerateKeyOnBothSides) {
@@ -492,11 +492,11 @@ TEST(RayKeys, ZeroLengthAndNonFiniteRaysGetTheDegenerateKeyOnBothSides) {
   std::vector<uint32_t> gpu;
   gpuHilbert(1, dirs, &gpu);
   for (size_t i = 0; i < dirs.size(); ++i) {
-    EXPECT_EQ(sort::rayKey(glm::vec3(dirs[i])), sort::kRayKeyDegenerate) << "direction " << i;
-    EXPECT_EQ(gpu[i], sort::kRayKeyDegenerate) << "direction " << i;
+    EXPECT_EQ(rays::rayKey(glm::vec3(dirs[i])), rays::kRayKeyDegenerate) << "direction " << i;
+    EXPECT_EQ(gpu[i], rays::kRayKeyDegenerate) << "direction " << i;
   }
   // Greater than every real direction's key: degenerate rays sort last.
-  EXPECT_GT(sort::kRayKeyDegenerate, sort::rayKey(glm::vec3(0, 0, -1)) | ((1u << RAY_KEY_FACE_SHIFT) - 1));
+  EXPECT_GT(rays::kRayKeyDegenerate, rays::rayKey(glm::vec3(0, 0, -1)) | ((1u << RAY_KEY_FACE_SHIFT) - 1));
 }
 
 TEST(RayKeys, GpuMatchesCpuOnRandomAndFaceBoundaryDirections) {
@@ -515,7 +515,7 @@ TEST(RayKeys, GpuMatchesCpuOnRandomAndFaceBoundaryDirections) {
   gpuHilbert(1, dirs, &gpu);
   size_t differ = 0;
   for (size_t i = 0; i < dirs.size(); ++i) {
-    uint32_t want = sort::rayKey(glm::vec3(dirs[i]));
+    uint32_t want = rays::rayKey(glm::vec3(dirs[i]));
     ASSERT_EQ(gpu[i] >> RAY_KEY_FACE_SHIFT, want >> RAY_KEY_FACE_SHIFT) << "face of direction " << i;
     differ += gpu[i] != want;
   }
@@ -550,15 +550,15 @@ Frame renderBuiltin(const std::string& view, uint32_t width, uint32_t height) {
 TEST(LitRays, MatchTheCpuReferenceInEveryOrder) {
   auto& ctx = test::context();
   Frame f = renderBuiltin("fur", 200, 130);  // not a multiple of the 64-pixel Morton tile
-  sort::LitRays rays(ctx, f.width, f.height);
-  for (auto order : {sort::RayOrder::Hilbert, sort::RayOrder::ScreenMorton, sort::RayOrder::ScreenRows}) {
+  rays::LitRays rays(ctx, f.width, f.height);
+  for (auto order : {rays::RayOrder::Hilbert, rays::RayOrder::ScreenMorton, rays::RayOrder::ScreenRows}) {
     vk::Commands cmd(ctx);
     rays.record(cmd, f.device, f.light, order);
     cmd.submit();
-    std::vector<uint32_t> want = sort::referenceRayOrder(f.host, f.light, order);
-    ASSERT_EQ(rays.readCount(), f.host.litCount()) << sort::rayOrderName(order);
+    std::vector<uint32_t> want = rays::referenceRayOrder(f.host, f.light, order);
+    ASSERT_EQ(rays.readCount(), f.host.litCount()) << rays::rayOrderName(order);
     ASSERT_GT(want.size(), 1000u);
-    EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), want.size()), want, sort::rayOrderName(order));
+    EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), want.size()), want, rays::rayOrderName(order));
   }
 }
 
@@ -582,19 +582,19 @@ TEST(LitRays, SampleAtTheLightSortsLastAndEqualKeysKeepRowOrder) {
   vk::upload(ctx, g.normal, nrm.data(), nrm.size() * 16);
   GBuffer host{g.width, g.height, pos, nrm};
 
-  sort::LitRays rays(ctx, g.width, g.height);
+  rays::LitRays rays(ctx, g.width, g.height);
   vk::Commands cmd(ctx);
-  rays.record(cmd, g, light, sort::RayOrder::Hilbert);
+  rays.record(cmd, g, light, rays::RayOrder::Hilbert);
   cmd.submit();
   const uint32_t n = rays.readCount();
   ASSERT_EQ(n, 10u);
   std::vector<uint32_t> samples = vk::download<uint32_t>(ctx, rays.samples(), n), keys = vk::download<uint32_t>(ctx, rays.keys(), n);
-  EXPECT_SAME_ARRAY(samples, sort::referenceRayOrder(host, light, sort::RayOrder::Hilbert), "hand-made G-buffer");
+  EXPECT_SAME_ARRAY(samples, rays::referenceRayOrder(host, light, rays::RayOrder::Hilbert), "hand-made G-buffer");
   // Both samples at the light come last, in row order; so do the two +x rays of equal key (pixels 8, 10).
   EXPECT_EQ(samples[n - 2], 0u);
   EXPECT_EQ(samples[n - 1], 7u);
-  EXPECT_EQ(keys[n - 1], sort::kRayKeyDegenerate);
-  EXPECT_EQ(keys[n - 2], sort::kRayKeyDegenerate);
+  EXPECT_EQ(keys[n - 1], rays::kRayKeyDegenerate);
+  EXPECT_EQ(keys[n - 2], rays::kRayKeyDegenerate);
   auto at = [&](uint32_t pixel) { return std::find(samples.begin(), samples.end(), pixel) - samples.begin(); };
   EXPECT_EQ(at(10), at(8) + 1) << "equal keys keep row-major order";
   EXPECT_EQ(keys[at(1)] >> RAY_KEY_FACE_SHIFT, 0u) << "x == y goes to +x";
@@ -604,16 +604,16 @@ TEST(LitRays, SampleAtTheLightSortsLastAndEqualKeysKeepRowOrder) {
 TEST(LitRays, StepsWithAHostCountMatchTheFusedRecording) {
   auto& ctx = test::context();
   Frame f = renderBuiltin("room", 160, 120);
-  sort::LitRays rays(ctx, f.width, f.height);
+  rays::LitRays rays(ctx, f.width, f.height);
   vk::Commands cmd(ctx);
-  rays.recordCompaction(cmd, f.device, sort::RayOrder::ScreenRows);
+  rays.recordCompaction(cmd, f.device, rays::RayOrder::ScreenRows);
   cmd.submit();
   const uint32_t n = rays.readCount();  // the cone path's one readback per frame
   rays.recordKeys(cmd, f.device, f.light, n);
   rays.recordSort(cmd, n);
   cmd.submit();
   EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), n),
-                    sort::referenceRayOrder(f.host, f.light, sort::RayOrder::Hilbert), "host-count steps");
+                    rays::referenceRayOrder(f.host, f.light, rays::RayOrder::Hilbert), "host-count steps");
   std::vector<uint32_t> keys = vk::download<uint32_t>(ctx, rays.keys(), n);
   EXPECT_TRUE(std::is_sorted(keys.begin(), keys.end()));
 }
@@ -634,11 +634,11 @@ TEST(RayKeys, SortedNeighboursAreCloserThanScreenOrder) {
   double sortedSum = 0, screenSum = 0;
   for (const std::string& view : builtinViewNames()) {
     Frame f = renderBuiltin(view, 256, 192);
-    sort::LitRays rays(ctx, f.width, f.height);
+    rays::LitRays rays(ctx, f.width, f.height);
     double mean[2];
     for (int s = 0; s < 2; ++s) {
       vk::Commands cmd(ctx);
-      rays.record(cmd, f.device, f.light, s == 0 ? sort::RayOrder::Hilbert : sort::RayOrder::ScreenMorton);
+      rays.record(cmd, f.device, f.light, s == 0 ? rays::RayOrder::Hilbert : rays::RayOrder::ScreenMorton);
       cmd.submit();
       mean[s] = meanNeighbourAngle(f.host, f.light, vk::download<uint32_t>(ctx, rays.samples(), rays.readCount()));
     }
@@ -676,12 +676,12 @@ TEST(SortGrid, EveryKernelIsCorrectOnTwoDimensionalGrids) {
   EXPECT_SAME_ARRAY(got.values, want.values, "sorted values");
   Frame f = renderBuiltin("fur", 300, 200);
   sort::setGridLimitForTesting(20);  // 235 workgroups of pixels, 320 of Morton positions
-  sort::LitRays rays(ctx, f.width, f.height);
-  for (auto order : {sort::RayOrder::Hilbert, sort::RayOrder::ScreenMorton}) {
+  rays::LitRays rays(ctx, f.width, f.height);
+  for (auto order : {rays::RayOrder::Hilbert, rays::RayOrder::ScreenMorton}) {
     rays.record(cmd, f.device, f.light, order);
     cmd.submit();
-    std::vector<uint32_t> ref = sort::referenceRayOrder(f.host, f.light, order);
-    EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), ref.size()), ref, sort::rayOrderName(order));
+    std::vector<uint32_t> ref = rays::referenceRayOrder(f.host, f.light, order);
+    EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), ref.size()), ref, rays::rayOrderName(order));
   }
 }
 

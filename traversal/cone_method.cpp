@@ -11,7 +11,7 @@
 #include "raster/raster.h"
 #include "eval/epsilon.h"
 #include "eval/settings.h"
-#include "sort/rays.h"
+#include "rays/rays.h"
 #include "traversal/frame_triangles.comp.h"
 #include "traversal/unfinished_rays.comp.h"
 #include "vk/context.h"
@@ -132,7 +132,7 @@ class ConeMethod : public ShadowMethod {
       throw Error(why, "cone path", "the limit is eval/epsilon.h's kMaxLightDistance");
     if (!rays_ || raysWidth_ != g.width || raysHeight_ != g.height) {
       rays_.reset();
-      rays_ = std::make_unique<sort::LitRays>(ctx_, g.width, g.height);
+      rays_ = std::make_unique<rays::LitRays>(ctx_, g.width, g.height);
       raysWidth_ = g.width;
       raysHeight_ = g.height;
       if (options_.twoPass) {
@@ -278,7 +278,7 @@ class ConeMethod : public ShadowMethod {
       cmd.mark("start");
     };
 
-    const sort::RayOrder order = options_.sorted ? sort::RayOrder::Hilbert : sort::RayOrder::ScreenMorton;
+    const rays::RayOrder order = options_.sorted ? rays::RayOrder::Hilbert : rays::RayOrder::ScreenMorton;
     cmd.fill(visibility_, kOne, 0, uint64_t(pixels) * 4);
     rays_->recordCompaction(cmd, g, order);
     boundary("compact");
@@ -380,7 +380,7 @@ class ConeMethod : public ShadowMethod {
   // The ray keys of the frame (in the far frame over the bounds' projection).
   void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light) {
     if (!frame_.far) return rays_->recordKeys(cmd, g, light, rays_->count());
-    sort::KeysPush k{};
+    rays::KeysPush k{};
     k.light = glm::vec4(light, 1.0f);
     k.framed = 1u;
     k.rowX = frame_.frame.rowX, k.rowY = frame_.frame.rowY, k.rowZ = frame_.frame.rowZ;
@@ -407,7 +407,7 @@ class ConeMethod : public ShadowMethod {
       stages.push_back({name, msSince(s0)});
       for (auto& [n, ms] : timer_.intervals()) timestamps[n] = ms;
     };
-    const sort::RayOrder order = options_.sorted ? sort::RayOrder::Hilbert : sort::RayOrder::ScreenMorton;
+    const rays::RayOrder order = options_.sorted ? rays::RayOrder::Hilbert : rays::RayOrder::ScreenMorton;
     stage("compact", [&](vk::Commands& cmd) {
       cmd.fill(visibility_, kOne, 0, uint64_t(pixels) * 4);
       rays_->recordCompaction(cmd, g, order);
@@ -863,7 +863,7 @@ class ConeMethod : public ShadowMethod {
   cone::ConeTree tree_;
   std::unique_ptr<traversal::Traversal> traversal_;
   vk::Timer timer_;
-  std::unique_ptr<sort::LitRays> rays_;
+  std::unique_ptr<rays::LitRays> rays_;
   uint32_t raysWidth_ = 0, raysHeight_ = 0;
   std::vector<vk::Buffer> triangles_;  // chunkTriangles_ triangles each (the last: the rest)
   uint32_t chunkTriangles_ = 1;

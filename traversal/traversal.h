@@ -48,7 +48,7 @@
 // edgePlane, sphere_test.h, cone_math.h coneEnclose), those along the rays (Lmax, eps, the plane slab)
 // keep theirs. Parent axes come from merging the children as discs on z = 1 (coneParentFar), near the rays
 // below, never steered off by a GPU's approximate sin/cos. The ray keys cover the bounds' projection
-// (sort/hilbert.h frameRayKey) instead of six cube faces. The frame's geometry is the world's through an
+// (rays/hilbert.h frameRayKey) instead of six cube faces. The frame's geometry is the world's through an
 // fp32 rotation: the leaves stay in world coordinates (leafHit, as the reference), and the difference --
 // the transform's rounding, a few ulp of |x - C|, and the leaf test's, a few ulp of a triangle's distance
 // to the sample -- is covered by widening every leaf cone by sigma = 2^-16 of the bounds' diagonal across

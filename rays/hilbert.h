@@ -18,10 +18,10 @@
 // GPU and CPU agree exactly on the face and on the integer Hilbert index; the cell coordinates come
 // from one float division, which Vulkan allows to be 2.5 ulp off, so a direction within ~1e-7 of a cell
 // boundary may land in the neighbouring cell on a GPU. Lavapipe's division is exact.
-#ifndef CONESHADOW_SORT_HILBERT_H
-#define CONESHADOW_SORT_HILBERT_H
+#ifndef CONESHADOW_RAYS_HILBERT_H
+#define CONESHADOW_RAYS_HILBERT_H
 
-#include "sort/sort_layout.h"
+#include "rays/rays_layout.h"
 
 #define RAY_KEY_HILBERT_ORDER 14
 #define RAY_KEY_FACE_SHIFT 28
@@ -29,7 +29,7 @@
 #define RAY_KEY_DEGENERATE 0x7FFFFFFFu
 
 #ifdef __cplusplus
-namespace cs::sort {
+namespace cs::rays {
 namespace glsl {  // the functions below are GLSL; these names let C++ read them as written
 CS_GLSL_TYPES
 CS_GLSL_MATH
@@ -143,6 +143,6 @@ using glsl::screenOrderPixel;
 constexpr uint32_t kRayKeyDegenerate = RAY_KEY_DEGENERATE;
 constexpr uint32_t kRayKeyBits = RAY_KEY_BITS;
 constexpr uint32_t kRayKeyHilbertOrder = RAY_KEY_HILBERT_ORDER;
-}  // namespace cs::sort
+}  // namespace cs::rays
 #endif
 #endif

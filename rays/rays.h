@@ -1,6 +1,6 @@
 // Step one of the cone path (002 §3.5): the lit samples of the G-buffer as pixel indices in ray order.
 // Rays go from the light to each lit sample (geometry present and N·L > 0, as GBuffer::isLit). Either
-// sorted by the Hilbert ray key of sort/hilbert.h (face of the direction + Hilbert index on that face),
+// sorted by the Hilbert ray key of rays/hilbert.h (face of the direction + Hilbert index on that face),
 // so that neighbours in the array have close directions, or — the paper's unsorted variant — left in
 // screen order: tiled Morton order, where four consecutive samples come from one 2x2 pixel block (before
 // compaction drops the unlit ones), as a mip-map over the 2-D grid would group them.
@@ -16,9 +16,10 @@
 
 #include "raster/gbuffer.h"
 #include "raster/raster.h"
+#include "rays/rays_layout.h"
 #include "sort/sort.h"
 
-namespace cs::sort {
+namespace cs::rays {
 
 enum class RayOrder {
   Hilbert,       // sorted by Hilbert ray key (002 §3.5)
@@ -46,15 +47,16 @@ class LitRays {
 
   // The steps, for callers that want to time them or read the count in between.
   void recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, RayOrder order);  // -> samples(), count
-  void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, Count count);  // -> keys()
+  void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, sort::Count count);  // -> keys()
   // The keys in a rotated frame (frameRayKey): `frame` holds KeysPush's rowX .. rect (framed = 1).
-  void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& frame, Count count);
-  void recordSort(vk::Commands& cmd, Count count);  // sorts (keys(), samples()) by key
+  void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& frame, sort::Count count);
+  void recordSort(vk::Commands& cmd, sort::Count count);  // sorts (keys(), samples()) by key
 
   const vk::Buffer& samples() const { return samples_; }
   const vk::Buffer& keys() const { return keys_; }
   const vk::Buffer& countBuffer() const { return count_; }
-  Count count() const { return Count::device(GpuWord(count_, 0), maxPixels_); }  // the lit count, on the GPU
+  // The lit count, on the GPU.
+  sort::Count count() const { return sort::Count::device(sort::GpuWord(count_, 0), maxPixels_); }
   uint32_t readCount() const;  // the lit count on the host; after the recording was submitted
   uint64_t bytesAllocated() const;
 
@@ -62,8 +64,8 @@ class LitRays {
   vk::Context& ctx_;
   uint32_t maxPixels_;
   uint64_t maxDomain_;
-  Compact compact_;
-  RadixSort sort_;
+  sort::Compact compact_;
+  sort::RadixSort sort_;
   vk::Kernel flags_, rayKeys_;
   vk::Buffer flagBuffer_, pixelOf_, samples_, keys_, count_;
 };
@@ -71,4 +73,4 @@ class LitRays {
 // CPU reference of the whole step (tests, debugging): lit samples of `g` in the given order.
 std::vector<uint32_t> referenceRayOrder(const GBuffer& g, glm::vec3 light, RayOrder order);
 
-}  // namespace cs::sort
+}  // namespace cs::rays

@@ -5,8 +5,8 @@
 // the unsorted variant, which also records the pixel each position stands for.
 // bindings: 0 = position (vec4[] per pixel), 1 = normal (vec4[] per pixel), 2 = flags (uint[] per
 //           domain position), 3 = pixelOf (uint[] per domain position; Morton order only)
-#include "sort/sort_layout.h"
-#include "sort/hilbert.h"
+#include "rays/rays_layout.h"
+#include "rays/hilbert.h"
 layout(local_size_x = PIXEL_THREADS) in;
 layout(std430, binding = 0) readonly buffer Position { vec4 position[]; };
 layout(std430, binding = 1) readonly buffer Normal { vec4 normal[]; };

@@ -1,11 +1,11 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
-// The Hilbert ray key (sort/hilbert.h) of every compacted sample: ray = light -> position[sample], in the
+// The Hilbert ray key (rays/hilbert.h) of every compacted sample: ray = light -> position[sample], in the
 // world (rayKey) or in a rotated frame (frameRayKey, KeysPush::framed).
 // bindings: 0 = position (vec4[] per pixel), 1 = samples (uint[] pixel indices), 2 = keys (uint[]),
 //           3 = countWords (device count)
-#include "sort/sort_layout.h"
-#include "sort/hilbert.h"
+#include "rays/rays_layout.h"
+#include "rays/hilbert.h"
 layout(local_size_x = PIXEL_THREADS) in;
 layout(std430, binding = 0) readonly buffer Position { vec4 position[]; };
 layout(std430, binding = 1) readonly buffer Samples { uint samples[]; };

@@ -1,14 +1,14 @@
 // Lit samples in ray order: see rays.h.
-#include "sort/rays.h"
+#include "rays/rays.h"
 
 #include <algorithm>
 #include <numeric>
 
-#include "sort/hilbert.h"
-#include "sort/lit_flags.comp.h"
-#include "sort/ray_keys.comp.h"
+#include "rays/hilbert.h"
+#include "rays/lit_flags.comp.h"
+#include "rays/ray_keys.comp.h"
 
-namespace cs::sort {
+namespace cs::rays {
 
 const char* rayOrderName(RayOrder order) {
   switch (order) {
@@ -26,8 +26,8 @@ ScreenDomain screenDomain(uint32_t width, uint32_t height, RayOrder order) {
     return d;
   }
   const uint32_t tile = 1u << MORTON_TILE_BITS;
-  d.tilesX = ceilDiv(width, tile);
-  d.tilesY = ceilDiv(height, tile);
+  d.tilesX = sort::ceilDiv(width, tile);
+  d.tilesY = sort::ceilDiv(height, tile);
   d.size = uint64_t(d.tilesX) * d.tilesY * tile * tile;
   return d;
 }
@@ -35,7 +35,7 @@ ScreenDomain screenDomain(uint32_t width, uint32_t height, RayOrder order) {
 namespace {
 uint32_t checkedPixels(const vk::Context& ctx, uint32_t width, uint32_t height) {
   uint64_t domain = std::max(screenDomain(width, height, RayOrder::ScreenMorton).size, uint64_t(width) * height);
-  checkBinding(ctx, domain, 4, "lit samples");
+  sort::checkBinding(ctx, domain, 4, "lit samples");
   return uint32_t(uint64_t(width) * height);
 }
 }  // namespace
@@ -67,21 +67,21 @@ void LitRays::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, RayOrd
            "G-buffer of " << g.width << "x" << g.height << " exceeds the " << maxPixels_ << " pixels LitRays was made for");
   const bool morton = order == RayOrder::ScreenMorton;
   LitPush push{g.width, g.height, morton ? 1u : 0u, d.tilesX, uint32_t(d.size), 0, 0, 0};
-  vk::Grid grid = workgroupGrid(ctx_, ceilDiv(d.size, PIXEL_THREADS));
+  vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(d.size, PIXEL_THREADS));
   cmd.dispatch(flags_, {g.position, g.normal, flagBuffer_, pixelOf_}, push, grid.x, grid.y);
   cmd.barrier();
   // Row-major positions are pixel indices already; Morton positions carry theirs in pixelOf_.
-  compact_.record(cmd, flagBuffer_, uint32_t(d.size), samples_, GpuWord(count_, 0),
+  compact_.record(cmd, flagBuffer_, uint32_t(d.size), samples_, sort::GpuWord(count_, 0),
                   morton ? vk::BufferRange(pixelOf_) : vk::BufferRange());
 }
 
-void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, Count count) {
+void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, sort::Count count) {
   KeysPush push{};
   push.light = glm::vec4(light, 1.0f);
   recordKeys(cmd, g, push, count);
 }
 
-void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& frame, Count count) {
+void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& frame, sort::Count count) {
   CS_CHECK(count.max <= maxPixels_, "ray keys for " << count.max << " samples, capacity " << maxPixels_);
   KeysPush push = frame;
   push.count = count.max;
@@ -93,18 +93,20 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
     countBinding.offset = 0;
     countBinding.range = (VkDeviceSize(count.word.index) + 1) * 4;
   }
-  vk::Grid grid = workgroupGrid(ctx_, ceilDiv(count.max, PIXEL_THREADS));
+  vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(count.max, PIXEL_THREADS));
   cmd.dispatch(rayKeys_, {g.position, samples_, keys_, countBinding}, push, grid.x, grid.y);
   cmd.barrier();
 }
 
-void LitRays::recordSort(vk::Commands& cmd, Count count) { sort_.record(cmd, keys_, samples_, count, kRayKeyBits); }
+void LitRays::recordSort(vk::Commands& cmd, sort::Count count) {
+  sort_.record(cmd, keys_, samples_, count, kRayKeyBits);
+}
 
 void LitRays::record(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, RayOrder order) {
   recordCompaction(cmd, g, order);
   cmd.mark("lit compaction");
   if (order != RayOrder::Hilbert) return;
-  const Count lit = Count::device(GpuWord(count_, 0), g.width * g.height);
+  const sort::Count lit = sort::Count::device(sort::GpuWord(count_, 0), g.width * g.height);
   recordKeys(cmd, g, light, lit);
   cmd.mark("ray keys");
   recordSort(cmd, lit);
@@ -133,4 +135,4 @@ std::vector<uint32_t> referenceRayOrder(const GBuffer& g, glm::vec3 light, RayOr
   return samples;
 }
 
-}  // namespace cs::sort
+}  // namespace cs::rays

@@ -1,0 +1,56 @@
+// rays/: workgroup shape, screen order and push constants of the ray-generation kernels, shared by GLSL
+// and C++ (one layout, two languages).
+#ifndef CONESHADOW_RAYS_LAYOUT_H
+#define CONESHADOW_RAYS_LAYOUT_H
+
+#include "sort/sort_layout.h"  // FLAG_COUNT_FROM_BUFFER: the ray keys read the lit count from the GPU
+
+// Per-pixel kernels (lit flags, ray keys, test kernels).
+#define PIXEL_THREADS 256
+
+// Unsorted ("screen") order: square tiles of 2^MORTON_TILE_BITS pixels a side, row-major, Morton
+// (Z) order inside a tile. Four consecutive samples are a 2x2 block, 16 a 4x4 block, ... up to the
+// 64x64 tile; tiles follow each other along rows.
+#define MORTON_TILE_BITS 6
+
+#ifdef __cplusplus
+namespace cs::rays {
+CS_GLSL_TYPES
+#endif
+
+// lit_flags.comp
+struct LitPush {
+  uint width, height;
+  uint order;       // 0: row-major (domain index = pixel index), 1: tiled Morton (see MORTON_TILE_BITS)
+  uint tilesX;      // Morton tiles per row
+  uint domain;      // elements enumerated: width * height, or tilesX * tilesY * tile area
+  uint pad0, pad1, pad2;
+};
+
+// ray_keys.comp
+struct KeysPush {
+  vec4 light;       // xyz: the point light
+  uint count;       // rays, or their upper bound when FLAG_COUNT_FROM_BUFFER is set
+  uint countIndex;
+  uint flags;
+  uint framed;      // 1: keys in a rotated frame (frameRayKey), the rows, origin, light and rect below
+  vec4 rowX, rowY, rowZ;  // the frame's rotation, rows (world -> frame)
+  vec4 origin;            // xyz: the frame's origin (world)
+  vec4 lightFrame;        // xyz: the light in the frame
+  vec4 rect;              // (u0, v0, 1 / (u1 - u0), 1 / (v1 - v0)): what the keys' grid covers of z = 1
+};
+
+// hilbert_grid.comp (test kernel): every cell's Hilbert index and the keys of a list of directions.
+struct HilbertGridPush {
+  uint order;       // grid of 2^order x 2^order cells
+  uint directions;  // directions in the dirs binding
+};
+
+#ifdef __cplusplus
+static_assert(sizeof(LitPush) == 32 && offsetof(LitPush, domain) == 16, "LitPush layout");
+static_assert(sizeof(KeysPush) == 128 && offsetof(KeysPush, count) == 16 && offsetof(KeysPush, rowX) == 32,
+              "KeysPush layout");
+static_assert(sizeof(HilbertGridPush) == 8, "HilbertGridPush layout");
+}  // namespace cs::rays
+#endif
+#endif
