@@ -208,6 +208,17 @@ struct Analysis {
   std::vector<uint32_t> unique;  // sorted unique page keys
 };
 
+// What the host decides between the analysis and the render (steps 9-10): the pages to render, after the
+// fallback to a coarser limit where they would not fit, and their superpages.
+struct PagePlan {
+  std::vector<uint32_t> pages;   // sorted page keys to render this frame
+  uint32_t backupPages = 0;      // of them, added by the sparse analysis's backup level
+  uint32_t frameLimit = 0;       // the finest level rendered (the fallback lowers it)
+  uint32_t firstSlot = 0;        // the pool slot of the first new page (cached mode: after the resident ones)
+  std::vector<sm::Superpage> superpages;
+  uint32_t squares = 0;          // aligned superpages touched: the paper's superpage count (Fig. 11)
+};
+
 // RMSM's fitted faces (rmsm.h): per face (s0, t0, zoom, 0), the window of the face the quadtree covers --
 // the square of side 1 / zoom holding what the scene's bounding box [lo, hi] projects to; zoom a power of
 // two, s0 and t0 multiples of 1 / (page * zoom) so that every level's window starts on a whole texel. The
@@ -419,6 +430,166 @@ struct Rmsm::State {
 
   // Makes `keys` (sorted, unique, fitting the free slots) resident: table updates now recorded, slots
   // appended to `resident`. `evict`: drop every resident page first (its entries are cleared).
+  // Each face fitted to what it can see of the scene (fitWindows), before anything asks for a page.
+  void fitFaces(glm::vec3 light) {
+    if (opt.fitFaces) {
+      windows = fitWindows(light, pass.boundsLo(), pass.boundsHi(), layout.pageSize, opt.maxResolution);
+    } else {
+      windows.fill(glm::vec4(0, 0, 1, 0));
+    }
+    vk::upload(ctx, windowBuf, windows.data(), sizeof(windows));
+  }
+
+  // Cached mode: the resident pages stay valid while the light and the geometry stay put. True when the
+  // page tables must be cleared with the pages.
+  bool flushCacheIfStale(bool geometryChanged, glm::vec3 light) {
+    if (!opt.cached || (cacheValid && !geometryChanged && light == cacheLight)) return false;
+    if (cacheValid) cacheFlushes++;
+    resident.clear();
+    cacheLimit = layout.maxLevel;
+    return true;
+  }
+
+  // Steps 1-8; in cached mode, when the new pages do not fit beside the resident ones, the cache is
+  // flushed and the frame analysed afresh (`limit` back to the finest level).
+  Analysis analyseToFit(const DeviceGBuffer& g, glm::vec3 light, float eps, uint32_t& limit, bool flushTables,
+                        Stages& stages) {
+    Analysis a = analyse(g, light, eps, limit, opt.cached, flushTables, stages);
+    if (opt.cached && !resident.empty() && resident.size() + a.unique.size() > layout.poolPages) {
+      cacheFlushes++;
+      resident.clear();
+      cacheLimit = limit = layout.maxLevel;
+      a = analyse(g, light, eps, limit, true, true, stages);
+    }
+    last = a;
+    return a;
+  }
+
+  // Steps 9-10 on the host: the backup pages of a sparse analysis, the fallback to a coarser limit where
+  // the pages would not fit the pool, and the superpage bins.
+  PagePlan planPages(const Analysis& a, uint32_t limit) {
+    PagePlan plan;
+    plan.pages = a.unique;
+    if (opt.analysisStep > 1) {
+      // Cached mode: resident backup pages are not asked again.
+      std::vector<uint32_t> residentSorted(opt.cached ? resident : std::vector<uint32_t>{});
+      std::sort(residentSorted.begin(), residentSorted.end());
+      plan.backupPages = sm::addBackupPages(plan.pages, a.counters[SM_COUNT_FACES], residentSorted,
+                                            std::min(layout.backupLevel, limit));
+    }
+    const uint32_t freeSlots = layout.poolPages - (opt.cached ? uint32_t(resident.size()) : 0u);
+    plan.frameLimit = sm::coarsenToFit(plan.pages, limit, freeSlots);
+    if (opt.cached) cacheLimit = plan.frameLimit;
+    plan.firstSlot = opt.cached ? uint32_t(resident.size()) : 0u;
+    plan.superpages = sm::binSuperpages(plan.pages, layout.log2Page, layout.superpageSize, opt.minOccupancy);
+    const uint32_t squareShift = 2 * (sm::log2u(layout.superpageSize) - layout.log2Page);
+    for (size_t i = 0; i < plan.pages.size(); ++i)
+      plan.squares += i == 0 || (plan.pages[i] >> squareShift) != (plan.pages[i - 1] >> squareShift);
+    pass.ensureTargets(layout.superpageSize + 1, layout.pageSize + 1);
+    return plan;
+  }
+
+  // Phase 2 in one submission: page tables, one geometry pass per superpage copied into the pool, the
+  // lookup, the readback. Fills `mask`; returns the lookup's misses; the submission's wall ms to submitMs.
+  uint32_t renderAndLookup(const DeviceGBuffer& g, glm::vec3 light, float eps, const PagePlan& plan,
+                           std::vector<float>& mask, double& submitMs) {
+    const uint32_t page = layout.pageSize;
+    const uint32_t pixels = g.width * g.height;
+    uint32_t misses = 0;
+    timer.restart();
+    readback.clear();
+    const uint32_t visibilitySlot = readback.add(visibility, uint64_t(pixels) * 4),
+                   missesSlot = readback.add(counters, 4, SM_COUNT_MISSES * 4);
+    vk::Commands cmd(ctx, &timer);
+    cmd.mark("start");
+    recordAllocation(cmd, plan.pages, !opt.cached);
+    cmd.mark("page_tables");
+    const uint32_t stride = (page + 1) * (page + 1);
+    std::vector<VkBufferImageCopy> regions;
+    for (const sm::Superpage& sp : plan.superpages) {
+      // The level's texels over the whole face, and the superpage's first texel there (fitted faces).
+      const glm::vec4 fw = windows[sp.face];
+      const double faceRes = double(page) * double(1u << sp.level) * double(fw.z);
+      pass.recordWindow(cmd, sp.face, faceRes, uint32_t(double(fw.x) * faceRes) + sp.x0,
+                        uint32_t(double(fw.y) * faceRes) + sp.y0, sp.w, sp.h, light, eps);
+      regions.clear();
+      for (uint32_t i = sp.first; i < sp.first + sp.count; ++i) {
+        VkBufferImageCopy r{};
+        r.bufferOffset = VkDeviceSize(plan.firstSlot + i) * stride * 4;
+        r.bufferRowLength = page + 1;
+        r.bufferImageHeight = page + 1;
+        r.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        r.imageOffset = {int32_t(sm::keyPageX(plan.pages[i]) * page - sp.x0),
+                         int32_t(sm::keyPageY(plan.pages[i]) * page - sp.y0), 0};
+        r.imageExtent = {page + 1, page + 1, 1};
+        regions.push_back(r);
+      }
+      pass.recordCopy(cmd, regions, pool);
+    }
+    cmd.barrier();
+    cmd.mark("superpages");
+    sm::RmsmPush p = push(light, eps, plan.frameLimit);
+    vk::Grid grid = vk::gridFor(pixels, SM_PIXEL_THREADS, ctx.maxWorkgroups());
+    cmd.dispatch(lookup, {g.position, g.normal, lod, tableBuf, pool, visibility, counters, windowBuf}, p, grid.x, grid.y);
+    cmd.barrier();
+    cmd.mark("lookup");
+    readback.record(cmd);
+    const auto ts = Clock::now();
+    cmd.submit();
+    submitMs = msSince(ts);
+    if (pixels) readback.read(visibilitySlot, mask);
+    readback.read(missesSlot, std::span<uint32_t>(&misses, 1));
+    return misses;
+  }
+
+  // The frame's counters for reports: requests, pages, superpages, the fallback, the cache, the biases.
+  nlohmann::json frameStats(const Analysis& a, const PagePlan& plan, uint32_t limit, uint32_t misses, float eps,
+                            uint64_t flushes) {
+    const uint32_t page = layout.pageSize;
+    std::vector<uint32_t> perLevel(layout.maxLevel + 1, 0);
+    for (uint32_t k : resident) perLevel[sm::keyLevel(k)]++;
+    nlohmann::json stats = {
+        {"requests_before_pruning", a.counters[SM_COUNT_REQUESTS]},
+        {"requests_after_pruning", a.counters[SM_COUNT_PRUNED]},
+        {"unique_pages", a.counters[SM_COUNT_UNIQUE]},
+        {"pages_rendered", plan.pages.size()},
+        {"pages_resident", resident.size()},
+        {"pages_per_level", perLevel},
+        {"superpages", plan.superpages.size()},
+        {"superpage_squares", plan.squares},
+        {"page_size", page},
+        {"superpage_size", layout.superpageSize},
+        {"pool_pages", layout.poolPages},
+        {"face_zoom", nlohmann::json::array({windows[0].z, windows[1].z, windows[2].z, windows[3].z, windows[4].z,
+                                             windows[5].z})},
+        {"pool_bytes", layout.poolBytes},
+        {"page_table_bytes", layout.tableBytes},
+        {"max_resolution", page << layout.maxLevel},
+        {"effective_resolution", page << plan.frameLimit},
+        {"fallback", plan.frameLimit < layout.maxLevel},
+        {"fallback_levels", layout.maxLevel - plan.frameLimit},
+        {"isolated_samples", a.counters[SM_COUNT_ISOLATED]},
+        {"analysis_step", opt.analysisStep},
+        {"backup_pages", plan.backupPages},
+        {"backup_resolution", opt.analysisStep > 1 ? page << std::min(layout.backupLevel, limit) : 0u},
+        {"lookup_misses", misses},
+        {"cached", opt.cached},
+        {"cache_flushes", flushes},
+        {"triangles", pass.triangleCount()},
+        {"geometry_passes", plan.superpages.size()},
+        {"triangles_drawn", pass.takeTrianglesDrawn()},
+        {"lod_bias", opt.lodBias},
+        {"constant_bias", opt.constantBias * eps},
+        {"slope_bias_texels", opt.slopeBias},
+        {"plane_bias", opt.planeBias},
+        {"epsilon", eps}};
+    stats["stage_timing"] = ctx.timestampsTrusted()
+                                ? "GPU timestamps per stage; readback and allocate on the host clock"
+                                : "this device's timestamps are not trusted inside a submission: each submission's "
+                                  "wall clock (analysis, pages_and_lookup), readback and allocate on the host clock";
+    return stats;
+  }
+
   void recordAllocation(vk::Commands& cmd, const std::vector<uint32_t>& keys, bool evict) {
     std::vector<glm::uvec2> clears, writes;
     if (evict) {
@@ -441,123 +612,41 @@ Rmsm::~Rmsm() = default;
 
 const sm::RmsmLayout& Rmsm::layout() const { return s_->layout; }
 
+
+// One frame, as named steps (paper 000, Algorithm 2): the geometry (uploaded when it changed), each face
+// fitted to the scene, the cache kept or flushed, the analysis on the GPU (steps 1-8, one submission), the
+// page plan on the host (9-10), then page tables, superpage passes and the lookup in one submission.
 MethodOutput Rmsm::run(const FrameInput& frame) {
   State& s = *s_;
   CS_CHECK(frame.scene && frame.device, "rmsm: the frame needs a scene and the G-buffer on the GPU");
   CS_CHECK(frame.vk == nullptr || frame.vk == &s.ctx, "rmsm: the frame's Vulkan context is not this method's");
   const DeviceGBuffer& g = *frame.device;
   const float eps = frame.epsilon > 0 ? frame.epsilon : EpsilonPolicy::forScene(*frame.scene).eps;
-  const sm::RmsmLayout& L = s.layout;
-  const uint32_t page = L.pageSize;
   Stages stages;
-  auto t0 = Clock::now();
+  const auto t0 = Clock::now();
 
   const double uploadMs = s.pass.setGeometry(*frame.scene);
   s.pass.takeTrianglesDrawn();
   if (uploadMs > 0) stages.add("upload", uploadMs);
   s.ensurePixels(g.width, g.height);
-  const uint32_t pixels = g.width * g.height;
+  s.fitFaces(frame.light);
+  const uint64_t flushesBefore = s.cacheFlushes;
+  const bool flushTables = s.flushCacheIfStale(uploadMs > 0, frame.light);
 
-  // Each face fitted to what it can see of the scene (fitWindows), before anything asks for a page.
-  s.windows = s.opt.fitFaces ? fitWindows(frame.light, s.pass.boundsLo(), s.pass.boundsHi(), page, s.opt.maxResolution)
-                             : std::array<glm::vec4, 6>{};
-  if (!s.opt.fitFaces) s.windows.fill(glm::vec4(0, 0, 1, 0));
-  vk::upload(s.ctx, s.windowBuf, s.windows.data(), sizeof(s.windows));
-
-  // Cached mode: the resident pages stay valid while the light and the geometry stay put.
-  bool flushTables = false;
-  uint64_t flushesBefore = s.cacheFlushes;
-  if (s.opt.cached && (!s.cacheValid || uploadMs > 0 || frame.light != s.cacheLight)) {
-    if (s.cacheValid) s.cacheFlushes++;
-    s.resident.clear();
-    s.cacheLimit = L.maxLevel;
-    flushTables = true;
-  }
-  uint32_t limit = s.opt.cached ? s.cacheLimit : L.maxLevel;
-  auto tAnalysis = Clock::now();
-  Analysis a = s.analyse(g, frame.light, eps, limit, s.opt.cached, flushTables, stages);
-  if (s.opt.cached && !s.resident.empty() && s.resident.size() + a.unique.size() > L.poolPages) {
-    // The new pages do not fit beside the cached ones: flush, and analyse the frame afresh.
-    s.cacheFlushes++;
-    s.resident.clear();
-    s.cacheLimit = limit = L.maxLevel;
-    a = s.analyse(g, frame.light, eps, limit, true, true, stages);
-  }
-  s.last = a;
-
-  // Fallback, allocation and superpage binning (host; steps 9-10).
-  auto tAlloc = Clock::now();
+  const auto tAnalysis = Clock::now();
+  uint32_t limit = s.opt.cached ? s.cacheLimit : s.layout.maxLevel;
+  const Analysis a = s.analyseToFit(g, frame.light, eps, limit, flushTables, stages);
   const double analysisWallMs = msSince(tAnalysis);
-  std::vector<uint32_t> pages = a.unique;
-  uint32_t backupPages = 0;
-  if (s.opt.analysisStep > 1) {
-    // Cached mode: resident backup pages are not asked again.
-    std::vector<uint32_t> resident(s.opt.cached ? s.resident : std::vector<uint32_t>{});
-    std::sort(resident.begin(), resident.end());
-    backupPages = sm::addBackupPages(pages, a.counters[SM_COUNT_FACES], resident, std::min(L.backupLevel, limit));
-  }
-  const uint32_t freeSlots = L.poolPages - (s.opt.cached ? uint32_t(s.resident.size()) : 0u);
-  const uint32_t frameLimit = sm::coarsenToFit(pages, limit, freeSlots);
-  if (s.opt.cached) s.cacheLimit = frameLimit;
-  const uint32_t firstSlot = s.opt.cached ? uint32_t(s.resident.size()) : 0u;
-  const std::vector<sm::Superpage> superpages = sm::binSuperpages(pages, L.log2Page, L.superpageSize, s.opt.minOccupancy);
-  uint32_t squares = 0;  // aligned superpages touched: the paper's superpage count (Fig. 11)
-  const uint32_t squareShift = 2 * (sm::log2u(L.superpageSize) - L.log2Page);
-  for (size_t i = 0; i < pages.size(); ++i) squares += i == 0 || (pages[i] >> squareShift) != (pages[i - 1] >> squareShift);
-  s.pass.ensureTargets(L.superpageSize + 1, L.pageSize + 1);
+
+  const auto tAlloc = Clock::now();
+  const PagePlan plan = s.planPages(a, limit);
   stages.add("allocate", msSince(tAlloc));
 
-  // Phase 2: page tables, superpages, lookup.
-  auto tRender = Clock::now();
-  s.timer.restart();
+  const auto tRender = Clock::now();
   MethodOutput out;
-  out.visibility.resize(pixels);
-  uint32_t misses = 0;
+  out.visibility.resize(size_t(g.width) * g.height);
   double submitMs = 0;
-  {
-    s.readback.clear();
-    const uint32_t visibilitySlot = s.readback.add(s.visibility, uint64_t(pixels) * 4),
-                   missesSlot = s.readback.add(s.counters, 4, SM_COUNT_MISSES * 4);
-    vk::Commands cmd(s.ctx, &s.timer);
-    cmd.mark("start");
-    s.recordAllocation(cmd, pages, !s.opt.cached);
-    cmd.mark("page_tables");
-    const uint32_t stride = (page + 1) * (page + 1);
-    std::vector<VkBufferImageCopy> regions;
-    for (const sm::Superpage& sp : superpages) {
-      // The level's texels over the whole face, and the superpage's first texel there (fitted faces).
-      const glm::vec4 fw = s.windows[sp.face];
-      const double faceRes = double(page) * double(1u << sp.level) * double(fw.z);
-      s.pass.recordWindow(cmd, sp.face, faceRes, uint32_t(double(fw.x) * faceRes) + sp.x0,
-                          uint32_t(double(fw.y) * faceRes) + sp.y0, sp.w, sp.h, frame.light, eps);
-      regions.clear();
-      for (uint32_t i = sp.first; i < sp.first + sp.count; ++i) {
-        VkBufferImageCopy r{};
-        r.bufferOffset = VkDeviceSize(firstSlot + i) * stride * 4;
-        r.bufferRowLength = page + 1;
-        r.bufferImageHeight = page + 1;
-        r.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-        r.imageOffset = {int32_t(sm::keyPageX(pages[i]) * page - sp.x0), int32_t(sm::keyPageY(pages[i]) * page - sp.y0), 0};
-        r.imageExtent = {page + 1, page + 1, 1};
-        regions.push_back(r);
-      }
-      s.pass.recordCopy(cmd, regions, s.pool);
-    }
-    cmd.barrier();
-    cmd.mark("superpages");
-    sm::RmsmPush p = s.push(frame.light, eps, frameLimit);
-    vk::Grid grid = vk::gridFor(pixels, SM_PIXEL_THREADS, s.ctx.maxWorkgroups());
-    cmd.dispatch(s.lookup, {g.position, g.normal, s.lod, s.tableBuf, s.pool, s.visibility, s.counters, s.windowBuf}, p,
-                 grid.x, grid.y);
-    cmd.barrier();
-    cmd.mark("lookup");
-    s.readback.record(cmd);
-    const auto ts = Clock::now();
-    cmd.submit();
-    submitMs = msSince(ts);
-    if (pixels) s.readback.read(visibilitySlot, out.visibility);
-    s.readback.read(missesSlot, std::span<uint32_t>(&misses, 1));
-  }
+  const uint32_t misses = s.renderAndLookup(g, frame.light, eps, plan, out.visibility, submitMs);
   for (auto& [n, ms] : s.timer.intervalsOr("pages_and_lookup", submitMs)) stages.add(n, ms);
   if (s.opt.cached) {
     s.cacheValid = true;
@@ -566,57 +655,18 @@ MethodOutput Rmsm::run(const FrameInput& frame) {
   const double renderWallMs = msSince(tRender);
   out.totalMs = msSince(t0);
 
-  std::vector<uint32_t> perLevel(L.maxLevel + 1, 0);
-  for (uint32_t k : s.resident) perLevel[sm::keyLevel(k)]++;
   double gpuMs = 0;
   for (auto& st : stages.list) gpuMs += st.ms;
   out.stages = std::move(stages.list);
-  out.work = std::to_string(pages.size()) + " pages" +
-             (frameLimit < L.maxLevel ? " (fallback to " + std::to_string(page << frameLimit) + "²)" : "");
+  const uint32_t page = s.layout.pageSize;
+  out.work = std::to_string(plan.pages.size()) + " pages" +
+             (plan.frameLimit < s.layout.maxLevel ? " (fallback to " + std::to_string(page << plan.frameLimit) + "²)" : "");
   out.bytesAllocated = s.bytesAllocated();
   out.peakBytes = out.bytesAllocated;
-  const uint32_t effective = page << frameLimit;
-  out.stats = {{"requests_before_pruning", a.counters[SM_COUNT_REQUESTS]},
-               {"requests_after_pruning", a.counters[SM_COUNT_PRUNED]},
-               {"unique_pages", a.counters[SM_COUNT_UNIQUE]},
-               {"pages_rendered", pages.size()},
-               {"pages_resident", s.resident.size()},
-               {"pages_per_level", perLevel},
-               {"superpages", superpages.size()},
-               {"superpage_squares", squares},
-               {"page_size", page},
-               {"superpage_size", L.superpageSize},
-               {"pool_pages", L.poolPages},
-               {"face_zoom", nlohmann::json::array({s.windows[0].z, s.windows[1].z, s.windows[2].z, s.windows[3].z,
-                                                    s.windows[4].z, s.windows[5].z})},
-               {"pool_bytes", L.poolBytes},
-               {"page_table_bytes", L.tableBytes},
-               {"max_resolution", page << L.maxLevel},
-               {"effective_resolution", effective},
-               {"fallback", frameLimit < L.maxLevel},
-               {"fallback_levels", L.maxLevel - frameLimit},
-               {"isolated_samples", a.counters[SM_COUNT_ISOLATED]},
-               {"analysis_step", s.opt.analysisStep},
-               {"backup_pages", backupPages},
-               {"backup_resolution", s.opt.analysisStep > 1 ? page << std::min(L.backupLevel, limit) : 0u},
-               {"lookup_misses", misses},
-               {"cached", s.opt.cached},
-               {"cache_flushes", s.cacheFlushes - flushesBefore},
-               {"triangles", s.pass.triangleCount()},
-               {"geometry_passes", superpages.size()},
-               {"triangles_drawn", s.pass.takeTrianglesDrawn()},
-               {"lod_bias", s.opt.lodBias},
-               {"constant_bias", s.opt.constantBias * eps},
-               {"slope_bias_texels", s.opt.slopeBias},
-               {"plane_bias", s.opt.planeBias},
-               {"epsilon", eps},
-               {"gpu_and_host_ms", gpuMs},
-               {"analysis_wall_ms", analysisWallMs},  // steps 1-8: submits, waits and readbacks included
-               {"render_wall_ms", renderWallMs}};     // page tables, superpages, lookup and readback: recording included
-  out.stats["stage_timing"] = s.ctx.timestampsTrusted()
-                                  ? "GPU timestamps per stage; readback and allocate on the host clock"
-                                  : "this device's timestamps are not trusted inside a submission: each submission's "
-                                    "wall clock (analysis, pages_and_lookup), readback and allocate on the host clock";
+  out.stats = s.frameStats(a, plan, limit, misses, eps, s.cacheFlushes - flushesBefore);
+  out.stats["gpu_and_host_ms"] = gpuMs;
+  out.stats["analysis_wall_ms"] = analysisWallMs;  // steps 1-8: submits, waits and readbacks included
+  out.stats["render_wall_ms"] = renderWallMs;      // page tables, superpages, lookup and readback: recording included
   return out;
 }
 

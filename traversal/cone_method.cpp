@@ -116,25 +116,66 @@ class ConeMethod : public ShadowMethod {
 
   std::string name() const override { return "cone"; }
 
+  // One frame, as named steps: the scene's triangles (uploaded when they changed), the light checked, the
+  // frame's buffers sized, the cones' frame chosen; then the frame itself -- one submission, or the
+  // two-pass variant's staged submits -- and its output.
   MethodOutput run(const FrameInput& frame) override {
     CS_CHECK(frame.scene && frame.device, "cone: the frame needs a scene and the G-buffer on the GPU");
     CS_CHECK(frame.vk == nullptr || frame.vk == &ctx_, "cone: the frame's Vulkan context is not this method's");
-    const Scene& scene = *frame.scene;
     const DeviceGBuffer& g = *frame.device;
     const uint32_t pixels = g.width * g.height;
-    const float eps = frame.epsilon > 0 ? frame.epsilon : EpsilonPolicy::forScene(scene).eps;
-    MethodOutput out;
-    auto t0 = Clock::now();
+    const float eps = frame.epsilon > 0 ? frame.epsilon : EpsilonPolicy::forScene(*frame.scene).eps;
+    const auto t0 = Clock::now();
 
-    double uploadMs = uploadTriangles(scene, frame.light);
-    // A light too far for fp32 ray lengths would give a silently wrong mask: refuse it (epsilon.h).
-    if (std::string why = lightRangeProblem(frame.light, boundsLo_, boundsHi_); !why.empty())
+    const double uploadMs = uploadTriangles(*frame.scene, frame.light);
+    refuseUnreachableLight(frame.light);
+    sizeFrameBuffers(g.width, g.height);
+    // The frame of the cones: world, or for a light far outside the triangles' bounds the far-light frame
+    // (traversal.h): the keys, the tree and the pass tests in it, the leaves in the world.
+    frame_ = cone::chooseFrame(frame.light, boundsLo_, boundsHi_);
+    nlohmann::json stats = settingsStats(eps);
+    const traversal::TraversalInput in = traversalInput(g, frame.light, eps);
+
+    std::vector<StageTime> stages;
+    if (uploadMs > 0) stages.push_back({"upload", uploadMs, StageKind::Rebuild});
+    nlohmann::json timestamps = nlohmann::json::object();
+    MethodOutput out;
+    out.visibility.resize(pixels);
+    double readbackMs = 0;
+    traversal::TraversalStats ts;
+    if (options_.twoPass) {
+      ts = runStaged(frame, g, in, stages, timestamps, stats);
+      const auto t1 = Clock::now();
+      out.totalMs = msSince(t0);
+      if (pixels) vk::download(ctx_, visibility_, out.visibility.data(), uint64_t(pixels) * 4);
+      readbackMs = msSince(t1);
+    } else {
+      ts = runSubmitted(frame, g, in, stages, timestamps, stats, out.visibility, readbackMs);
+      out.totalMs = msSince(t0) - readbackMs;
+    }
+    // The words hold 1.0f or 0.0f bits; nothing else is ever written, so no NaN or inf can appear.
+    stats["readback_ms"] = readbackMs;
+    stats["timestamp_ms"] = timestamps;
+    finishOutput(out, ts, std::move(stages), std::move(stats));
+    return out;
+  }
+
+ private:
+  // A light too far for fp32 ray lengths would give a silently wrong mask: refuse it (epsilon.h).
+  void refuseUnreachableLight(glm::vec3 light) const {
+    if (std::string why = lightRangeProblem(light, boundsLo_, boundsHi_); !why.empty())
       throw Error(why, "cone path", "the limit is eval/epsilon.h's kMaxLightDistance");
-    if (!rays_ || raysWidth_ != g.width || raysHeight_ != g.height) {
+  }
+
+  // The per-pixel buffers (the rays, the two-pass variant's update, the visibility words) for a G-buffer
+  // of width x height; kept while the size stays.
+  void sizeFrameBuffers(uint32_t width, uint32_t height) {
+    const uint32_t pixels = width * height;
+    if (!rays_ || raysWidth_ != width || raysHeight_ != height) {
       rays_.reset();
-      rays_ = std::make_unique<rays::LitRays>(ctx_, g.width, g.height);
-      raysWidth_ = g.width;
-      raysHeight_ = g.height;
+      rays_ = std::make_unique<rays::LitRays>(ctx_, width, height);
+      raysWidth_ = width;
+      raysHeight_ = height;
       if (options_.twoPass) {
         compact_.reset();
         compact_ = std::make_unique<sort::Compact>(ctx_, std::max(pixels, 1u));
@@ -149,10 +190,10 @@ class ConeMethod : public ShadowMethod {
       visibility_.reset();
       visibility_ = vk::createBuffer(ctx_, uint64_t(pixels) * 4);
     }
-    // The frame of the cones: world, or for a light far outside the triangles' bounds the far-light frame
-    // (traversal.h): the keys, the tree and the pass tests in it, the leaves in the world.
-    frame_ = cone::chooseFrame(frame.light, boundsLo_, boundsHi_);
+  }
 
+  // The stats that describe the frame's settings and geometry (the traversal's counters come later).
+  nlohmann::json settingsStats(float eps) const {
     nlohmann::json stats = {{"triangles", triangleCount_},
                             {"triangles_dropped", droppedTriangles_},
                             {"triangle_buffers", triangles_.size()},
@@ -171,42 +212,32 @@ class ConeMethod : public ShadowMethod {
       stats["light_distance_half_diagonals"] =
           frame_.distance / std::max(1e-30, 0.5 * double(glm::length(boundsHi_ - boundsLo_)));
     }
+    return stats;
+  }
 
+  // What the traversal reads for this frame: the tree, the sorted samples, the G-buffer's positions, the
+  // visibility words, the light, epsilon and the variant's tests.
+  traversal::TraversalInput traversalInput(const DeviceGBuffer& g, glm::vec3 light, float eps) {
     traversal::TraversalInput in;
     in.tree = &tree_;
     in.samples = rays_->samples();
     in.positions = vk::texels(g.position, VK_FORMAT_R32G32B32A32_SFLOAT);  // a storage or a texel binding
     in.visibility = &visibility_;
-    in.light = frame.light;
+    in.light = light;
     in.eps = eps;
     in.test = options_.test == ConeTest::Sphere ? TRAVERSE_TEST_SPHERE : TRAVERSE_TEST_PRECISE;
     in.frontFaceCulling = options_.frontFaceCulling;
     in.earlyAccept = options_.earlyAccept;
+    return in;
+  }
 
-    std::vector<StageTime> stages;
-    if (uploadMs > 0) stages.push_back({"upload", uploadMs, StageKind::Rebuild});
-    nlohmann::json timestamps = nlohmann::json::object();
-    traversal::TraversalStats ts;
-    out.visibility.resize(pixels);
-    double readbackMs = 0;
-    if (options_.twoPass) {
-      ts = runStaged(frame, g, in, stages, timestamps, stats);
-      auto t1 = Clock::now();
-      out.totalMs = msSince(t0);
-      if (pixels) vk::download(ctx_, visibility_, out.visibility.data(), uint64_t(pixels) * 4);
-      readbackMs = msSince(t1);
-    } else {
-      ts = runSubmitted(frame, g, in, stages, timestamps, stats, out.visibility, readbackMs);
-      out.totalMs = msSince(t0) - readbackMs;
-    }
-    // The words hold 1.0f or 0.0f bits; nothing else is ever written, so no NaN or inf can appear.
-    stats["readback_ms"] = readbackMs;
+  // The output's stages, work, bytes and the traversal's counters; the memory budget checked.
+  void finishOutput(MethodOutput& out, const traversal::TraversalStats& ts, std::vector<StageTime> stages,
+                    nlohmann::json stats) {
     for (StageTime& st : stages) {  // the ray tree is the cone path's shadow structure, rebuilt every frame
       if (st.name == "build" || st.name == "rebuild") st.kind = StageKind::Rebuild;
       if (st.name == "traversal" || st.name == "leaves") st.kind = StageKind::Lookup;
     }
-    stats["timestamp_ms"] = timestamps;
-
     double stageMs = 0;
     for (auto& st : stages) stageMs += st.ms;
     stats["stages_ms"] = stageMs;
@@ -238,10 +269,8 @@ class ConeMethod : public ShadowMethod {
       CS_CHECK(used <= options_.memoryBudgetBytes, "cone: the frame held " << used << " bytes, over its --memory-budget of "
                                                                           << options_.memoryBudgetBytes);
     }
-    return out;
   }
 
- private:
   // The frame as one recording (traversal.h, "One submission"): compaction, keys, sort, the tree's shape
   // and build, the far frame's triangles, the traversal and the readback, submitted once -- or, with
   // profileStages, submitted at each stage's end. Falls back to the chunked traversal (several submits)
