@@ -295,7 +295,7 @@ int runDynamicCompare(const Options& o) {
       const double tw = animated ? 0.5 * (anim.frameTime(0, n) + anim.frameTime(std::min(1u, n - 1), n)) : 0.0;
       frameAt(tw, o.movingCamera ? orbitCamera(camera, 1, 2 * n, enclosed) : camera);
       const EpsilonPolicy policy = EpsilonPolicy::forScene(scene);
-      const FrameInput frame = frameInputOf(scene, gb, dev, *ctx, light, policy.eps, &current);
+      const FrameInput frame = frameInputOf(scene, gb, dev, *ctx, light, policy.eps, &current, &raster.deviceScene());
       reference.run(frame);
       for (Track& t : tracks[vi])
         if (t.object) t.object->run(frame);
@@ -307,7 +307,7 @@ int runDynamicCompare(const Options& o) {
       vl.rasterMs.push_back(rasterMs);
       if (animated) vl.uploadMs.push_back(uploadMs);
       const EpsilonPolicy policy = EpsilonPolicy::forScene(scene);
-      const FrameInput frame = frameInputOf(scene, gb, dev, *ctx, light, policy.eps, &current);
+      const FrameInput frame = frameInputOf(scene, gb, dev, *ctx, light, policy.eps, &current, &raster.deviceScene());
       const MethodOutput ref = reference.run(frame);
       const std::vector<uint8_t> band = reference.ambiguityBand(scene, gb, light, policy);
       const size_t lit = gb.litCount();

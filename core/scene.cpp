@@ -4,6 +4,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -12,6 +13,68 @@
 #include "core/scene.h"
 
 namespace cs {
+
+ContentKey contentKey(const void* data, size_t bytes) {
+  constexpr uint64_t P1 = 0x9E3779B185EBCA87ull, P2 = 0xC2B2AE3D27D4EB4Full, P3 = 0x165667B19E3779F9ull,
+                     P4 = 0x85EBCA77C2B2AE63ull;
+  auto rotl = [](uint64_t x, int r) { return (x << r) | (x >> (64 - r)); };
+  auto mix = [](uint64_t h) {
+    h ^= h >> 33, h *= 0xFF51AFD7ED558CCDull, h ^= h >> 33, h *= 0xC4CEB9FE1A85EC53ull;
+    return h ^ (h >> 33);
+  };
+  ContentKey k;
+  k.bytes = bytes;
+  k.a = P1 ^ bytes, k.b = P3 + bytes;
+  const auto* p = static_cast<const unsigned char*>(data);
+  size_t i = 0;
+  for (; i + 8 <= bytes; i += 8) {
+    uint64_t w;
+    std::memcpy(&w, p + i, 8);
+    k.a = rotl(k.a + w * P2, 31) * P1;
+    k.b = rotl(k.b ^ (w * P4), 27) * P3 + P2;
+  }
+  uint64_t tail = 0;
+  if (i < bytes) std::memcpy(&tail, p + i, bytes - i);
+  k.a = mix(k.a ^ tail), k.b = mix(k.b + tail * P1);
+  return k;
+}
+
+GeometryRevision geometryRevision(const Scene& scene) {
+  return {contentKey(scene.positions.data(), scene.positions.size() * sizeof(glm::vec3)),
+          contentKey(scene.indices.data(), scene.indices.size() * sizeof(uint32_t))};
+}
+
+bool finiteTriangle(const Scene& scene, size_t t) {
+  for (int k = 0; k < 3; ++k) {
+    const glm::vec3 p = scene.positions[scene.indices[3 * t + k]];
+    if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))) return false;
+  }
+  return true;
+}
+
+GeometryCheck checkGeometry(const Scene& scene) {
+  const std::string where = "scene '" + scene.name + "'";
+  if (scene.indices.size() % 3 != 0)
+    throw Error(where + ": its index count " + std::to_string(scene.indices.size()) + " is not a multiple of 3",
+                "scene geometry", "a triangle list needs three indices a triangle; re-export the mesh as triangles");
+  for (size_t i = 0; i < scene.indices.size(); ++i)
+    if (scene.indices[i] >= scene.positions.size())
+      throw Error(where + ": index " + std::to_string(i) + " = " + std::to_string(scene.indices[i]) + " is past the " +
+                      std::to_string(scene.positions.size()) + " vertices",
+                  "scene geometry", "every index must name a vertex; the file or the code that built the scene is wrong");
+  GeometryCheck c;
+  for (size_t t = 0; t < scene.triangleCount(); ++t) {
+    if (!finiteTriangle(scene, t)) {
+      c.droppedTriangles++;
+      continue;
+    }
+    for (int k = 0; k < 3; ++k) {
+      c.lo = glm::min(c.lo, scene.positions[scene.indices[3 * t + k]]);
+      c.hi = glm::max(c.hi, scene.positions[scene.indices[3 * t + k]]);
+    }
+  }
+  return c;
+}
 
 void Scene::computeBounds() {
   if (positions.empty()) {

@@ -48,6 +48,42 @@ struct Scene {
   const Camera* findCamera(const std::string& name) const;  // nullptr if absent
 };
 
+// 128-bit content key of a byte range (two independent multiply-rotate lanes over 8-byte words, as in
+// xxHash's rounds, finished with an avalanche). Two different ranges share a key with probability ~2^-128.
+struct ContentKey {
+  uint64_t a = 0, b = 0, bytes = ~uint64_t(0);
+  bool operator==(const ContentKey&) const = default;
+};
+ContentKey contentKey(const void* data, size_t bytes);
+
+// The revision of a scene's geometry: keys of its positions and of its index list, from their contents,
+// so an edit in place (an animation step, a test moving a vertex) is a new revision without anyone
+// counting. The frame harness computes it once per frame (FrameInput::revision); every cache of geometry
+// on the device or the host (the shared DeviceScene, the cone path's triangles, the depth passes'
+// clusters) is keyed on it, and nothing keeps a copy of the scene to compare against.
+struct GeometryRevision {
+  ContentKey positions, indices;
+  bool operator==(const GeometryRevision&) const = default;
+  bool known() const { return positions.bytes != ~uint64_t(0); }  // false: not computed
+};
+GeometryRevision geometryRevision(const Scene& scene);
+
+// The one geometry policy, checked once per revision by whatever uploads the scene first:
+//   - the index count is a multiple of 3 and every index names a vertex: otherwise a cs::Error naming the
+//     scene, the index and its value;
+//   - a triangle with a non-finite vertex coordinate is no geometry: no method draws, tests or hits it
+//     (the device copy writes it as the degenerate triangle 0, 0, 0; the cone path and Embree skip it),
+//     and it is counted.
+// Returns the triangles that the second rule drops and the bounds of the finite vertices the kept ones
+// use (lo > hi when there are none).
+struct GeometryCheck {
+  uint64_t droppedTriangles = 0;
+  glm::vec3 lo{INFINITY}, hi{-INFINITY};
+};
+GeometryCheck checkGeometry(const Scene& scene);
+// True when all three vertices of triangle t are finite.
+bool finiteTriangle(const Scene& scene, size_t t);
+
 // Loads a .gltf/.glb file. Node hierarchy with transforms; triangle primitives (strips and fans
 // converted; points and lines skipped with one warning line on `warn`); indexed and non-indexed;
 // positions and normals; cameras; KHR_lights_punctual point lights.

@@ -15,6 +15,7 @@
 namespace cs {
 namespace vk { struct Context; }
 struct DeviceGBuffer;
+struct DeviceScene;
 
 struct FrameInput {
   const Scene* scene = nullptr;
@@ -26,7 +27,18 @@ struct FrameInput {
   // The view the samples were rendered from (methods whose analysis weighs samples by their distance to
   // the eye or the view frustum: RTW); null when the caller has none.
   const Camera* camera = nullptr;
+  // The scene's geometry revision (computed once per frame by the harness: frameInputOf) and, when the
+  // camera pass holds that revision, its geometry on the device for the other passes to draw
+  // (raster/raster.h). Not known / null when a caller builds the frame by hand: a method then computes
+  // the revision itself and uploads its own copy.
+  GeometryRevision revision;
+  const DeviceScene* deviceScene = nullptr;
 };
+
+// The frame's geometry revision: the one the harness computed, or the scene's own.
+inline GeometryRevision revisionOf(const FrameInput& frame) {
+  return frame.revision.known() ? frame.revision : geometryRevision(*frame.scene);
+}
 
 // What a stage is for, so reports can group stages without knowing the method: a rebuild of the
 // method's scene or shadow structure (an acceleration structure, uploaded triangles, a ray tree, shadow

@@ -68,8 +68,10 @@ TimedRuns timeRuns(ShadowMethod& method, const FrameInput& input, uint32_t frame
 }
 
 FrameInput frameInputOf(const Scene& scene, const GBuffer& gbuffer, const DeviceGBuffer& device, vk::Context& ctx,
-                        glm::vec3 light, float epsilon, const Camera* camera) {
+                        glm::vec3 light, float epsilon, const Camera* camera, const DeviceScene* deviceScene) {
   FrameInput f;
+  f.revision = geometryRevision(scene);
+  f.deviceScene = deviceScene && deviceScene->revision == f.revision ? deviceScene : nullptr;
   f.camera = camera;
   f.scene = &scene;
   f.gbuffer = &gbuffer;
@@ -97,7 +99,9 @@ std::unique_ptr<PreparedFrame> prepareFrame(vk::Context& ctx, Raster& raster, co
   f->rasterMs = median(rasterMs);
   f->litSamples = f->gbuffer.litCount();
   f->policy = spec.policy ? *spec.policy : EpsilonPolicy::forScene(scene);
-  f->input = frameInputOf(scene, f->gbuffer, f->device, ctx, spec.light, f->policy.eps, &f->spec.camera);
+  f->input = frameInputOf(scene, f->gbuffer, f->device, ctx, spec.light, f->policy.eps, &f->spec.camera,
+                          &raster.deviceScene());
+  CS_CHECK(f->input.deviceScene, "prepareFrame: the camera pass does not hold the scene's geometry (Raster::setGeometry)");
 
   if (step) step("reference");
   f->embree = std::make_unique<EmbreeReference>();

@@ -64,8 +64,11 @@ struct FrameSpec {
 };
 
 // What every method is fed for one frame: the same samples, light and epsilon.
+// The scene's geometry revision is computed here, once; `deviceScene` (the camera pass's geometry) is
+// shared when it holds that revision.
 FrameInput frameInputOf(const Scene& scene, const GBuffer& gbuffer, const DeviceGBuffer& device, vk::Context& ctx,
-                        glm::vec3 light, float epsilon, const Camera* camera = nullptr);
+                        glm::vec3 light, float epsilon, const Camera* camera = nullptr,
+                        const DeviceScene* deviceScene = nullptr);
 
 // A prepared frame. Not movable: `input` points into it.
 struct PreparedFrame {

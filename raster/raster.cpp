@@ -1,6 +1,7 @@
 // The camera pass: see raster.h.
 #include "raster/raster.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -53,26 +54,44 @@ Raster::~Raster() {
   if (frag_) vkDestroyShaderModule(d, frag_, nullptr);
 }
 
-void Raster::setGeometry(const Scene& scene) {
-  CS_CHECK(scene.indices.size() % 3 == 0, "index count " << scene.indices.size() << " is not a multiple of 3");
+double DeviceScene::update(vk::Context& ctx, const Scene& scene, const GeometryRevision& rev) {
+  if (revision.known() && rev == revision) return 0.0;
+  const auto t0 = std::chrono::steady_clock::now();
+  const GeometryCheck c = checkGeometry(scene);
+  const bool withNormals = scene.normals.size() == scene.positions.size();
+  CS_CHECK(scene.indices.size() <= UINT32_MAX, "scene '" << scene.name << "': more than 2^32 indices");
   constexpr VkBufferUsageFlags vb = VK_BUFFER_USAGE_VERTEX_BUFFER_BIT;
-  size_t vbytes = scene.positions.size() * sizeof(glm::vec3);
-  if (!vertices_ || vertices_.size < vbytes) {
-    vertices_ = vk::createBuffer(ctx_, vbytes, vk::Memory::Device, vb);
-    normals_ = vk::createBuffer(ctx_, vbytes, vk::Memory::Device, vb);
+  const uint64_t vbytes = std::max<uint64_t>(scene.positions.size() * sizeof(glm::vec3), 16);
+  const uint64_t ibytes = std::max<uint64_t>(scene.indices.size() * sizeof(uint32_t), 16);
+  if (!positions || positions.size < vbytes) positions = vk::createBuffer(ctx, vbytes, vk::Memory::Device, vb);
+  if (!withNormals) normals.reset();
+  if (withNormals && (!normals || normals.size < vbytes)) normals = vk::createBuffer(ctx, vbytes, vk::Memory::Device, vb);
+  if (!indices || indices.size < ibytes)
+    indices = vk::createBuffer(ctx, ibytes, vk::Memory::Device, VK_BUFFER_USAGE_INDEX_BUFFER_BIT);
+  vk::upload(ctx, positions, scene.positions.data(), scene.positions.size() * sizeof(glm::vec3));
+  if (withNormals) vk::upload(ctx, normals, scene.normals.data(), scene.normals.size() * sizeof(glm::vec3));
+  if (c.droppedTriangles == 0) {
+    vk::upload(ctx, indices, scene.indices.data(), scene.indices.size() * sizeof(uint32_t));
+  } else {  // the policy: a triangle with a non-finite vertex draws nothing
+    std::vector<uint32_t> kept(scene.indices);
+    for (size_t t = 0; t < scene.triangleCount(); ++t)
+      if (!finiteTriangle(scene, t)) kept[3 * t] = kept[3 * t + 1] = kept[3 * t + 2] = 0;
+    vk::upload(ctx, indices, kept.data(), kept.size() * sizeof(uint32_t));
   }
-  size_t ibytes = scene.indices.size() * sizeof(uint32_t);
-  if (!indices_ || indices_.size < ibytes)
-    indices_ = vk::createBuffer(ctx_, ibytes, vk::Memory::Device, VK_BUFFER_USAGE_INDEX_BUFFER_BIT);
-  vk::upload(ctx_, vertices_, scene.positions.data(), vbytes);
-  vk::upload(ctx_, normals_, scene.normals.data(), vbytes);
-  vk::upload(ctx_, indices_, scene.indices.data(), ibytes);
-  indexCount_ = uint32_t(scene.indices.size());
+  indexCount = uint32_t(scene.indices.size());
+  check = c;
+  revision = rev;
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-uint64_t Raster::bytesAllocated() const {
-  return vertices_.size + normals_.size + indices_.size + targetBytes_;
+void Raster::setGeometry(const Scene& scene) {
+  CS_CHECK(scene.normals.size() == scene.positions.size(),
+           "scene '" << scene.name << "': " << scene.normals.size() << " normals for " << scene.positions.size()
+                     << " vertices; the camera pass needs one a vertex");
+  scene_.update(ctx_, scene, geometryRevision(scene));
 }
+
+uint64_t Raster::bytesAllocated() const { return scene_.bytes() + targetBytes_; }
 
 void Raster::createPipeline() {
   VkDevice d = ctx_.device;
@@ -225,11 +244,11 @@ RasterTiming Raster::render(const Camera& camera, glm::vec3 light, uint32_t widt
   vkCmdSetViewport(cb, 0, 1, &viewport);
   vkCmdSetScissor(cb, 0, 1, &scissor);
   vkCmdPushConstants(cb, layout_, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
-  VkBuffer vbs[2] = {vertices_.buffer, normals_.buffer};
+  VkBuffer vbs[2] = {scene_.positions.buffer, scene_.normals.buffer};
   VkDeviceSize offsets[2] = {0, 0};
   vkCmdBindVertexBuffers(cb, 0, 2, vbs, offsets);
-  vkCmdBindIndexBuffer(cb, indices_.buffer, 0, VK_INDEX_TYPE_UINT32);
-  if (indexCount_) vkCmdDrawIndexed(cb, indexCount_, 1, 0, 0, 0), ctx_.cost.dispatches++;
+  vkCmdBindIndexBuffer(cb, scene_.indices.buffer, 0, VK_INDEX_TYPE_UINT32);
+  if (scene_.indexCount) vkCmdDrawIndexed(cb, scene_.indexCount, 1, 0, 0, 0), ctx_.cost.dispatches++;
   vkCmdEndRenderPass(cb);
   VkBufferImageCopy region{};
   region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};

@@ -21,6 +21,23 @@ struct DeviceGBuffer {
   vk::Buffer triangle;  // uint per pixel; empty without triangle IDs
 };
 
+// The scene's geometry on the device, uploaded once per revision (core/scene.h: GeometryRevision) and
+// shared through FrameInput::deviceScene by every pass that draws the triangles: the camera pass and the
+// shadow maps' depth passes. The one geometry policy (checkGeometry) holds here: a bad index list is an
+// error and leaves the held geometry as it was; a triangle with a non-finite vertex is written as the
+// degenerate triangle (0, 0, 0), which draws nothing.
+struct DeviceScene {
+  GeometryRevision revision;               // of the geometry held (not known before the first update)
+  vk::Buffer positions, normals, indices;  // vec3 a vertex (vertex buffers; normals only when the scene has one
+                                           // a vertex); uint32 3 a triangle (index buffer)
+  uint32_t indexCount = 0;
+  GeometryCheck check;                     // dropped triangles and the bounds of the kept ones
+  uint64_t bytes() const { return positions.size + normals.size + indices.size; }
+  // Uploads `scene` when `revision` (geometryRevision(scene)) differs from the one held; the milliseconds
+  // spent, 0 when nothing changed.
+  double update(vk::Context& ctx, const Scene& scene, const GeometryRevision& revision);
+};
+
 struct RasterTiming {
   double gpuMs = 0;       // draw + copy to buffers, from timestamps
   double readbackMs = 0;  // GPU -> host copy of the G-buffer (wall clock)
@@ -40,7 +57,10 @@ class Raster {
   Raster(const Raster&) = delete;
   Raster& operator=(const Raster&) = delete;
 
+  // Uploads the scene's geometry when its revision changed (checkGeometry's errors on a bad scene).
   void setGeometry(const Scene& scene);
+  // The geometry the pass draws, for the other passes to draw too (FrameInput::deviceScene).
+  const DeviceScene& deviceScene() const { return scene_; }
   // Renders the view into `out` (resized as needed) and, when `host` is non-null, reads it back.
   RasterTiming render(const Camera& camera, glm::vec3 light, uint32_t width, uint32_t height,
                       DeviceGBuffer& out, GBuffer* host);
@@ -52,8 +72,7 @@ class Raster {
   void destroyTargets();
 
   vk::Context& ctx_;
-  vk::Buffer vertices_, normals_, indices_;
-  uint32_t indexCount_ = 0;
+  DeviceScene scene_;
   VkRenderPass renderPass_ = VK_NULL_HANDLE;
   VkPipelineLayout layout_ = VK_NULL_HANDLE;
   VkPipeline pipeline_ = VK_NULL_HANDLE;

@@ -223,7 +223,7 @@ class AdaptiveShadowMap : public ShadowMethod {
     MethodOutput out;
     const auto t0 = Clock::now();
 
-    const double uploadMs = pass_.setGeometry(*frame.scene);
+    const double uploadMs = pass_.setGeometry(frame);
     pass_.takeTrianglesDrawn();
     pass_.ensureTargets(n + 1, n / 2 + 1);
     if (uploadMs > 0 || frame.light != light_ || !rootsRendered_) {  // the tree no longer holds this scene

@@ -94,7 +94,7 @@ class CubeShadowMap : public ShadowMethod {
     MethodOutput out;
     auto t0 = Clock::now();
 
-    const double uploadMs = pass_.setGeometry(*frame.scene);
+    const double uploadMs = pass_.setGeometry(frame);
     pass_.takeTrianglesDrawn();
     pass_.ensureTargets(r, r);
     const uint64_t faceBytes = uint64_t(r) * r * 4;

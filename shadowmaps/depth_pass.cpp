@@ -64,27 +64,28 @@ DepthPass::~DepthPass() {
   if (frag_) vkDestroyShaderModule(d, frag_, nullptr);
 }
 
-double DepthPass::setGeometry(const Scene& scene) {
-  if (vertices_ && cachedPositions_ == scene.positions && cachedIndices_ == scene.indices) return 0.0;
-  auto t0 = std::chrono::steady_clock::now();
-  CS_CHECK(scene.indices.size() % 3 == 0, "scene '" << scene.name << "': index count is not a multiple of 3");
-  for (size_t i = 0; i < scene.indices.size(); ++i)
-    CS_CHECK(scene.indices[i] < scene.positions.size(), "scene '" << scene.name << "': index " << i << " = "
-                                                                   << scene.indices[i] << " is past the "
-                                                                   << scene.positions.size() << " vertices");
-  boundsLo_ = glm::vec3(INFINITY), boundsHi_ = glm::vec3(-INFINITY);
-  for (const glm::vec3& v : scene.positions)
-    if (std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z))
-      boundsLo_ = glm::min(boundsLo_, v), boundsHi_ = glm::max(boundsHi_, v);
-  const uint64_t vbytes = scene.positions.size() * sizeof(glm::vec3);
-  const uint64_t ibytes = scene.indices.size() * sizeof(uint32_t);
-  if (!vertices_ || vertices_.size < vbytes)
-    vertices_ = vk::createBuffer(ctx_, vbytes, vk::Memory::Device, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
-  if (!indices_ || indices_.size < ibytes)
-    indices_ = vk::createBuffer(ctx_, ibytes, vk::Memory::Device, VK_BUFFER_USAGE_INDEX_BUFFER_BIT);
-  vk::upload(ctx_, vertices_, scene.positions.data(), vbytes);
-  vk::upload(ctx_, indices_, scene.indices.data(), ibytes);
-  indexCount_ = uint32_t(scene.indices.size());
+double DepthPass::setGeometry(const FrameInput& frame) {
+  CS_CHECK(frame.scene, "depth pass: the frame has no scene");
+  if (frame.deviceScene) return setGeometry(*frame.scene, frame.deviceScene);
+  const auto t0 = std::chrono::steady_clock::now();
+  own_.update(ctx_, *frame.scene, revisionOf(frame));
+  if (setGeometry(*frame.scene, &own_) == 0.0) return 0.0;
+  return std::max(1e-6, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+}
+
+double DepthPass::setGeometry(const Scene& scene, const DeviceScene* shared) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (!shared) {
+    own_.update(ctx_, scene, geometryRevision(scene));
+    shared = &own_;
+  } else if (shared != &own_ && own_.revision.known()) {
+    own_ = DeviceScene{};  // the camera pass's copy serves: no second one on the device
+  }
+  CS_CHECK(shared->revision.known(), "depth pass: the shared geometry was never uploaded");
+  draw_ = shared;
+  if (revision_ == shared->revision) return 0.0;
+  indexCount_ = shared->indexCount;
+  boundsLo_ = shared->check.lo, boundsHi_ = shared->check.hi;
   clusters_.clear();
   for (uint32_t first = 0; first < indexCount_; first += 3 * kClusterTriangles) {
     Cluster c;
@@ -92,19 +93,21 @@ double DepthPass::setGeometry(const Scene& scene) {
     c.indexCount = std::min(indexCount_ - first, 3 * kClusterTriangles);
     glm::vec3 lo(INFINITY), hi(-INFINITY);
     for (uint32_t i = first; i < first + c.indexCount; ++i) {
+      if (!finiteTriangle(scene, i / 3)) continue;  // drawn as (0, 0, 0): nothing (checkGeometry's policy)
       lo = glm::min(lo, scene.positions[scene.indices[i]]);
       hi = glm::max(hi, scene.positions[scene.indices[i]]);
     }
+    if (!(lo.x <= hi.x)) continue;  // no finite triangle: nothing to draw
     c.center = 0.5f * (lo + hi);
     for (uint32_t i = first; i < first + c.indexCount; ++i)
-      c.radius = std::max(c.radius, glm::length(scene.positions[scene.indices[i]] - c.center));
+      if (finiteTriangle(scene, i / 3))
+        c.radius = std::max(c.radius, glm::length(scene.positions[scene.indices[i]] - c.center));
     c.radius = c.radius * 1.0001f + 1e-6f * glm::length(c.center);  // rounding of the sums above
-    if (!std::isfinite(c.radius)) c.radius = INFINITY;  // non-finite vertices: never culled (as before)
     clusters_.push_back(c);
   }
-  cachedPositions_ = scene.positions;
-  cachedIndices_ = scene.indices;
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  revision_ = shared->revision;
+  // A change never reads as "unchanged" (0), however fast the clusters were.
+  return std::max(1e-6, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
 }
 
 void DepthPass::createPipeline() {
@@ -269,8 +272,8 @@ VkCommandBuffer DepthPass::beginPass(vk::Commands& cmd, uint32_t w, uint32_t h) 
 void DepthPass::drawClusters(VkCommandBuffer cb, uint32_t face, double u0, double u1, double v0, double v1,
                              glm::vec3 light, float nearPlane) {
   VkDeviceSize offset = 0;
-  vkCmdBindVertexBuffers(cb, 0, 1, &vertices_.buffer, &offset);
-  vkCmdBindIndexBuffer(cb, indices_.buffer, 0, VK_INDEX_TYPE_UINT32);
+  vkCmdBindVertexBuffers(cb, 0, 1, &draw_->positions.buffer, &offset);
+  vkCmdBindIndexBuffer(cb, draw_->indices.buffer, 0, VK_INDEX_TYPE_UINT32);
   if (!culling_) {
     vkCmdDrawIndexed(cb, indexCount_, 1, 0, 0, 0);  // firstInstance: the first triangle (depth_id.vert)
     ctx_.cost.dispatches++;

@@ -15,6 +15,8 @@
 #include <glm/glm.hpp>
 
 #include "core/scene.h"
+#include "eval/method.h"
+#include "raster/raster.h"
 #include "vk/context.h"
 
 namespace cs::sm {
@@ -41,8 +43,13 @@ class DepthPass {
   DepthPass(const DepthPass&) = delete;
   DepthPass& operator=(const DepthPass&) = delete;
 
-  // Uploads the scene's triangles when they differ from the last upload; returns wall ms (0 if cached).
-  double setGeometry(const Scene& scene);
+  // The scene's triangles, when their revision (core/scene.h) differs from the last call's: drawn from
+  // `shared` (the camera pass's DeviceScene, FrameInput::deviceScene) when given, which must hold the
+  // scene's revision, else from the pass's own upload; the draw clusters and bounds recomputed. Returns
+  // wall ms, 0 exactly when the geometry is unchanged (a change returns > 0).
+  double setGeometry(const Scene& scene, const DeviceScene* shared = nullptr);
+  // From a frame: its scene, its revision when the harness computed one, and its shared geometry.
+  double setGeometry(const FrameInput& frame);
   // Square colour + depth targets: `largest` texels a side, then halving ((largest - 1) / 2 + 1: 1025,
   // 513, ..., so windows of 2^k + 1 texels fit) down to no less than `smallest`. Each pass renders into
   // the smallest target its window fits: a render pass costs in proportion to its framebuffer on some
@@ -76,7 +83,7 @@ class DepthPass {
   glm::vec3 boundsHi() const { return boundsHi_; }
   // Triangles drawn by the passes recorded since the last call (culling's effect); resets the count.
   uint64_t takeTrianglesDrawn() { uint64_t n = drawn_; drawn_ = 0; return n; }
-  uint64_t geometryBytes() const { return vertices_.size + indices_.size; }
+  uint64_t geometryBytes() const { return own_.bytes(); }  // the shared geometry is the camera pass's
   uint64_t targetBytes() const { return targetBytes_; }
   uint64_t bytesAllocated() const { return geometryBytes() + targetBytes_; }
 
@@ -102,11 +109,11 @@ class DepthPass {
   bool triangleIds_;
   std::vector<Cluster> clusters_;
   uint64_t drawn_ = 0;
-  vk::Buffer vertices_, indices_;
+  DeviceScene own_;                      // the pass's own upload, when no shared geometry is given
+  const DeviceScene* draw_ = nullptr;    // what the passes draw: the shared geometry or own_
+  GeometryRevision revision_;            // of the clusters and bounds below
   uint32_t indexCount_ = 0;
-  std::vector<glm::vec3> cachedPositions_;
   glm::vec3 boundsLo_{INFINITY}, boundsHi_{-INFINITY};
-  std::vector<uint32_t> cachedIndices_;
   VkRenderPass renderPass_ = VK_NULL_HANDLE;
   VkPipelineLayout layout_ = VK_NULL_HANDLE;
   VkPipeline pipeline_ = VK_NULL_HANDLE;

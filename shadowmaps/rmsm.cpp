@@ -625,7 +625,7 @@ MethodOutput Rmsm::run(const FrameInput& frame) {
   Stages stages;
   const auto t0 = Clock::now();
 
-  const double uploadMs = s.pass.setGeometry(*frame.scene);
+  const double uploadMs = s.pass.setGeometry(frame);
   s.pass.takeTrianglesDrawn();
   if (uploadMs > 0) stages.add("upload", uploadMs);
   s.ensurePixels(g.width, g.height);

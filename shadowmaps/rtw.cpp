@@ -174,7 +174,7 @@ class Rtw : public ShadowMethod {
     MethodOutput out;
     const auto t0 = Clock::now();
 
-    const double uploadMs = pass_.setGeometry(*frame.scene);
+    const double uploadMs = pass_.setGeometry(frame);
     pass_.takeTrianglesDrawn();
     pass_.ensureTargets(r, o_.analysis == RtwAnalysis::Backward ? r : m);
     if (visibility_.size < uint64_t(pixels) * 4) {

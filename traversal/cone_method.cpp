@@ -27,38 +27,6 @@ constexpr uint64_t kMaxBatches = 64;     // batches one submission may hold (see
 constexpr uint64_t kUploadTriangles = kConeUploadTriangles;
 static_assert(kUploadTriangles % CLUSTER_SIZE == 0, "uploads of whole clusters");
 
-// A 128-bit hash of a byte range (two independent multiply-rotate lanes over 8-byte words, as in
-// xxHash's rounds, finished with an avalanche): how the cone path tells that a scene changed without
-// keeping a copy of it. Two different scenes share a key with probability ~2^-128.
-struct SceneKey {
-  uint64_t a = 0, b = 0, bytes = ~uint64_t(0);
-  bool operator==(const SceneKey&) const = default;
-};
-SceneKey hashBytes(const void* data, size_t bytes) {
-  constexpr uint64_t P1 = 0x9E3779B185EBCA87ull, P2 = 0xC2B2AE3D27D4EB4Full, P3 = 0x165667B19E3779F9ull,
-                     P4 = 0x85EBCA77C2B2AE63ull;
-  auto rotl = [](uint64_t x, int r) { return (x << r) | (x >> (64 - r)); };
-  auto mix = [](uint64_t h) {
-    h ^= h >> 33, h *= 0xFF51AFD7ED558CCDull, h ^= h >> 33, h *= 0xC4CEB9FE1A85EC53ull;
-    return h ^ (h >> 33);
-  };
-  SceneKey k;
-  k.bytes = bytes;
-  k.a = P1 ^ bytes, k.b = P3 + bytes;
-  const auto* p = static_cast<const unsigned char*>(data);
-  size_t i = 0;
-  for (; i + 8 <= bytes; i += 8) {
-    uint64_t w;
-    std::memcpy(&w, p + i, 8);
-    k.a = rotl(k.a + w * P2, 31) * P1;
-    k.b = rotl(k.b ^ (w * P4), 27) * P3 + P2;
-  }
-  uint64_t tail = 0;
-  if (i < bytes) std::memcpy(&tail, p + i, bytes - i);
-  k.a = mix(k.a ^ tail), k.b = mix(k.b + tail * P1);
-  return k;
-}
-
 // Solid angle of triangle (a, b, c), vertices relative to the apex (Van Oosterom & Strackee); 0 for a
 // degenerate one.
 double solidAngle(glm::dvec3 a, glm::dvec3 b, glm::dvec3 c) {
@@ -127,7 +95,7 @@ class ConeMethod : public ShadowMethod {
     const float eps = frame.epsilon > 0 ? frame.epsilon : EpsilonPolicy::forScene(*frame.scene).eps;
     const auto t0 = Clock::now();
 
-    const double uploadMs = uploadTriangles(*frame.scene, frame.light);
+    const double uploadMs = uploadTriangles(frame);
     refuseUnreachableLight(frame.light);
     sizeFrameBuffers(g.width, g.height);
     // The frame of the cones: world, or for a light far outside the triangles' bounds the far-light frame
@@ -665,18 +633,18 @@ class ConeMethod : public ShadowMethod {
   // The host working set stays small beside the scene: the buffers' order of the kept triangles (4 bytes
   // each; 8 more while clusters sort them, 9 while two-pass ranks them), the cluster bounds, and one
   // chunk of at most kUploadBytes written into the buffers at a time. A change is seen from a 128-bit
-  // hash of the positions and the indices, not from a copy of them (hostPeakBytes_ counts all of it).
-  double uploadTriangles(const Scene& scene, glm::vec3 light) {
-    const SceneKey positionsKey = hashBytes(scene.positions.data(), scene.positions.size() * sizeof(glm::vec3));
-    const SceneKey indicesKey = hashBytes(scene.indices.data(), scene.indices.size() * sizeof(uint32_t));
-    if (positionsKey == positionsKey_ && indicesKey == indicesKey_ && !triangles_.empty() &&
-        (!options_.twoPass || cachedLight_ == light))
-      return 0.0;
+  // hash of the positions and the indices -- the frame's geometry revision (core/scene.h), computed once
+  // per frame by the harness -- not from a copy of them (hostPeakBytes_ counts all of it).
+  double uploadTriangles(const FrameInput& frame) {
+    const Scene& scene = *frame.scene;
+    const GeometryRevision revision = revisionOf(frame);
+    if (revision == revision_ && !triangles_.empty() && (!options_.twoPass || cachedLight_ == frame.light)) return 0.0;
     auto t0 = Clock::now();
-    CS_CHECK(scene.indices.size() % 3 == 0, "scene '" << scene.name << "': index count is not a multiple of 3");
+    // The one geometry policy (checkGeometry), unless the camera pass's upload of this revision checked it.
+    if (!frame.deviceScene) checkGeometry(scene);
     const size_t sceneTriangles = scene.indices.size() / 3;
     // The kept triangles and their bounds.
-    const bool sameIndices = indicesKey == indicesKey_ && droppedTriangles_ == 0;
+    const bool sameIndices = revision.indices == revision_.indices && droppedTriangles_ == 0;
     std::vector<uint32_t> previous;  // the last order: clusters keep it while the index list stays
     previous.swap(order_);
     if (!sameIndices) std::vector<uint32_t>().swap(previous);
@@ -684,15 +652,7 @@ class ConeMethod : public ShadowMethod {
     kept.reserve(sceneTriangles);
     glm::vec3 lo(INFINITY), hi(-INFINITY);
     for (size_t t = 0; t < sceneTriangles; ++t) {
-      bool finite = true;
-      for (int k = 0; k < 3; ++k) {
-        const uint32_t i = scene.indices[3 * t + k];
-        CS_CHECK(i < scene.positions.size(), "scene '" << scene.name << "': index " << 3 * t + k << " = " << i
-                                                       << " is past the " << scene.positions.size() << " vertices");
-        const glm::vec3 p = scene.positions[i];
-        finite = finite && std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
-      }
-      if (!finite) continue;
+      if (!finiteTriangle(scene, t)) continue;  // the policy: no geometry
       kept.push_back(uint32_t(t));
       for (int k = 0; k < 3; ++k) {
         lo = glm::min(lo, scene.positions[scene.indices[3 * t + k]]);
@@ -746,7 +706,7 @@ class ConeMethod : public ShadowMethod {
 
     // The buffers' order of the kept triangles: blockers first (two-pass), Morton order of the centroids
     // (clusters; kept while the index list stays, so moving vertices keep their clusters), else scene order.
-    if (options_.twoPass) orderBlockersFirst(kept, vertex, light);
+    if (options_.twoPass) orderBlockersFirst(kept, vertex, frame.light);
     else if (clusters) orderForClusters(kept, previous, vertex);
     order_.swap(kept);
     std::vector<uint32_t>().swap(kept);
@@ -775,10 +735,9 @@ class ConeMethod : public ShadowMethod {
         vk::upload(ctx_, triangles_[c], chunk.data(), m * kTriangleBytes, done * kTriangleBytes);
       }
     }
-    positionsKey_ = positionsKey;
-    indicesKey_ = indicesKey;
+    revision_ = revision;
     uploads_++;
-    cachedLight_ = light;
+    cachedLight_ = frame.light;
     return msSince(t0);
   }
 
@@ -900,7 +859,7 @@ class ConeMethod : public ShadowMethod {
   vk::Readback readback_{ctx_};  // the mask and the counters, copied inside the frame's submission
   uint32_t triangleCount_ = 0;
   uint64_t droppedTriangles_ = 0;
-  SceneKey positionsKey_, indicesKey_;  // of the uploaded scene (hashBytes)
+  GeometryRevision revision_;  // of the uploaded scene
   std::vector<uint32_t> order_;         // scene triangle (the kept ones) of each triangle buffer slot, in order
   uint64_t hostPeakBytes_ = 0;          // host working set of the last upload (uploadTriangles)
   uint64_t traversalMemory_ = 0;        // the traversal's memory bound this frame (ensureTraversal)
