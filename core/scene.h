@@ -2,6 +2,7 @@
 // plus the cameras and point lights it carries. Only what shadows need (DESIGN.md: model only what a
 // scene needs): no materials, no textures.
 #pragma once
+#include <cmath>
 #include <cstdint>
 #include <iosfwd>
 #include <memory>
