@@ -11,6 +11,7 @@
 //                  an emulation of the worst arithmetic a GPU is allowed.
 //   CS_FLAT_INDEX(threads)  GLSL compute only: the invocation's index in a one-dimensional launch of
 //                  `threads`-wide workgroups spread over a 2D grid, x first (vk::gridFor).
+//   evenBits(v)    the even bits of v packed into the low 16: a Morton (Z-order) code's x (and, of v >> 1, y)
 //   litSample(position, normal)  the lit-sample rule: the G-buffer has geometry at the pixel (position.w
 //                  is 1) and the direct-light term N·L there is positive (normal.w). Every method, the
 //                  compaction, the metric and GBuffer::isLit ask this function and no other.
@@ -65,9 +66,19 @@ CS_GLSL_TYPES
 
 CS_FN bool litSample(vec4 position, vec4 normal) { return position.w > 0.5f && normal.w > 0.0f; }
 
+CS_FN uint evenBits(uint v) {
+  v &= 0x55555555u;
+  v = (v | (v >> 1u)) & 0x33333333u;
+  v = (v | (v >> 2u)) & 0x0F0F0F0Fu;
+  v = (v | (v >> 4u)) & 0x00FF00FFu;
+  v = (v | (v >> 8u)) & 0x0000FFFFu;
+  return v;
+}
+
 #ifdef __cplusplus
 }  // namespace cs::shared
 namespace cs {
+using shared::evenBits;
 using shared::litSample;
 }
 #endif

@@ -111,15 +111,6 @@ CS_FN uint frameRayKey(vec3 d, vec4 rect) {
   return hilbertIndex(x, y, 15u);
 }
 
-// Morton (Z) order: the even bits of i give x, the odd bits y.
-CS_FN uint mortonEvenBits(uint v) {
-  v &= 0x55555555u;
-  v = (v | (v >> 1u)) & 0x33333333u;
-  v = (v | (v >> 2u)) & 0x0F0F0F0Fu;
-  v = (v | (v >> 4u)) & 0x00FF00FFu;
-  v = (v | (v >> 8u)) & 0x0000FFFFu;
-  return v;
-}
 
 // The pixel (x, y) at position i of the unsorted screen order over tiles of 2^MORTON_TILE_BITS pixels
 // a side, tilesX tiles per row. May lie outside the image when its size is not a multiple of the tile.
@@ -127,14 +118,13 @@ CS_FN uvec2 screenOrderPixel(uint i, uint tilesX) {
   uint tile = i >> (2u * uint(MORTON_TILE_BITS));
   uint local = i & ((1u << (2u * uint(MORTON_TILE_BITS))) - 1u);
   uint tx = tile % tilesX, ty = tile / tilesX;
-  return uvec2((tx << uint(MORTON_TILE_BITS)) + mortonEvenBits(local),
-               (ty << uint(MORTON_TILE_BITS)) + mortonEvenBits(local >> 1u));
+  return uvec2((tx << uint(MORTON_TILE_BITS)) + evenBits(local),
+               (ty << uint(MORTON_TILE_BITS)) + evenBits(local >> 1u));
 }
 
 #ifdef __cplusplus
 }  // namespace glsl
 using glsl::hilbertIndex;
-using glsl::mortonEvenBits;
 using glsl::rayCell;
 using glsl::rayFace;
 using glsl::rayKey;

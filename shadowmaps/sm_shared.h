@@ -100,21 +100,13 @@ CS_FN uint spreadBits12(uint v) {
   v = (v | (v << 1u)) & 0x55555555u;
   return v;
 }
-CS_FN uint compactBits12(uint v) {
-  v &= 0x55555555u;
-  v = (v | (v >> 1u)) & 0x33333333u;
-  v = (v | (v >> 2u)) & 0x0F0F0F0Fu;
-  v = (v | (v >> 4u)) & 0x00FF00FFu;
-  v = (v | (v >> 8u)) & 0x0000FFFFu;
-  return v;
-}
 CS_FN uint pageKey(uint face, uint level, uint px, uint py) {
   return (face << 28u) | (level << 24u) | spreadBits12(px) | (spreadBits12(py) << 1u);
 }
 CS_FN uint keyFace(uint key) { return key >> 28u; }
 CS_FN uint keyLevel(uint key) { return (key >> 24u) & 0xFu; }
-CS_FN uint keyPageX(uint key) { return compactBits12(key & 0xFFFFFFu); }
-CS_FN uint keyPageY(uint key) { return compactBits12((key & 0xFFFFFFu) >> 1u); }
+CS_FN uint keyPageX(uint key) { return evenBits(key & 0xFFFFFFu); }
+CS_FN uint keyPageY(uint key) { return evenBits((key & 0xFFFFFFu) >> 1u); }
 
 // ---- page tables --------------------------------------------------------------------------------------
 // Per face a mip hierarchy of tables, level L = 2^L x 2^L entries (one per page), levels 0..maxLevel in
