@@ -297,7 +297,8 @@ std::string convergenceSvg(const std::vector<Row>& rows) {
 }
 
 std::string reportMd(const std::string& sceneName, const std::string& device, uint32_t w, uint32_t h,
-                     uint32_t frames, const std::vector<Row>& rows, const std::vector<Closeup>& closeups) {
+                     uint32_t frames, const std::vector<Row>& rows, const std::vector<Closeup>& closeups,
+                     const std::vector<std::string>& skipped) {
   std::ostringstream os;
   auto table = [&](const std::vector<std::string>& header) {
     os << "|";
@@ -312,7 +313,13 @@ std::string reportMd(const std::string& sceneName, const std::string& device, ui
     os << "\n";
   };
   os << "# coneshadow compare: " << sceneName << "\n\n"
-     << "device: " << device << "\n\n"
+     << "device: " << device << "\n\n";
+  if (!skipped.empty()) {
+    os << "Not run on this device:\n\n";
+    for (const std::string& s : skipped) os << "- " << s << "\n";
+    os << "\n";
+  }
+  os
      << w << "x" << h << ", median of " << frames << " frame(s) after one warm-up.\n\n## Verdict\n\n"
      << kVerdictText << "\n\n";
   table(kVerdictHeader);
@@ -358,7 +365,8 @@ std::string swatch(const uint8_t rgb[3], const std::string& text) {
 
 std::string reportHtml(const std::string& sceneName, const std::string& device, uint32_t w, uint32_t h,
                        uint32_t frames, const std::vector<Row>& rows, const std::vector<Closeup>& closeups,
-                       const std::string& speedSvg, const std::string& bytesSvg, uint32_t thumbFactor) {
+                       const std::string& speedSvg, const std::string& bytesSvg, uint32_t thumbFactor,
+                       const std::vector<std::string>& skipped) {
   std::ostringstream os;
   auto table = [&](const std::vector<std::string>& header, const std::string& cls) {
     os << "<table class=\"" << cls << "\">\n<tr>";
@@ -381,7 +389,13 @@ std::string reportHtml(const std::string& sceneName, const std::string& device, 
         ".sw{display:inline-block;width:14px;height:14px;border:1px solid #444;margin:0 4px 0 12px;"
         "vertical-align:middle}</style></head><body>\n"
      << "<h1>coneshadow compare: " << htmlEscape(sceneName) << "</h1>\n<p>device: " << htmlEscape(device)
-     << "</p>\n<p>" << w << "x" << h << ", median of " << frames << " frame(s) after one warm-up.</p>\n<h2>Verdict</h2>\n<p>"
+     << "</p>\n";
+  if (!skipped.empty()) {
+    os << "<p>Not run on this device:</p>\n<ul>";
+    for (const std::string& s : skipped) os << "<li>" << htmlEscape(s) << "</li>";
+    os << "</ul>\n";
+  }
+  os << "<p>" << w << "x" << h << ", median of " << frames << " frame(s) after one warm-up.</p>\n<h2>Verdict</h2>\n<p>"
      << htmlEscape(kVerdictText) << "</p>\n";
   table(kVerdictHeader, "verdict");
   for (auto& v : viewOrder(rows)) row(verdictCells(rows, v));
@@ -493,6 +507,34 @@ class Eta {
   std::chrono::steady_clock::time_point start_;
 };
 
+// Removes the sweep points this device cannot run (MethodInfo::unsupported) and says why, in the log and
+// in the lines returned for the report. A method the user named whose every point is unsupported is an
+// error: nothing would answer what was asked.
+std::vector<std::string> dropUnsupported(std::vector<CompareSetting>& settings, const vk::Context& ctx,
+                                         const Options& o, std::ostream& log) {
+  std::vector<std::string> skipped;
+  std::vector<CompareSetting> kept;
+  for (CompareSetting& s : settings) {
+    const std::string why = unsupportedOn(*s.method, ctx, s.settings);
+    if (why.empty()) {
+      kept.push_back(std::move(s));
+      continue;
+    }
+    skipped.push_back(s.label + ": " + why);
+    log << "skipping " << s.label << ": " << why << std::endl;
+  }
+  if (!o.methods.empty())
+    for (const MethodInfo* m : chosenMethods(o)) {
+      const bool any = std::any_of(kept.begin(), kept.end(), [&](const CompareSetting& s) { return s.method == m; });
+      if (!any)
+        throw Error("compare: no setting of " + m->name + " runs on this device (" +
+                        (skipped.empty() ? std::string("none") : skipped.back()) + ")",
+                    ctx.deviceName(), "choose another --device, or leave " + m->name + " out of --methods");
+    }
+  settings = std::move(kept);
+  return skipped;
+}
+
 }  // namespace
 
 int runCompare(const Options& o) {
@@ -512,6 +554,7 @@ int runCompare(const Options& o) {
   auto ctx = commandContext(o);
   std::string device = ctx->driverDescription();
   log << "device: " << device << std::endl;
+  const std::vector<std::string> skipped = dropUnsupported(settings, *ctx, o, log);
 
   StagedDir out(o.out);
   std::vector<Row> rows;
@@ -595,9 +638,9 @@ int runCompare(const Options& o) {
   std::string dir = out.path();
   const std::string speedSvg = tradeOffSvg(rows, false), bytesSvg = tradeOffSvg(rows, true);
   writeFileAtomic((fs::path(dir) / "report.md").string(),
-                  reportMd(scene.name, device, o.width, o.height, o.frames, rows, closeups));
+                  reportMd(scene.name, device, o.width, o.height, o.frames, rows, closeups, skipped));
   writeFileAtomic((fs::path(dir) / "report.html").string(), reportHtml(scene.name, device, o.width, o.height, o.frames, rows,
-                                                                      closeups, speedSvg, bytesSvg, thumbFactor));
+                                                                      closeups, speedSvg, bytesSvg, thumbFactor, skipped));
   for (const auto& [name, svg] : {std::pair{"speed_vs_error", &speedSvg}, std::pair{"error_vs_bytes", &bytesSvg}}) {
     writeFileAtomic((fs::path(dir) / (std::string(name) + ".svg")).string(), *svg);
     svgToPng((fs::path(dir) / (std::string(name) + ".svg")).string(), (fs::path(dir) / (std::string(name) + ".png")).string());

@@ -56,6 +56,10 @@ const MethodInfo& referenceMethod() {
   throw Error("no reference method is registered", "method registry");
 }
 
+std::string unsupportedOn(const MethodInfo& info, const vk::Context& ctx, const Settings& settings) {
+  return info.unsupported ? info.unsupported(ctx, settings) : std::string();
+}
+
 std::vector<SweepPoint> sweepOf(const MethodInfo& info, const Settings& settings) {
   if (info.sweep) return info.sweep(settings);
   return {{info.name, settings, true}};  // a method without a sweep runs its defaults

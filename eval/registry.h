@@ -53,7 +53,14 @@ struct MethodInfo {
   std::function<std::vector<SweepPoint>(const Settings&)> sweep;
   // compare --animate's rows; staticGeometry: only the camera moves. Unset: one row, the given settings.
   std::function<std::vector<SweepPoint>(const Settings&, bool staticGeometry)> dynamicRows;
+  // Why the device cannot run the method with these settings (a feature it lacks), or "" when it can.
+  // Unset: every device can. compare skips such a sweep point with the reason in its log and report;
+  // a method the user named whose every point is unsupported is an error before any work.
+  std::function<std::string(const vk::Context& ctx, const Settings&)> unsupported;
 };
+
+// The reason the device cannot run `info` with `settings` ("" when it can).
+std::string unsupportedOn(const MethodInfo& info, const vk::Context& ctx, const Settings& settings);
 
 // Adds a method; Error when the name is taken. Methods are listed in the order they were registered.
 void registerMethod(MethodInfo info);

@@ -8,6 +8,7 @@
 #include "shadowmaps/rmsm.h"
 #include "shadowmaps/rtw.h"
 #include "shadowmaps/rtw_shared.h"
+#include "vk/context.h"
 
 namespace cs {
 
@@ -143,6 +144,9 @@ MethodInfo rtwMethodInfo() {
     points.push_back({"rtw@1024,no-tess", at1024.with("rtw-tessellation", "0")});
     return points;
   };
+  m.unsupported = [](const vk::Context& ctx, const Settings&) {
+    return ctx.geometryShader ? std::string() : std::string("needs the geometryShader feature, which this device lacks");
+  };
   return m;
 }
 
@@ -183,6 +187,11 @@ MethodInfo asmMethodInfo() {
     points.push_back({"asm@32M,analysis3x", at32.with("asm-analysis", "3")});
     points.push_back({"asm@32M,id", at32.with("asm-id-test", "on")});
     return points;
+  };
+  m.unsupported = [](const vk::Context& ctx, const Settings& settings) {
+    return !asmOptions(settings).idTest || ctx.geometryShader
+               ? std::string()
+               : std::string("--asm-id-test on needs the geometryShader feature, which this device lacks");
   };
   return m;
 }

@@ -524,6 +524,46 @@ TEST(ResultsTable, EverySettingHasItsColumnAndTheHostCostTableItsRatiosFromTheSa
   EXPECT_EQ(h.find(" ms"), std::string::npos) << "no times in the host-cost table: they are the settings table's";
 }
 
+// On a device without a feature a method needs (CONESHADOW_HIDE_FEATURES behaves as one), compare skips
+// the sweep points it cannot run and says why in the log and the report; a method named on the command
+// line with no point left is an error before any output; render names the feature.
+TEST(Compare, SkipsWhatTheDeviceCannotRunAndSaysWhy) {
+  const std::string hide = "CONESHADOW_HIDE_FEATURES=geometryShader ";
+  fs::path out = fs::temp_directory_path() / ("coneshadow_compare_skip_" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  CliRun r = cli("compare --methods asm --views wall --width 32 --height 24 --frames 1 --out " + out.string(), hide);
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string why = "asm@32M,id: --asm-id-test on needs the geometryShader feature, which this device lacks";
+  EXPECT_NE(r.out.find("skipping " + why.substr(0, why.find(':'))), std::string::npos) << r.out;
+  std::ifstream md(out / "report.md");
+  const std::string report((std::istreambuf_iterator<char>(md)), {});
+  EXPECT_NE(report.find("Not run on this device:\n\n- " + why), std::string::npos) << report;
+  std::ifstream rf(out / "results.json");
+  const nlohmann::json rows = nlohmann::json::parse(rf);
+  size_t asmRows = 0;
+  for (const auto& row : rows) {
+    ASSERT_TRUE(row.contains("stats") && row["stats"].contains("setting")) << row.dump();
+    EXPECT_NE(row["stats"]["setting"], "asm@32M,id");
+    asmRows += row.value("method", "") == "asm";
+  }
+  EXPECT_GT(asmRows, 0u) << "the other asm points ran";
+  fs::remove_all(out);
+
+  CliRun rtw = cli("compare --methods rtw --views wall --width 32 --height 24 --frames 1 --out " + out.string(), hide);
+  EXPECT_EQ(rtw.code, 1) << rtw.out;
+  EXPECT_NE(rtw.out.find("no setting of rtw runs on this device"), std::string::npos) << rtw.out;
+  EXPECT_NE(rtw.out.find("geometryShader"), std::string::npos) << rtw.out;
+  EXPECT_FALSE(fs::exists(out));
+  CliRun render = cli("render --methods rtw --view wall --width 32 --height 24 --out " + out.string(), hide);
+  EXPECT_EQ(render.code, 1) << render.out;
+  EXPECT_NE(render.out.find("geometryShader"), std::string::npos) << render.out;
+  EXPECT_FALSE(fs::exists(out));
+  CliRun bad = cli("render --width 16 --height 16 --out " + out.string(), "CONESHADOW_HIDE_FEATURES=warp-drive ");
+  EXPECT_EQ(bad.code, 1) << bad.out;
+  EXPECT_NE(bad.out.find("CONESHADOW_HIDE_FEATURES names 'warp-drive'"), std::string::npos) << bad.out;
+  fs::remove_all(out);
+}
+
 TEST(Compare, UnknownMethodIsAUsageErrorNamingIt) {
   fs::path out = fs::temp_directory_path() / ("coneshadow_compare_bad_" + std::to_string(::getpid()));
   fs::remove_all(out);

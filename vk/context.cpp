@@ -8,7 +8,9 @@
 #include <cstring>
 #include <iostream>
 
+#include <cstdlib>
 #include <functional>
+#include <sstream>
 #include <map>
 #include <errno.h>
 #include <unistd.h>
@@ -337,8 +339,20 @@ std::unique_ptr<Context> createContext(const ContextOptions& options) {
   want.features.shaderInt64 = VK_TRUE;
   want.features.fragmentStoresAndAtomics = have.features.fragmentStoresAndAtomics;
   want.features.vertexPipelineStoresAndAtomics = have.features.vertexPipelineStoresAndAtomics;
-  want.features.geometryShader = have.features.geometryShader;
-  ctx->geometryShader = have.features.geometryShader == VK_TRUE;
+  // CONESHADOW_HIDE_FEATURES=geometryShader: behave as a device without it (MoltenVK has none), to see
+  // what a run does there on a machine that has one.
+  bool hideGeometryShader = false;
+  if (const char* hide = std::getenv("CONESHADOW_HIDE_FEATURES")) {
+    std::stringstream list(hide);
+    for (std::string name; std::getline(list, name, ',');) {
+      if (name == "geometryShader") hideGeometryShader = true;
+      else if (!name.empty())
+        throw Error("CONESHADOW_HIDE_FEATURES names '" + name + "'", "Vulkan context",
+                    "the one feature it can hide is geometryShader");
+    }
+  }
+  want.features.geometryShader = hideGeometryShader ? VK_FALSE : have.features.geometryShader;
+  ctx->geometryShader = want.features.geometryShader == VK_TRUE;
   want.features.robustBufferAccess = have.features.robustBufferAccess;
   ctx->robustBufferAccess = have.features.robustBufferAccess == VK_TRUE;
 
