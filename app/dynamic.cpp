@@ -255,6 +255,13 @@ int runDynamicCompare(const Options& o) {
   auto ctx = commandContext(o);
   const std::string device = ctx->driverDescription();
   log << "device: " << device << std::endl;
+  // Rows this device cannot run (MethodInfo::unsupported) are left out, each said once.
+  for (size_t v = 0; v < tracks.size(); ++v)
+    std::erase_if(tracks[v], [&](const Track& t) {
+      const std::string why = unsupportedOn(*t.info, *ctx, t.settings);
+      if (!why.empty() && v == 0) log << "skipping " << t.label << ": " << why << std::endl;
+      return !why.empty();
+    });
 
   StagedDir out(o.out);
   Raster raster(*ctx, rest);

@@ -245,9 +245,7 @@ int runScaling(const Options& base) {
   std::ostream& log = progressLog.stream();
   const Options& o = base;
   const std::vector<uint32_t> sizes = o.scalingSizes.empty() ? std::vector<uint32_t>{256, 512, 1024, 2048} : o.scalingSizes;
-  const std::vector<const MethodInfo*> methods = chosenMethods(o);  // parseArgs checked them and their settings
-  std::vector<std::string> methodNames;
-  for (const MethodInfo* m : methods) methodNames.push_back(m->name);
+  std::vector<const MethodInfo*> methods = chosenMethods(o);  // parseArgs checked them and their settings
   const uint64_t maxTriangles = o.scalingMaxTriangles ? o.scalingMaxTriangles : kDefaultScalingMaxTriangles;
 
   Scene scene = loadSceneArg(o, std::cerr);
@@ -267,6 +265,14 @@ int runScaling(const Options& base) {
 
   auto ctx = commandContext(o);
   const std::string device = ctx->driverDescription();
+  // Methods this device cannot run (MethodInfo::unsupported) are left out, each said once.
+  std::erase_if(methods, [&](const MethodInfo* m) {
+    const std::string why = unsupportedOn(*m, *ctx, settingsFor(o, *m));
+    if (!why.empty()) log << "skipping " << m->name << ": " << why << std::endl;
+    return !why.empty();
+  });
+  std::vector<std::string> methodNames;
+  for (const MethodInfo* m : methods) methodNames.push_back(m->name);
   log << "scaling " << scene.name << " / " << view << ": " << sizes.size() << " resolution point(s), "
       << copies.size() << " triangle point(s) up to " << copies.back() * scene.triangleCount() << " triangles, "
       << methods.size() << " method(s); device: " << device << std::endl;

@@ -558,6 +558,14 @@ TEST(Compare, SkipsWhatTheDeviceCannotRunAndSaysWhy) {
   EXPECT_EQ(render.code, 1) << render.out;
   EXPECT_NE(render.out.find("geometryShader"), std::string::npos) << render.out;
   EXPECT_FALSE(fs::exists(out));
+  // --animate and --scaling leave such a method out the same way.
+  for (const std::string args : {"compare --animate 2 --views wall --width 24 --height 24",
+                                 "compare --scaling --width 16 --height 16 --scaling-sizes=16 --scaling-max-triangles 40000"}) {
+    CliRun run = cli(args + " --out " + out.string(), hide);
+    EXPECT_EQ(run.code, 0) << args << "\n" << run.out;
+    EXPECT_NE(run.out.find("skipping rtw: needs the geometryShader feature"), std::string::npos) << args << "\n" << run.out;
+    fs::remove_all(out);
+  }
   CliRun bad = cli("render --width 16 --height 16 --out " + out.string(), "CONESHADOW_HIDE_FEATURES=warp-drive ");
   EXPECT_EQ(bad.code, 1) << bad.out;
   EXPECT_NE(bad.out.find("CONESHADOW_HIDE_FEATURES names 'warp-drive'"), std::string::npos) << bad.out;
