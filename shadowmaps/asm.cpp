@@ -195,7 +195,8 @@ class AdaptiveShadowMap : public ShadowMethod {
     tree_ = AsmTree(slots, c, o_.maxDepth);
     capacity_ = 16;
     while (capacity_ < 2 * slots) capacity_ *= 2;
-    kernel_ = vk::createKernel(ctx, "asm_frame", spv_asm_frame_comp, 10, sizeof(sm::AsmPush));
+    kernel_ = vk::createKernel(ctx, "asm_frame", spv_asm_frame_comp, 11, sizeof(sm::AsmPush));
+    windowBuf_ = vk::createBuffer(ctx, sizeof(windows_), vk::Memory::HostVisible);
     pool_ = vk::createBuffer(ctx, poolBytes);
     idPool_ = vk::createBuffer(ctx, o_.idTest ? poolBytes : 16);  // unread without the ID test
     noTriangles_ = vk::createBuffer(ctx, 16);
@@ -229,6 +230,7 @@ class AdaptiveShadowMap : public ShadowMethod {
     if (uploadMs > 0 || frame.light != light_ || !rootsRendered_) {  // the tree no longer holds this scene
       tree_.reset();
       light_ = frame.light;
+      fitFaces(frame.light);
       frame_ = 0;
       rootsRendered_ = false;
       ++flushes_;
@@ -294,7 +296,8 @@ class AdaptiveShadowMap : public ShadowMethod {
       cmd.barrier();
       push.mode = ASM_MODE_ANALYSE;
       if (pixels)
-        cmd.dispatch(kernel_, {g.position, g.normal, pool_, hash_, benefit_, used_, visibility_, counters_, idPool_, gTriangle},
+        cmd.dispatch(kernel_, {g.position, g.normal, pool_, hash_, benefit_, used_, visibility_, counters_, idPool_, gTriangle,
+                      windowBuf_},
                      push, grid.x, grid.y);
       cmd.barrier();
       readback_.record(cmd);
@@ -334,7 +337,8 @@ class AdaptiveShadowMap : public ShadowMethod {
       cmd.mark("nodes");
       push.mode = ASM_MODE_LOOKUP;
       if (pixels)
-        cmd.dispatch(kernel_, {g.position, g.normal, pool_, hash_, benefit_, used_, visibility_, counters_, idPool_, gTriangle},
+        cmd.dispatch(kernel_, {g.position, g.normal, pool_, hash_, benefit_, used_, visibility_, counters_, idPool_, gTriangle,
+                      windowBuf_},
                      push, grid.x, grid.y);
       cmd.barrier();
       cmd.mark("lookup");
@@ -364,6 +368,8 @@ class AdaptiveShadowMap : public ShadowMethod {
                  {"cells", c},
                  {"max_depth", o_.maxDepth},
                  {"deepest", deepest},
+                 {"face_zoom", nlohmann::json::array({windows_[0].z, windows_[1].z, windows_[2].z, windows_[3].z,
+                                                      windows_[4].z, windows_[5].z})},
                  {"effective_resolution", double(n) * std::pow(double(c), double(deepest))},
                  {"nodes_resident", tree_.resident()},
                  {"nodes_created", ref.created.size()},
@@ -404,13 +410,37 @@ class AdaptiveShadowMap : public ShadowMethod {
   }
 
  private:
+  // Each face's tree over the window of the face the scene's bounds cover (fitWindows, as RMSM's): the
+  // roots start at the scene's own footprint instead of the whole face, which a far light's scene covers
+  // a sliver of. A face's deepest level keeps its finest texel at least 2^-21 of the face, as
+  // asmMaxDepth does for unfitted faces: N C^D zoom <= 2^21 (fp32 face coordinates, a texel's quarter).
+  void fitFaces(glm::vec3 light) {
+    const uint32_t n = o_.nodeResolution;
+    if (o_.fitFaces) {
+      windows_ = sm::fitWindows(light, pass_.boundsLo(), pass_.boundsHi(), n, 2 * n);
+    } else {
+      windows_.fill(glm::vec4(0, 0, 1, 0));
+    }
+    for (glm::vec4& w : windows_) {
+      uint32_t depth = 0;
+      double res = double(n) * double(w.z);
+      while (depth < o_.maxDepth && res * o_.cells <= double(1u << 21)) res *= o_.cells, ++depth;
+      w.w = float(depth);
+    }
+    vk::upload(ctx_, windowBuf_, windows_.data(), sizeof(windows_));
+  }
+
   // Each node (key, slot): its window of the face at its depth's resolution, N + 1 texels a side (the
-  // apron), copied into its pool slot.
+  // apron), copied into its pool slot. A fitted face's level covers its window: the face's texels are
+  // zoom times as many, the window's first texel at s0, t0.
   void recordNodes(vk::Commands& cmd, const std::vector<std::pair<uint32_t, uint32_t>>& nodes, glm::vec3 light, float eps) {
     const uint32_t n = o_.nodeResolution;
     for (const auto& [key, slot] : nodes) {
-      const double res = double(n) * std::pow(double(o_.cells), double(sm::keyLevel(key)));
-      pass_.recordWindow(cmd, sm::keyFace(key), res, sm::keyPageX(key) * n, sm::keyPageY(key) * n, n + 1, n + 1, light, eps);
+      const uint32_t face = sm::keyFace(key);
+      const glm::vec4 w = windows_[face];
+      const double faceRes = double(n) * std::pow(double(o_.cells), double(sm::keyLevel(key))) * double(w.z);
+      pass_.recordWindow(cmd, face, faceRes, uint32_t(std::llround(double(w.x) * faceRes)) + sm::keyPageX(key) * n,
+                         uint32_t(std::llround(double(w.y) * faceRes)) + sm::keyPageY(key) * n, n + 1, n + 1, light, eps);
       VkBufferImageCopy region{};
       region.bufferOffset = uint64_t(slot) * sm::asmSlotStride(n) * 4;
       region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
@@ -477,6 +507,9 @@ class AdaptiveShadowMap : public ShadowMethod {
   vk::Buffer visibility_;
   glm::vec3 light_{NAN};
   bool rootsRendered_ = false;
+  // Per face (s0, t0, zoom, deepest level): the window the face's tree covers (fitFaces), in windowBuf_.
+  std::array<glm::vec4, 6> windows_;
+  vk::Buffer windowBuf_;
   uint64_t frame_ = 0, created_ = 0, flushes_ = 0;
   double costA_ = -1, costB_ = 0;
 };

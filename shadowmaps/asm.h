@@ -45,6 +45,7 @@ struct AsmOptions {
   bool pcf = true;
   bool planeBias = false;
   bool cull = true;                // per-node frustum culling (depth_pass.h); the same result
+  bool fitFaces = true;            // each face's tree over the window of it the scene's bounds cover (fitWindows)
   // §4.2's ID + depth test (--asm-id-test): every node also stores, per texel, the triangle nearest the
   // light, and a tap whose triangle is the sample's own is lit; other taps take the depth comparison.
   // Doubles a node's bytes ((N + 1)² · 8); needs triangle IDs in the G-buffer and the depth pass (the

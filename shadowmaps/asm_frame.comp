@@ -17,7 +17,8 @@
 //           and cell, C² per slot), 5 = used (uint per slot), 6 = visibility (float per pixel),
 //           7 = counters (uint[4]: analysed, straddling, coarser than the pixel, benefit given),
 //           8 = ID pool (uint per texel, the pool's layout; read with pc.idTest), 9 = triangle (uint per
-//           pixel, the G-buffer's; read with pc.idTest)
+//           pixel, the G-buffer's; read with pc.idTest), 10 = windows (vec4 per face: s0, t0, zoom, the
+//           face's deepest level)
 #include "shadowmaps/asm_shared.h"
 layout(local_size_x = ASM_THREADS) in;
 layout(std430, binding = 0) readonly buffer Position { vec4 position[]; };
@@ -30,6 +31,7 @@ layout(std430, binding = 6) writeonly buffer Visibility { float visibility[]; };
 layout(std430, binding = 7) buffer Counters { uint counters[]; };
 layout(std430, binding = 8) readonly buffer IdPool { uint idPool[]; };
 layout(std430, binding = 9) readonly buffer Triangle { uint triangle[]; };
+layout(std430, binding = 10) readonly buffer Windows { vec4 windows[]; };
 layout(push_constant) uniform Push { AsmPush pc; };
 
 uint findSlot(uint key) {
@@ -60,7 +62,12 @@ void main() {
   uint face = cubeFace(d);
   vec3 dF = faceSpace(face, d);
   vec3 nF = faceSpace(face, nl.xyz);
-  vec2 st = faceST(dF);
+  // The face's fitted window (depth_pass.h fitWindows: s0, t0, zoom, and here the face's deepest level):
+  // the tree's coordinates are the window's; `zoom` turns its texels into the face's.
+  vec4 w = windows[face];
+  vec2 st = windowST(faceST(dF), w);
+  float zoom = w.z;
+  uint maxDepth = min(pc.maxDepth, uint(w.w));
 
   // The walk: the finest resident node holding the footprint.
   uint N = pc.nodeRes;
@@ -68,7 +75,7 @@ void main() {
   float res = 0.0, levelRes = float(N);
   uvec2 node = uvec2(0u), base = uvec2(0u);
   vec2 frac = vec2(0.0);
-  for (uint L = 0u; L <= pc.maxDepth; ++L) {
+  for (uint L = 0u; L <= maxDepth; ++L) {
     vec2 x = footprintCoord(st, levelRes);
     vec2 b = footprintBase(x, levelRes);
     uvec2 n = uvec2(b) / N;
@@ -91,14 +98,15 @@ void main() {
   uint stride = N + 1u;
   uint origin = slot * asmSlotStride(N);
   uvec2 local = base - node * N;
-  float reach = dist - slopeScaledBias(dist, cosTheta, 2.0f / res, pc.constantBias, pc.slopeBias, pc.maxSlope);
-  float slack = 0.25 * dist * 2.0f / res;
+  float faceRes = res * zoom;  // the level's texels across the whole face
+  float reach = dist - slopeScaledBias(dist, cosTheta, 2.0f / faceRes, pc.constantBias, pc.slopeBias, pc.maxSlope);
+  float slack = 0.25 * dist * 2.0f / faceRes;
   uint ownTriangle = pc.idTest != 0u ? triangle[i] : CS_NO_TRIANGLE;
   float l[4];
   for (uint k = 0u; k < 4u; ++k) {
     uvec2 tap = local + uvec2(k & 1u, k >> 1u);
     float r = pc.planeBias != 0u
-                  ? planeReach(dF, nF, 2.0 * (vec2(base + uvec2(k & 1u, k >> 1u)) + 0.5) / res - 1.0, reach,
+                  ? planeReach(dF, nF, 2.0 * (vec2(w.x, w.y) + (vec2(base + uvec2(k & 1u, k >> 1u)) + 0.5) / faceRes) - 1.0, reach,
                                pc.constantBias, slack)
                   : reach;
     uint t = origin + tap.y * stride + tap.x;
@@ -122,10 +130,10 @@ void main() {
   vec3 toEye = pc.eye.xyz - p.xyz;
   float eyeDistance = length(toEye);
   float cosView = eyeDistance > 0.0 ? abs(dot(nl.xyz, toEye)) / eyeDistance : 1.0;
-  bool coarser = asmTexelArea(res, dist, dist / dF.z, cosTheta) > asmPixelArea(pc.eye.w, eyeDistance, cosView);
+  bool coarser = asmTexelArea(faceRes, dist, dist / dF.z, cosTheta) > asmPixelArea(pc.eye.w, eyeDistance, cosView);
   if (straddles) atomicAdd(counters[1], 1u);
   if (coarser) atomicAdd(counters[2], 1u);
-  if (!straddles || !coarser || depth >= pc.maxDepth) return;
+  if (!straddles || !coarser || depth >= maxDepth) return;
   // The child holding the footprint at the next depth; a footprint whose child belongs to the
   // neighbouring node (its base moved across the node's edge) counts for this node's nearest cell.
   float childRes = res * float(pc.cells);

@@ -8,6 +8,7 @@
 // and every level; fp32 distance keeps 24 bits of relative precision at any range, where a
 // perspective depth would spend them near the light.
 #pragma once
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -32,6 +33,13 @@ glm::mat4 windowClip(uint32_t face, double res, double x0, double y0, double w, 
 // through the light and the near plane) — the culling paper 000 §4.4 leaves as future work. Host work is
 // per cluster and per pass, never per sample or per triangle.
 inline constexpr uint32_t kClusterTriangles = 64;
+
+// A shadow-map quadtree's fitted faces (RMSM, ASM): per face (s0, t0, zoom, 0), the window of the face
+// that what the box [lo, hi] projects to fits in -- zoom a power of two, s0 and t0 multiples of
+// 1 / (page * zoom), so every level's window starts on a whole texel; (0, 0, 1, 0), the whole face, when
+// the box reaches the face's apex plane (a light inside or beside it). zoom * maxRes <= 2^22: (s, t) are
+// fp32, a quarter texel at the finest level. Lookups map face (s, t) to window (s, t) with windowST.
+std::array<glm::vec4, 6> fitWindows(glm::vec3 light, glm::vec3 lo, glm::vec3 hi, uint32_t page, uint32_t maxRes);
 
 class DepthPass {
  public:

@@ -219,42 +219,6 @@ struct PagePlan {
   uint32_t squares = 0;          // aligned superpages touched: the paper's superpage count (Fig. 11)
 };
 
-// RMSM's fitted faces (rmsm.h): per face (s0, t0, zoom, 0), the window of the face the quadtree covers --
-// the square of side 1 / zoom holding what the scene's bounding box [lo, hi] projects to; zoom a power of
-// two, s0 and t0 multiples of 1 / (page * zoom) so that every level's window starts on a whole texel. The
-// whole face (0, 0, 1, 0) when the box reaches the face's apex plane (a light inside or beside it). zoom *
-// maxRes stays <= 2^22: (s, t) are fp32 (2^-24 of 1), a quarter texel at the finest level.
-std::array<glm::vec4, 6> fitWindows(glm::vec3 light, glm::vec3 lo, glm::vec3 hi, uint32_t page, uint32_t maxRes) {
-  std::array<glm::vec4, 6> w;
-  w.fill(glm::vec4(0, 0, 1, 0));
-  if (!(lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z)) return w;
-  const double maxZoom = std::max(1.0, std::ldexp(1.0, 22) / double(maxRes));
-  for (uint32_t face = 0; face < 6; ++face) {
-    double s0 = INFINITY, s1 = -INFINITY, t0 = INFINITY, t1 = -INFINITY;
-    bool whole = false;
-    for (int k = 0; k < 8 && !whole; ++k) {
-      const glm::dvec3 d = glm::dvec3((k & 1) ? hi.x : lo.x, (k & 2) ? hi.y : lo.y, (k & 4) ? hi.z : lo.z) -
-                           glm::dvec3(light);
-      const uint32_t axis = face >> 1;
-      glm::dvec3 f = axis == 0 ? glm::dvec3(d.y, d.z, d.x) : (axis == 1 ? glm::dvec3(d.z, d.x, d.y) : d);
-      if (face & 1) f.z = -f.z;
-      if (!(f.z > 1e-6 * (std::abs(f.x) + std::abs(f.y)))) whole = true;
-      const double s = 0.5 + 0.5 * f.x / f.z, t = 0.5 + 0.5 * f.y / f.z;
-      s0 = std::min(s0, s), s1 = std::max(s1, s), t0 = std::min(t0, t), t1 = std::max(t1, t);
-    }
-    if (whole) continue;
-    s0 = std::max(s0, 0.0), t0 = std::max(t0, 0.0), s1 = std::min(s1, 1.0), t1 = std::min(t1, 1.0);
-    if (!(s0 < s1 && t0 < t1)) continue;
-    const double span = std::max(s1 - s0, t1 - t0);
-    double zoom = 1;
-    while (zoom * 2 <= maxZoom && span * zoom * 2 * (1.0 + 2.0 / page) <= 1.0) zoom *= 2;
-    if (zoom == 1) continue;
-    const double grid = double(page) * zoom;
-    w[face] = glm::vec4(float(std::floor(s0 * grid) / grid), float(std::floor(t0 * grid) / grid), float(zoom), 0.0f);
-  }
-  return w;
-}
-
 }  // namespace
 
 struct Rmsm::State {
@@ -433,7 +397,7 @@ struct Rmsm::State {
   // Each face fitted to what it can see of the scene (fitWindows), before anything asks for a page.
   void fitFaces(glm::vec3 light) {
     if (opt.fitFaces) {
-      windows = fitWindows(light, pass.boundsLo(), pass.boundsHi(), layout.pageSize, opt.maxResolution);
+      windows = sm::fitWindows(light, pass.boundsLo(), pass.boundsHi(), layout.pageSize, opt.maxResolution);
     } else {
       windows.fill(glm::vec4(0, 0, 1, 0));
     }

@@ -74,7 +74,7 @@ struct RmsmOptions {
   uint32_t superpageSize = 1024;      // texels a superpage side (power of two, >= pageSize)
   bool cached = false;                // --rmsm-cached: keep pages across frames (static scenes)
   bool fitFaces = true;               // each face's quadtree over the window of it the scene's bounds cover
-                                      //   (rmsm.cpp fitWindows; the whole face with the light among them)
+                                      //   (depth_pass.h fitWindows; the whole face with the light among them)
   float minOccupancy = 0.5f;          // split a superpage's box while its pages fill less (binSuperpages)
   bool cull = true;                   // per-superpage frustum culling of triangle clusters (depth_pass.h)
   uint32_t analysisStep = 1;          // --rmsm-analysis: pages requested by every k-th pixel in x and y

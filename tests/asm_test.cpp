@@ -213,7 +213,9 @@ TEST(Asm, ConvergesBelowTheCubeMapsErrorOnAZoomedViewInLessMemory) {
     co.fitFaces = false;
     const MethodOutput cube = makeCubeShadowMap(test::context(), co)->run(f.input());
     const ErrorStats ec = f.compare(cube.visibility);
-    auto m = makeAdaptiveShadowMap(test::context(), AsmOptions{});
+    AsmOptions o;
+    o.fitFaces = false;  // the whole faces: refinement alone must find the view's edges
+    auto m = makeAdaptiveShadowMap(test::context(), o);
     std::vector<double> err;
     MethodOutput out;
     for (int k = 0; k < 6; ++k) {
@@ -232,6 +234,34 @@ TEST(Asm, ConvergesBelowTheCubeMapsErrorOnAZoomedViewInLessMemory) {
     EXPECT_LT(err.back(), ec.misclassifiedFraction) << f.scene.name;
     EXPECT_LT(out.stats["pool_bytes"].get<uint64_t>(), cube.stats["face_bytes"].get<uint64_t>());
     EXPECT_GE(out.stats["deepest"].get<int>(), 2) << f.scene.name;
+  }
+}
+
+// A far light (as CubeSm/Rmsm.FittedFacesKeepAFarLightsErrorToTheirResolution): the square-above-plane
+// scene from 10^2 to 10^4 diagonals sees the scene through a sliver of one face. Fitted faces (the
+// default) start that face's tree at the scene's own window; the whole face spends its depth reaching
+// the scene and, past 10^3 diagonals, cannot resolve the square's shadow at any depth fp32 allows.
+TEST(Asm, FittedFacesKeepAFarLightsShadows) {
+  for (float k : {1e2f, 1e3f, 1e4f}) {
+    Frame f = renderFrame(squareAbovePlane(), squareCamera(), farSquareLight(k), 128, 96);
+    size_t shadowed = 0;
+    for (size_t i = 0; i < f.host.size(); ++i) shadowed += f.host.isLit(i) && f.reference[i] < 0.5f;
+    ASSERT_GT(shadowed, 500u) << k << " diagonals: the view must hold the square's shadow";
+    double error[2] = {};
+    for (bool fit : {false, true}) {
+      AsmOptions o;
+      o.fitFaces = fit;
+      auto m = makeAdaptiveShadowMap(test::context(), o);
+      MethodOutput out;
+      for (int frame = 0; frame < 4; ++frame) out = m->run(f.input());
+      error[fit] = f.compare(out.visibility).misclassifiedFraction;
+    }
+    std::printf("far light %g diagonals: asm misclassified after 4 frames fitted %.5f, whole faces %.5f\n", k, error[1],
+                error[0]);
+    EXPECT_LT(error[1], 0.01) << k << " diagonals";
+    if (k >= 1e3f) {
+      EXPECT_GT(error[0], 2 * error[1]) << k << " diagonals";
+    }
   }
 }
 

@@ -38,6 +38,13 @@ inline Scene squareAbovePlane() {
 }
 inline const glm::vec3 kSquareLight(0.35f, 3.0f, 0.25f);
 
+// The square-above-plane scene's light moved out along its own direction to k scene diagonals.
+inline glm::vec3 farSquareLight(float k) {
+  Scene scene = squareAbovePlane();
+  const glm::vec3 c = 0.5f * (scene.boundsMin + scene.boundsMax);
+  return c + k * glm::length(scene.boundsMax - scene.boundsMin) * glm::normalize(kSquareLight - c);
+}
+
 inline Camera squareCamera() {
   Camera c;
   c.eye = {2.5f, 4.0f, 4.5f};

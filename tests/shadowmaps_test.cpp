@@ -98,13 +98,6 @@ TEST(CubeSm, ErrorAgainstEmbreeIsSmallAndShrinksWithResolution) {
   EXPECT_LT(err[0], 0.01) << "64² faces";
 }
 
-// The square-above-plane scene's light moved out along its own direction to k scene diagonals.
-glm::vec3 farSquareLight(float k) {
-  Scene scene = squareAbovePlane();
-  const glm::vec3 c = 0.5f * (scene.boundsMin + scene.boundsMax);
-  return c + k * glm::length(scene.boundsMax - scene.boundsMin) * glm::normalize(kSquareLight - c);
-}
-
 // A fitted shadow map's misclassified fraction on the frame and the largest zoom of its faces.
 std::pair<double, double> errorAndZoom(Frame& f, ShadowMethod& m) {
   MethodOutput out = m.run(f.input());

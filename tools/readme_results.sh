@@ -18,8 +18,10 @@
 # Environment: SIZE (default 1024) and SMALL (512), the frame bench's sizes; FRAMES (default 3); OUT
 # (default build/readme-results); README (default README.md) and IMG (default docs/img); SKIP_BUILD=1
 # to use the current build/ as is; BUILD (default build) to run another build's binaries while this one
-# changes; QUICK=1 (a check of the script: the scale bench on one small field). About 20 minutes on
-# 2 CPU cores with lavapipe.
+# changes; QUICK=1 (a check of the script: the scale bench on one small field); ONLY=far,sort (a comma
+# list of run names: frames (the results and host-cost sections), variants, sort, access, dynamic,
+# scaling, scale, far) reruns those alone and leaves the other sections as they are. About 20 minutes
+# on 2 CPU cores with lavapipe for everything.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -46,10 +48,14 @@ for name in results host-cost variants sort access dynamic scaling scale far; do
     echo "readme_results: $README lacks the <!-- $name:begin --> / <!-- $name:end --> lines" >&2; exit 1; }
 done
 
+# want NAME: whether this run of the script reruns NAME (ONLY unset: every one).
+want() { [ -z "${ONLY:-}" ] || [[ ",$ONLY," == *",$1,"* ]]; }
+
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 mkdir -p "$OUT"
 date=$(date -u +%Y-%m-%d)
+rev=$(git rev-parse --short HEAD 2>/dev/null || echo "no git revision")
 device=unknown
 
 # run NAME COMMAND...: runs it, keeps its output in $work/NAME.out and the command line in $work/NAME.cmd.
@@ -69,7 +75,7 @@ section() {
   local name=$1
   {
     echo "<!-- $name:begin -->"
-    echo "Run on $date by \`tools/readme_results.sh\` (SIZE=$SIZE SMALL=$SMALL FRAMES=$FRAMES), device \`$device\`; command(s):"
+    echo "Run on $date at \`$rev\` by \`tools/readme_results.sh\` (SIZE=$SIZE SMALL=$SMALL FRAMES=$FRAMES${ONLY:+ ONLY=$ONLY}), device \`$device\`; command(s):"
     echo
     echo '```'
     cat "$work/$name.cmd"
@@ -81,6 +87,7 @@ section() {
 }
 
 # ---- the frames: every method and setting per view, at 512² and SIZE² ----------------------------
+if want frames; then
 run frames "$BUILD/bench/frame_bench" --sizes "$SMALL,$SIZE" --frames "$FRAMES" --scenes builtin,engine,museum \
   --out "$OUT/frames"
 device=$(sed -n 's/^device: //p' "$work/frames.out" | head -1)
@@ -94,17 +101,25 @@ mkdir -p "$IMG"
 cp "$OUT/frames/builtin_$SIZE/speed_vs_error.png" "$IMG"/speed_vs_error_builtin.png
 cp "$OUT/frames/museum_$SIZE/speed_vs_error.png" "$IMG"/speed_vs_error_museum.png
 cp "$OUT/frames/builtin_$SIZE/error_vs_bytes.png" "$IMG"/error_vs_bytes_builtin.png
+fi
 
 # ---- the other benchmarks -------------------------------------------------------------------------
-run variants "$BUILD/bench/variants_bench" --size "$SIZE" --frames "$FRAMES" --scenes builtin,engine,museum
-grep -v '^device:' "$work/variants.out" | section variants
+if want variants; then
+  run variants "$BUILD/bench/variants_bench" --size "$SIZE" --frames "$FRAMES" --scenes builtin,engine,museum
+  grep -v '^device:' "$work/variants.out" | section variants
+fi
 
-run sort "$BUILD/bench/sort_bench" --runs 9
-{ echo '```'; grep -v '^device:' "$work/sort.out"; echo '```'; } | section sort
+if want sort; then
+  run sort "$BUILD/bench/sort_bench" --runs 9
+  { echo '```'; grep -v '^device:' "$work/sort.out"; echo '```'; } | section sort
+fi
 
-run access "$BUILD/bench/access_bench" --runs 7
-grep -v '^device:' "$work/access.out" | section access
+if want access; then
+  run access "$BUILD/bench/access_bench" --runs 7
+  grep -v '^device:' "$work/access.out" | section access
+fi
 
+if want dynamic; then
 run dynamic "$CLI" compare --animate 8 --width 256 --height 256 --methods embree,cone,rmsm --out "$OUT/dynamic-builtin" --quiet
 run dynamic "$CLI" compare "$ENGINE" --animate 8 --moving-camera --width 256 --height 256 --methods embree,cone,rmsm \
   --out "$OUT/dynamic-engine" --quiet
@@ -114,30 +129,41 @@ for d in builtin engine museum; do
   echo; echo "**$(head -1 "$OUT/dynamic-$d/dynamic.md" | sed 's/^# coneshadow compare --animate: //')**"
   tables "$OUT/dynamic-$d/dynamic.md" | sed 's/^\*\*\(.*\)\*\*$/*\1*/'
 done | section dynamic
+fi
 
-run scaling "$CLI" compare --scaling --views wall --frames "$FRAMES" --out "$OUT/scaling" --quiet
-tables "$OUT/scaling/scaling.md" | section scaling
-cp "$OUT/scaling/scaling_triangles.png" "$IMG"/scaling_triangles.png
-cp "$OUT/scaling/scaling_resolution.png" "$IMG"/scaling_resolution.png
+if want scaling; then
+  run scaling "$CLI" compare --scaling --views wall --frames "$FRAMES" --out "$OUT/scaling" --quiet
+  tables "$OUT/scaling/scaling.md" | section scaling
+  cp "$OUT/scaling/scaling_triangles.png" "$IMG"/scaling_triangles.png
+  cp "$OUT/scaling/scaling_resolution.png" "$IMG"/scaling_resolution.png
+fi
 
-if [ "${QUICK:-0}" = 1 ]; then  # a check of this script, not a result: one small field
+if ! want scale; then
+  :
+elif [ "${QUICK:-0}" = 1 ]; then  # a check of this script, not a result: one small field
   run scale "$BUILD/bench/scale_bench" --sizes "$SMALL,$SIZE" --frames 1 --memory-budget 1G --scenes heightfield:100k
 else
   run scale "$BUILD/bench/scale_bench" --sizes "$SMALL,$SIZE" --frames 1 --memory-budget 1G
 fi
-{ echo '```'; grep -v '^device:' "$work/scale.out"; echo '```'; } | section scale
+if want scale; then
+  { echo '```'; grep -v '^device:' "$work/scale.out"; echo '```'; } | section scale
+fi
 
-run far "$CLI" compare "$ENGINE" --light-distances 1,10,100,1000,10000,100000 --width 256 --height 256 \
-  --frames "$FRAMES" --out "$OUT/far" --quiet
-tables "$OUT/far/light_distances.md" | section far
-cp "$OUT/far/light_distances.png" "$IMG"/light_distances_engine.png
+if want far; then
+  run far "$CLI" compare "$ENGINE" --light-distances 1,10,100,1000,10000,100000 --width 256 --height 256 \
+    --frames "$FRAMES" --out "$OUT/far" --quiet
+  [ "$device" != unknown ] || device=$(sed -n 's/^device: //p' "$OUT/far/light_distances.md" | head -1)
+  tables "$OUT/far/light_distances.md" | section far
+  cp "$OUT/far/light_distances.png" "$IMG"/light_distances_engine.png
+fi
 
 # ---- every section into the README at once --------------------------------------------------------
 awk -v dir="$work" '
   /^<!-- [a-z-]+:begin -->$/ { name = $2; sub(/:begin$/, "", name); file = dir "/" name ".section"
-                               while ((getline line < file) > 0) print line; skip = 1; next }
+                               if ((getline line < file) <= 0) { print; next }  # not rerun (ONLY): kept
+                               print line; while ((getline line < file) > 0) print line; skip = 1; next }
   /^<!-- [a-z-]+:end -->$/ { skip = 0; next }
   !skip { print }
 ' "$README" > "$work/readme"
 mv "$work/readme" "$README"
-echo "readme_results: every results section of $README rewritten ($date, $device)"
+echo "readme_results: ${ONLY:-every} results section(s) of $README rewritten ($date, $device)"
