@@ -162,7 +162,7 @@ awk -v dir="$work" '
   /^<!-- [a-z-]+:begin -->$/ { name = $2; sub(/:begin$/, "", name); file = dir "/" name ".section"
                                if ((getline line < file) <= 0) { print; next }  # not rerun (ONLY): kept
                                print line; while ((getline line < file) > 0) print line; skip = 1; next }
-  /^<!-- [a-z-]+:end -->$/ { skip = 0; next }
+  /^<!-- [a-z-]+:end -->$/ { if (!skip) print; skip = 0; next }  # a kept section keeps its end line
   !skip { print }
 ' "$README" > "$work/readme"
 mv "$work/readme" "$README"
