@@ -114,8 +114,8 @@ TEST(DeviceScene, TheCameraPassCopyIsUploadedOncePerRevisionAndSharedByTheShadow
   EXPECT_NE(moved->input.revision, frame->input.revision);
 }
 
-// The one policy at the device copy: a triangle with a non-finite vertex draws nothing in the camera
-// pass, exactly as if it were absent.
+// The one policy at the device copy: a triangle with a non-finite vertex is written as (0, 0, 0), the
+// others as they are, and the camera pass draws the same G-buffer as without it.
 TEST(DeviceScene, ATriangleWithANonFiniteVertexDrawsNothing) {
   auto& ctx = test::context();
   Scene scene = builtinScene();
@@ -135,6 +135,12 @@ TEST(DeviceScene, ATriangleWithANonFiniteVertexDrawsNothing) {
   poisoned.indices.insert(poisoned.indices.end(), {v, v + 1, v + 2});
   raster.setGeometry(poisoned);
   EXPECT_EQ(raster.deviceScene().check.droppedTriangles, 1u);
+  const std::vector<uint32_t> uploaded =
+      vk::download<uint32_t>(ctx, raster.deviceScene().indices, poisoned.indices.size());
+  const size_t last = poisoned.indices.size() - 3;
+  EXPECT_EQ(std::vector<uint32_t>(uploaded.begin(), uploaded.begin() + last),
+            std::vector<uint32_t>(poisoned.indices.begin(), poisoned.indices.begin() + last));
+  EXPECT_EQ(std::vector<uint32_t>(uploaded.begin() + last, uploaded.end()), std::vector<uint32_t>(3, 0u));
   raster.render(camera, light, 48, 40, dev, &after);
   EXPECT_EQ(before.position, after.position);
   EXPECT_EQ(before.normal, after.normal);
