@@ -514,6 +514,7 @@ std::vector<std::string> dropUnsupported(std::vector<CompareSetting>& settings, 
                                          const Options& o, std::ostream& log) {
   std::vector<std::string> skipped;
   std::vector<CompareSetting> kept;
+  std::map<const MethodInfo*, std::string> reason;  // each method's first skipped point
   for (CompareSetting& s : settings) {
     const std::string why = unsupportedOn(*s.method, ctx, s.settings);
     if (why.empty()) {
@@ -521,6 +522,7 @@ std::vector<std::string> dropUnsupported(std::vector<CompareSetting>& settings, 
       continue;
     }
     skipped.push_back(s.label + ": " + why);
+    reason.emplace(s.method, skipped.back());
     log << "skipping " << s.label << ": " << why << std::endl;
   }
   if (!o.methods.empty())
@@ -528,7 +530,7 @@ std::vector<std::string> dropUnsupported(std::vector<CompareSetting>& settings, 
       const bool any = std::any_of(kept.begin(), kept.end(), [&](const CompareSetting& s) { return s.method == m; });
       if (!any)
         throw Error("compare: no setting of " + m->name + " runs on this device (" +
-                        (skipped.empty() ? std::string("none") : skipped.back()) + ")",
+                        (reason.count(m) ? reason[m] : std::string("it has none")) + ")",
                     ctx.deviceName(), "choose another --device, or leave " + m->name + " out of --methods");
     }
   settings = std::move(kept);
