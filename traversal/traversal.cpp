@@ -400,7 +400,7 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
   base.triangleEnd = in.firstTriangle + in.triangleCount;
 
   auto advance = [&](uint32_t step, uint32_t triangles) {
-    AdvancePush a{step, triangles, capacity, ctx_.maxWorkgroups(), clusters ? 1u : 0u, 0, 0, 0};
+    AdvancePush a{step, triangles, capacity, ctx_.maxWorkgroups(), clusters ? 1u : 0u, in.triangleCount, 0, 0};
     cmd.dispatch(advance_, {shape, state_}, a, 1);
     cmd.barrier();
   };
@@ -467,9 +467,15 @@ void Traversal::learnBatch(const uint32_t* w, const TraversalStats& frame, uint6
   } else if (overflowed(w)) {
     // The most pairs any depth held per triangle over the whole frame: a batch of b triangles holds about
     // b times that at its worst depth; aim at half the capacity (the triangles are not all alike).
+    // An expansion's inputs (CLUSTER_SIZE per expanded cluster pair) must fit as well: the GPU's count of
+    // expansions covers the batches that completed and the one that overflowed (the fallback runs without
+    // clusters).
     uint64_t worst = 0;
     for (const PassStats& p : frame.passes) worst = std::max(worst, p.survived);
-    const double perTriangle = double(worst) / double(std::max<uint64_t>(1, triangles));
+    double perTriangle = double(worst) / double(std::max<uint64_t>(1, triangles));
+    const uint64_t expanded = uint64_t(w[STATE_EXPANDED]) | (uint64_t(w[STATE_EXPANDED + 1]) << 32);
+    const uint64_t ran = std::min<uint64_t>(triangles, (uint64_t(batchesDone(w)) + 1) * used);
+    if (ran > 0) perTriangle = std::max(perTriangle, double(expanded) * CLUSTER_SIZE / double(ran));
     const double fit = perTriangle > 0 ? 0.5 * double(capacity) / perTriangle : double(used) / 4;
     batchTriangles_ = uint32_t(std::clamp(fit, 1.0, std::max(1.0, double(used) / 2)));
   } else if (w[STATE_PEAK_PAIRS] < capacity / 8 && used < capacity) {

@@ -98,10 +98,12 @@
 // tested with the sphere test (sphere_test.h: false only when no ray of the cone meets the sphere, so
 // never for a cluster holding a triangle that any ray of the cone hits, tests/traversal_test.cpp
 // ClusterSphere*); the advance kernel expands the surviving cluster pairs into their triangles' pairs
-// at the first step whose clusters kept 2.5 of 4 children on average (the spheres are as wide as the
-// cones: from there on a cluster is no longer culled as a whole) and at the latest one depth above the
-// leaves; the triangle pairs then continue as without clusters. The mask is the same (tested): a
-// triangle's pair is dropped only where its cluster's conservative test, or its own, rejects it.
+// at the first depth with more than 1/EXPAND_NODES_PER_CLUSTER as many nodes as pass 0 kept clusters
+// (scaled from the batch to the record's triangles), where a node covers fewer rays than 16 clusters'
+// share of them and clusters stop being culled as a whole (docs/ARCHITECTURE.md, "Clusters"), and at the
+// latest one depth above the leaves; the triangle pairs then continue as without clusters. The mask is
+// the same (tested): a triangle's pair is dropped only where its cluster's conservative test, or its
+// own, rejects it. An expansion's inputs count against the step's capacity like any pairs (learnBatch).
 //
 // Stats per frame: for each pass (depth), the (triangle, node) pairs tested, the survivors and the chunks;
 // the leaf tests; the submits; the time of the passes ("traversal") and of the leaf tests

@@ -42,6 +42,7 @@
 #define STATE_BATCH_TRIANGLES 230  // the current batch's triangles
 #define STATE_COMMITTED 232    // the totals (STATE_LEAF_MISSING, then STATE_ACC .. STATE_TEST_ARGS) as of the last completed batch
 #define STATE_COMMITTED_WORDS (1 + STATE_TEST_ARGS - STATE_ACC)
+#define STATE_ROOT_CLUSTERS 369  // the clusters pass 0 kept, scaled from the batch to the whole record (the expansion rule)
 #define STATE_WORDS 372
 #define ADVANCE_END_OF_BATCH 0xFFFFFFFFu
 
@@ -55,6 +56,10 @@
 #define STEP_TRIANGLES 0u
 #define STEP_CLUSTERS 1u
 #define STEP_EXPAND 2u
+// The expansion rule's K (traverse_advance.comp): cluster pairs expand at the first depth with more than
+// 1/K as many nodes as pass 0 kept clusters. Measured (bench/scale_bench, K = 4, 8, 16, 32): 8 and 16
+// test the fewest pairs on the height fields, the BART scenes, 2CylinderEngine x8 and the built-in views.
+#define EXPAND_NODES_PER_CLUSTER 16u
 
 // TraversePush::test: the cone/triangle test of the passes (cone_method.h, ConeOptions::test).
 #define TRAVERSE_TEST_PRECISE 0u  // precise_test.h (002 §3.2)
@@ -103,7 +108,8 @@ struct AdvancePush {
   uint capacity;      // pairs a step may write (its output buffer and the next step's scratch)
   uint maxPerDim;     // workgroups per grid dimension
   uint clusters;      // step 0: 1 = the batch starts as (cluster, root) tests when the tree is deep enough
-  uint pad0, pad1, pad2;
+  uint frameTriangles;  // the triangles of the whole record() the batch is one of (the expansion rule's scale)
+  uint pad1, pad2;
 };
 
 // frame_triangles.comp: the triangles' vertices relative to the light in the far-light frame.

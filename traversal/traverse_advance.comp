@@ -1,5 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 // The device path's bookkeeping between two steps (one invocation; traversal.h, "One submission"). Step c
 // expands the pairs of depth c - 1 into depth c (step 0: the batch's triangles into the root); at c = D,
 // the tree's depth, the pairs go to the leaves instead. Before step c this kernel
@@ -73,14 +74,21 @@ void main() {
       state[STATE_PEAK_PAIRS] = max(state[STATE_PEAK_PAIRS], (c == 1u ? 0u : inputs) + min(survivors, p.capacity));
       if (survivors > p.capacity) state[STATE_OVERFLOW] = 1u;
       else n = survivors;
-      // Expansion rule: cluster pairs expand into their triangles once they no longer save work -- their
-      // triangles would be as many pairs as the batch has triangles (every later level would test more
-      // pairs than pass 0 did), or a step kept 2.5 of its 4 children per cluster on average (the clusters'
-      // spheres are as wide as the cones: the next levels would keep nearly every child) -- and at the
-      // latest one depth before the leaves. Triangle pairs stay triangle pairs.
+      // Expansion rule (traversal.h, "Clusters"): cluster pairs go on while the nodes are wide against the
+      // clusters, and expand into their triangles' pairs at the first depth with more than 1/K as many
+      // nodes as the clusters pass 0 kept (scaled from the batch to the whole record: the batches are
+      // contiguous runs of the Morton order, each a part of the scene's footprint) -- there a node covers
+      // fewer rays than K clusters' share of them -- and at the latest one depth above the leaves.
+      // Triangle pairs stay triangle pairs.
       if (was == STEP_CLUSTERS && n > 0u) {
-        bool expand = c + 1u >= depth || (c >= 2u && 2u * survivors >= 5u * inputs) ||
-                      survivors >= ((state[STATE_BATCH_TRIANGLES] + CLUSTER_SIZE - 1u) >> CLUSTER_SHIFT);
+        if (c == 1u) {
+          uint batchClusters = (state[STATE_BATCH_TRIANGLES] + CLUSTER_SIZE - 1u) >> CLUSTER_SHIFT;
+          uint frameClusters = (p.frameTriangles + CLUSTER_SIZE - 1u) >> CLUSTER_SHIFT;
+          state[STATE_ROOT_CLUSTERS] =
+              uint(min(uint64_t(n) * frameClusters / max(batchClusters, 1u), uint64_t(0xFFFFFFFFu)));
+        }
+        bool expand = c + 1u >= depth ||
+                      uint64_t(shape[SHAPE_COUNTS + c]) * EXPAND_NODES_PER_CLUSTER > uint64_t(state[STATE_ROOT_CLUSTERS]);
         mode = expand ? STEP_EXPAND : STEP_CLUSTERS;
         if (expand) {
           add64(STATE_EXPANDED, n);
