@@ -80,8 +80,19 @@ struct ShapePush {
   uint maxLeaves;     // the device count is clamped to this (the host's bound, which sized the node buffer)
   uint countIndex;    // word of the count binding holding the ray count
   uint maxPerDim;     // the device's workgroups per grid dimension (indirect grids stay within it)
-  uint pad0;
+  uint keepWhenZero;  // 1: a count of 0 keeps the shape already there and builds nothing (a rebuild the
+                      // GPU decided against keeps the tree built before it)
 };
+
+// Push constants of conetree/tree_spread.comp.
+struct SpreadPush {
+  uint firstWord;     // the per-depth sums go to words firstWord + 2 d (uint64: lo, hi) of the output
+  uint pad0, pad1, pad2;
+};
+#define CONE_SPREAD_THREADS 64
+#define CONE_SPREAD_SAMPLES 4096  // nodes summed per depth at most (evenly strided), the rest estimated
+#define CONE_SPREAD_UNIT 4294967296.0f  // 2^32: the sums' fixed point (a unit = 2^-32 of 2 pi sr; a depth of
+                                        // 2^27 nodes, 16384^2 rays, sums below 2^60)
 
 // Push constants of conetree/build_level.comp: one dispatch builds one depth of the tree.
 struct BuildPush {
@@ -140,6 +151,7 @@ CS_FN uvec2 leafRange(uint j, uint n, uint depth, uint d) {
 }  // namespace glsl
 using glsl::BuildPush;
 using glsl::ShapePush;
+using glsl::SpreadPush;
 using glsl::ConeFrame;
 using glsl::ConeNode;
 using glsl::childRange;
@@ -150,7 +162,7 @@ using glsl::levelOffset;
 using glsl::treeDepth;
 static_assert(sizeof(ConeNode) == 32 && offsetof(ConeNode, sinLen) == 16, "ConeNode layout");
 static_assert(sizeof(ConeFrame) == 80, "ConeFrame layout");
-static_assert(sizeof(ShapePush) == 16, "ShapePush layout");
+static_assert(sizeof(ShapePush) == 16 && sizeof(SpreadPush) == 16, "ShapePush, SpreadPush layout");
 static_assert(SHAPE_COUNTS + SHAPE_MAX_DEPTH + 1 <= SHAPE_OFFSETS && SHAPE_OFFSETS + SHAPE_MAX_DEPTH + 1 <= SHAPE_BUILD_ARGS &&
                   SHAPE_BUILD_ARGS % 4 == 0 && SHAPE_BUILD_ARGS + 4 * (SHAPE_MAX_DEPTH + 1) <= SHAPE_WORDS,
               "shape words");

@@ -6,6 +6,7 @@
 
 #include "conetree/build_level.comp.h"
 #include "conetree/tree_shape.comp.h"
+#include "conetree/tree_spread.comp.h"
 #include "conetree/cone_math.h"
 #include "core/error.h"
 
@@ -27,6 +28,7 @@ ConeTree::ConeTree(vk::Context& ctx)
     : ctx_(ctx),
       build_(vk::createKernel(ctx, "cone tree build", spv_build_level_comp, 4, sizeof(BuildPush))),
       shapeKernel_(vk::createKernel(ctx, "cone tree shape", spv_tree_shape_comp, 2, sizeof(ShapePush))),
+      spread_(vk::createKernel(ctx, "cone tree spread", spv_tree_spread_comp, 3, sizeof(SpreadPush))),
       shapeWords_(vk::createBuffer(ctx, SHAPE_WORDS * 4, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT)) {}
 
 FrameChoice worldFrame(glm::vec3 light) {
@@ -128,13 +130,13 @@ void ConeTree::record(vk::Commands& cmd, const vk::BufferRange& positions, const
 
 void ConeTree::recordDevice(vk::Commands& cmd, const vk::BufferRange& positions, const vk::BufferRange& samples,
                             const vk::Buffer& countWords, uint32_t countIndex, uint32_t maxCount, glm::vec3 light,
-                            float minLength, const FrameChoice* frame) {
+                            float minLength, const FrameChoice* frame, bool keepWhenZero) {
   CS_CHECK(maxCount >= 1 && maxCount <= kMaxLeaves, "cone tree bound of " << maxCount << " rays (1 .. " << kMaxLeaves << ")");
   const FrameChoice fc = frame ? *frame : worldFrame(light);
   ensureNodes(maxCount);
   maxDepth_ = treeDepth(maxCount);
   CS_CHECK(maxDepth_ <= SHAPE_MAX_DEPTH, "cone tree deeper than " << SHAPE_MAX_DEPTH);
-  ShapePush sp{maxCount, countIndex, ctx_.maxWorkgroups(), 0};
+  ShapePush sp{maxCount, countIndex, ctx_.maxWorkgroups(), keepWhenZero ? 1u : 0u};
   cmd.dispatch(shapeKernel_, {vk::BufferRange(countWords, 0, (VkDeviceSize(countIndex) + 1) * 4), shapeWords_}, sp, 1);
   cmd.barrier();
   for (uint32_t h = 1; h <= maxDepth_; ++h) {
@@ -145,6 +147,14 @@ void ConeTree::recordDevice(vk::Commands& cmd, const vk::BufferRange& positions,
                          (SHAPE_BUILD_ARGS + 4 * h) * 4);
     cmd.barrier();
   }
+}
+
+void ConeTree::recordSpread(vk::Commands& cmd, const vk::Buffer& words, uint32_t firstWord) {
+  CS_CHECK(firstWord % 2 == 0 && (uint64_t(firstWord) + 2 * (SHAPE_MAX_DEPTH + 1)) * 4 <= words.size,
+           "cone tree spread: words " << firstWord << " .. of a " << words.size << "-byte buffer");
+  SpreadPush sp{firstWord, 0, 0, 0};
+  cmd.dispatch(spread_, {nodes_, shapeWords_, words}, sp, std::max(maxDepth_, 1u));  // a workgroup per height
+  cmd.barrier();
 }
 
 void ConeTree::setShape(uint32_t leaves) { shape_ = leaves ? treeShape(leaves) : TreeShape{}; }

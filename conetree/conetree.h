@@ -59,9 +59,16 @@ class ConeTree {
   // every height of the deepest tree maxCount rays can have is an indirect dispatch; nothing is read
   // back, and the node buffer is sized for maxCount rays (so a frame allocates nothing once warm).
   // shape() is not known on the host afterwards: setShape() sets it when the count has been read back.
+  // With keepWhenZero, a device count of 0 builds nothing and leaves the shape and nodes of the build
+  // recorded before (a rebuild the GPU decided against).
   void recordDevice(vk::Commands& cmd, const vk::BufferRange& positions, const vk::BufferRange& samples,
                     const vk::Buffer& countWords, uint32_t countIndex, uint32_t maxCount, glm::vec3 light,
-                    float minLength, const FrameChoice* frame = nullptr);
+                    float minLength, const FrameChoice* frame = nullptr, bool keepWhenZero = false);
+  // After a device build: writes words firstWord + 2 d (uint64, even firstWord) of `words`, for each
+  // depth d of the tree, the sum over its nodes of 1 - cos(half-angle) in CONE_SPREAD_UNIT fixed point,
+  // estimated from CONE_SPREAD_SAMPLES strided nodes on a larger depth (tree_spread.comp). Words of
+  // depths the tree does not have are left as they are.
+  void recordSpread(vk::Commands& cmd, const vk::Buffer& words, uint32_t firstWord);
   // The host's copy of the shape after a device build (`leaves` from shapeBuffer()); 0: no tree.
   void setShape(uint32_t leaves);
   const vk::Buffer& shapeBuffer() const { return shapeWords_; }
@@ -77,7 +84,7 @@ class ConeTree {
   BuildPush basePush(glm::vec3 light, float minLength, const FrameChoice& fc) const;
 
   vk::Context& ctx_;
-  vk::Kernel build_, shapeKernel_;
+  vk::Kernel build_, shapeKernel_, spread_;
   vk::Buffer nodes_, shapeWords_;
   TreeShape shape_;
   uint32_t maxDepth_ = 0;

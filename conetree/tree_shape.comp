@@ -2,7 +2,9 @@
 #extension GL_GOOGLE_include_directive : require
 // The implicit tree's shape from the ray count on the GPU (one invocation): depth, per-depth counts and
 // offsets (cone_layout.h's index maths, the very functions treeShape() calls on the host) and the
-// indirect dispatch of each height's build, so the build and the traversal need no count from the host.
+// indirect dispatch of each height's build (and tree_spread.comp), so the build and the traversal need no
+// count from the host. With keepWhenZero, a count of 0 leaves the shape as it
+// was and dispatches no build: the tree built before stands.
 // bindings: 0 = count words (the ray count at p.countIndex), 1 = shape words (SHAPE_*, written)
 #include "conetree/cone_layout.h"
 
@@ -11,8 +13,21 @@ layout(std430, binding = 0) readonly buffer CountWords { uint countWords[]; };
 layout(std430, binding = 1) writeonly buffer Shape { uint shape[]; };
 layout(push_constant) uniform Push { ShapePush p; };
 
+void writeArgs(uint at, uint items, uint groupSize) {
+  uint groups = (items + groupSize - 1u) / groupSize;
+  uint x = min(groups, p.maxPerDim);
+  shape[at] = x;
+  shape[at + 1u] = x == 0u ? 1u : (groups + x - 1u) / x;
+  shape[at + 2u] = 1u;
+  shape[at + 3u] = items;
+}
+
 void main() {
   uint n = min(countWords[p.countIndex], p.maxLeaves);
+  if (n == 0u && p.keepWhenZero != 0u) {  // keep the tree there is: build nothing
+    for (uint h = 0u; h <= SHAPE_MAX_DEPTH; h++) writeArgs(SHAPE_BUILD_ARGS + 4u * h, 0u, CONE_BUILD_THREADS);
+    return;
+  }
   uint depth = n == 0u ? 0u : treeDepth(n);
   shape[SHAPE_LEAVES] = n;
   shape[SHAPE_DEPTH] = depth;
@@ -22,15 +37,6 @@ void main() {
     shape[SHAPE_COUNTS + d] = d <= depth && depth > 0u ? levelCount(n, depth, d) : 0u;
     shape[SHAPE_OFFSETS + d] = d <= depth && depth > 0u ? levelOffset(n, depth, d) : 0u;
   }
-  for (uint h = 0u; h <= SHAPE_MAX_DEPTH; h++) {
-    uint nodes = h >= 1u && h <= depth ? countAtHeight(n, h) : 0u;
-    uint groups = (nodes + CONE_BUILD_THREADS - 1u) / CONE_BUILD_THREADS;
-    uint x = min(groups, p.maxPerDim);
-    uint y = x == 0u ? 1u : (groups + x - 1u) / x;
-    uint at = SHAPE_BUILD_ARGS + 4u * h;
-    shape[at] = x;
-    shape[at + 1u] = y;
-    shape[at + 2u] = 1u;
-    shape[at + 3u] = nodes;
-  }
+  for (uint h = 0u; h <= SHAPE_MAX_DEPTH; h++)
+    writeArgs(SHAPE_BUILD_ARGS + 4u * h, h >= 1u && h <= depth ? countAtHeight(n, h) : 0u, CONE_BUILD_THREADS);
 }

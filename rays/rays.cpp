@@ -45,7 +45,8 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
       maxPixels_(checkedPixels(ctx, width, height)),
       maxDomain_(std::max(screenDomain(width, height, RayOrder::ScreenMorton).size, uint64_t(maxPixels_))),
       compact_(ctx, uint32_t(maxDomain_)),
-      sort_(ctx, maxPixels_) {
+      sort_(ctx, maxPixels_),
+      groups_(ctx) {
   flags_ = vk::createKernel(ctx, "lit_flags", spv_lit_flags_comp, 4, sizeof(LitPush));
   rayKeys_ = vk::createKernel(ctx, "ray_keys", spv_ray_keys_comp, 4, sizeof(KeysPush));
   flagBuffer_ = vk::createBuffer(ctx, maxDomain_ * 4);
@@ -53,11 +54,12 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
   samples_ = vk::createBuffer(ctx, uint64_t(maxPixels_) * 4);
   keys_ = vk::createBuffer(ctx, uint64_t(maxPixels_) * 4);
   count_ = vk::createBuffer(ctx, 16);
+  keyArgs_ = vk::createBuffer(ctx, 16, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
 }
 
 uint64_t LitRays::bytesAllocated() const {
   return compact_.bytesAllocated() + sort_.bytesAllocated() + flagBuffer_.size + pixelOf_.size + samples_.size +
-         keys_.size + count_.size;
+         keys_.size + count_.size + keyArgs_.size;
 }
 
 void LitRays::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, RayOrder order) {
@@ -93,8 +95,14 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
     countBinding.offset = 0;
     countBinding.range = (VkDeviceSize(count.word.index) + 1) * 4;
   }
-  vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(count.max, PIXEL_THREADS));
-  cmd.dispatch(rayKeys_, {g.position, samples_, keys_, countBinding}, push, grid.x, grid.y);
+  if (count.onDevice()) {  // as many workgroups as the device count needs (none for a count of 0)
+    groups_.record(cmd, count, PIXEL_THREADS, keyArgs_, 0);
+    cmd.barrier();
+    cmd.dispatchIndirect(rayKeys_, {g.position, samples_, keys_, countBinding}, &push, sizeof(push), keyArgs_);
+  } else {
+    vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(count.max, PIXEL_THREADS));
+    cmd.dispatch(rayKeys_, {g.position, samples_, keys_, countBinding}, push, grid.x, grid.y);
+  }
   cmd.barrier();
 }
 

@@ -66,8 +66,9 @@ class LitRays {
   uint64_t maxDomain_;
   sort::Compact compact_;
   sort::RadixSort sort_;
+  sort::IndirectGroups groups_;  // a device count: the keys launch only the workgroups it needs
   vk::Kernel flags_, rayKeys_;
-  vk::Buffer flagBuffer_, pixelOf_, samples_, keys_, count_;
+  vk::Buffer flagBuffer_, pixelOf_, samples_, keys_, count_, keyArgs_;
 };
 
 // CPU reference of the whole step (tests, debugging): lit samples of `g` in the given order.

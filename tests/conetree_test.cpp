@@ -256,6 +256,70 @@ TEST(ConeTree, DeviceBuildFromTheGpuCountEqualsTheHostBuild) {
   }
 }
 
+// The spread of each depth (ConeTree::recordSpread, tree_spread.comp): the sum over the depth's nodes of
+// 1 - cos(half-angle) equals the host's sum over the very nodes built, exactly where a depth has at most
+// CONE_SPREAD_SAMPLES nodes (to fp32 rounding) and within a few percent where it is estimated from
+// strided nodes; depths past the tree keep their words. A rebuild with keepWhenZero and a device count of
+// 0 leaves the shape and the nodes of the build before it untouched.
+TEST(ConeTree, SpreadPerDepthAndAKeptTreeOnAZeroCount) {
+  auto& ctx = test::context();
+  const glm::vec3 light(0.3f, -0.2f, 0.1f);
+  const float minLength = 2e-4f;
+  for (uint32_t n : {5u, 1000u, 70001u}) {
+    std::vector<glm::vec4> pos = samplePositions(n, light, n + 3);
+    std::vector<uint32_t> order(n);
+    for (uint32_t i = 0; i < n; ++i) order[i] = uint32_t(uint64_t(i) * 7919u % n);
+    vk::Buffer positions = vk::createBuffer(ctx, pos.size() * sizeof(glm::vec4));
+    vk::Buffer samples = vk::createBuffer(ctx, n * 4);
+    vk::Buffer count = vk::createBuffer(ctx, 16);
+    vk::Buffer words = vk::createBuffer(ctx, 4 * (2 + 2 * (SHAPE_MAX_DEPTH + 1)));
+    vk::upload(ctx, positions, pos.data(), pos.size() * sizeof(glm::vec4));
+    vk::upload(ctx, samples, order.data(), n * 4);
+    const uint32_t counts[4] = {n, 0u, 0u, 0u};
+    vk::upload(ctx, count, counts, sizeof(counts));
+    std::vector<uint32_t> marked(2 + 2 * (SHAPE_MAX_DEPTH + 1), 0xABCDu);
+    vk::upload(ctx, words, marked.data(), marked.size() * 4);
+    cone::ConeTree tree(ctx);
+    {
+      vk::Commands cmd(ctx);
+      tree.recordDevice(cmd, positions, samples, count, 0, n, light, minLength);
+      tree.recordSpread(cmd, words, 2);
+      cmd.submit();
+    }
+    const cone::TreeShape s = cone::treeShape(n);
+    const std::vector<ConeNode> nodes = vk::download<ConeNode>(ctx, tree.nodes(), s.nodes());
+    const std::vector<uint32_t> got = vk::download<uint32_t>(ctx, words, marked.size());
+    EXPECT_EQ(got[0], 0xABCDu);
+    EXPECT_EQ(got[1], 0xABCDu);
+    for (uint32_t d = 0; d <= SHAPE_MAX_DEPTH; ++d) {
+      const uint64_t v = uint64_t(got[2 + 2 * d]) | (uint64_t(got[3 + 2 * d]) << 32);
+      if (d >= s.depth) {
+        EXPECT_EQ(got[2 + 2 * d], 0xABCDu) << "depth " << d << " is past the tree";
+        continue;
+      }
+      double want = 0;
+      for (uint32_t j = 0; j < s.counts[d]; ++j) {
+        const ConeNode& c = nodes[s.offsets[d] + j];
+        if (!cone::coneIsEmpty(c)) want += 1.0 - std::cos(halfAngle(c));
+      }
+      const double spread = double(v) / double(CONE_SPREAD_UNIT);
+      const double tolerance = s.counts[d] <= CONE_SPREAD_SAMPLES ? 1e-4 : 0.05;
+      EXPECT_NEAR(spread, want, tolerance * want + 1e-9) << "n=" << n << " depth " << d << " of " << s.depth;
+    }
+    // A rebuild the GPU decided against (count 0 with keepWhenZero): the tree stands.
+    const std::vector<uint32_t> shapeBefore = vk::download<uint32_t>(ctx, tree.shapeBuffer(), SHAPE_WORDS);
+    {
+      vk::Commands cmd(ctx);
+      tree.recordDevice(cmd, positions, samples, count, 1, n, glm::vec3(9, 9, 9), minLength, nullptr, true);
+      cmd.submit();
+    }
+    const std::vector<uint32_t> shapeAfter = vk::download<uint32_t>(ctx, tree.shapeBuffer(), SHAPE_WORDS);
+    for (uint32_t w = 0; w < SHAPE_BUILD_ARGS; ++w) EXPECT_EQ(shapeAfter[w], shapeBefore[w]) << "shape word " << w;
+    const std::vector<ConeNode> kept = vk::download<ConeNode>(ctx, tree.nodes(), s.nodes());
+    EXPECT_EQ(std::memcmp(kept.data(), nodes.data(), nodes.size() * sizeof(ConeNode)), 0) << "n=" << n;
+  }
+}
+
 TEST(ConeTree, CoherentRaysGiveTightCones) {
   // 64 x 64 samples on a wall 3 units from the light: neighbouring rays ~ 0.01 / 3 rad apart, so a node
   // over 4^k of them (a 2^k x 2^k patch in Morton order) spans ~ 2^k * 0.0033 rad.

@@ -434,7 +434,9 @@ TEST(ConeFrame, OneSubmissionOneHostSyncNoAllocationAfterWarmUp) {
       EXPECT_EQ(out.stats["host_syncs_per_frame"], 1u) << what;
       EXPECT_EQ(out.stats["allocations_per_frame"], 0u) << what;
       EXPECT_GT(out.stats["dispatches_per_frame"].get<uint64_t>(), 10u) << what;
-      EXPECT_EQ(out.stats["readback_bytes_per_frame"], maskBytes + (STATE_WORDS + SHAPE_WORDS) * 4) << what;
+      const bool measuredOrder = out.stats.value("ray_order_choice", "") == "auto: measured this frame";
+      EXPECT_EQ(out.stats["readback_bytes_per_frame"],
+                maskBytes + (STATE_WORDS + SHAPE_WORDS + (measuredOrder ? ORDER_WORDS : 0)) * 4) << what;
       EXPECT_EQ(out.stats["lit_samples"], uint64_t(host.litCount())) << what;
       EXPECT_EQ(out.visibility, warm.visibility) << what;
       // Clusters change which pairs are tested (and, reordering the triangles, which early-accepted node
@@ -458,6 +460,50 @@ TEST(ConeFrame, OneSubmissionOneHostSyncNoAllocationAfterWarmUp) {
       for (const char* n : {"compact", "keys", "sort", "build", "traversal", "leaves"})
         EXPECT_NE(std::find(names.begin(), names.end(), n), names.end()) << what << ": no stage " << n;
       EXPECT_GE(staged.stats["submits_per_frame"].get<uint64_t>(), 6u) << what;
+    }
+  }
+}
+
+// The ray order chosen on the GPU (ConeOptions::adaptiveOrder, order_choice.comp), in the one submission:
+// a view whose screen-order tree is as tight as a sorted one keeps screen order (the wall: a plane facing
+// the light), one whose deep cones gather rays pointing apart sorts them (the fur); the mask is the very
+// mask of both fixed orders. After a loose frame the next ones sort without measuring, and the eighth
+// measures again.
+TEST(ConeMethod, RayOrderChosenOnTheGpuKeepsTheMaskOfBothOrders) {
+  auto& ctx = test::context();
+  Scene scene = builtinScene();
+  Raster raster(ctx, scene);
+  const vec3 light = scene.lights.at(0).position;
+  for (const char* view : {"wall", "fur"}) {
+    DeviceGBuffer dev;
+    GBuffer host;
+    raster.render(*scene.findCamera(view), light, 64, 56, dev, &host);
+    FrameInput frame = frameInputOf(scene, host, dev, ctx, light, EpsilonPolicy::forScene(scene).eps);
+    ConeOptions hilbert, screen, chosen;
+    hilbert.adaptiveOrder = false;
+    screen.sorted = false;
+    const MethodOutput h = runCounted(*makeConeMethod(ctx, hilbert), frame);
+    const MethodOutput sc = runCounted(*makeConeMethod(ctx, screen), frame);
+    auto method = makeConeMethod(ctx, chosen);
+    const MethodOutput first = runCounted(*method, frame);
+    EXPECT_EQ(first.visibility, h.visibility) << view;
+    EXPECT_EQ(first.visibility, sc.visibility) << view;
+    EXPECT_EQ(first.stats["ray_order_choice"], "auto: measured this frame") << view;
+    EXPECT_EQ(first.stats["traversal_path"], "one submission") << view;
+    EXPECT_EQ(first.stats["submits_per_frame"], 1u) << view;
+    const double looseness = first.stats["screen_tree_looseness"].get<double>();
+    const bool wall = std::string(view) == "wall";
+    EXPECT_EQ(first.stats["ray_order"], wall ? "screen" : "hilbert") << view << ": looseness " << looseness;
+    EXPECT_EQ(looseness > ORDER_LOOSE_RATIO, !wall) << view;
+    // The pairs are those of the order it chose.
+    EXPECT_EQ(first.stats["pairs_tested"], (wall ? sc : h).stats["pairs_tested"]) << view;
+    for (uint32_t k = 1; k <= 8; ++k) {
+      const MethodOutput next = runCounted(*method, frame);
+      EXPECT_EQ(next.visibility, h.visibility) << view << " frame " << k;
+      EXPECT_EQ(next.stats["ray_order"], wall ? "screen" : "hilbert") << view << " frame " << k;
+      const bool measures = wall || k == 8;
+      EXPECT_EQ(next.stats["ray_order_choice"] == "auto: measured this frame", measures) << view << " frame " << k;
+      if (!measures) EXPECT_EQ(next.stats["allocations_per_frame"], 0u) << view << " frame " << k;
     }
   }
 }

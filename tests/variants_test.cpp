@@ -112,6 +112,35 @@ TEST(VariantNames, MapToTheirOptionsAndTheSwitchesCombine) {
     }
   }
   EXPECT_NO_THROW(cone.check(settingsOf({{"variant", "PreciseEATP"}, {"ray-order", "screen"}})));
+  // The ray order: chosen per frame by default; a Table 1 variant named alone sorts as the paper does.
+  Scene scene = builtinScene();
+  Raster raster(test::context(), scene);
+  const glm::vec3 light = scene.lights.at(0).position;
+  DeviceGBuffer dev;
+  GBuffer host;
+  raster.render(*scene.findCamera("wall"), light, 24, 20, dev, &host);
+  const FrameInput tiny = frameInputOf(scene, host, dev, test::context(), light, EpsilonPolicy::forScene(scene).eps);
+  auto tinyFrame = [&]() -> const FrameInput& { return tiny; };
+  for (auto [settings, sorted, adaptive] :
+       std::vector<std::tuple<std::vector<std::pair<std::string, std::string>>, bool, bool>>{
+           {{}, true, true},
+           {{{"ray-order", "hilbert"}}, true, false},
+           {{{"ray-order", "screen"}}, false, true},
+           {{{"variant", "PreciseSorted"}}, true, false},
+           {{{"variant", "PreciseSorted"}, {"ray-order", "auto"}}, true, true},
+           {{{"variant", "Precise"}}, false, false}}) {
+    std::unique_ptr<ShadowMethod> m = cone.make(&test::context(), settingsOf(settings));
+    const MethodOutput out = runCounted(*m, tinyFrame());
+    const std::string what = settings.empty() ? "defaults" : settings.front().second;
+    EXPECT_EQ(out.stats["sorted"], sorted) << what;
+    EXPECT_EQ(out.stats.contains("ray_order_choice"), sorted && adaptive) << what;
+  }
+  try {
+    cone.check(settingsOf({{"variant", "Precise"}, {"ray-order", "auto"}}));
+    ADD_FAILURE() << "an unsorted variant with --ray-order auto was accepted";
+  } catch (const UsageError& e) {
+    EXPECT_NE(std::string(e.what()).find("unsorted"), std::string::npos) << e.what();
+  }
   auto m = cone.make(&test::context(), settingsOf({{"variant", "Spheres"}, {"front-face-culling", "on"}, {"two-pass", "on"}}));
   EXPECT_EQ(m->name(), "cone");
   ConeOptions stp = variant("SpheresSorted");

@@ -27,7 +27,8 @@ ConeOptions coneOptions(const Settings& s) {
     throw UsageError("cone: --memory-budget " + std::to_string(cone.memoryBudgetBytes) +
                      " is too small: give at least 1M (the scene's triangles take 48 bytes each, the rays about "
                      "100 bytes a pixel)");
-  const bool unsorted = s.choice("ray-order", {"hilbert", "screen"}, "hilbert") == "screen";
+  const std::string order = s.choice("ray-order", {"auto", "hilbert", "screen"}, "auto");
+  const bool unsorted = order == "screen";
   if (s.has("variant")) {
     applyConeVariant(s.choice("variant", coneVariantNames(), ""), cone);
     if (unsorted && cone.sorted)
@@ -35,6 +36,11 @@ ConeOptions coneOptions(const Settings& s) {
                        "' is sorted, but --ray-order screen asks for unsorted rays");
   }
   if (unsorted) cone.sorted = false;
+  // A Table 1 variant named on its own is the paper's: sorted means always sorted (--ray-order auto amends it).
+  if (order == "hilbert" || (s.has("variant") && !s.has("ray-order"))) cone.adaptiveOrder = false;
+  if (order == "auto" && s.has("ray-order") && !cone.sorted)
+    throw UsageError("cone: variant '" + coneVariantName(cone) +
+                     "' is unsorted (screen order), but --ray-order auto chooses between sorted and screen order");
   cone.frontFaceCulling = s.onOff("front-face-culling", cone.frontFaceCulling);
   cone.earlyAccept = s.onOff("early-accept", cone.earlyAccept);
   cone.twoPass = s.onOff("two-pass", cone.twoPass);
@@ -58,7 +64,10 @@ MethodInfo coneMethodInfo() {
   m.summary = "the cone hierarchy over the light buffer's rays (exact)";
   m.exact = true;
   m.settings = {
-      {"variant", "NAME", "paper 002 Table 1, applied before the switches (default PreciseSorted)", coneVariantNames()},
+      {"variant", "NAME",
+       "paper 002 Table 1, applied before the switches (default PreciseSorted with --ray-order auto; a variant "
+       "named here sorts as the paper does unless --ray-order says otherwise)",
+       coneVariantNames()},
       {"test", "T", "the node test: precise or sphere", {"precise", "sphere"}},
       {"early-accept", "on|off", "accept a cone every ray of which provably hits a triangle (precise test only)", {}},
       {"two-pass", "on|off", "likely blockers first, then the tree rebuilt over the rays still lit", {}},
@@ -69,7 +78,10 @@ MethodInfo coneMethodInfo() {
        "only triangles facing away from the light cast; exact only when every caster is a closed, consistently "
        "wound mesh (wrong on the built-in fur)",
        {}},
-      {"ray-order", "O", "hilbert (sorted rays, default) or screen (2x2 Morton screen order)", {"hilbert", "screen"}},
+      {"ray-order", "O",
+       "auto (default: screen order when its tree is as tight as a sorted one, else sorted, chosen per frame on "
+       "the GPU), hilbert (always sorted) or screen (2x2 Morton screen order)",
+       {"auto", "hilbert", "screen"}},
       {"traversal-memory", "BYTES", "bound on the traversal's pair buffers (default 64M; e.g. 256K)", {}},
       {"memory-budget", "BYTES",
        "cap on the cone path's device buffers and host working set together (e.g. 1G); the traversal gets what "

@@ -13,6 +13,7 @@
 #include "eval/settings.h"
 #include "rays/rays.h"
 #include "traversal/frame_triangles.comp.h"
+#include "traversal/order_choice.comp.h"
 #include "traversal/unfinished_rays.comp.h"
 #include "vk/context.h"
 
@@ -25,6 +26,7 @@ double msSince(Clock::time_point t0) { return std::chrono::duration<double, std:
 constexpr uint32_t kOne = 0x3F800000u;  // 1.0f: the visibility words start lit
 constexpr uint64_t kMaxBatches = 64;     // batches one submission may hold (see runSubmitted)
 constexpr uint64_t kUploadTriangles = kConeUploadTriangles;
+constexpr uint32_t kOrderRecheckFrames = 8;  // adaptive order: a loose verdict holds this many frames
 static_assert(kUploadTriangles % CLUSTER_SIZE == 0, "uploads of whole clusters");
 
 // Solid angle of triangle (a, b, c), vertices relative to the apex (Van Oosterom & Strackee); 0 for a
@@ -78,6 +80,10 @@ class ConeMethod : public ShadowMethod {
       traversal_ = std::make_unique<traversal::Traversal>(ctx, options.traversalMemoryBytes);
     frameTris_ = vk::createKernel(ctx, "frame triangles", spv_frame_triangles_comp, 2,
                                   sizeof(traversal::FrameTrianglesPush));
+    if (options_.sorted && options_.adaptiveOrder && !options_.twoPass) {
+      orderChoice_ = vk::createKernel(ctx, "ray order choice", spv_order_choice_comp, 2, 0);
+      orderWords_ = vk::createBuffer(ctx, ORDER_WORDS * 4);
+    }
     if (options_.twoPass) unfinished_ = vk::createKernel(ctx, "unfinished rays", spv_unfinished_rays_comp, 3,
                                                          sizeof(traversal::TraversePush));
   }
@@ -275,18 +281,43 @@ class ConeMethod : public ShadowMethod {
       cmd.mark("start");
     };
 
-    const rays::RayOrder order = options_.sorted ? rays::RayOrder::Hilbert : rays::RayOrder::ScreenMorton;
+    // The ray order: sorted, screen, or chosen on the GPU (adaptiveOrder): the screen-order tree is built
+    // and measured first, and the keys, sort and rebuild cover ORDER_SORT_COUNT rays -- all of them, or
+    // none, the screen-order tree then standing. After a frame that found the screen order loose, the
+    // next kOrderRecheckFrames - 1 frames sort without measuring: a loose frame's check costs a tree
+    // build, and the sort is slower on screen-ordered input than on row-major input.
+    const bool adaptive = options_.sorted && options_.adaptiveOrder &&
+                          !(orderLoose_ && framesSinceOrderCheck_ + 1 < kOrderRecheckFrames);
+    const rays::RayOrder order =
+        options_.sorted && !adaptive ? rays::RayOrder::Hilbert : rays::RayOrder::ScreenMorton;
+    const uint32_t maxRays = std::max(pixels, 1u);
     cmd.fill(visibility_, kOne, 0, uint64_t(pixels) * 4);
     rays_->recordCompaction(cmd, g, order);
     boundary("compact");
+    sort::Count sortCount = rays_->count();
+    if (adaptive) {
+      tree_.recordDevice(cmd, g.position, rays_->samples(), rays_->countBuffer(), 0, maxRays, frame.light,
+                         2.0f * in.eps, &frame_);
+      cmd.fill(orderWords_, 0);
+      cmd.barrier();
+      tree_.recordSpread(cmd, orderWords_, ORDER_SPREAD);
+      cmd.dispatch(orderChoice_, {tree_.shapeBuffer(), orderWords_}, static_cast<const void*>(nullptr), 0u, 1u, 1u, 1u);
+      cmd.barrier();
+      boundary("order");
+      sortCount = sort::Count::device(sort::GpuWord(orderWords_, ORDER_SORT_COUNT), maxRays);
+    }
     if (options_.sorted) {
-      recordKeys(cmd, g, frame.light);
+      recordKeys(cmd, g, frame.light, sortCount);
       boundary("keys");
-      rays_->recordSort(cmd, rays_->count());
+      rays_->recordSort(cmd, sortCount);
       boundary("sort");
     }
-    tree_.recordDevice(cmd, g.position, rays_->samples(), rays_->countBuffer(), 0, std::max(pixels, 1u), frame.light,
-                       2.0f * in.eps, &frame_);
+    if (adaptive)
+      tree_.recordDevice(cmd, g.position, rays_->samples(), orderWords_, ORDER_SORT_COUNT, maxRays, frame.light,
+                         2.0f * in.eps, &frame_, /*keepWhenZero=*/true);
+    else
+      tree_.recordDevice(cmd, g.position, rays_->samples(), rays_->countBuffer(), 0, maxRays, frame.light,
+                         2.0f * in.eps, &frame_);
     if (frame_.far && frameTrianglesStale()) recordFrameTriangles(cmd);
     boundary("build");
     ensureTraversal(pixels);
@@ -314,6 +345,7 @@ class ConeMethod : public ShadowMethod {
     const uint32_t maskSlot = readback_.add(visibility_, uint64_t(pixels) * 4);
     const uint32_t stateSlot = readback_.add(traversal_->stateBuffer(), STATE_WORDS * 4);
     const uint32_t shapeSlot = readback_.add(tree_.shapeBuffer(), SHAPE_WORDS * 4);
+    const uint32_t orderSlot = adaptive ? readback_.add(orderWords_, ORDER_WORDS * 4) : 0;
     readback_.record(cmd);
     cmd.barrier();
     cmd.mark("readback");
@@ -330,6 +362,21 @@ class ConeMethod : public ShadowMethod {
     stats["lit_samples"] = lit;
     stats["tree_depth"] = shape[SHAPE_DEPTH];
     stats["tree_nodes"] = shape[SHAPE_NODES];
+    if (adaptive) {
+      uint32_t words[ORDER_WORDS];
+      readback_.read(orderSlot, words);
+      reportOrderChoice(words, shape[SHAPE_DEPTH], stats);
+      orderLoose_ = words[ORDER_SORTED] != 0;
+      framesSinceOrderCheck_ = 0;
+    } else {
+      stats["ray_order"] = options_.sorted ? "hilbert" : "screen";
+      if (options_.sorted && options_.adaptiveOrder) {
+        ++framesSinceOrderCheck_;
+        stats["ray_order_choice"] = "auto: sorted without measuring (the screen order was loose " +
+                                    std::to_string(framesSinceOrderCheck_) + " frame(s) ago; measured again every " +
+                                    std::to_string(kOrderRecheckFrames) + " frames)";
+      }
+    }
     const bool overflow = traversal::Traversal::overflowed(state);
     traversal::TraversalStats ts = traversal_->statsFromState(state, shape[SHAPE_DEPTH], overflow);
 
@@ -375,8 +422,25 @@ class ConeMethod : public ShadowMethod {
   }
 
   // The ray keys of the frame (in the far frame over the bounds' projection).
-  void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light) {
-    if (!frame_.far) return rays_->recordKeys(cmd, g, light, rays_->count());
+  // The GPU's choice of ray order in the stats: the order, and the screen-order tree's spread per depth
+  // (sum of 1 - cos(half-angle), order_choice.comp) that decided it.
+  static void reportOrderChoice(const uint32_t* words, uint32_t depth, nlohmann::json& stats) {
+    stats["ray_order"] = words[ORDER_SORTED] ? "hilbert" : "screen";
+    nlohmann::json spread = nlohmann::json::array();
+    double top = 0, deep = 0;
+    for (uint32_t d = 0; d < depth && d <= SHAPE_MAX_DEPTH; ++d) {
+      const uint64_t v = uint64_t(words[ORDER_SPREAD + 2 * d]) | (uint64_t(words[ORDER_SPREAD + 2 * d + 1]) << 32);
+      const double sr = 2.0 * M_PI * double(v) / double(CONE_SPREAD_UNIT);
+      spread.push_back(sr);
+      (d < ORDER_TOP_DEPTHS ? top : deep) = std::max(d < ORDER_TOP_DEPTHS ? top : deep, sr);
+    }
+    stats["ray_order_choice"] = "auto: measured this frame";
+    stats["screen_tree_solid_angle_sr"] = spread;  // per depth, the sum over its cones
+    stats["screen_tree_looseness"] = top > 0 ? deep / top : 0.0;  // > ORDER_LOOSE_RATIO: sorted
+  }
+
+  void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, sort::Count count) {
+    if (!frame_.far) return rays_->recordKeys(cmd, g, light, count);
     rays::KeysPush k{};
     k.light = glm::vec4(light, 1.0f);
     k.framed = 1u;
@@ -384,7 +448,7 @@ class ConeMethod : public ShadowMethod {
     k.origin = frame_.frame.centre;
     k.lightFrame = frame_.frame.lightFrame;
     k.rect = frame_.keyRect;
-    rays_->recordKeys(cmd, g, k, rays_->count());
+    rays_->recordKeys(cmd, g, k, count);
   }
 
   // Two-pass frames (002 §3.4): each stage its own submit, timed by the host's wall clock around it (waits
@@ -410,7 +474,7 @@ class ConeMethod : public ShadowMethod {
       rays_->recordCompaction(cmd, g, order);
     });
     if (options_.sorted) {
-      stage("keys", [&](vk::Commands& cmd) { recordKeys(cmd, g, frame.light); });
+      stage("keys", [&](vk::Commands& cmd) { recordKeys(cmd, g, frame.light, rays_->count()); });
       stage("sort", [&](vk::Commands& cmd) { rays_->recordSort(cmd, rays_->count()); });
     }
     const uint32_t lit = rays_->readCount();
@@ -446,7 +510,7 @@ class ConeMethod : public ShadowMethod {
            (traversal_ ? traversal_->bytesAllocated() + traversal_->flagBytes() : 0) + readback_.bytesAllocated() +
            clusterSphereBytes() +
            (compact_ ? compact_->bytesAllocated() : 0) +
-           rayFlags_.size + remaining_.size + kept_.size;
+           rayFlags_.size + remaining_.size + kept_.size + orderWords_.size;
   }
 
   // The traversal's arena and scratch. Without a budget: --traversal-memory, made once. Under
@@ -463,7 +527,7 @@ class ConeMethod : public ShadowMethod {
     uint64_t others = bytesAllocated() - (traversal_ ? traversal_->bytesAllocated() + traversal_->flagBytes() : 0);
     others += expectedClusterSphereBytes() - std::min(expectedClusterSphereBytes(), clusterSphereBytes());
     if (!ctx_.hostVisibleDeviceLocal) {  // the mask and the counters copied for the readback (once allocated: in `others`)
-      const uint64_t readback = uint64_t(pixels) * 4 + (STATE_WORDS + SHAPE_WORDS) * 4 + 64;
+      const uint64_t readback = uint64_t(pixels) * 4 + (STATE_WORDS + SHAPE_WORDS + ORDER_WORDS) * 4 + 64;
       others += readback - std::min(readback, readback_.bytesAllocated());
     }
     if (options_.earlyAccept && options_.test == ConeTest::Precise)  // a flag word per node (not in `others`)
@@ -878,6 +942,11 @@ class ConeMethod : public ShadowMethod {
   uint64_t frameTrianglesUpload_ = ~uint64_t(0);  // the upload and the frame frameTriangles_ were made for
   cone::ConeFrame frameTrianglesOf_{};
   vk::Kernel frameTris_;
+  // the ray order chosen on the GPU (ConeOptions::adaptiveOrder)
+  vk::Kernel orderChoice_;
+  vk::Buffer orderWords_;  // ORDER_* (traversal_layout.h)
+  bool orderLoose_ = false;              // the last measured frame sorted its rays
+  uint32_t framesSinceOrderCheck_ = 0;   // frames since that measurement
   // two-pass
   uint32_t blockerCount_ = 0;
   vk::Kernel unfinished_;

@@ -26,6 +26,14 @@ struct ConeOptions {
   // 002 §3.5: sort the rays by Hilbert key of their direction before building the tree. Off: screen
   // order (Morton inside 64x64 tiles: four consecutive leaves are a 2x2 pixel block), as without sorting.
   bool sorted = true;
+  // With sorted rays, the order is chosen per frame on the GPU (order_choice.comp; --ray-order auto, the
+  // default): the tree is first built in screen order, and kept when no depth below its top three covers
+  // more than 3/2 the solid angle of the widest of them (its cones partition their parents, as a sorted
+  // tree's do);
+  // otherwise the keys, the sort and the rebuild run. Either way in the one submission, by indirect
+  // dispatches that launch nothing when not needed; the mask is the same, only the work differs. Off
+  // (--ray-order hilbert): always sorted, paper 002's PreciseSorted as written. Two-pass frames sort always.
+  bool adaptiveOrder = true;
   ConeTest test = ConeTest::Precise;
   // 002 §3.6, front-face culling (off by default): only triangles facing away from the light cast. With
   // glTF's counter-clockwise front faces, N = (v1 - v0) x (v2 - v0) points out of a closed mesh; a triangle

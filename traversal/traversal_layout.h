@@ -61,6 +61,15 @@
 // test the fewest pairs on the height fields, the BART scenes, 2CylinderEngine x8 and the built-in views.
 #define EXPAND_NODES_PER_CLUSTER 16u
 
+// The cone method's choice of ray order (cone_method.h, ConeOptions::adaptiveOrder; order_choice.comp):
+// words of its order buffer.
+#define ORDER_SORT_COUNT 0  // rays the Hilbert keys, sort and rebuild cover: the lit count, or 0 (screen order kept)
+#define ORDER_SORTED 1      // 1: the frame's rays were sorted; 0: the screen-order tree was kept
+#define ORDER_SPREAD 2      // + 2 d: uint64, depth d's spread in the screen-order tree (conetree's tree_spread.comp)
+#define ORDER_TOP_DEPTHS 3  // the top of the tree, against which the deeper depths' spread is compared
+#define ORDER_LOOSE_RATIO 1.5  // sorted when a deeper depth covers more than this times the top's widest
+#define ORDER_WORDS 36
+
 // TraversePush::test: the cone/triangle test of the passes (cone_method.h, ConeOptions::test).
 #define TRAVERSE_TEST_PRECISE 0u  // precise_test.h (002 §3.2)
 #define TRAVERSE_TEST_SPHERE 1u   // sphere_test.h: the triangle's bounding sphere (the ray-space-hierarchy baseline)
