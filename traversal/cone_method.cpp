@@ -421,7 +421,6 @@ class ConeMethod : public ShadowMethod {
     return ts;
   }
 
-  // The ray keys of the frame (in the far frame over the bounds' projection).
   // The GPU's choice of ray order in the stats: the order, and the screen-order tree's spread per depth
   // (sum of 1 - cos(half-angle), order_choice.comp) that decided it.
   static void reportOrderChoice(const uint32_t* words, uint32_t depth, nlohmann::json& stats) {
@@ -439,6 +438,7 @@ class ConeMethod : public ShadowMethod {
     stats["screen_tree_looseness"] = top > 0 ? deep / top : 0.0;  // > ORDER_LOOSE_RATIO: sorted
   }
 
+  // The ray keys of the frame's first `count` samples (in the far frame over the bounds' projection).
   void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, sort::Count count) {
     if (!frame_.far) return rays_->recordKeys(cmd, g, light, count);
     rays::KeysPush k{};

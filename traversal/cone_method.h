@@ -96,12 +96,16 @@ struct ConeOptions {
 //               (the wall clock of the submission): a timestamp written after a barrier there can take the
 //               time of the dispatch *after* it (measured: a 30 ms leaf dispatch reported as 0.05 ms), so
 //               per-stage timestamps are misattributed; with profileStages or two-pass, the six stages
-//               (two-pass adds "update", the unfinished rays' compaction, and "rebuild", the second tree),
-//               each the host's wall clock around its own submit(s), waits included.
+//               (two-pass adds "update", the unfinished rays' compaction, and "rebuild", the second tree;
+//               a frame that measures the screen order adds "order", its tree and the choice, before
+//               "keys"), each the host's wall clock around its own submit(s), waits included.
 //               stats.stage_timing says which; the timestamp intervals are in stats.timestamp_ms.
 //   totalMs     wall clock of the frame's shadow work up to the mask on the GPU; the readback of the mask
 //               to the host is stats.readback_ms.
 //   stats       variant ("PreciseSorted", ...), test ("precise" | "sphere"), front_face_culling, early_accept,
+//               ray_order ("hilbert" | "screen": the order this frame used); with adaptiveOrder
+//               ray_order_choice (measured this frame, or sorted on a recent loose verdict) and, when
+//               measured, screen_tree_solid_angle_sr (per depth) and screen_tree_looseness,
 //               two_pass (when on: blockers, rays finished in pass one, update rebuilt or skipped and why,
 //               each pass's traversal stats; the top-level counts are the two passes' sums),
 //               early_accepted_nodes, lit_samples, triangles, tree_depth, tree_nodes, pairs_tested, pairs_survived, leaf_tests,
