@@ -143,7 +143,7 @@ if ! want scale; then
 elif [ "${QUICK:-0}" = 1 ]; then  # a check of this script, not a result: one small field
   run scale "$BUILD/bench/scale_bench" --sizes "$SMALL,$SIZE" --frames 1 --memory-budget 1G --scenes heightfield:100k
 else
-  run scale "$BUILD/bench/scale_bench" --sizes "$SMALL,$SIZE" --frames 1 --memory-budget 1G
+  run scale "$BUILD/bench/scale_bench" --sizes "$SMALL,$SIZE" --frames "$FRAMES" --memory-budget 1G
 fi
 if want scale; then
   { echo '```'; grep -v '^device:' "$work/scale.out"; echo '```'; } | section scale

@@ -24,7 +24,7 @@ using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 constexpr uint32_t kOne = 0x3F800000u;  // 1.0f: the visibility words start lit
-constexpr uint64_t kMaxBatches = 64;     // batches one submission may hold (see runSubmitted)
+constexpr uint64_t kMaxBatches = 256;    // batches one submission may hold (see runSubmitted)
 constexpr uint64_t kUploadTriangles = kConeUploadTriangles;
 constexpr uint32_t kOrderRecheckFrames = 8;  // adaptive order: a loose verdict holds this many frames
 static_assert(kUploadTriangles % CLUSTER_SIZE == 0, "uploads of whole clusters");
