@@ -73,6 +73,9 @@ tables() { awk '/^## / { sub(/^## /, ""); print ""; print "**" $0 "**"; print ""
 # section NAME: the header every section starts with (its date, device and commands), then stdin.
 section() {
   local name=$1
+  # A run without the frames (ONLY=...) names the device from the first bench output that prints it.
+  [ "$device" != unknown ] || device=$(cat "$work"/*.out 2>/dev/null | sed -n 's/^device: //p' | head -1)
+  [ -n "$device" ] || device=unknown
   {
     echo "<!-- $name:begin -->"
     echo "Run on $date at \`$rev\` by \`tools/readme_results.sh\` (SIZE=$SIZE SMALL=$SMALL FRAMES=$FRAMES${ONLY:+ ONLY=$ONLY}), device \`$device\`; command(s):"
