@@ -2,9 +2,9 @@
 #extension GL_GOOGLE_include_directive : require
 // The implicit tree's shape from the ray count on the GPU (one invocation): depth, per-depth counts and
 // offsets (cone_layout.h's index maths, the very functions treeShape() calls on the host) and the
-// indirect dispatch of each height's build (and tree_spread.comp), so the build and the traversal need no
-// count from the host. With keepWhenZero, a count of 0 leaves the shape as it
-// was and dispatches no build: the tree built before stands.
+// indirect dispatch of each height's build, so the build and the traversal need no count from the host.
+// With keepWhenZero, a count of 0 leaves the shape as it was and dispatches no build: the tree built
+// before stands (a rebuild the GPU decided against).
 // bindings: 0 = count words (the ray count at p.countIndex), 1 = shape words (SHAPE_*, written)
 #include "conetree/cone_layout.h"
 
