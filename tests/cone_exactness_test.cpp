@@ -491,7 +491,7 @@ TEST(ConeHardCases, FarLightMaskIsBitIdenticalAtEveryArenaSize) {
     for (const ConeOptions& o : {small, least}) {
       test::ConeRun r = test::runExactCone(f, o, std::string("far light 1e3 ") + variant + " " +
                                                      std::to_string(o.traversalMemoryBytes) + " B");
-      EXPECT_TRUE(test::sameBits(plain.mask, r.mask)) << variant << " at " << o.traversalMemoryBytes << " bytes";
+      EXPECT_TRUE(test::sameBits(plain.mask, r.mask)) << variant << " at " << o.traversalMemoryBytes << " bytes (" << r.stats["traversal_path"] << ")";
     }
   }
 }

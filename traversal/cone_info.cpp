@@ -87,7 +87,7 @@ MethodInfo coneMethodInfo() {
        "cap on the cone path's device buffers and host working set together (e.g. 1G); the traversal gets what "
        "the rest leaves, at most --traversal-memory; too small for the scene: an error with the bytes it needs",
        {}},
-      {"clusters", "on|off", "clusters of 64 triangles go down the tree's upper levels first (default on; the same mask)", {}},
+      {"clusters", "on|off", "clusters of 16 triangles go down the tree's upper levels first (default on; the same mask)", {}},
       {"profile-stages", "on|off",
        "one submission per stage (compact, keys, sort, build, traversal, leaves) to time each by wall clock, "
        "instead of the frame's single submission (the same mask)",

@@ -29,8 +29,11 @@ namespace glsl {
 // the far frame; the components along z are within a factor 2 of each other and subtract exactly).
 CS_FN vec4 boundingSphere(vec3 v0, vec3 v1, vec3 v2, float scale) {
   vec3 c = (v0 + v1 + v2) * (1.0f / 3.0f);
-  float r = max(length(v0 - c), max(length(v1 - c), length(v2 - c)));
-  float big = max(length(v0), max(length(v1), length(v2)));
+  // The largest of three lengths as one square root of the largest squared length: the same value
+  // (sqrt is monotonic and correctly rounded), a third of the square roots.
+  vec3 d0 = v0 - c, d1 = v1 - c, d2 = v2 - c;
+  float r = sqrt(max(dot(d0, d0), max(dot(d1, d1), dot(d2, d2))));
+  float big = sqrt(max(dot(v0, v0), max(dot(v1, v1), dot(v2, v2))));
   return vec4(c, r * (1.0f + CONE_TEST_MARGIN) + CONE_TEST_MARGIN * big * scale);
 }
 

@@ -8,7 +8,6 @@
 #include "core/error.h"
 #include "traversal/traverse_advance.comp.h"
 #include "traversal/traverse_leaves.comp.h"
-#include "traversal/traverse_scatter.comp.h"
 #include "traversal/traverse_test.comp.h"
 
 namespace cs::traversal {
@@ -18,16 +17,14 @@ namespace cs::traversal {
 namespace {
 // The test kernel reads triangles and nodes as uniform texel buffers of 16-byte texels (traverse_test.comp).
 constexpr VkFormat kTexelFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
+constexpr VkFormat kWordFormat = VK_FORMAT_R32G32B32A32_UINT;  // the state words as texels (traverse_test.comp)
 constexpr uint64_t kPairBytes = 8;          // uvec2
 constexpr uint64_t kStatsBytes = STAT_WORDS * 4;
-constexpr uint64_t kScanSlack = 2 * 4 * 256 + 16;  // scan scratch alignment (<= 256 B per array) + its dummy
 }  // namespace
 
 uint64_t chunkScratchBytes(uint32_t chunkCapacity) {
-  const uint64_t levels = sort::scanLevelCounts(std::max(chunkCapacity, 1u), 2).size();
-  // chunk copy (uvec2) + mask + count per input, the scan's block sums, the counters
-  return 16 * uint64_t(chunkCapacity) + 4 * sort::scanScratchElements(std::max(chunkCapacity, 1u)) +
-         levels * kScanSlack + kStatsBytes;
+  // the chunk copy (uvec2 per input; the device path's second pair buffer), the counters and the state words
+  return kPairBytes * std::max<uint64_t>(chunkCapacity, 1) + kStatsBytes + STATE_WORDS * 4;
 }
 
 uint64_t reserveBelow(uint32_t treeDepth, uint32_t d) { return d + 1 >= treeDepth ? 0 : 4 * uint64_t(treeDepth - 1 - d); }
@@ -36,8 +33,8 @@ uint64_t minimumPairs(uint32_t treeDepth) { return reserveBelow(treeDepth, 0) + 
 
 ArenaPlan planArena(uint64_t memoryBytes, uint64_t maxBinding) {
   ArenaPlan p;
-  // Arena 2/3, chunks of a quarter of the arena (a full chunk expands into at most the whole arena).
-  uint64_t pairs = std::min<uint64_t>(memoryBytes / 12, maxBinding / kPairBytes);
+  // Arena 4/5, chunks of a quarter of the arena's pairs (a full chunk expands into at most the whole arena).
+  uint64_t pairs = std::min<uint64_t>(memoryBytes / 10, maxBinding / kPairBytes);
   for (;;) {
     uint64_t chunk = std::max<uint64_t>(1, std::min<uint64_t>(pairs / 4, maxBinding / 4));
     chunk = std::min<uint64_t>(chunk, uint64_t(1) << 30);
@@ -138,24 +135,19 @@ Traversal::Traversal(vk::Context& ctx, uint64_t memoryBytes)
 Traversal::Traversal(vk::Context& ctx, const ArenaPlan& plan) : ctx_(ctx), plan_(plan) {
   CS_CHECK(plan_.pairCapacity >= kMinPairs && plan_.chunkCapacity >= 1, "traversal arena plan too small");
   batchTriangles_ = plan_.chunkCapacity;
-  test_ = vk::createKernel(ctx, "traverse test", spv_traverse_test_comp, 11, sizeof(TraversePush), {}, 0x3u);
-  scatter_ = vk::createKernel(ctx, "traverse scatter", spv_traverse_scatter_comp, 5, sizeof(TraversePush));
+  test_ = vk::createKernel(ctx, "traverse test", spv_traverse_test_comp, 11, sizeof(TraversePush), {}, 0x403u);
   leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 6, sizeof(TraversePush), {}, 0x9u);
   advance_ = vk::createKernel(ctx, "traverse advance", spv_traverse_advance_comp, 2, sizeof(AdvancePush));
   arena_ = vk::createBuffer(ctx, plan_.pairCapacity * kPairBytes);
   chunk_ = vk::createBuffer(ctx, uint64_t(plan_.chunkCapacity) * kPairBytes);
-  masks_ = vk::createBuffer(ctx, uint64_t(plan_.chunkCapacity) * 4);
-  counts_ = vk::createBuffer(ctx, uint64_t(plan_.chunkCapacity) * 4);
   stats_ = vk::createBuffer(ctx, kStatsBytes, vk::Memory::HostVisible);
   state_ = vk::createBuffer(ctx, STATE_WORDS * 4, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
-  scan_ = std::make_unique<sort::Scan>(ctx, plan_.chunkCapacity);
 }
 
 Traversal::~Traversal() = default;
 
 uint64_t Traversal::bytesAllocated() const {
-  return arena_.size + chunk_.size + masks_.size + counts_.size + stats_.size + state_.size +
-         (scan_ ? scan_->bytesAllocated() : 0);
+  return arena_.size + chunk_.size + stats_.size + state_.size;
 }
 
 // Submits and waits; the wall time of the submit goes to `wallMs`, the timestamp intervals to the stats.
@@ -176,8 +168,9 @@ void Traversal::submit(Frame& f, vk::Commands& cmd, double& wallMs) {
 // Expands `count` inputs into depth `child`: the arena pairs [first, first + count) of depth child - 1,
 // or (child == 0 with fromTriangles) the triangles first .. first + count - 1 against the root. The
 // inputs are copied to the chunk buffer first, so the survivors may overwrite them: they are written from
-// arena slot `first` on (`outFirst`), all of them or -- when they would pass slot `limit` -- none.
-// Returns whether they were written; f.words[STAT_TOTAL] holds their count either way.
+// arena slot `first` on (`outFirst`), all of them, or -- when they would pass slot `limit` -- those below
+// it, the inputs then restored for the retry. Returns whether all were written; f.words[STAT_TOTAL] holds
+// their count either way.
 bool Traversal::expandChunk(Frame& f, uint32_t child, bool fromTriangles, uint64_t first, uint32_t count,
                             uint64_t outFirst, uint64_t limit) {
   TraversePush p{};
@@ -210,14 +203,12 @@ bool Traversal::expandChunk(Frame& f, uint32_t child, bool fromTriangles, uint64
   cmd.mark("start");
   vk::Grid g = vk::gridFor(count, TRAVERSE_THREADS, ctx_.maxWorkgroups());
   if (early)
-    cmd.dispatch(test_, {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), chunk_, masks_,
-                         counts_, stats_, f.in->samples, f.in->positions, *f.in->visibility, flags_, stats_}, p, g.x, g.y);
-  else  // bindings 6-10 unused: any valid buffer
-    cmd.dispatch(test_, {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), chunk_, masks_,
-                         counts_, stats_, stats_, stats_, stats_, stats_, stats_}, p, g.x, g.y);
-  cmd.barrier();
-  scan_->record(cmd, counts_, counts_, sort::Count(count), sort::GpuWord(stats_, STAT_TOTAL));
-  cmd.dispatch(scatter_, {arena_, chunk_, masks_, counts_, stats_}, p, g.x, g.y);
+    cmd.dispatch(test_, {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), chunk_, arena_,
+                         stats_, f.in->samples, f.in->positions, *f.in->visibility, flags_, stats_,
+                         vk::texels(stats_, kWordFormat)}, p, g.x, g.y);
+  else  // bindings 5-9 unused: any valid buffer
+    cmd.dispatch(test_, {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), chunk_, arena_,
+                         stats_, stats_, stats_, stats_, stats_, stats_, vk::texels(stats_, kWordFormat)}, p, g.x, g.y);
   cmd.barrier();
   cmd.mark("traversal");
   submit(f, cmd, f.stats.traversalMs);
@@ -228,6 +219,15 @@ bool Traversal::expandChunk(Frame& f, uint32_t child, bool fromTriangles, uint64
   f.stats.peakChunk = std::max(f.stats.peakChunk, count);
   if (outFirst + survived > limit) {
     s.overflows++;
+    // The pairs that fitted overwrote inputs from slot outFirst on, and the retry takes a tail of these
+    // same inputs: put them back from the chunk buffer's copy (a submit on this rare path only).
+    if (!fromTriangles && survived > 0) {
+      vk::Commands restore(ctx_);
+      restore.copy(chunk_, arena_, uint64_t(count) * kPairBytes, 0, first * kPairBytes);
+      restore.barrier();
+      restore.submit();
+      f.stats.submits++;
+    }
     return false;
   }
   s.inputs += count;
@@ -404,7 +404,7 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
     cmd.dispatch(advance_, {shape, state_}, a, 1);
     cmd.barrier();
   };
-  // The test of one step (its scan and scatter follow): inputs in `src`, survivors to `dst`.
+  // The test of one step: inputs in `src`, survivors appended to `dst`.
   auto testStep = [&](const TraversePush& p, const vk::Buffer& src, const vk::Buffer& dst, bool indirect, uint32_t items) {
     auto dispatch = [&](const vk::Kernel& k, std::initializer_list<vk::BufferRange> b) {
       if (indirect) cmd.dispatchIndirect(k, b, &p, sizeof(p), state_, STATE_TEST_ARGS * 4);
@@ -415,15 +415,11 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
     };
     const vk::Buffer& spheres = clusters ? *in.clusterSpheres : state_;
     if (early)
-      dispatch(test_, {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), src, masks_, counts_,
-                       state_, in.samples, in.positions, *in.visibility, flags_, spheres});
+      dispatch(test_, {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), src, dst, state_,
+                       in.samples, in.positions, *in.visibility, flags_, spheres, vk::texels(state_, kWordFormat)});
     else
-      dispatch(test_, {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), src, masks_, counts_,
-                       state_, state_, state_, state_, state_, spheres});
-    cmd.barrier();
-    scan_->record(cmd, counts_, counts_, sort::Count::device(sort::GpuWord(state_, STATE_COUNT), capacity).withGroups(state_.buffer, STATE_SCAN_ARGS * 4),
-                  sort::GpuWord(state_, STAT_TOTAL));
-    dispatch(scatter_, {dst, src, masks_, counts_, state_});
+      dispatch(test_, {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), src, dst, state_,
+                       state_, state_, state_, state_, spheres, vk::texels(state_, kWordFormat)});
     cmd.barrier();
   };
 

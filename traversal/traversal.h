@@ -7,9 +7,11 @@
 // at depth k with the precise cone/triangle test (precise_test.h) ANDed with the bounding-sphere test
 // (both conservative: the sphere's tighter margins reject small triangles the edge planes keep), or per
 // frame the sphere test alone (sphere_test.h; TraversalInput::test); with front-face culling, pass 0 drops the triangles that face the
-// light (002 §3.6; TraversalInput::frontFaceCulling). The survivors are compacted: the test
-// kernel writes a 4-bit child mask and its popcount per input pair, sort/'s exclusive Scan turns the
-// counts into offsets, and traverse_scatter.comp writes the surviving pairs, in input order. The pairs of
+// light (002 §3.6; TraversalInput::frontFaceCulling). The survivors are appended by the test
+// kernel itself: each subgroup sums its survivors, reserves that many output slots with one atomicAdd on
+// the step's survivor count, and each invocation writes its pairs at its prefix within the reservation
+// (no per-input masks, no scan, no second pass over the inputs; the order of the pairs across subgroups
+// is the order the reservations were taken, and nothing depends on it). The pairs of
 // depth D-1 (parents of leaves) go to traverse_leaves.comp: four invocations per pair, one per ray under
 // the node; each rebuilds its ray from the light and the sample's position (conetree/cone_math.h) and
 // runs the watertight ray/triangle test with hits counted at distances in (eps, L - eps) from the light
@@ -24,13 +26,13 @@
 // slots for each deeper depth (reserveBelow), so one pair (at most 4 survivors) always fits and the
 // traversal needs no more than 4 (D - 1) + 1 pairs (one node's children per depth) to make progress. The
 // chunk is sized from the survivors per input seen so far at that depth; a chunk whose survivors would
-// pass the limit writes none of them (the scatter checks the scanned total) and is retried smaller. So
+// pass the limit is retried smaller (the kernel counts every survivor but writes only those below the
+// limit, into slots the retry overwrites). So
 // the traversal is breadth-first, a whole depth per pass, while the arena holds two consecutive depths,
 // and degrades smoothly to depth-first over chunks when it does not; the mask is bit-identical at every
 // arena size (tests/traversal_test.cpp): visibility only ever goes from 1 to 0, and every (triangle,
 // leaf) pair that survives is tested exactly once whatever the chunking.
-// Scratch per chunk: the copied inputs, a mask and a count per input, the scan's block sums, sized for
-// `chunkCapacity` inputs. The host reads back one word per chunk (the survivor count) to place the next
+// Scratch per chunk: the copied inputs, sized for `chunkCapacity` inputs. The host reads back one word per chunk (the survivor count) to place the next
 // chunk; each chunk is one submit, and so is each batch of leaf tests.
 //
 // Far-light frame (conetree/cone_layout.h ConeFrame, conetree.h chooseFrame). The tests' rounding margins
@@ -78,14 +80,14 @@
 // (ConeTree::recordDevice), the whole traversal goes into the caller's command buffer with no count from
 // the host. The triangles are taken in batches of chunkCapacity (a host count); each batch goes down the
 // tree breadth-first, one step per depth: step c tests the pairs of depth c - 1 (step 0: the batch's
-// triangles) against their children at depth c, scans the survivor counts and scatters the pairs, the
+// triangles) against their children at depth c and appends the survivors, the
 // steps ping-ponging between the arena and the chunk buffer; at c = D, the tree's depth on the GPU, the
 // pairs go to the leaves instead. Between steps a one-invocation kernel (traverse_advance.comp) adds the
 // step's counts to per-depth totals and writes the next step's count, shape fields and indirect dispatch
 // arguments; steps past the tree's depth are dispatches of zero workgroups. Every step may write at most
-// chunkCapacity pairs (its scratch and either buffer hold that many): a step whose survivors do not fit
-// writes none of them and sets the overflow word, after which nothing more runs, and the caller redoes the
-// traversal with run() (chunked, several submits) -- the mask is the same either way: the hits already
+// chunkCapacity pairs (either buffer holds that many): a step whose survivors do not fit is discarded
+// (whatever of it was written is never read) and sets the overflow word, after which nothing more runs,
+// and the caller redoes the traversal with run() (chunked, several submits) -- the mask is the same either way: the hits already
 // written are hits, and the chunked run decides every pair from the first batch that did not complete).
 // The batch size adapts from frame to frame (learnBatch). The counters stay on the GPU (stateBuffer())
 // and come back once with the mask (statsFromState).
@@ -127,10 +129,10 @@ namespace cs::traversal {
 // ---- sizing (pure, unit-tested) ---------------------------------------------------------------------
 struct ArenaPlan {
   uint64_t pairCapacity = 0;   // pairs the arena holds
-  uint32_t chunkCapacity = 0;  // input pairs one chunk may have (masks/counts/scan sized for it)
+  uint32_t chunkCapacity = 0;  // input pairs one chunk may have (the chunk buffer sized for it)
   uint64_t bytes = 0;          // arena + chunk scratch, <= the budget
 };
-// Bytes the chunk scratch of `chunkCapacity` inputs takes: masks + counts + the scan's block sums.
+// Bytes the chunk scratch of `chunkCapacity` inputs takes: the chunk buffer, the counters, the state words.
 uint64_t chunkScratchBytes(uint32_t chunkCapacity);
 // Splits `memoryBytes` into the arena and the chunk scratch; each array stays within `maxBinding` bytes.
 // Throws a cs::Error when the budget cannot hold even a minimal arena (kMinPairs pairs + one chunk).
@@ -172,7 +174,7 @@ struct TraversalStats {
   uint64_t peakPairs = 0;         // arena high-water mark, in pairs
   uint32_t peakChunk = 0;         // largest chunk, in input pairs
   uint64_t peakBytes = 0;         // peakPairs * 8 + the scratch of the largest chunk (<= what is allocated)
-  double traversalMs = 0;         // wall time of the passes' submits (test + scan + scatter), waits included
+  double traversalMs = 0;         // wall time of the passes' submits (test and append), waits included
   double leavesMs = 0;            // wall time of the leaf tests' submits
   double traversalGpuMs = 0;      // the same from timestamps (see cone_method.h on lavapipe's timestamps)
   double leavesGpuMs = 0;
@@ -262,9 +264,8 @@ class Traversal {
   ArenaPlan plan_;
   void ensureFlags(uint64_t nodes);
 
-  vk::Kernel test_, scatter_, leaves_, advance_;
-  vk::Buffer arena_, chunk_, masks_, counts_, stats_, flags_, state_;
-  std::unique_ptr<sort::Scan> scan_;
+  vk::Kernel test_, leaves_, advance_;
+  vk::Buffer arena_, chunk_, stats_, flags_, state_;
   uint32_t batchTriangles_ = 1;  // triangles per batch of the device path (learnBatch)
   bool clustersFit_ = true;      // false once a one-cluster batch overflowed: triangles only from then on
   bool usedClusters_ = false;    // the last record() started its batches as clusters

@@ -9,7 +9,7 @@
 
 // Counters the kernels add to (uint each, per submit; the host reads and clears them).
 #define STAT_MISSING 0     // tests short of 4 per input (1 per triangle): children or rays past a level's end
-#define STAT_TOTAL 1       // the scan's total: survivors of the chunk (written by sort/'s Scan)
+#define STAT_TOTAL 1       // survivors of the step or chunk: the test kernel's appends (traverse_test.comp)
 #define STAT_ACCEPTED 2    // early accept (002 §3.3): nodes the test kernel found covered and shadowed at once
 #define STAT_DROPPED 3     // early accept: input pairs dropped because their node was accepted (their tests in STAT_MISSING)
 #define STAT_WORDS 4
@@ -34,10 +34,10 @@
 #define STATE_LEAF_PAIRS 144   // uint64 (lo, hi): pairs sent to the leaves
 #define STATE_ACCEPTED 146     // uint64: early accept, nodes found covered
 #define STATE_DROPPED 148      // uint64: early accept, pairs dropped at an accepted node
-#define STATE_TEST_ARGS 152    // uvec4: the current step's test and scatter dispatch (x, y, 1, inputs)
+#define STATE_TEST_ARGS 152    // uvec4: the current step's test dispatch (x, y, 1, inputs)
 #define STATE_LEAF_ARGS 156    // + 4 c: the leaves of step c (x, y, 1, leaf pairs); 0 groups but at c = D
 #define STATE_MAX_STEPS 16     // steps 0 .. 15 (tree depth <= 15)
-#define STATE_SCAN_ARGS 224    // uvec4: the current step's scan, level 0 (max(1, ceil(inputs / SCAN_BLOCK)) workgroups)
+                               // 224-227: unused
 #define STATE_EXPANDED 228     // uint64: (cluster, node) pairs expanded into their triangles
 #define STATE_BATCH_TRIANGLES 230  // the current batch's triangles
 #define STATE_COMMITTED 232    // the totals (STATE_LEAF_MISSING, then STATE_ACC .. STATE_TEST_ARGS) as of the last completed batch
@@ -48,11 +48,11 @@
 
 // Triangle clusters (traversal.h, "Clusters"): CLUSTER_SIZE consecutive triangles of a triangle buffer
 // (the last may hold fewer), bounded by one sphere relative to the light (cone_method.cpp).
-#define CLUSTER_SIZE 64u
-#define CLUSTER_SHIFT 6u
+#define CLUSTER_SIZE 16u
+#define CLUSTER_SHIFT 4u
 // A step's inputs (STATE_MODE): (triangle, node) pairs; (cluster, node) pairs, tested with the cluster's
-// sphere; or the expansion of (cluster, node) pairs, input i being triangle CLUSTER_SIZE * cluster + i % 64
-// of pair i / 64 (tested as a triangle pair; past the buffer's triangles: nothing).
+// sphere; or the expansion of (cluster, node) pairs, input i being triangle CLUSTER_SIZE * cluster + i % CLUSTER_SIZE
+// of pair i / CLUSTER_SIZE (tested as a triangle pair; past the buffer's triangles: nothing).
 #define STEP_TRIANGLES 0u
 #define STEP_CLUSTERS 1u
 #define STEP_EXPAND 2u
@@ -80,7 +80,7 @@ namespace cs::traversal {
 CS_GLSL_TYPES
 #endif
 
-// traverse_test.comp, traverse_scatter.comp, traverse_leaves.comp. A pair is uvec2(triangle, node index
+// traverse_test.comp, traverse_leaves.comp. A pair is uvec2(triangle, node index
 // within its depth); the arena holds the pairs of every depth on a stack (traversal.h).
 struct TraversePush {
   vec4 light;         // xyz: the point light (the cones' apex)
@@ -89,10 +89,10 @@ struct TraversePush {
   uint fromTriangles; // 1: input i is triangle first + i, tested against the root (pass 0)
   uint childOffset;   // node-array offset of the child depth (test); unused by the leaves
   uint childCount;    // elements at the child depth (nodes, or the rays at the leaves)
-  uint outFirst;      // scatter: arena slot of the first output pair
+  uint outFirst;      // the test's appends: arena slot of the first output pair
   float eps;          // leaves: hits count at distances in (eps, L - eps) from the light
   float minLength;    // leaves: rays not longer than this are degenerate (2 eps), never tested
-  uint outLimit;      // scatter: no pair is written at or past this slot (the chunk overflowed)
+  uint outLimit;      // the test's appends: no pair is written at or past this slot (the chunk overflowed)
   uint test;          // test: TRAVERSE_TEST_PRECISE or TRAVERSE_TEST_SPHERE
   uint frontFaceCulling; // test, pass 0: 1 drops the triangles that face the light (002 §3.6, cone_method.h)
   uint earlyAccept;   // test: 1 shadows the leaves of a covered child at once (002 §3.3) and marks it
@@ -136,7 +136,7 @@ static_assert(sizeof(AdvancePush) == 32, "AdvancePush layout");
 static_assert(STATE_ACC + STATE_ACC_WORDS * STATE_MAX_STEPS <= STATE_LEAF_PAIRS && STATE_TEST_ARGS % 4 == 0 &&
                   STATE_LEAF_ARGS % 4 == 0 && STATE_LEAF_ARGS + 4 * (STATE_MAX_STEPS + 1) <= STATE_WORDS,
               "state words");
-static_assert(STATE_COMMITTED >= STATE_SCAN_ARGS + 4 && STATE_COMMITTED + STATE_COMMITTED_WORDS <= STATE_WORDS, "committed words");
+static_assert(STATE_COMMITTED >= STATE_EXPANDED + 2 && STATE_COMMITTED + STATE_COMMITTED_WORDS <= STATE_WORDS, "committed words");
 static_assert(sizeof(TraversePush) == 112 && offsetof(TraversePush, frameVertices) == 76 && offsetof(TraversePush, first) == 16 &&
                   offsetof(TraversePush, minLength) == 44 && offsetof(TraversePush, outLimit) == 48 &&
                   offsetof(TraversePush, test) == 52 && offsetof(TraversePush, frontFaceCulling) == 56,

@@ -5,13 +5,12 @@
 // expands the pairs of depth c - 1 into depth c (step 0: the batch's triangles into the root); at c = D,
 // the tree's depth, the pairs go to the leaves instead. Before step c this kernel
 //  - adds what step c - 1 did to its depth's totals (inputs, tests, survivors, steps run, early accept),
-//  - flags an overflow when step c - 1's survivors passed the capacity (the scatter then wrote none, and
+//  - flags an overflow when step c - 1's survivors passed the capacity (what the step wrote is never read, and
 //    every later step of the frame is a dispatch of zero workgroups: the host redoes it chunked),
 //  - writes step c's count, its TraversePush fields from the tree's shape, and the indirect arguments of
-//    its test and scatter, or of the leaves at c = D, and clears the step counters.
+//    its test, or of the leaves at c = D, and clears the step counters.
 // bindings: 0 = shape words (SHAPE_*, conetree/tree_shape.comp), 1 = state words (STAT_*, STATE_*)
 #include "conetree/cone_layout.h"
-#include "sort/sort_layout.h"
 #include "traversal/traversal_layout.h"
 
 layout(local_size_x = 1) in;
@@ -116,7 +115,6 @@ void main() {
     state[STATE_INPUT_OFFSET] = c == 0u ? 0u : shape[SHAPE_OFFSETS + c - 1u];
     state[STATE_LEAF_SHIFT] = 2u * (depth - c);
   }
-  writeArgs(STATE_SCAN_ARGS, max(state[STATE_COUNT], 1u), 0u, SCAN_BLOCK);  // at least one: it writes the total
   state[STATE_LEAF_COUNT] = shape[SHAPE_LEAVES];
   state[STAT_MISSING] = 0u;
   state[STAT_TOTAL] = 0u;

@@ -1,9 +1,18 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
+#extension GL_KHR_shader_subgroup_ballot : require
 // One breadth-first pass (002 §3.1, §4.2): every input (triangle, node) pair is tested against the node's
-// children with the precise cone/triangle test (002 §3.2) or the sphere test (sphere_test.h, p.test) -- or, in pass 0, every triangle against the
-// root. Writes the surviving children as a 4-bit mask and their count per input; sort/'s scan turns the
-// counts into output offsets and traverse_scatter.comp writes the pairs.
+// children with the precise cone/triangle test (002 §3.2) or the sphere test (sphere_test.h, p.test) -- or,
+// in pass 0, every triangle against the root -- and the surviving (triangle, child) pairs are appended to
+// the output: each subgroup sums its survivors, one invocation reserves that many slots with an atomicAdd
+// on STAT_TOTAL, and each invocation writes its own at its exclusive prefix within the reservation. No
+// per-input masks or counts, no scan, no second pass over the inputs. The pairs land in subgroup order
+// within a reservation and in the order the reservations were taken across them: the set of pairs, and
+// so every later test and the mask, is the same whatever that order (the leaves' AND is idempotent).
+// STAT_TOTAL counts every survivor; only those below p.outLimit - p.outFirst are written, and a step whose
+// total passes that bound is an overflow for the caller (traverse_advance.comp on the device path,
+// expandChunk() on the host), which discards the step's output: a partly written output is never read.
 // Tests counted by the host (4 per input pair, 1 per triangle) less STAT_MISSING, which the pairs of a
 // level's last node (fewer than four children) add to.
 // Early accept (002 §3.3, p.earlyAccept, precise test only): a child the triangle covers
@@ -11,15 +20,19 @@
 // AND as the leaves, on the leaf range the implicit tree gives -- is marked in the flags (one word per
 // interior node, cleared per frame) and does not continue (no pair written). An input pair whose node is
 // flagged is dropped: its samples are all shadowed already (its children's tests go to STAT_MISSING).
-// bindings: 0 = triangles (uniform texel buffer, RGBA32F: 3 texels per triangle, world space; in the far-light frame relative to the light), 1 = nodes (uniform texel buffer, RGBA32F: 2 texels per ConeNode), 2 = chunk (uvec2
-//           input pairs), 3 = masks (uint per input), 4 = counts (uint per input), 5 = stats (uint[STAT_WORDS]),
-//           6 = samples (uint pixel per sorted ray), 7 = positions (vec4 per pixel), 8 = visibility (uint per
-//           pixel), 9 = flags (uint per interior node); 6-9 used with early accept only,
-//           10 = cluster spheres (vec4 per cluster, relative to the light as binding 0's vertices; device path)
+// bindings: 0 = triangles (uniform texel buffer, RGBA32F: 3 texels per triangle, world space; in the
+//           far-light frame relative to the light), 1 = nodes (uniform texel buffer, RGBA32F: 2 texels per
+//           ConeNode), 2 = input pairs (uvec2), 3 = output pairs (uvec2, from slot p.outFirst),
+//           4 = stats (uint[STAT_WORDS]; the device path's state words), 5 = samples (uint pixel per sorted
+//           ray), 6 = positions (vec4 per pixel), 7 = visibility (uint per pixel), 8 = flags (uint per
+//           interior node); 5-8 used with early accept only, 9 = cluster spheres (vec4 per cluster,
+//           relative to the light as binding 0's vertices; device path), 10 = binding 4 as a uniform texel
+//           buffer (RGBA32UI), read
 // Clusters (device path, STATE_MODE): a STEP_CLUSTERS step tests (cluster, node) pairs with the
 // cluster's sphere (sphere_test.h: false only when no ray of the cone meets the sphere, which holds all
-// the cluster's triangles); a STEP_EXPAND step's input i is triangle 64 * cluster + i % 64 of cluster
-// pair i / 64, tested as a triangle pair (front-face culling applies there: its pass 0 was the clusters').
+// the cluster's triangles) and writes (cluster, child) pairs; a STEP_EXPAND step's input i is triangle
+// CLUSTER_SIZE * cluster + i % CLUSTER_SIZE of cluster pair i / CLUSTER_SIZE, tested as a triangle pair
+// (front-face culling applies there: its pass 0 was the clusters').
 #include "traversal/precise_test.h"
 #include "traversal/sphere_test.h"
 #include "traversal/traverse.glsl"
@@ -30,16 +43,25 @@ layout(local_size_x = TRAVERSE_THREADS) in;
 // gather path on lavapipe and read through the texture cache on a GPU (TOOLCHAIN.md).
 layout(binding = 0) uniform samplerBuffer tris;
 layout(binding = 1) uniform samplerBuffer nodeTexels;
-layout(std430, binding = 2) readonly buffer Chunk { uvec2 pairs[]; };
-layout(std430, binding = 3) writeonly buffer Masks { uint masks[]; };
-layout(std430, binding = 4) writeonly buffer Counts { uint counts[]; };
-layout(std430, binding = 5) buffer Stats { uint stats[]; };
-layout(std430, binding = 6) readonly buffer Samples { uint samples[]; };
-layout(std430, binding = 7) readonly buffer Positions { vec4 positions[]; };
-layout(std430, binding = 8) buffer Visibility { uint visibility[]; };
-layout(std430, binding = 9) buffer Flags { uint flags[]; };
-layout(std430, binding = 10) readonly buffer Clusters { vec4 clusterSpheres[]; };
+layout(std430, binding = 2) readonly buffer Inputs { uvec2 pairs[]; };
+layout(std430, binding = 3) writeonly buffer Outputs { uvec2 outPairs[]; };
+layout(std430, binding = 4) buffer Stats { uint stats[]; };
+layout(std430, binding = 5) readonly buffer Samples { uint samples[]; };
+layout(std430, binding = 6) readonly buffer Positions { vec4 positions[]; };
+layout(std430, binding = 7) buffer Visibility { uint visibility[]; };
+layout(std430, binding = 8) buffer Flags { uint flags[]; };
+layout(std430, binding = 9) readonly buffer Clusters { vec4 clusterSpheres[]; };
+// Binding 4's words again, as RGBA32UI texels: the words every invocation reads (the count, the shape
+// fields, the mode), written by earlier dispatches. A storage load is one load per lane on lavapipe, a
+// texel fetch next to nothing (docs/ARCHITECTURE.md, "Memory access").
+layout(binding = 10) uniform usamplerBuffer statWords;
 layout(push_constant) uniform Push { TraversePush p; };
+
+uint statWord(uint w) {
+  uvec4 t = texelFetch(statWords, int(w >> 2u));
+  uint k = w & 3u;
+  return k == 0u ? t.x : (k == 1u ? t.y : (k == 2u ? t.z : t.w));
+}
 
 ConeNode node(uint n) {
   ConeNode c;
@@ -64,43 +86,31 @@ void acceptChild(uint c, vec3 light) {
   }
 }
 
-void main() {
-  uint i = flatIndex();
-  count = p.countWord != 0u ? stats[p.countWord] : p.count;
-  if (i >= count) return;
-  if (p.deviceParams != 0u) {
-    childOffset = stats[STATE_CHILD_OFFSET], childCount = stats[STATE_CHILD_COUNT];
-    inputOffset = stats[STATE_INPUT_OFFSET], leafShift = stats[STATE_LEAF_SHIFT], leafCount = stats[STATE_LEAF_COUNT];
-  } else {
-    childOffset = p.childOffset, childCount = p.childCount;
-    inputOffset = p.inputOffset, leafShift = p.leafShift, leafCount = p.leafCount;
-  }
-  uint mode = p.deviceParams != 0u ? stats[STATE_MODE] : STEP_TRIANGLES;
-  uvec2 pair;
+// The input's surviving children as a 4-bit mask (bit k: child r.x + k), its pair in `pair` and its first
+// child in `firstChild`. Counts the tests it skips (STAT_MISSING) and the early-accept events.
+uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild) {
+  firstChild = 0u;
   if (mode == STEP_EXPAND) {
     uvec2 cp = pairs[i >> CLUSTER_SHIFT];
     pair = uvec2((cp.x << CLUSTER_SHIFT) + (i & (CLUSTER_SIZE - 1u)), cp.y);
     if (pair.x >= p.triangleEnd) {  // past the last cluster's triangles: no test
-      masks[i] = 0u;
-      counts[i] = 0u;
       atomicAdd(stats[STAT_MISSING], 4u);
-      return;
+      return 0u;
     }
   } else {
     uint first = mode == STEP_CLUSTERS ? p.first >> CLUSTER_SHIFT : p.first;  // pass 0: clusters or triangles
     pair = p.fromTriangles != 0u ? uvec2(first + i, 0u) : pairs[p.first + i];
   }
+  uvec2 r = p.fromTriangles != 0u ? uvec2(0u, 1u) : childRange(pair.y, childCount);
+  firstChild = r.x;
+  uint expected = p.fromTriangles != 0u ? 1u : 4u;
+  if (r.y - r.x < expected) atomicAdd(stats[STAT_MISSING], expected - (r.y - r.x));  // the last node only
+  uint mask = 0u;
   if (mode == STEP_CLUSTERS) {
-    uvec2 r = p.fromTriangles != 0u ? uvec2(0u, 1u) : childRange(pair.y, childCount);
     vec4 sphere = clusterSpheres[pair.x];
-    uint mask = 0u;
     for (uint c = r.x; c < r.y; c++)
       if (sphereConeTriangle(node(childOffset + c), sphere, p.eps, p.coneScale)) mask |= 1u << (c - r.x);
-    masks[i] = mask;
-    counts[i] = bitCount(mask);
-    uint expected = p.fromTriangles != 0u ? 1u : 4u;
-    if (r.y - r.x < expected) atomicAdd(stats[STAT_MISSING], expected - (r.y - r.x));
-    return;
+    return mask;
   }
   vec3 light = p.light.xyz;
   // Relative to the light, exactly as the leaf test computes them from the light's end; in the far-light
@@ -114,8 +124,6 @@ void main() {
     v2 -= light;
   }
   float scale = p.coneScale;
-  uvec2 r = p.fromTriangles != 0u ? uvec2(0u, 1u) : childRange(pair.y, childCount);
-  uint mask = 0u;
   if (p.earlyAccept != 0u && p.fromTriangles == 0u && flags[inputOffset + pair.y] != 0u) {
     // the node was accepted (by another triangle): every sample under it is shadowed already
     atomicAdd(stats[STAT_DROPPED], 1u);
@@ -128,18 +136,57 @@ void main() {
       if (sphereConeTriangle(node(childOffset + c), sphere, p.eps, scale)) mask |= 1u << (c - r.x);
   } else {
     // The precise test, with the sphere test ANDed in: both conservative, and the sphere's margins are
-    // the tighter ones for small triangles (traversal.h).
-    PreciseTriangle t = preciseTriangle(v0, v1, v2, scale);  // once for the (up to) four children
+    // the tighter ones for small triangles (traversal.h). The sphere test first, on every child: it
+    // rejects most pairs below the top levels, and the precise test's per-triangle set-up (lengths,
+    // plane slab, three edge planes) is then not computed (unless another lane of the subgroup needs it).
     vec4 sphere = boundingSphere(v0, v1, v2, scale);
-    for (uint c = r.x; c < r.y; c++) {
-      ConeNode n = node(childOffset + c);
-      if (!sphereConeTriangle(n, sphere, p.eps, scale) || !preciseConeTriangle(n, t, p.eps)) continue;
-      if (p.earlyAccept != 0u && preciseConeCovered(n, t, p.eps)) acceptChild(c, light);
-      else mask |= 1u << (c - r.x);
+    uint near = 0u;
+    for (uint c = r.x; c < r.y; c++)
+      if (sphereConeTriangle(node(childOffset + c), sphere, p.eps, scale)) near |= 1u << (c - r.x);
+    if (near != 0u) {
+      PreciseTriangle t = preciseTriangle(v0, v1, v2, scale);  // once for the (up to) four children
+      for (uint c = r.x; c < r.y; c++) {
+        if ((near & (1u << (c - r.x))) == 0u) continue;
+        ConeNode n = node(childOffset + c);
+        if (!preciseConeTriangle(n, t, p.eps)) continue;
+        if (p.earlyAccept != 0u && preciseConeCovered(n, t, p.eps)) acceptChild(c, light);
+        else mask |= 1u << (c - r.x);
+      }
     }
   }
-  masks[i] = mask;
-  counts[i] = bitCount(mask);
-  uint expected = p.fromTriangles != 0u ? 1u : 4u;
-  if (r.y - r.x < expected) atomicAdd(stats[STAT_MISSING], expected - (r.y - r.x));  // the last node only
+  return mask;
+}
+
+void main() {
+  uint i = flatIndex();
+  count = p.countWord != 0u ? statWord(p.countWord) : p.count;
+  if (i >= count) return;
+  if (p.deviceParams != 0u) {
+    childOffset = statWord(STATE_CHILD_OFFSET), childCount = statWord(STATE_CHILD_COUNT);
+    inputOffset = statWord(STATE_INPUT_OFFSET), leafShift = statWord(STATE_LEAF_SHIFT), leafCount = statWord(STATE_LEAF_COUNT);
+  } else {
+    childOffset = p.childOffset, childCount = p.childCount;
+    inputOffset = p.inputOffset, leafShift = p.leafShift, leafCount = p.leafCount;
+  }
+  uint mode = p.deviceParams != 0u ? statWord(STATE_MODE) : STEP_TRIANGLES;
+  uvec2 pair;
+  uint firstChild;
+  uint mask = testInput(i, mode, pair, firstChild);
+
+  // The append: one atomic per subgroup (the invocations still active here), each invocation's pairs at
+  // its exclusive prefix within the subgroup's reservation.
+  uint n = bitCount(mask);
+  uint total = subgroupAdd(n);
+  if (total == 0u) return;
+  uint before = subgroupExclusiveAdd(n);
+  uint base = 0u;
+  if (subgroupElect()) base = atomicAdd(stats[STAT_TOTAL], total);
+  base = subgroupBroadcastFirst(base);
+  uint room = p.outLimit - p.outFirst;
+  uint slot = base + before;
+  for (uint k = 0u; k < 4u; k++)
+    if ((mask & (1u << k)) != 0u) {
+      if (slot < room) outPairs[p.outFirst + slot] = uvec2(pair.x, firstChild + k);
+      slot++;
+    }
 }

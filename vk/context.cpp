@@ -312,6 +312,12 @@ std::unique_ptr<Context> createContext(const ContextOptions& options) {
   p2.pNext = &sub;
   vkGetPhysicalDeviceProperties2(ctx->physical, &p2);
   ctx->subgroupSize = sub.subgroupSize;
+  // The traversal appends its survivors with subgroup sums and one atomic per subgroup (traverse_test.comp).
+  const VkSubgroupFeatureFlags subgroupOps =
+      VK_SUBGROUP_FEATURE_BASIC_BIT | VK_SUBGROUP_FEATURE_ARITHMETIC_BIT | VK_SUBGROUP_FEATURE_BALLOT_BIT;
+  if (!(sub.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) || (sub.supportedOperations & subgroupOps) != subgroupOps)
+    throw Error("the device lacks subgroup basic, arithmetic or ballot operations in compute shaders", ctx->deviceName(),
+                "use a Vulkan 1.1+ driver that supports them (lavapipe and desktop GPUs do)");
   for (uint32_t i = 0; i < ctx->memory.memoryTypeCount; ++i) {
     auto f = ctx->memory.memoryTypes[i].propertyFlags;
     if ((f & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT) && (f & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT) &&
