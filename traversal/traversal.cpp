@@ -135,7 +135,6 @@ Traversal::Traversal(vk::Context& ctx, uint64_t memoryBytes)
 Traversal::Traversal(vk::Context& ctx, const ArenaPlan& plan) : ctx_(ctx), plan_(plan) {
   CS_CHECK(plan_.pairCapacity >= kMinPairs && plan_.chunkCapacity >= 1, "traversal arena plan too small");
   batchTriangles_ = plan_.chunkCapacity;
-  test_ = vk::createKernel(ctx, "traverse test", spv_traverse_test_comp, 11, sizeof(TraversePush), {}, 0x403u);
   leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 6, sizeof(TraversePush), {}, 0x9u);
   advance_ = vk::createKernel(ctx, "traverse advance", spv_traverse_advance_comp, 2, sizeof(AdvancePush));
   arena_ = vk::createBuffer(ctx, plan_.pairCapacity * kPairBytes);
@@ -145,6 +144,19 @@ Traversal::Traversal(vk::Context& ctx, const ArenaPlan& plan) : ctx_(ctx), plan_
 }
 
 Traversal::~Traversal() = default;
+
+// The test kernel specialised for the switches in `p` (traverse_test.comp), made on first use.
+const vk::Kernel& Traversal::testKernel(const TraversePush& p) {
+  const uint32_t key = (p.test == TRAVERSE_TEST_SPHERE ? 1u : 0u) | (p.earlyAccept ? 2u : 0u) | (p.frontFaceCulling ? 4u : 0u);
+  std::unique_ptr<vk::Kernel>& k = tests_[key];
+  if (!k)
+    k = std::make_unique<vk::Kernel>(vk::createKernel(
+        ctx_, "traverse test", spv_traverse_test_comp, 11, sizeof(TraversePush),
+        {{0, p.test == TRAVERSE_TEST_SPHERE ? TRAVERSE_TEST_SPHERE : TRAVERSE_TEST_PRECISE}, {1, p.earlyAccept ? 1u : 0u},
+         {2, p.frontFaceCulling ? 1u : 0u}},
+        0x403u));
+  return *k;
+}
 
 uint64_t Traversal::bytesAllocated() const {
   return arena_.size + chunk_.size + stats_.size + state_.size;
@@ -203,11 +215,11 @@ bool Traversal::expandChunk(Frame& f, uint32_t child, bool fromTriangles, uint64
   cmd.mark("start");
   vk::Grid g = vk::gridFor(count, TRAVERSE_THREADS, ctx_.maxWorkgroups());
   if (early)
-    cmd.dispatch(test_, {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), chunk_, arena_,
+    cmd.dispatch(testKernel(p), {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), chunk_, arena_,
                          stats_, f.in->samples, f.in->positions, *f.in->visibility, flags_, stats_,
                          vk::texels(stats_, kWordFormat)}, p, g.x, g.y);
   else  // bindings 5-9 unused: any valid buffer
-    cmd.dispatch(test_, {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), chunk_, arena_,
+    cmd.dispatch(testKernel(p), {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), chunk_, arena_,
                          stats_, stats_, stats_, stats_, stats_, stats_, vk::texels(stats_, kWordFormat)}, p, g.x, g.y);
   cmd.barrier();
   cmd.mark("traversal");
@@ -415,10 +427,10 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
     };
     const vk::Buffer& spheres = clusters ? *in.clusterSpheres : state_;
     if (early)
-      dispatch(test_, {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), src, dst, state_,
+      dispatch(testKernel(base), {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), src, dst, state_,
                        in.samples, in.positions, *in.visibility, flags_, spheres, vk::texels(state_, kWordFormat)});
     else
-      dispatch(test_, {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), src, dst, state_,
+      dispatch(testKernel(base), {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), src, dst, state_,
                        state_, state_, state_, state_, spheres, vk::texels(state_, kWordFormat)});
     cmd.barrier();
   };

@@ -264,7 +264,9 @@ class Traversal {
   ArenaPlan plan_;
   void ensureFlags(uint64_t nodes);
 
-  vk::Kernel test_, leaves_, advance_;
+  const vk::Kernel& testKernel(const TraversePush& p);
+  std::unique_ptr<vk::Kernel> tests_[8];  // the test kernel per switches (testKernel)
+  vk::Kernel leaves_, advance_;
   vk::Buffer arena_, chunk_, stats_, flags_, state_;
   uint32_t batchTriangles_ = 1;  // triangles per batch of the device path (learnBatch)
   bool clustersFit_ = true;      // false once a one-cluster batch overflowed: triangles only from then on

@@ -3,7 +3,7 @@
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_ballot : require
 // One breadth-first pass (002 §3.1, §4.2): every input (triangle, node) pair is tested against the node's
-// children with the precise cone/triangle test (002 §3.2) or the sphere test (sphere_test.h, p.test) -- or,
+// children with the precise cone/triangle test (002 §3.2) or the sphere test (sphere_test.h, SPEC_TEST) -- or,
 // in pass 0, every triangle against the root -- and the surviving (triangle, child) pairs are appended to
 // the output: each subgroup sums its survivors, one invocation reserves that many slots with an atomicAdd
 // on STAT_TOTAL, and each invocation writes its own at its exclusive prefix within the reservation. No
@@ -15,7 +15,7 @@
 // expandChunk() on the host), which discards the step's output: a partly written output is never read.
 // Tests counted by the host (4 per input pair, 1 per triangle) less STAT_MISSING, which the pairs of a
 // level's last node (fewer than four children) add to.
-// Early accept (002 §3.3, p.earlyAccept, precise test only): a child the triangle covers
+// Early accept (002 §3.3, SPEC_EARLY_ACCEPT, precise test only): a child the triangle covers
 // (preciseConeCovered: every ray under it hits) shadows every sample under it at once -- the same atomic
 // AND as the leaves, on the leaf range the implicit tree gives -- is marked in the flags (one word per
 // interior node, cleared per frame) and does not continue (no pair written). An input pair whose node is
@@ -56,6 +56,12 @@ layout(std430, binding = 9) readonly buffer Clusters { vec4 clusterSpheres[]; };
 // texel fetch next to nothing (docs/ARCHITECTURE.md, "Memory access").
 layout(binding = 10) uniform usamplerBuffer statWords;
 layout(push_constant) uniform Push { TraversePush p; };
+// The switches of a frame, as specialisation constants (Traversal::testKernel): the kernel holds only the
+// code its switches run. Measured on lavapipe: code a uniform branch never enters still costs every
+// invocation (the precise test's code in a sphere-test frame took a third of the 1 M height field's frame).
+layout(constant_id = 0) const uint SPEC_TEST = TRAVERSE_TEST_PRECISE;  // = p.test
+layout(constant_id = 1) const uint SPEC_EARLY_ACCEPT = 0u;             // = p.earlyAccept
+layout(constant_id = 2) const uint SPEC_FRONT_FACE_CULLING = 0u;       // = p.frontFaceCulling
 
 uint statWord(uint w) {
   uvec4 t = texelFetch(statWords, int(w >> 2u));
@@ -124,13 +130,13 @@ uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild) {
     v2 -= light;
   }
   float scale = p.coneScale;
-  if (p.earlyAccept != 0u && p.fromTriangles == 0u && flags[inputOffset + pair.y] != 0u) {
+  if (SPEC_EARLY_ACCEPT != 0u && p.fromTriangles == 0u && flags[inputOffset + pair.y] != 0u) {
     // the node was accepted (by another triangle): every sample under it is shadowed already
     atomicAdd(stats[STAT_DROPPED], 1u);
     atomicAdd(stats[STAT_MISSING], r.y - r.x);
-  } else if (p.frontFaceCulling != 0u && (p.fromTriangles != 0u || mode == STEP_EXPAND) && facesLight(v0, v1, v2)) {
+  } else if (SPEC_FRONT_FACE_CULLING != 0u && (p.fromTriangles != 0u || mode == STEP_EXPAND) && facesLight(v0, v1, v2)) {
     // 002 §3.6: a triangle facing the light casts no shadow in a closed mesh; dropped at the root.
-  } else if (p.test == TRAVERSE_TEST_SPHERE) {
+  } else if (SPEC_TEST == TRAVERSE_TEST_SPHERE) {
     vec4 sphere = boundingSphere(v0, v1, v2, scale);
     for (uint c = r.x; c < r.y; c++)
       if (sphereConeTriangle(node(childOffset + c), sphere, p.eps, scale)) mask |= 1u << (c - r.x);
@@ -149,7 +155,7 @@ uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild) {
         if ((near & (1u << (c - r.x))) == 0u) continue;
         ConeNode n = node(childOffset + c);
         if (!preciseConeTriangle(n, t, p.eps)) continue;
-        if (p.earlyAccept != 0u && preciseConeCovered(n, t, p.eps)) acceptChild(c, light);
+        if (SPEC_EARLY_ACCEPT != 0u && preciseConeCovered(n, t, p.eps)) acceptChild(c, light);
         else mask |= 1u << (c - r.x);
       }
     }
