@@ -275,7 +275,7 @@ void Traversal::leaves(Frame& f, uint32_t d) {
   cmd.fill(stats_, 0);
   cmd.barrier();
   cmd.mark("start");
-  vk::Grid g = vk::gridFor(4 * pairs, TRAVERSE_THREADS, ctx_.maxWorkgroups());
+  vk::Grid g = vk::gridFor(pairs, TRAVERSE_THREADS, ctx_.maxWorkgroups());
   cmd.dispatch(leaves_, {vk::texels(*f.in->triangles, kTexelFormat), arena_, f.in->samples, f.in->positions, *f.in->visibility, stats_}, p,
                g.x, g.y);
   cmd.barrier();

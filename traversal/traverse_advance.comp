@@ -105,7 +105,7 @@ void main() {
   if (c <= STATE_MAX_STEPS) writeArgs(STATE_LEAF_ARGS + 4u * c, 0u, 0u, TRAVERSE_THREADS);
   state[STATE_COUNT] = 0u;
   if (n > 0u && c == depth) {
-    writeArgs(STATE_LEAF_ARGS + 4u * c, 4u * n, n, TRAVERSE_THREADS);
+    writeArgs(STATE_LEAF_ARGS + 4u * c, n, n, TRAVERSE_THREADS);
     add64(STATE_LEAF_PAIRS, n);
   } else if (n > 0u && c < depth) {
     state[STATE_COUNT] = count;
