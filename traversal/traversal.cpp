@@ -146,14 +146,16 @@ Traversal::Traversal(vk::Context& ctx, const ArenaPlan& plan) : ctx_(ctx), plan_
 Traversal::~Traversal() = default;
 
 // The test kernel specialised for the switches in `p` (traverse_test.comp), made on first use.
-const vk::Kernel& Traversal::testKernel(const TraversePush& p) {
-  const uint32_t key = (p.test == TRAVERSE_TEST_SPHERE ? 1u : 0u) | (p.earlyAccept ? 2u : 0u) | (p.frontFaceCulling ? 4u : 0u);
+// `clusters`: the kernel of (cluster, node) steps instead (device path).
+const vk::Kernel& Traversal::testKernel(const TraversePush& p, bool clusters) {
+  const uint32_t key = (p.test == TRAVERSE_TEST_SPHERE ? 1u : 0u) | (p.earlyAccept ? 2u : 0u) |
+                       (p.frontFaceCulling ? 4u : 0u) | (clusters ? 8u : 0u);
   std::unique_ptr<vk::Kernel>& k = tests_[key];
   if (!k)
     k = std::make_unique<vk::Kernel>(vk::createKernel(
-        ctx_, "traverse test", spv_traverse_test_comp, 11, sizeof(TraversePush),
+        ctx_, clusters ? "traverse test (clusters)" : "traverse test", spv_traverse_test_comp, 11, sizeof(TraversePush),
         {{0, p.test == TRAVERSE_TEST_SPHERE ? TRAVERSE_TEST_SPHERE : TRAVERSE_TEST_PRECISE}, {1, p.earlyAccept ? 1u : 0u},
-         {2, p.frontFaceCulling ? 1u : 0u}},
+         {2, p.frontFaceCulling ? 1u : 0u}, {3, clusters ? 1u : 0u}},
         0x403u));
   return *k;
 }
@@ -215,11 +217,11 @@ bool Traversal::expandChunk(Frame& f, uint32_t child, bool fromTriangles, uint64
   cmd.mark("start");
   vk::Grid g = vk::gridFor(count, TRAVERSE_THREADS, ctx_.maxWorkgroups());
   if (early)
-    cmd.dispatch(testKernel(p), {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), chunk_, arena_,
+    cmd.dispatch(testKernel(p, false), {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), chunk_, arena_,
                          stats_, f.in->samples, f.in->positions, *f.in->visibility, flags_, stats_,
                          vk::texels(stats_, kWordFormat)}, p, g.x, g.y);
   else  // bindings 5-9 unused: any valid buffer
-    cmd.dispatch(testKernel(p), {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), chunk_, arena_,
+    cmd.dispatch(testKernel(p, false), {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), chunk_, arena_,
                          stats_, stats_, stats_, stats_, stats_, stats_, vk::texels(stats_, kWordFormat)}, p, g.x, g.y);
   cmd.barrier();
   cmd.mark("traversal");
@@ -417,21 +419,25 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
     cmd.barrier();
   };
   // The test of one step: inputs in `src`, survivors appended to `dst`.
-  auto testStep = [&](const TraversePush& p, const vk::Buffer& src, const vk::Buffer& dst, bool indirect, uint32_t items) {
-    auto dispatch = [&](const vk::Kernel& k, std::initializer_list<vk::BufferRange> b) {
-      if (indirect) cmd.dispatchIndirect(k, b, &p, sizeof(p), state_, STATE_TEST_ARGS * 4);
-      else {
-        vk::Grid g = vk::gridFor(items, TRAVERSE_THREADS, ctx_.maxWorkgroups());
-        cmd.dispatch(k, b, static_cast<const void*>(&p), uint32_t(sizeof(p)), g.x, g.y);
-      }
-    };
+  // The test of one step: inputs in `src`, survivors appended to `dst`; the triangle kernel and, with
+  // clusters, the cluster kernel, each dispatched for the step's inputs when they are its kind (the
+  // advance kernel's arguments).
+  auto testStep = [&](const TraversePush& p, const vk::Buffer& src, const vk::Buffer& dst) {
     const vk::Buffer& spheres = clusters ? *in.clusterSpheres : state_;
-    if (early)
-      dispatch(testKernel(base), {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), src, dst, state_,
-                       in.samples, in.positions, *in.visibility, flags_, spheres, vk::texels(state_, kWordFormat)});
-    else
-      dispatch(testKernel(base), {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), src, dst, state_,
-                       state_, state_, state_, state_, spheres, vk::texels(state_, kWordFormat)});
+    for (bool clusterKernel : {false, true}) {
+      if (clusterKernel && !clusters) continue;
+      const uint32_t args = clusterKernel ? STATE_CLUSTER_ARGS : STATE_TEST_ARGS;
+      if (early)
+        cmd.dispatchIndirect(testKernel(p, clusterKernel),
+                             {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), src, dst, state_,
+                              in.samples, in.positions, *in.visibility, flags_, spheres, vk::texels(state_, kWordFormat)},
+                             &p, sizeof(p), state_, args * 4);
+      else
+        cmd.dispatchIndirect(testKernel(p, clusterKernel),
+                             {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), src, dst, state_,
+                              state_, state_, state_, state_, spheres, vk::texels(state_, kWordFormat)},
+                             &p, sizeof(p), state_, args * 4);
+    }
     cmd.barrier();
   };
 
@@ -446,10 +452,10 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
     p0.first = uint32_t(pos);
     p0.count = m;
     p0.fromTriangles = 1u;
-    testStep(p0, chunk_, *buffers[0], false, m);  // pass 0: the triangles against the root
+    testStep(p0, chunk_, *buffers[0]);  // pass 0: the triangles (or clusters) against the root
     for (uint32_t c = 1; c <= maxDepth; ++c) {
       advance(c, 0);
-      if (c < maxDepth) testStep(base, *buffers[(c - 1) % 2], *buffers[c % 2], true, 0);
+      if (c < maxDepth) testStep(base, *buffers[(c - 1) % 2], *buffers[c % 2]);
     }
     if (boundary) boundary("traversal");
     for (uint32_t c = 1; c <= maxDepth; ++c) {  // zero workgroups but at c = D

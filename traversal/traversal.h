@@ -264,8 +264,8 @@ class Traversal {
   ArenaPlan plan_;
   void ensureFlags(uint64_t nodes);
 
-  const vk::Kernel& testKernel(const TraversePush& p);
-  std::unique_ptr<vk::Kernel> tests_[8];  // the test kernel per switches (testKernel)
+  const vk::Kernel& testKernel(const TraversePush& p, bool clusters);
+  std::unique_ptr<vk::Kernel> tests_[16];  // the test kernels per switches (testKernel)
   vk::Kernel leaves_, advance_;
   vk::Buffer arena_, chunk_, stats_, flags_, state_;
   uint32_t batchTriangles_ = 1;  // triangles per batch of the device path (learnBatch)

@@ -34,10 +34,10 @@
 #define STATE_LEAF_PAIRS 144   // uint64 (lo, hi): pairs sent to the leaves
 #define STATE_ACCEPTED 146     // uint64: early accept, nodes found covered
 #define STATE_DROPPED 148      // uint64: early accept, pairs dropped at an accepted node
-#define STATE_TEST_ARGS 152    // uvec4: the current step's test dispatch (x, y, 1, inputs)
+#define STATE_TEST_ARGS 152    // uvec4: the current step's triangle-test dispatch (x, y, 1, inputs); 0 groups for cluster pairs
 #define STATE_LEAF_ARGS 156    // + 4 c: the leaves of step c (x, y, 1, leaf pairs); 0 groups but at c = D
 #define STATE_MAX_STEPS 16     // steps 0 .. 15 (tree depth <= 15)
-                               // 224-227: unused
+#define STATE_CLUSTER_ARGS 224 // uvec4: the current step's cluster-test dispatch (x, y, 1, inputs); 0 groups but for cluster pairs
 #define STATE_EXPANDED 228     // uint64: (cluster, node) pairs expanded into their triangles
 #define STATE_BATCH_TRIANGLES 230  // the current batch's triangles
 #define STATE_COMMITTED 232    // the totals (STATE_LEAF_MISSING, then STATE_ACC .. STATE_TEST_ARGS) as of the last completed batch
@@ -136,7 +136,7 @@ static_assert(sizeof(AdvancePush) == 32, "AdvancePush layout");
 static_assert(STATE_ACC + STATE_ACC_WORDS * STATE_MAX_STEPS <= STATE_LEAF_PAIRS && STATE_TEST_ARGS % 4 == 0 &&
                   STATE_LEAF_ARGS % 4 == 0 && STATE_LEAF_ARGS + 4 * (STATE_MAX_STEPS + 1) <= STATE_WORDS,
               "state words");
-static_assert(STATE_COMMITTED >= STATE_EXPANDED + 2 && STATE_COMMITTED + STATE_COMMITTED_WORDS <= STATE_WORDS, "committed words");
+static_assert(STATE_COMMITTED >= STATE_EXPANDED + 2 && STATE_EXPANDED >= STATE_CLUSTER_ARGS + 4 && STATE_COMMITTED + STATE_COMMITTED_WORDS <= STATE_WORDS, "committed words");
 static_assert(sizeof(TraversePush) == 112 && offsetof(TraversePush, frameVertices) == 76 && offsetof(TraversePush, first) == 16 &&
                   offsetof(TraversePush, minLength) == 44 && offsetof(TraversePush, outLimit) == 48 &&
                   offsetof(TraversePush, test) == 52 && offsetof(TraversePush, frontFaceCulling) == 56,

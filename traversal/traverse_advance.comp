@@ -8,7 +8,7 @@
 //  - flags an overflow when step c - 1's survivors passed the capacity (what the step wrote is never read, and
 //    every later step of the frame is a dispatch of zero workgroups: the host redoes it chunked),
 //  - writes step c's count, its TraversePush fields from the tree's shape, and the indirect arguments of
-//    its test, or of the leaves at c = D, and clears the step counters.
+//    its test (the cluster or the triangle kernel), or of the leaves at c = D, and clears the step counters.
 // bindings: 0 = shape words (SHAPE_*, conetree/tree_shape.comp), 1 = state words (STAT_*, STATE_*)
 #include "conetree/cone_layout.h"
 #include "traversal/traversal_layout.h"
@@ -102,6 +102,7 @@ void main() {
   }
   state[STATE_MODE] = mode;
   writeArgs(STATE_TEST_ARGS, 0u, 0u, TRAVERSE_THREADS);
+  writeArgs(STATE_CLUSTER_ARGS, 0u, 0u, TRAVERSE_THREADS);
   if (c <= STATE_MAX_STEPS) writeArgs(STATE_LEAF_ARGS + 4u * c, 0u, 0u, TRAVERSE_THREADS);
   state[STATE_COUNT] = 0u;
   if (n > 0u && c == depth) {
@@ -109,7 +110,9 @@ void main() {
     add64(STATE_LEAF_PAIRS, n);
   } else if (n > 0u && c < depth) {
     state[STATE_COUNT] = count;
-    if (c > 0u) writeArgs(STATE_TEST_ARGS, count, count, TRAVERSE_THREADS);
+    // The step's test: the cluster kernel for cluster pairs, the triangle kernel otherwise (both are
+    // recorded; the other gets zero workgroups).
+    writeArgs(mode == STEP_CLUSTERS ? STATE_CLUSTER_ARGS : STATE_TEST_ARGS, count, count, TRAVERSE_THREADS);
     state[STATE_CHILD_OFFSET] = shape[SHAPE_OFFSETS + c];
     state[STATE_CHILD_COUNT] = shape[SHAPE_COUNTS + c];
     state[STATE_INPUT_OFFSET] = c == 0u ? 0u : shape[SHAPE_OFFSETS + c - 1u];

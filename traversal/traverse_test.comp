@@ -62,6 +62,10 @@ layout(push_constant) uniform Push { TraversePush p; };
 layout(constant_id = 0) const uint SPEC_TEST = TRAVERSE_TEST_PRECISE;  // = p.test
 layout(constant_id = 1) const uint SPEC_EARLY_ACCEPT = 0u;             // = p.earlyAccept
 layout(constant_id = 2) const uint SPEC_FRONT_FACE_CULLING = 0u;       // = p.frontFaceCulling
+// 1: the cluster kernel, which tests (cluster, node) pairs (STEP_CLUSTERS) and nothing else; 0: the
+// triangle kernel (STEP_TRIANGLES, STEP_EXPAND). The device path records both for every step, the advance
+// kernel giving the other zero workgroups.
+layout(constant_id = 3) const uint SPEC_CLUSTERS = 0u;
 
 uint statWord(uint w) {
   uvec4 t = texelFetch(statWords, int(w >> 2u));
@@ -96,7 +100,7 @@ void acceptChild(uint c, vec3 light) {
 // child in `firstChild`. Counts the tests it skips (STAT_MISSING) and the early-accept events.
 uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild) {
   firstChild = 0u;
-  if (mode == STEP_EXPAND) {
+  if (SPEC_CLUSTERS == 0u && mode == STEP_EXPAND) {
     uvec2 cp = pairs[i >> CLUSTER_SHIFT];
     pair = uvec2((cp.x << CLUSTER_SHIFT) + (i & (CLUSTER_SIZE - 1u)), cp.y);
     if (pair.x >= p.triangleEnd) {  // past the last cluster's triangles: no test
@@ -104,7 +108,7 @@ uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild) {
       return 0u;
     }
   } else {
-    uint first = mode == STEP_CLUSTERS ? p.first >> CLUSTER_SHIFT : p.first;  // pass 0: clusters or triangles
+    uint first = SPEC_CLUSTERS != 0u ? p.first >> CLUSTER_SHIFT : p.first;  // pass 0: clusters or triangles
     pair = p.fromTriangles != 0u ? uvec2(first + i, 0u) : pairs[p.first + i];
   }
   uvec2 r = p.fromTriangles != 0u ? uvec2(0u, 1u) : childRange(pair.y, childCount);
@@ -112,7 +116,7 @@ uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild) {
   uint expected = p.fromTriangles != 0u ? 1u : 4u;
   if (r.y - r.x < expected) atomicAdd(stats[STAT_MISSING], expected - (r.y - r.x));  // the last node only
   uint mask = 0u;
-  if (mode == STEP_CLUSTERS) {
+  if (SPEC_CLUSTERS != 0u) {
     vec4 sphere = clusterSpheres[pair.x];
     for (uint c = r.x; c < r.y; c++)
       if (sphereConeTriangle(node(childOffset + c), sphere, p.eps, p.coneScale)) mask |= 1u << (c - r.x);
@@ -175,6 +179,7 @@ void main() {
     inputOffset = p.inputOffset, leafShift = p.leafShift, leafCount = p.leafCount;
   }
   uint mode = p.deviceParams != 0u ? statWord(STATE_MODE) : STEP_TRIANGLES;
+  if ((mode == STEP_CLUSTERS) != (SPEC_CLUSTERS != 0u)) return;  // the other kernel's step (given no workgroups)
   uvec2 pair;
   uint firstChild;
   uint mask = testInput(i, mode, pair, firstChild);
