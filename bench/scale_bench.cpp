@@ -145,7 +145,7 @@ int main(int argc, char** argv) {
             std::printf(" %.3g/%.3g", double(u64(p, "pairs_tested")) / 1e6, double(u64(p, "pairs_survived")) / 1e6);
           std::printf("; leaves %.3gM tests; %s\n", double(u64(s, "leaf_tests")) / 1e6,
                       s.value("traversal_path", std::string("")).c_str());
-          if (!j.runs.output.stages.empty()) {
+          if (j.runs.output.stages.size() > 1) {  // --profile-stages: the frame's stages timed one by one
             std::printf("%-26s   stages (ms):", "");
             for (const StageTime& st : j.runs.output.stages) std::printf(" %s %.1f", st.name.c_str(), st.ms);
             std::printf("\n");
