@@ -148,14 +148,15 @@ Traversal::~Traversal() = default;
 // The test kernel specialised for the switches in `p` (traverse_test.comp), made on first use.
 // `clusters`: the kernel of (cluster, node) steps instead (device path).
 const vk::Kernel& Traversal::testKernel(const TraversePush& p, bool clusters) {
-  const uint32_t key = (p.test == TRAVERSE_TEST_SPHERE ? 1u : 0u) | (p.earlyAccept ? 2u : 0u) |
-                       (p.frontFaceCulling ? 4u : 0u) | (clusters ? 8u : 0u);
+  // The cluster kernel runs the sphere test alone whatever the switches: one pipeline for every frame.
+  const bool sphere = p.test == TRAVERSE_TEST_SPHERE, early = !clusters && p.earlyAccept, culling = !clusters && p.frontFaceCulling;
+  const uint32_t key = clusters ? 8u : (sphere ? 1u : 0u) | (early ? 2u : 0u) | (culling ? 4u : 0u);
   std::unique_ptr<vk::Kernel>& k = tests_[key];
   if (!k)
     k = std::make_unique<vk::Kernel>(vk::createKernel(
         ctx_, clusters ? "traverse test (clusters)" : "traverse test", spv_traverse_test_comp, 11, sizeof(TraversePush),
-        {{0, p.test == TRAVERSE_TEST_SPHERE ? TRAVERSE_TEST_SPHERE : TRAVERSE_TEST_PRECISE}, {1, p.earlyAccept ? 1u : 0u},
-         {2, p.frontFaceCulling ? 1u : 0u}, {3, clusters ? 1u : 0u}},
+        {{0, sphere && !clusters ? TRAVERSE_TEST_SPHERE : TRAVERSE_TEST_PRECISE}, {1, early ? 1u : 0u},
+         {2, culling ? 1u : 0u}, {3, clusters ? 1u : 0u}},
         0x403u));
   return *k;
 }

@@ -120,7 +120,6 @@
 #include <nlohmann/json.hpp>
 
 #include "conetree/conetree.h"
-#include "sort/sort.h"
 #include "traversal/traversal_layout.h"
 #include "vk/context.h"
 
@@ -265,7 +264,7 @@ class Traversal {
   void ensureFlags(uint64_t nodes);
 
   const vk::Kernel& testKernel(const TraversePush& p, bool clusters);
-  std::unique_ptr<vk::Kernel> tests_[16];  // the test kernels per switches (testKernel)
+  std::unique_ptr<vk::Kernel> tests_[9];   // the test kernels per switches, and the cluster kernel (testKernel)
   vk::Kernel leaves_, advance_;
   vk::Buffer arena_, chunk_, stats_, flags_, state_;
   uint32_t batchTriangles_ = 1;  // triangles per batch of the device path (learnBatch)
