@@ -3,7 +3,9 @@
 // GPU times come from timestamps around the recorded work only (inputs are restored by a copy before the
 // first mark); every figure is the median of --runs runs after one warm-up run (lavapipe compiles shaders
 // at the first dispatch). The GPU results are checked against the CPU ones before anything is printed.
-//   sort_bench [--device NAME|INDEX] [--runs N] [--sizes 1048576,4194304]
+//   sort_bench [--device NAME|INDEX] [--runs N] [--sizes 1048576,4194304] [--shape device|cpu|gpu]
+// --shape: the radix sort's tile (sort::SortShape): the one the device gets (sort::sortShapeFor, the
+// default), or either shape on any device, to compare them there.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -76,6 +78,7 @@ int main(int argc, char** argv) {
   options.quiet = true;
   int runs = 7;
   std::vector<uint32_t> sizes = {1u << 20, 1u << 22};
+  std::string shapeName = "device";
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
     auto value = [&]() -> std::string {
@@ -94,8 +97,11 @@ int main(int argc, char** argv) {
         sizes.push_back(uint32_t(std::stoul(s.substr(p, q - p))));
         p = q == std::string::npos ? s.size() : q + 1;
       }
+    } else if (a == "--shape") {
+      shapeName = value();
+      if (shapeName != "device" && shapeName != "cpu" && shapeName != "gpu") fail("--shape takes device, cpu or gpu");
     } else {
-      fail("unknown argument " + a + " (--device NAME|INDEX, --runs N >= 5, --sizes N,N,...)");
+      fail("unknown argument " + a + " (--device NAME|INDEX, --runs N >= 5, --sizes N,N,..., --shape device|cpu|gpu)");
     }
   }
   try {
@@ -104,7 +110,11 @@ int main(int argc, char** argv) {
     std::printf("device: %s\n", ctx.driverDescription().c_str());
     std::printf("median of %d runs after a warm-up; GPU: timestamps; CPU: one thread; speedup = CPU ms / GPU ms\n\n",
                 runs);
-    std::printf("radix sort of random (uint32 key, uint32 value) pairs, 32 key bits\n");
+    const sort::SortShape shape = shapeName == "cpu"   ? sort::kCpuSortShape
+                                  : shapeName == "gpu" ? sort::kGpuSortShape
+                                                       : sort::sortShapeFor(ctx);
+    std::printf("radix sort of random (uint32 key, uint32 value) pairs, 32 key bits; tiles of %u invocations x %u keys (%s)\n",
+                shape.threads, shape.items, shapeName == "device" ? "the device's shape" : (shapeName + " shape").c_str());
     std::printf("%-9s | %9s %8s | %-23s %7s | %-23s %7s\n", "pairs", "GPU ms", "Mkeys/s", "std::sort ms   Mkeys/s",
                 "speedup", "std::stable_sort ms  Mk/s", "speedup");
 
@@ -114,7 +124,7 @@ int main(int argc, char** argv) {
       std::iota(values.begin(), values.end(), 0u);
 
       // GPU: restore the input, then sort between the marks.
-      sort::RadixSort sorter(ctx, n);
+      sort::RadixSort sorter(ctx, n, shape);
       vk::Buffer k0 = vk::createBuffer(ctx, bytes), v0 = vk::createBuffer(ctx, bytes);
       vk::Buffer k = vk::createBuffer(ctx, bytes), v = vk::createBuffer(ctx, bytes);
       vk::upload(ctx, k0, keys.data(), bytes);

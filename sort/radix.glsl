@@ -5,6 +5,13 @@
 // at a time (uvec4): on lavapipe a vector access costs about what a scalar one does.
 // Expects `pc` (RadixPush) and the key binding `keys4` (uvec4[]).
 
+// The tile's shape, specialised per device (sort_layout.h, sort::SortShape): the workgroup size and the
+// keys each invocation owns.
+layout(local_size_x = SORT_THREADS_CPU, local_size_x_id = 0) in;
+layout(constant_id = 1) const uint SORT_ITEMS = SORT_ITEMS_CPU;
+#define SORT_THREADS gl_WorkGroupSize.x
+#define SORT_TILE (SORT_THREADS * SORT_ITEMS)
+
 uint digitOf(uint key) { return (key >> pc.shift) & pc.digitMask; }
 
 // Keys 4v .. 4v+3 (those below n; the rest are never used by callers). Component loads at the tail, so

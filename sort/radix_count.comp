@@ -8,7 +8,6 @@
 // bindings: 0 = keys (uint[], read as uvec4), 1 = hist (uint[], (digitMask + 1) * tiles),
 //           2 = countWords (device count)
 #include "sort/sort_layout.h"
-layout(local_size_x = SORT_THREADS) in;
 layout(std430, binding = 0) readonly buffer Keys { uvec4 keys4[]; };
 layout(std430, binding = 1) writeonly buffer Hist { uint hist[]; };
 layout(std430, binding = 2) readonly buffer CountWords { uint countWords[]; };

@@ -9,7 +9,6 @@
 // bindings: 0 = keysIn, 1 = valuesIn (uint[], read as uvec4), 2 = keysOut, 3 = valuesOut (uint[]),
 //           4 = hist (scanned), 5 = countWords (device count)
 #include "sort/sort_layout.h"
-layout(local_size_x = SORT_THREADS) in;
 layout(std430, binding = 0) readonly buffer KeysIn { uvec4 keys4[]; };
 layout(std430, binding = 1) readonly buffer ValuesIn { uvec4 values4[]; };
 layout(std430, binding = 2) writeonly buffer KeysOut { uint keysOut[]; };

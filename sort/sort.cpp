@@ -32,12 +32,25 @@ uint64_t scanScratchElements(uint32_t capacity) {
 }
 
 uint32_t radixPasses(uint32_t keyBits) { return ceilDiv(keyBits, RADIX_BITS); }
-uint32_t sortTiles(uint32_t count) { return ceilDiv(count, SORT_TILE); }
-uint64_t histogramEntries(uint32_t count) { return uint64_t(RADIX_BINS) * sortTiles(count); }
+uint32_t sortTiles(uint32_t count, SortShape shape) { return ceilDiv(count, shape.tile()); }
+uint64_t histogramEntries(uint32_t count, SortShape shape) { return uint64_t(RADIX_BINS) * sortTiles(count, shape); }
 
-uint32_t radixScatterSharedBytes() {
-  const uint32_t words = RADIX_WORDS * SORT_THREADS;
-  return 4 * (words + words / 32 + RADIX_BINS + SORT_THREADS + SORT_THREADS / SORT_RAKE + 1);
+uint32_t radixScatterSharedBytes(SortShape shape) {
+  const uint32_t words = RADIX_WORDS * shape.threads;
+  return 4 * (words + words / 32 + RADIX_BINS + shape.threads + shape.threads / SORT_RAKE + 1);
+}
+
+namespace {
+bool shapeFits(const vk::Context& ctx, SortShape shape) {
+  const auto& l = ctx.properties.limits;
+  return radixScatterSharedBytes(shape) <= l.maxComputeSharedMemorySize &&
+         shape.threads <= l.maxComputeWorkGroupInvocations && shape.threads <= l.maxComputeWorkGroupSize[0];
+}
+}  // namespace
+
+SortShape sortShapeFor(const vk::Context& ctx) {
+  if (ctx.properties.deviceType != VK_PHYSICAL_DEVICE_TYPE_CPU && shapeFits(ctx, kGpuSortShape)) return kGpuSortShape;
+  return kCpuSortShape;
 }
 
 void checkBinding(const vk::Context& ctx, uint64_t elements, uint32_t bytesPerElement, const char* what) {
@@ -211,27 +224,34 @@ void IndirectGroups::record(vk::Commands& cmd, const Count& count, uint32_t perG
 
 namespace {
 // The histogram table's size, after checking that the pairs and the table fit one binding each.
-uint32_t checkedHistogram(const vk::Context& ctx, uint32_t capacity) {
+uint32_t checkedHistogram(const vk::Context& ctx, uint32_t capacity, SortShape shape) {
   checkBinding(ctx, capacity, 4, "radix sort");
-  checkBinding(ctx, histogramEntries(capacity), 4, "radix sort histogram");
+  checkBinding(ctx, histogramEntries(capacity, shape), 4, "radix sort histogram");
+  CS_CHECK(shape.threads % SORT_RAKE == 0 && shape.items % 4 == 0 && shape.items > 0 && shape.tile() < 65536,
+           "radix sort tile of " << shape.threads << " x " << shape.items << " keys");
   const uint32_t shared = ctx.properties.limits.maxComputeSharedMemorySize;
-  if (radixScatterSharedBytes() > shared)
-    throw Error("radix sort needs " + std::to_string(radixScatterSharedBytes()) +
-                    " bytes of workgroup shared memory, the device offers " + std::to_string(shared),
-                "sort on " + ctx.deviceName(), "lower SORT_THREADS or RADIX_BITS in sort/sort_layout.h");
-  return uint32_t(histogramEntries(capacity));
+  if (!shapeFits(ctx, shape))
+    throw Error("radix sort needs " + std::to_string(radixScatterSharedBytes(shape)) +
+                    " bytes of workgroup shared memory and " + std::to_string(shape.threads) +
+                    " invocations a workgroup, the device offers " + std::to_string(shared) + " bytes and " +
+                    std::to_string(ctx.properties.limits.maxComputeWorkGroupInvocations),
+                "sort on " + ctx.deviceName(), "lower SORT_THREADS_CPU or RADIX_BITS in sort/sort_layout.h");
+  return uint32_t(histogramEntries(capacity, shape));
 }
 }  // namespace
 
-RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity)
-    : ctx_(ctx), capacity_(capacity), scan_(ctx, checkedHistogram(ctx, capacity)), groups_(ctx) {
+RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity) : RadixSort(ctx, capacity, sortShapeFor(ctx)) {}
+
+RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape)
+    : ctx_(ctx), capacity_(capacity), shape_(shape), scan_(ctx, checkedHistogram(ctx, capacity, shape)), groups_(ctx) {
   altKeys_ = vk::createBuffer(ctx, VkDeviceSize(capacity) * 4);
   altValues_ = vk::createBuffer(ctx, VkDeviceSize(capacity) * 4);
-  hist_ = vk::createBuffer(ctx, histogramEntries(capacity) * 4);
+  hist_ = vk::createBuffer(ctx, histogramEntries(capacity, shape) * 4);
   dummy_ = dummyBuffer(ctx);
   args_ = vk::createBuffer(ctx, 16, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
-  count_ = vk::createKernel(ctx, "radix_count", spv_radix_count_comp, 3, sizeof(RadixPush));
-  scatter_ = vk::createKernel(ctx, "radix_scatter", spv_radix_scatter_comp, 6, sizeof(RadixPush));
+  const std::initializer_list<vk::SpecConstant> spec = {{0, shape.threads}, {1, shape.items}};
+  count_ = vk::createKernel(ctx, "radix_count", spv_radix_count_comp, 3, sizeof(RadixPush), spec);
+  scatter_ = vk::createKernel(ctx, "radix_scatter", spv_radix_scatter_comp, 6, sizeof(RadixPush), spec);
 }
 
 uint64_t RadixSort::bytesAllocated() const {
@@ -244,7 +264,7 @@ void RadixSort::record(vk::Commands& cmd, const vk::BufferRange& keys, const vk:
   CS_CHECK(keyBits <= 32, "radix sort: " << keyBits << " key bits");
   checkRange(keys, "radix sort keys");
   checkRange(values, "radix sort values");
-  const uint32_t passes = radixPasses(keyBits), tiles = sortTiles(count.max);
+  const uint32_t passes = radixPasses(keyBits), tiles = sortTiles(count.max, shape_);
   if (passes == 0 || tiles == 0) return;
   const bool hasValues = values.buffer != VK_NULL_HANDLE;
   const VkDeviceSize bytes = VkDeviceSize(count.max) * 4;
@@ -265,7 +285,7 @@ void RadixSort::record(vk::Commands& cmd, const vk::BufferRange& keys, const vk:
   const vk::Grid g = groups(ctx_, tiles);
   const bool indirect = count.onDevice();
   if (indirect) {  // the tiles the device count fills (radix_count.comp's tile 0 zeroes the others' entries)
-    groups_.record(cmd, count, SORT_TILE, args_, 0);
+    groups_.record(cmd, count, shape_.tile(), args_, 0);
     cmd.barrier();
   }
   for (uint32_t p = 0; p < passes; ++p) {

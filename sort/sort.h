@@ -27,7 +27,7 @@
 // the block sums, so n elements cost two reads and one write plus ~n/2048 extra; the array and two levels
 // of sums cover any 32-bit count. Compaction: the same reduce (counting nonzero flags), a scan of the
 // block counts, and a scatter that re-derives each element's rank inside its block. Radix sort: per pass
-// (RADIX_BITS = 8, so ceil(keyBits / 8) passes), each tile of SORT_TILE = 8192 keys builds its digit
+// (RADIX_BITS = 8, so ceil(keyBits / 8) passes), each tile (8192 keys on lavapipe, SortShape) builds its digit
 // histogram, one scan of the digit-major histogram table gives every (digit, tile) its output offset, and
 // a scatter ranks keys stably inside the tile with per-invocation 16-bit counters in shared memory
 // (radix_scatter.comp). Passes ping-pong between the caller's arrays and the object's; an odd pass count
@@ -82,11 +82,22 @@ std::vector<uint32_t> scanLevelCounts(uint32_t n, size_t minLevels = 1);
 // uint32 elements of scratch a Scan of `capacity` needs (block sums and their scans, every level >= 1).
 uint64_t scanScratchElements(uint32_t capacity);
 uint32_t radixPasses(uint32_t keyBits);     // ceil(keyBits / RADIX_BITS)
-uint32_t sortTiles(uint32_t count);         // ceil(count / SORT_TILE)
-uint64_t histogramEntries(uint32_t count);  // RADIX_BINS * sortTiles(count)
+// The radix sort's tile, chosen per device (sort_layout.h): `threads` invocations a workgroup, each
+// owning `items` consecutive keys; the kernels get both as specialisation constants.
+struct SortShape {
+  uint32_t threads = SORT_THREADS_CPU, items = SORT_ITEMS_CPU;
+  uint32_t tile() const { return threads * items; }
+};
+inline constexpr SortShape kCpuSortShape{SORT_THREADS_CPU, SORT_ITEMS_CPU};
+inline constexpr SortShape kGpuSortShape{SORT_THREADS_GPU, SORT_ITEMS_GPU};
+// A CPU device (lavapipe) gets kCpuSortShape, as measured there (README, "GPU sort primitives"); any
+// other device kGpuSortShape when its shared memory and workgroup limits hold it, else kCpuSortShape.
+SortShape sortShapeFor(const vk::Context& ctx);
+uint32_t sortTiles(uint32_t count, SortShape shape = {});         // ceil(count / tile)
+uint64_t histogramEntries(uint32_t count, SortShape shape = {});  // RADIX_BINS * sortTiles(count)
 // Shared memory radix_scatter.comp declares (counters + padding, per-digit offsets, workgroup scan):
-// ~18 KiB, above Vulkan's guaranteed 16 KiB; desktop GPUs and lavapipe have 32 KiB or more.
-uint32_t radixScatterSharedBytes();
+// ~18 KiB for either shape; Vulkan guarantees 16 KiB, lavapipe has 32 KiB and desktop GPUs 48 KiB or more.
+uint32_t radixScatterSharedBytes(SortShape shape = {});
 // Throws a cs::Error naming `what`, the element count and the binding limit when `elements` of
 // `bytesPerElement` do not fit one storage-buffer binding of this device.
 void checkBinding(const vk::Context& ctx, uint64_t elements, uint32_t bytesPerElement, const char* what);
@@ -161,7 +172,8 @@ class IndirectGroups {
 // ---- radix sort ---------------------------------------------------------------------------------
 class RadixSort {
  public:
-  RadixSort(vk::Context& ctx, uint32_t capacity);
+  RadixSort(vk::Context& ctx, uint32_t capacity);  // the device's shape (sortShapeFor)
+  RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape);
   // Sorts the first `count` (key, value) pairs by the low `keyBits` bits of the key (higher bits are
   // ignored and travel with the key), stably, in place: the results are back in `keys` and `values`.
   // `values` may be empty (buffer == VK_NULL_HANDLE) to sort keys alone. ceil(keyBits / 8) passes. With
@@ -169,11 +181,13 @@ class RadixSort {
   void record(vk::Commands& cmd, const vk::BufferRange& keys, const vk::BufferRange& values, Count count,
               uint32_t keyBits = 32);
   uint32_t capacity() const { return capacity_; }
+  SortShape shape() const { return shape_; }
   uint64_t bytesAllocated() const;
 
  private:
   vk::Context& ctx_;
   uint32_t capacity_;
+  SortShape shape_;
   Scan scan_;  // of the histogram table
   IndirectGroups groups_;  // a device count: the count and scatter passes launch only the tiles it fills
   vk::Kernel count_, scatter_;

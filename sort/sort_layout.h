@@ -24,15 +24,22 @@
 
 // Radix sort: RADIX_BITS per pass, a tile of SORT_THREADS x SORT_ITEMS keys per workgroup. Ranking
 // keeps one 16-bit counter per (digit, invocation) in shared memory, two digits packed per uint
-// (digit d in the low half of word d, digit d + RADIX_BINS/2 in the high half): that is
-// RADIX_BINS/2 * SORT_THREADS words = 16 KiB here, half of lavapipe's 32 KiB. A tile must stay below
-// 65536 keys so the packed halves never carry into each other.
+// (digit d in the low half of word d, digit d + RADIX_BINS/2 in the high half): RADIX_BINS/2 words per
+// invocation, 16 KiB at 32 invocations. A tile must stay below 65536 keys so the packed halves never
+// carry into each other. The tile's shape is chosen per device (sort::SortShape, sort::sortShapeFor) and
+// reaches the kernels as specialisation constants: the workgroup size (local_size_x_id 0, SORT_THREADS
+// in the kernels) and SORT_ITEMS (constant_id 1). The defaults below are the CPU device's (lavapipe):
+// few invocations, each with a long run of keys, because every invocation pays for its own counters.
 #define RADIX_BITS 8
 #define RADIX_BINS (1 << RADIX_BITS)
 #define RADIX_WORDS (RADIX_BINS / 2)
-#define SORT_THREADS 32
-#define SORT_ITEMS 256  // a multiple of 4 (uvec4 access)
-#define SORT_TILE (SORT_THREADS * SORT_ITEMS)
+#define SORT_THREADS_CPU 32
+#define SORT_ITEMS_CPU 256  // a multiple of 4 (uvec4 access)
+// On other devices (sortShapeFor): the same 32 invocations (their counters fit lavapipe's 32 KiB, so
+// the shape is tested here too), each with a quarter of the run: four times the workgroups, so a 1 M-key
+// pass launches 512 warps' worth of workgroups on a GPU, not 128 (a large GPU holds thousands).
+#define SORT_THREADS_GPU 32
+#define SORT_ITEMS_GPU 64
 #define SORT_RAKE 8  // workgroup scan segments of the ranking step (SORT_THREADS / SORT_RAKE of them)
 
 // ---- flags (ScanPush.flags, CompactPush.flags, RadixPush.flags, rays/'s KeysPush.flags) ------------------
@@ -86,10 +93,13 @@ struct RadixPush {
 static_assert(sizeof(GroupsPush) == 32, "GroupsPush layout");
 static_assert(sizeof(ScanPush) == 32 && offsetof(ScanPush, totalIndex) == 16, "ScanPush layout");
 static_assert(sizeof(RadixPush) == 32 && offsetof(RadixPush, tiles) == 20, "RadixPush layout");
-static_assert(SORT_TILE < 65536, "packed 16-bit rank counters would carry");
-static_assert(SORT_THREADS % SORT_RAKE == 0 && SCAN_THREADS % SCAN_RAKE == 0, "rake segments");
+static_assert(SORT_THREADS_CPU * SORT_ITEMS_CPU < 65536 && SORT_THREADS_GPU * SORT_ITEMS_GPU < 65536,
+              "packed 16-bit rank counters would carry");
+static_assert(SORT_THREADS_CPU % SORT_RAKE == 0 && SORT_THREADS_GPU % SORT_RAKE == 0 && SCAN_THREADS % SCAN_RAKE == 0,
+              "rake segments");
 static_assert(RADIX_BITS >= 1 && RADIX_BITS <= 8, "radix digit width");
-static_assert(SCAN_ITEMS % 4 == 0 && SCAN_ITEMS <= 32 && SORT_ITEMS % 4 == 0, "uvec4 access, kept-bit masks");
+static_assert(SCAN_ITEMS % 4 == 0 && SCAN_ITEMS <= 32 && SORT_ITEMS_CPU % 4 == 0 && SORT_ITEMS_GPU % 4 == 0,
+              "uvec4 access, kept-bit masks");
 }  // namespace cs::sort
 #endif
 #endif

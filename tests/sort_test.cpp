@@ -27,7 +27,9 @@ using sort::GpuWord;
 // Lengths around one element, one scan block (2048) and one sort tile (8192) and their multiples, and one
 // past a million; most of them not multiples of 4 (kernels move four elements at a time).
 const std::vector<uint32_t> kLengths = {1, 7, 1023, 1025, SCAN_BLOCK - 1, SCAN_BLOCK, SCAN_BLOCK + 1, 2 * SCAN_BLOCK + 1,
-                                        SORT_TILE - 1, SORT_TILE, SORT_TILE + 1, 100003, (1u << 20) + 3};
+                                        SORT_THREADS_GPU * SORT_ITEMS_GPU + 1, SORT_THREADS_CPU * SORT_ITEMS_CPU - 1,
+                                        SORT_THREADS_CPU * SORT_ITEMS_CPU, SORT_THREADS_CPU * SORT_ITEMS_CPU + 1, 100003,
+                                        (1u << 20) + 3};
 
 std::vector<uint32_t> randomWords(size_t n, uint32_t seed, uint32_t bound = 0) {
   std::mt19937 rng(seed);
@@ -86,12 +88,36 @@ TEST(SortSizing, RadixPassesAndTilesCoverTheKeysAndTheCount) {
   EXPECT_EQ(sort::radixPasses(9), 2u);
   EXPECT_EQ(sort::radixPasses(rays::kRayKeyBits), 4u);
   EXPECT_EQ(sort::radixPasses(32), 4u);
-  EXPECT_EQ(sort::sortTiles(0), 0u);
-  EXPECT_EQ(sort::sortTiles(SORT_TILE), 1u);
-  EXPECT_EQ(sort::sortTiles(SORT_TILE + 1), 2u);
-  EXPECT_EQ(sort::histogramEntries(SORT_TILE + 1), 2u * RADIX_BINS);
-  EXPECT_LE(sort::radixScatterSharedBytes(), 32u * 1024) << "fits lavapipe's and every desktop GPU's shared memory";
+  for (sort::SortShape shape : {sort::kCpuSortShape, sort::kGpuSortShape}) {
+    EXPECT_EQ(sort::sortTiles(0, shape), 0u);
+    EXPECT_EQ(sort::sortTiles(shape.tile(), shape), 1u);
+    EXPECT_EQ(sort::sortTiles(shape.tile() + 1, shape), 2u);
+    EXPECT_EQ(sort::histogramEntries(shape.tile() + 1, shape), 2u * RADIX_BINS);
+  }
+  EXPECT_EQ(sort::kCpuSortShape.tile(), 8192u);
+  EXPECT_LE(sort::radixScatterSharedBytes(sort::kCpuSortShape), 32u * 1024) << "fits lavapipe's shared memory";
+  EXPECT_LE(sort::radixScatterSharedBytes(sort::kGpuSortShape), 32u * 1024) << "fits lavapipe's: tested here";
+  EXPECT_EQ(sort::kGpuSortShape.tile() * 4, sort::kCpuSortShape.tile());
   EXPECT_LE(sort::radixScatterSharedBytes(), test::context().properties.limits.maxComputeSharedMemorySize);
+}
+
+// The tile's shape is the device's: the CPU shape on a CPU device (lavapipe, where it was measured), the
+// GPU one elsewhere when the device holds it; a sort made without a shape takes the device's.
+TEST(SortSizing, TheTileShapeIsChosenPerDevice) {
+  auto& ctx = test::context();
+  const sort::SortShape chosen = sort::sortShapeFor(ctx);
+  if (ctx.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU) {
+    EXPECT_EQ(chosen.threads, sort::kCpuSortShape.threads);
+    EXPECT_EQ(chosen.items, sort::kCpuSortShape.items);
+  } else if (sort::radixScatterSharedBytes(sort::kGpuSortShape) <= ctx.properties.limits.maxComputeSharedMemorySize) {
+    EXPECT_EQ(chosen.threads, sort::kGpuSortShape.threads);
+    EXPECT_EQ(chosen.items, sort::kGpuSortShape.items);
+  }
+  sort::RadixSort sorter(ctx, 1000);
+  EXPECT_EQ(sorter.shape().tile(), chosen.tile());
+  // A shape whose packed counters would carry, or that the device cannot hold, is a clear error.
+  EXPECT_THROW(sort::RadixSort(ctx, 1000, sort::SortShape{64, 1024}), Error);
+  EXPECT_THROW(sort::RadixSort(ctx, 1000, sort::SortShape{4096, 4}), Error);
 }
 
 TEST(SortSizing, CountsBeyondOneStorageBindingAreAClearError) {
@@ -284,9 +310,17 @@ Pairs withPositions(std::vector<uint32_t> keys) {
   return p;
 }
 
-TEST(RadixSort, MatchesStableSortOnRandomKeysOfEveryLength) {
+// Every test below runs with both tile shapes on whatever device runs the tests, so the shape a GPU gets
+// is proven on lavapipe too.
+class RadixSortShapes : public testing::TestWithParam<sort::SortShape> {};
+INSTANTIATE_TEST_SUITE_P(Shapes, RadixSortShapes, testing::Values(sort::kCpuSortShape, sort::kGpuSortShape),
+                         [](const testing::TestParamInfo<sort::SortShape>& info) {
+                           return std::to_string(info.param.threads) + "x" + std::to_string(info.param.items);
+                         });
+
+TEST_P(RadixSortShapes, MatchesStableSortOnRandomKeysOfEveryLength) {
   auto& ctx = test::context();
-  sort::RadixSort sorter(ctx, kLengths.back());
+  sort::RadixSort sorter(ctx, kLengths.back(), GetParam());
   for (uint32_t n : kLengths) {
     Pairs in = withPositions(randomWords(n, 100 + n));
     Pairs want = stableSorted(in), got = gpuSorted(sorter, in);
@@ -295,10 +329,10 @@ TEST(RadixSort, MatchesStableSortOnRandomKeysOfEveryLength) {
   }
 }
 
-TEST(RadixSort, MatchesStableSortOnSortedReversedAndAllEqualKeys) {
+TEST_P(RadixSortShapes, MatchesStableSortOnSortedReversedAndAllEqualKeys) {
   auto& ctx = test::context();
   const uint32_t n = 300007;
-  sort::RadixSort sorter(ctx, n);
+  sort::RadixSort sorter(ctx, n, GetParam());
   std::vector<uint32_t> sorted = randomWords(n, 11);
   std::sort(sorted.begin(), sorted.end());
   std::vector<uint32_t> reversed(sorted.rbegin(), sorted.rend());
@@ -316,10 +350,10 @@ TEST(RadixSort, MatchesStableSortOnSortedReversedAndAllEqualKeys) {
   }
 }
 
-TEST(RadixSort, IsStableOnFewDistinctKeys) {
+TEST_P(RadixSortShapes, IsStableOnFewDistinctKeys) {
   auto& ctx = test::context();
   const uint32_t n = (1u << 20) + 3;
-  sort::RadixSort sorter(ctx, n);
+  sort::RadixSort sorter(ctx, n, GetParam());
   for (uint32_t distinct : {2u, 3u, 17u}) {
     std::vector<uint32_t> keys = randomWords(n, distinct, distinct);
     for (auto& k : keys) k *= 0x01010101u;  // the same digit in every byte: every pass moves them
@@ -330,10 +364,10 @@ TEST(RadixSort, IsStableOnFewDistinctKeys) {
   }
 }
 
-TEST(RadixSort, SortsOnlyTheRequestedKeyBitsInOddAndEvenPassCounts) {
+TEST_P(RadixSortShapes, SortsOnlyTheRequestedKeyBitsInOddAndEvenPassCounts) {
   auto& ctx = test::context();
   const uint32_t n = 123457;
-  sort::RadixSort sorter(ctx, n);
+  sort::RadixSort sorter(ctx, n, GetParam());
   Pairs in = withPositions(randomWords(n, 77));
   for (uint32_t bits : {1u, 7u, 8u, 12u, 24u, 31u}) {
     Pairs want = stableSorted(in, bits), got = gpuSorted(sorter, in, bits);
@@ -342,11 +376,11 @@ TEST(RadixSort, SortsOnlyTheRequestedKeyBitsInOddAndEvenPassCounts) {
   }
 }
 
-TEST(RadixSort, SortsKeysAloneUpToACountReadFromTheGpu) {
+TEST_P(RadixSortShapes, SortsKeysAloneUpToACountReadFromTheGpu) {
   auto& ctx = test::context();
   const uint32_t bound = 90000;
   std::vector<uint32_t> keys = randomWords(bound, 8);
-  sort::RadixSort sorter(ctx, bound);
+  sort::RadixSort sorter(ctx, bound, GetParam());
   // Larger counts before smaller ones: the indirect passes launch only the tiles a count fills, and the
   // histogram entries a larger count left in the others must not reach the scan.
   for (uint32_t n : {0u, 1u, 2049u, 77777u, 2049u, 1u, 0u, 90000u}) {
@@ -652,7 +686,7 @@ TEST(RayKeys, SortedNeighboursAreCloserThanScreenOrder) {
 
 TEST(SortGrid, EveryKernelIsCorrectOnTwoDimensionalGrids) {
   auto& ctx = test::context();
-  // 10 workgroups per dimension: the scans (98 blocks), compaction and sort (25 tiles) below need rows of them.
+  // 10 workgroups per dimension: the scans (98 blocks), compaction and sort (25 tiles; 98 in the GPU shape) below need rows of them.
   sort::setGridLimitForTesting(10);
   struct Reset {
     ~Reset() { sort::setGridLimitForTesting(0); }
@@ -674,6 +708,10 @@ TEST(SortGrid, EveryKernelIsCorrectOnTwoDimensionalGrids) {
   Pairs got = gpuSorted(sorter, pairs), want = stableSorted(pairs);
   EXPECT_SAME_ARRAY(got.keys, want.keys, "sorted keys");
   EXPECT_SAME_ARRAY(got.values, want.values, "sorted values");
+  sort::RadixSort gpuShaped(ctx, n, sort::kGpuSortShape);  // 98 tiles of 2048
+  got = gpuSorted(gpuShaped, pairs);
+  EXPECT_SAME_ARRAY(got.keys, want.keys, "sorted keys, GPU tile shape");
+  EXPECT_SAME_ARRAY(got.values, want.values, "sorted values, GPU tile shape");
   Frame f = renderBuiltin("fur", 300, 200);
   sort::setGridLimitForTesting(20);  // 235 workgroups of pixels, 320 of Morton positions
   rays::LitRays rays(ctx, f.width, f.height);
