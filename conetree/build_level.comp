@@ -17,13 +17,18 @@ layout(std430, binding = 1) readonly buffer Samples { uint samples[]; };
 layout(std430, binding = 2) buffer Nodes { ConeNode nodes[]; };
 layout(std430, binding = 3) readonly buffer Shape { uint shape[]; };
 layout(push_constant) uniform Push { BuildPush p; };
+// What the dispatch builds, as specialisation constants (ConeTree picks the pipeline): on lavapipe, code a
+// kernel holds costs every invocation even where a uniform branch skips it (the far frame's code took a
+// fifth of the museum's build at 1024²).
+layout(constant_id = 0) const uint SPEC_FAR = 0u;     // 1: the far-light frame (= p.frame.rowX.w != 0)
+layout(constant_id = 1) const uint SPEC_LEAVES = 0u;  // 1: the children are the sorted rays (= fromLeaves)
 
-uint count, nodeOffset, childCount, childOffset, fromLeaves;
+uint count, nodeOffset, childCount, childOffset;
 
 ConeNode child(uint c) {
-  if (fromLeaves != 0u) {
+  if (SPEC_LEAVES != 0u) {
     vec3 position = positions[samples[c]].xyz;
-    if (p.frame.rowX.w != 0.0f) {  // far frame: the ray in frame coordinates, its cone widened
+    if (SPEC_FAR != 0u) {  // far frame: the ray in frame coordinates, its cone widened
       vec4 ray = leafRay(toConeFrame(position, p.frame), p.frame.lightFrame.xyz);
       return leafRayUsable(ray, p.minLength) ? rayConeWidened(ray, p.beta, p.sigma) : emptyCone();
     }
@@ -43,10 +48,8 @@ void main() {
     nodeOffset = shape[SHAPE_OFFSETS + d];
     childCount = shape[SHAPE_COUNTS + d + 1u];
     childOffset = p.height > 1u ? shape[SHAPE_OFFSETS + d + 1u] : 0u;
-    fromLeaves = p.height == 1u ? 1u : 0u;
   } else {
     count = p.count, nodeOffset = p.nodeOffset, childCount = p.childCount, childOffset = p.childOffset;
-    fromLeaves = p.fromLeaves;
   }
   if (j >= count) return;
   uvec2 r = childRange(j, childCount);
@@ -57,6 +60,6 @@ void main() {
   ConeNode c3 = n > 3u ? child(r.x + 3u) : emptyCone();
   // In the far frame the axis from the children's sum and the widening CONE_PAD times the frame's angular
   // scale; in the world frame the approximate minimal merge and CONE_PAD.
-  nodes[nodeOffset + j] = p.frame.rowX.w != 0.0f ? coneParentFar(c0, c1, c2, c3, n, CONE_PAD * p.frame.centre.w)
+  nodes[nodeOffset + j] = SPEC_FAR != 0u ? coneParentFar(c0, c1, c2, c3, n, CONE_PAD * p.frame.centre.w)
                                                    : coneParent(c0, c1, c2, c3, n, CONE_PAD);
 }

@@ -103,7 +103,7 @@ struct BuildPush {
   uint nodeOffset;    // levelOffset of this depth in the node array
   uint childCount;    // elements at depth + 1 (sorted rays when fromLeaves)
   uint childOffset;   // levelOffset of depth + 1 (unused when fromLeaves)
-  uint fromLeaves;    // 1: the children are the sorted rays, else interior nodes
+  uint fromLeaves;    // 1: the children are the sorted rays, else interior nodes (the host picks the kernel by it)
   float minLength;    // rays not longer than this are degenerate (2 * eps: an empty interval), skipped
   float sigma;        // far frame: a leaf cone's lengths widened to L -+ sigma (0 in the world frame)
   float beta;         // far frame: a leaf cone's half-angle (0 in the world frame)

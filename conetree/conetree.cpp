@@ -26,10 +26,18 @@ TreeShape treeShape(uint32_t leaves) {
 
 ConeTree::ConeTree(vk::Context& ctx)
     : ctx_(ctx),
-      build_(vk::createKernel(ctx, "cone tree build", spv_build_level_comp, 4, sizeof(BuildPush))),
       shapeKernel_(vk::createKernel(ctx, "cone tree shape", spv_tree_shape_comp, 2, sizeof(ShapePush))),
       spread_(vk::createKernel(ctx, "cone tree spread", spv_tree_spread_comp, 3, sizeof(SpreadPush))),
-      shapeWords_(vk::createBuffer(ctx, SHAPE_WORDS * 4, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT)) {}
+      shapeWords_(vk::createBuffer(ctx, SHAPE_WORDS * 4, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT)) {
+  for (uint32_t far = 0; far < 2; ++far)
+    for (uint32_t leaves = 0; leaves < 2; ++leaves)
+      build_[far][leaves] = vk::createKernel(ctx, "cone tree build", spv_build_level_comp, 4, sizeof(BuildPush),
+                                             {{0, far}, {1, leaves}});
+}
+
+const vk::Kernel& ConeTree::buildKernel(const BuildPush& p, bool fromLeaves) const {
+  return build_[p.frame.rowX.w != 0.0f ? 1 : 0][fromLeaves ? 1 : 0];
+}
 
 FrameChoice worldFrame(glm::vec3 light) {
   FrameChoice f;
@@ -123,7 +131,7 @@ void ConeTree::record(vk::Commands& cmd, const vk::BufferRange& positions, const
     p.childOffset = d + 1 < shape_.depth ? shape_.offsets[d + 1] : 0;
     p.fromLeaves = d + 1 == shape_.depth ? 1u : 0u;
     vk::Grid g = vk::gridFor(p.count, CONE_BUILD_THREADS, ctx_.maxWorkgroups());
-    cmd.dispatch(build_, {positions, samples, nodes_, shapeWords_}, p, g.x, g.y);
+    cmd.dispatch(buildKernel(p, p.fromLeaves != 0), {positions, samples, nodes_, shapeWords_}, p, g.x, g.y);
     cmd.barrier();
   }
 }
@@ -143,7 +151,7 @@ void ConeTree::recordDevice(vk::Commands& cmd, const vk::BufferRange& positions,
     BuildPush p = basePush(light, minLength, fc);
     p.height = h;
     p.fromShape = 1;
-    cmd.dispatchIndirect(build_, {positions, samples, nodes_, shapeWords_}, &p, sizeof(p), shapeWords_,
+    cmd.dispatchIndirect(buildKernel(p, h == 1), {positions, samples, nodes_, shapeWords_}, &p, sizeof(p), shapeWords_,
                          (SHAPE_BUILD_ARGS + 4 * h) * 4);
     cmd.barrier();
   }

@@ -84,7 +84,10 @@ class ConeTree {
   BuildPush basePush(glm::vec3 light, float minLength, const FrameChoice& fc) const;
 
   vk::Context& ctx_;
-  vk::Kernel build_, shapeKernel_, spread_;
+  // build_level.comp specialised: [far frame][children are rays] (its SPEC_FAR, SPEC_LEAVES).
+  vk::Kernel build_[2][2];
+  vk::Kernel shapeKernel_, spread_;
+  const vk::Kernel& buildKernel(const BuildPush& p, bool fromLeaves) const;
   vk::Buffer nodes_, shapeWords_;
   TreeShape shape_;
   uint32_t maxDepth_ = 0;
