@@ -557,6 +557,51 @@ TEST(ConeMethod, ClustersGoDownTheTreeUntilTheNodesAreAsFineAsThem) {
       << out.stats["pairs_tested"] << " pairs with clusters, " << ref.stats["pairs_tested"] << " without";
 }
 
+// When the clusters stay small against every depth's nodes (few samples over many triangles) they expand
+// one depth above the leaves, and that step runs the sphere-test kernel (ConeOptions::sphereLastExpansion):
+// the same inputs and tests as with the precise kernel, more leaf pairs (the sphere test is the looser),
+// and the very same mask.
+TEST(ConeMethod, ALastDepthExpansionTakesTheSphereTestWithTheSameMask) {
+  auto& ctx = test::context();
+  Scene scene = heightFieldScene(60000);
+  Raster raster(ctx, scene);
+  const vec3 light = scene.lights.at(0).position;
+  DeviceGBuffer dev;
+  GBuffer host;
+  raster.render(automaticCamera(scene), light, 48, 48, dev, &host);
+  ASSERT_GT(host.litCount(), 300u);
+  FrameInput frame = frameInputOf(scene, host, dev, ctx, light, EpsilonPolicy::forScene(scene).eps);
+  auto run = [&](bool sphere) {
+    ConeOptions o;
+    o.sphereLastExpansion = sphere;
+    auto m = makeConeMethod(ctx, o);
+    runCounted(*m, frame);
+    return runCounted(*m, frame);
+  };
+  const MethodOutput sphere = run(true), precise = run(false);
+  ASSERT_EQ(sphere.stats["traversal_path"], "one submission");
+  EXPECT_EQ(sphere.stats["last_expansion_test"], "sphere");
+  EXPECT_EQ(precise.stats["last_expansion_test"], "precise");
+  const nlohmann::json& passes = sphere.stats["traversal"]["passes"];
+  const uint32_t depth = sphere.stats["tree_depth"].get<uint32_t>();
+  ASSERT_GE(depth, 4u);
+  ASSERT_EQ(passes.size(), depth);
+  // Clusters down to the depth above the leaves' parents: the expansion is the last step.
+  for (uint32_t d = 0; d + 1 < depth; ++d) EXPECT_GT(passes[d]["cluster_tests"].get<uint64_t>(), 0u) << d;
+  EXPECT_EQ(passes[depth - 1]["cluster_tests"], 0u);
+  EXPECT_GT(sphere.stats["traversal"]["expanded_clusters"].get<uint64_t>(), 0u);
+  EXPECT_EQ(sphere.stats["pairs_tested"], precise.stats["pairs_tested"]);
+  // The sphere kernel ran: it keeps pairs the precise one drops (165 k leaf pairs against 161 k here).
+  EXPECT_GT(sphere.stats["traversal"]["leaf_pairs"].get<uint64_t>(), precise.stats["traversal"]["leaf_pairs"].get<uint64_t>());
+  EXPECT_EQ(sphere.visibility, precise.visibility);
+  EXPECT_GT(std::count(sphere.visibility.begin(), sphere.visibility.end(), 0.0f), 0);
+  ConeOptions plain;
+  plain.clusters = false;
+  auto without = makeConeMethod(ctx, plain);
+  runCounted(*without, frame);
+  EXPECT_EQ(runCounted(*without, frame).visibility, sphere.visibility);
+}
+
 // The whole traversal is conservative end to end: the mask equals the leaf test run on every (triangle,
 // lit sample) pair by brute force on the CPU (the same source), for any ray order, down to frames of a
 // single ray (a tree of depth 1). On lavapipe the GPU's arithmetic is the CPU's, so equality is exact;

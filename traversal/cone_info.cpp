@@ -46,6 +46,8 @@ ConeOptions coneOptions(const Settings& s) {
   cone.twoPass = s.onOff("two-pass", cone.twoPass);
   cone.profileStages = s.onOff("profile-stages", cone.profileStages);
   cone.clusters = s.onOff("clusters", cone.clusters);
+  if (s.has("last-expansion-test"))
+    cone.sphereLastExpansion = s.choice("last-expansion-test", {"sphere", "precise"}, "sphere") == "sphere";
   if (s.has("test"))
     cone.test = s.choice("test", {"precise", "sphere"}, "precise") == "sphere" ? ConeTest::Sphere : ConeTest::Precise;
   cone.blockerSolidAngle = float(s.number("blocker-solid-angle", 0.0, 12.5664, cone.blockerSolidAngle));
@@ -88,6 +90,10 @@ MethodInfo coneMethodInfo() {
        "the rest leaves, at most --traversal-memory; too small for the scene: an error with the bytes it needs",
        {}},
       {"clusters", "on|off", "clusters of 16 triangles go down the tree's upper levels first (default on; the same mask)", {}},
+      {"last-expansion-test", "T",
+       "with clusters and the precise test: the test of cluster pairs expanded one depth above the leaves, "
+       "sphere or precise (default sphere: cheaper where clusters stay small down to there; the same mask)",
+       {"sphere", "precise"}},
       {"profile-stages", "on|off",
        "one submission per stage (compact, keys, sort, build, traversal, leaves) to time each by wall clock, "
        "instead of the frame's single submission (the same mask)",

@@ -202,6 +202,7 @@ class ConeMethod : public ShadowMethod {
     in.test = options_.test == ConeTest::Sphere ? TRAVERSE_TEST_SPHERE : TRAVERSE_TEST_PRECISE;
     in.frontFaceCulling = options_.frontFaceCulling;
     in.earlyAccept = options_.earlyAccept;
+    in.sphereLastExpansion = options_.sphereLastExpansion;
     return in;
   }
 
@@ -340,6 +341,7 @@ class ConeMethod : public ShadowMethod {
         for (uint32_t first : traversal_->record(cmd, part, boundary)) batchStarts.push_back(uint32_t(b) * chunkTriangles_ + first);
       });
     stats["clusters"] = clusters && onDevice;
+    stats["last_expansion_test"] = options_.sphereLastExpansion && options_.test == ConeTest::Precise ? "sphere" : "precise";
     stats["traversal_batch_triangles"] = batch;
     readback_.clear();
     const uint32_t maskSlot = readback_.add(visibility_, uint64_t(pixels) * 4);

@@ -73,6 +73,9 @@ struct ConeOptions {
   // Triangle clusters down the upper levels of the tree (traversal.h, "Clusters"; --clusters): the same
   // mask, fewer pairs tested on large scenes. One-pass frames in one submission only.
   bool clusters = true;
+  // With clusters: expansions one depth above the leaves take the sphere test, not the precise one
+  // (traversal.h, "Clusters"; --last-expansion-test). The same mask.
+  bool sphereLastExpansion = true;
   // --memory-budget: a cap on everything the cone path holds for a frame, device buffers and host working
   // set together (0: none). The traversal's arena is what the other buffers leave, at most
   // traversalMemoryBytes (a smaller arena is slower, never different); a budget that cannot hold the

@@ -396,6 +396,9 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
   const bool clusters = in.clusterSpheres && clustersFit_ && capacity >= CLUSTER_SIZE && batchTriangles_ >= CLUSTER_SIZE &&
                         in.firstTriangle % CLUSTER_SIZE == 0;
   usedClusters_ = clusters;
+  // The last depth's expansions in the sphere-test kernel ("Clusters"); its pairs, like the precise
+  // kernel's, go on to the leaves.
+  const bool sphereExpansion = clusters && in.test == TRAVERSE_TEST_PRECISE && in.sphereLastExpansion;
   const vk::Buffer& shape = in.tree->shapeBuffer();
   const vk::Buffer* buffers[2] = {&arena_, &chunk_};  // step c writes buffers[c % 2]
 
@@ -415,7 +418,8 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
   base.triangleEnd = in.firstTriangle + in.triangleCount;
 
   auto advance = [&](uint32_t step, uint32_t triangles) {
-    AdvancePush a{step, triangles, capacity, ctx_.maxWorkgroups(), clusters ? 1u : 0u, in.triangleCount, 0, 0};
+    AdvancePush a{step, triangles, capacity, ctx_.maxWorkgroups(), clusters ? 1u : 0u, in.triangleCount,
+                  sphereExpansion ? 1u : 0u, 0};
     cmd.dispatch(advance_, {shape, state_}, a, 1);
     cmd.barrier();
   };
@@ -425,6 +429,15 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
   // advance kernel's arguments).
   auto testStep = [&](const TraversePush& p, const vk::Buffer& src, const vk::Buffer& dst) {
     const vk::Buffer& spheres = clusters ? *in.clusterSpheres : state_;
+    if (sphereExpansion) {  // early accept needs the precise test: off in this kernel (its pairs go to the leaves)
+      TraversePush ps = p;
+      ps.test = TRAVERSE_TEST_SPHERE;
+      ps.earlyAccept = 0u;
+      cmd.dispatchIndirect(testKernel(ps, false),
+                           {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), src, dst, state_,
+                            state_, state_, state_, state_, spheres, vk::texels(state_, kWordFormat)},
+                           &ps, sizeof(ps), state_, STATE_SPHERE_ARGS * 4);
+    }
     for (bool clusterKernel : {false, true}) {
       if (clusterKernel && !clusters) continue;
       const uint32_t args = clusterKernel ? STATE_CLUSTER_ARGS : STATE_TEST_ARGS;

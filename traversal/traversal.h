@@ -106,6 +106,15 @@
 // latest one depth above the leaves; the triangle pairs then continue as without clusters. The mask is
 // the same (tested): a triangle's pair is dropped only where its cluster's conservative test, or its
 // own, rejects it. An expansion's inputs count against the step's capacity like any pairs (learnBatch).
+// An expansion one depth above the leaves (the clusters stayed small against every depth's nodes: the
+// scene's triangles outnumber the leaf-level nodes by 64 or more, so they are a fraction of a leaf
+// cone's width) runs the sphere-test kernel, not the precise one (sphereLastExpansion): a pair that only
+// the precise test would reject costs one leaf invocation, while the precise test's code costs every
+// input of the step on lavapipe, and those steps hold millions (the 1 M height field at 512²: 6 M inputs,
+// leaf pairs 1.45 M -> 1.56 M, the frame 461 -> 370 ms). Higher expansions, and every step of triangle
+// pairs, keep the precise test: there a pair it rejects spares a subtree, and bigger triangles fit their
+// spheres worse (measured on the built-in views, 2CylinderEngine and the museum with the sphere test on
+// every last step: leaf pairs +18-60 %, the frames slower).
 //
 // Stats per frame: for each pass (depth), the (triangle, node) pairs tested, the survivors and the chunks;
 // the leaf tests; the submits; the time of the passes ("traversal") and of the leaf tests
@@ -203,6 +212,10 @@ struct TraversalInput {
   // Device path, one-pass frames: the sphere of each CLUSTER_SIZE triangles of `triangles` (see
   // "Clusters"), relative to the light as the pass tests' vertices. Null: no clusters.
   const vk::Buffer* clusterSpheres = nullptr;
+  // With clusters and the precise test: cluster pairs expanded one depth above the leaves are tested with
+  // the sphere test alone (see "Clusters"); off: the precise test, as every other triangle step. The same
+  // mask either way.
+  bool sphereLastExpansion = true;
 };
 
 class Traversal {

@@ -43,7 +43,8 @@
 #define STATE_COMMITTED 232    // the totals (STATE_LEAF_MISSING, then STATE_ACC .. STATE_TEST_ARGS) as of the last completed batch
 #define STATE_COMMITTED_WORDS (1 + STATE_TEST_ARGS - STATE_ACC)
 #define STATE_ROOT_CLUSTERS 369  // the clusters pass 0 kept, scaled from the batch to the whole record (the expansion rule)
-#define STATE_WORDS 372
+#define STATE_SPHERE_ARGS 372  // uvec4: the current step's dispatch of the sphere-test triangle kernel (AdvancePush::sphereExpansion)
+#define STATE_WORDS 376
 #define ADVANCE_END_OF_BATCH 0xFFFFFFFFu
 
 // Triangle clusters (traversal.h, "Clusters"): CLUSTER_SIZE consecutive triangles of a triangle buffer
@@ -118,7 +119,8 @@ struct AdvancePush {
   uint maxPerDim;     // workgroups per grid dimension
   uint clusters;      // step 0: 1 = the batch starts as (cluster, root) tests when the tree is deep enough
   uint frameTriangles;  // the triangles of the whole record() the batch is one of (the expansion rule's scale)
-  uint pad1, pad2;
+  uint sphereExpansion;  // 1: an expansion step's triangle pairs go to the sphere-test kernel (STATE_SPHERE_ARGS)
+  uint pad2;
 };
 
 // frame_triangles.comp: the triangles' vertices relative to the light in the far-light frame.

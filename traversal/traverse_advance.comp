@@ -103,6 +103,7 @@ void main() {
   state[STATE_MODE] = mode;
   writeArgs(STATE_TEST_ARGS, 0u, 0u, TRAVERSE_THREADS);
   writeArgs(STATE_CLUSTER_ARGS, 0u, 0u, TRAVERSE_THREADS);
+  writeArgs(STATE_SPHERE_ARGS, 0u, 0u, TRAVERSE_THREADS);
   if (c <= STATE_MAX_STEPS) writeArgs(STATE_LEAF_ARGS + 4u * c, 0u, 0u, TRAVERSE_THREADS);
   state[STATE_COUNT] = 0u;
   if (n > 0u && c == depth) {
@@ -110,9 +111,12 @@ void main() {
     add64(STATE_LEAF_PAIRS, n);
   } else if (n > 0u && c < depth) {
     state[STATE_COUNT] = count;
-    // The step's test: the cluster kernel for cluster pairs, the triangle kernel otherwise (both are
-    // recorded; the other gets zero workgroups).
-    writeArgs(mode == STEP_CLUSTERS ? STATE_CLUSTER_ARGS : STATE_TEST_ARGS, count, count, TRAVERSE_THREADS);
+    // The step's test: the cluster kernel for cluster pairs, the triangle kernel otherwise, or the
+    // sphere-test triangle kernel for an expansion one depth above the leaves when the host asks for it
+    // (traversal.h, "Clusters"). All are recorded; the others get zero workgroups.
+    uint args = mode == STEP_CLUSTERS ? STATE_CLUSTER_ARGS
+                : (mode == STEP_EXPAND && p.sphereExpansion != 0u && c + 1u >= depth ? STATE_SPHERE_ARGS : STATE_TEST_ARGS);
+    writeArgs(args, count, count, TRAVERSE_THREADS);
     state[STATE_CHILD_OFFSET] = shape[SHAPE_OFFSETS + c];
     state[STATE_CHILD_COUNT] = shape[SHAPE_COUNTS + c];
     state[STATE_INPUT_OFFSET] = c == 0u ? 0u : shape[SHAPE_OFFSETS + c - 1u];
