@@ -508,6 +508,20 @@ TEST(ConeMethod, RayOrderChosenOnTheGpuKeepsTheMaskOfBothOrders) {
   }
 }
 
+// A frame of heightFieldScene(60000) from its automatic camera at size x size (the cluster tests).
+struct HeightFieldFrame {
+  Scene scene = heightFieldScene(60000);
+  Raster raster{test::context(), scene};
+  DeviceGBuffer dev;
+  GBuffer host;
+  FrameInput frame;
+  explicit HeightFieldFrame(uint32_t size) {
+    const vec3 light = scene.lights.at(0).position;
+    raster.render(automaticCamera(scene), light, size, size, dev, &host);
+    frame = frameInputOf(scene, host, dev, test::context(), light, EpsilonPolicy::forScene(scene).eps);
+  }
+};
+
 // Clusters go down the tree while the nodes are wide against them (traverse_advance.comp's expansion
 // rule): on a height field of small triangles they are tested below the root's children, expand at the
 // first depth with more than 1/EXPAND_NODES_PER_CLUSTER as many nodes as the root kept clusters, and the
@@ -515,14 +529,10 @@ TEST(ConeMethod, RayOrderChosenOnTheGpuKeepsTheMaskOfBothOrders) {
 // million-triangle scenes of bench/scale_bench), with the very same mask.
 TEST(ConeMethod, ClustersGoDownTheTreeUntilTheNodesAreAsFineAsThem) {
   auto& ctx = test::context();
-  Scene scene = heightFieldScene(60000);
-  Raster raster(ctx, scene);
-  const vec3 light = scene.lights.at(0).position;
-  DeviceGBuffer dev;
-  GBuffer host;
-  raster.render(automaticCamera(scene), light, 96, 96, dev, &host);
-  ASSERT_GT(host.litCount(), 1000u);
-  FrameInput frame = frameInputOf(scene, host, dev, ctx, light, EpsilonPolicy::forScene(scene).eps);
+  HeightFieldFrame field(96);
+  ASSERT_GT(field.host.litCount(), 1000u);
+  const Scene& scene = field.scene;
+  const FrameInput& frame = field.frame;
   ConeOptions o;
   auto with = makeConeMethod(ctx, o);
   runCounted(*with, frame);  // warm-up: the batch size settles
@@ -563,14 +573,9 @@ TEST(ConeMethod, ClustersGoDownTheTreeUntilTheNodesAreAsFineAsThem) {
 // and the very same mask.
 TEST(ConeMethod, ALastDepthExpansionTakesTheSphereTestWithTheSameMask) {
   auto& ctx = test::context();
-  Scene scene = heightFieldScene(60000);
-  Raster raster(ctx, scene);
-  const vec3 light = scene.lights.at(0).position;
-  DeviceGBuffer dev;
-  GBuffer host;
-  raster.render(automaticCamera(scene), light, 48, 48, dev, &host);
-  ASSERT_GT(host.litCount(), 300u);
-  FrameInput frame = frameInputOf(scene, host, dev, ctx, light, EpsilonPolicy::forScene(scene).eps);
+  HeightFieldFrame field(48);
+  ASSERT_GT(field.host.litCount(), 300u);
+  const FrameInput& frame = field.frame;
   auto run = [&](bool sphere) {
     ConeOptions o;
     o.sphereLastExpansion = sphere;
