@@ -329,9 +329,11 @@ CS_FN bool leafHit(vec3 p, vec3 light, vec4 ray, float eps, vec3 P0, vec3 P1, ve
   CS_PRECISE vec3 b0 = P0 - p;
   CS_PRECISE vec3 b1 = P1 - p;
   CS_PRECISE vec3 b2 = P2 - p;
-  if (maxAbs3(b0, b1, b2) < maxAbs3(a0, a1, a2))
-    return leafRayHitsTriangle(vec4(-vec3(ray), ray.w), eps, b0, b1, b2);
-  return leafRayHitsTriangle(ray, eps, a0, a1, a2);
+  // One call on the chosen end's values (selected, not branched: a GPU or lavapipe running both sides of
+  // a divergent branch would run the test twice).
+  bool fromSample = maxAbs3(b0, b1, b2) < maxAbs3(a0, a1, a2);
+  vec4 r = fromSample ? vec4(-vec3(ray), ray.w) : ray;
+  return leafRayHitsTriangle(r, eps, fromSample ? b0 : a0, fromSample ? b1 : a1, fromSample ? b2 : a2);
 }
 
 #ifdef __cplusplus
