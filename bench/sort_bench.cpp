@@ -4,8 +4,10 @@
 // first mark); every figure is the median of --runs runs after one warm-up run (lavapipe compiles shaders
 // at the first dispatch). The GPU results are checked against the CPU ones before anything is printed.
 //   sort_bench [--device NAME|INDEX] [--runs N] [--sizes 1048576,4194304] [--shape device|cpu|gpu]
+//              [--scheme device|reduce-then-scan|look-back]
 // --shape: the radix sort's tile (sort::SortShape): the one the device gets (sort::sortShapeFor, the
-// default), or either shape on any device, to compare them there.
+// default), or either shape on any device, to compare them there. --scheme likewise for the way tiles
+// learn their output offsets (sort::SortScheme, sort::sortSchemeFor).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -78,7 +80,7 @@ int main(int argc, char** argv) {
   options.quiet = true;
   int runs = 7;
   std::vector<uint32_t> sizes = {1u << 20, 1u << 22};
-  std::string shapeName = "device";
+  std::string shapeName = "device", schemeName = "device";
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
     auto value = [&]() -> std::string {
@@ -100,8 +102,14 @@ int main(int argc, char** argv) {
     } else if (a == "--shape") {
       shapeName = value();
       if (shapeName != "device" && shapeName != "cpu" && shapeName != "gpu") fail("--shape takes device, cpu or gpu");
+    } else if (a == "--scheme") {
+      schemeName = value();
+      if (schemeName != "device" && schemeName != "reduce-then-scan" && schemeName != "look-back")
+        fail("--scheme takes device, reduce-then-scan or look-back");
     } else {
-      fail("unknown argument " + a + " (--device NAME|INDEX, --runs N >= 5, --sizes N,N,..., --shape device|cpu|gpu)");
+      fail("unknown argument " + a +
+           " (--device NAME|INDEX, --runs N >= 5, --sizes N,N,..., --shape device|cpu|gpu, --scheme "
+           "device|reduce-then-scan|look-back)");
     }
   }
   try {
@@ -113,8 +121,12 @@ int main(int argc, char** argv) {
     const sort::SortShape shape = shapeName == "cpu"   ? sort::kCpuSortShape
                                   : shapeName == "gpu" ? sort::kGpuSortShape
                                                        : sort::sortShapeFor(ctx);
-    std::printf("radix sort of random (uint32 key, uint32 value) pairs, 32 key bits; tiles of %u invocations x %u keys (%s)\n",
-                shape.threads, shape.items, shapeName == "device" ? "the device's shape" : (shapeName + " shape").c_str());
+    const sort::SortScheme scheme = schemeName == "reduce-then-scan" ? sort::SortScheme::ReduceThenScan
+                                    : schemeName == "look-back"      ? sort::SortScheme::LookBack
+                                                                     : sort::sortSchemeFor(ctx);
+    std::printf("radix sort of random (uint32 key, uint32 value) pairs, 32 key bits; tiles of %u invocations x %u keys (%s); %s (%s)\n",
+                shape.threads, shape.items, shapeName == "device" ? "the device's shape" : (shapeName + " shape").c_str(),
+                sort::sortSchemeName(scheme), schemeName == "device" ? "the device's scheme" : "chosen");
     std::printf("%-9s | %9s %8s | %-23s %7s | %-23s %7s\n", "pairs", "GPU ms", "Mkeys/s", "std::sort ms   Mkeys/s",
                 "speedup", "std::stable_sort ms  Mk/s", "speedup");
 
@@ -124,7 +136,7 @@ int main(int argc, char** argv) {
       std::iota(values.begin(), values.end(), 0u);
 
       // GPU: restore the input, then sort between the marks.
-      sort::RadixSort sorter(ctx, n, shape);
+      sort::RadixSort sorter(ctx, n, shape, scheme);
       vk::Buffer k0 = vk::createBuffer(ctx, bytes), v0 = vk::createBuffer(ctx, bytes);
       vk::Buffer k = vk::createBuffer(ctx, bytes), v = vk::createBuffer(ctx, bytes);
       vk::upload(ctx, k0, keys.data(), bytes);

@@ -54,6 +54,7 @@ class LitRays {
 
   const vk::Buffer& samples() const { return samples_; }
   const vk::Buffer& keys() const { return keys_; }
+  const sort::RadixSort& sorter() const { return sort_; }
   const vk::Buffer& countBuffer() const { return count_; }
   // The lit count, on the GPU.
   sort::Count count() const { return sort::Count::device(sort::GpuWord(count_, 0), maxPixels_); }

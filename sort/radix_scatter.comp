@@ -6,18 +6,28 @@
 // half of word d % RADIX_WORDS, high half when d >= RADIX_WORDS). Each invocation counts its own keys into
 // its own column (no atomics), one workgroup scan over the words in (word, invocation) order turns the
 // counts into stable ranks, and a second walk over the keys hands them out.
+// Where a tile's keys of a digit start in the output comes from one of two schemes (sort::SortScheme):
+//  - reduce-then-scan (LOOKBACK false): a count pass and a scan of the digit-major histogram table before
+//    this kernel (radix_count.comp, sort::Scan); binding 4 is that scanned table.
+//  - look-back (LOOKBACK true): binding 4 is the look-back workspace (sort_layout.h). Tiles are taken in
+//    launch order from the pass's counter; a tile publishes its own count of each digit, then walks back
+//    over the tiles before it, adding their counts until one has published its inclusive prefix, and
+//    publishes its own. The digit's start over all keys comes from radix_histogram.comp's totals. No count
+//    pass, no table scan. It waits on earlier tiles only, which already run (or ran) on the device: safe
+//    where a running workgroup keeps running while another spins (sort::sortSchemeFor).
 // bindings: 0 = keysIn, 1 = valuesIn (uint[], read as uvec4), 2 = keysOut, 3 = valuesOut (uint[]),
-//           4 = hist (scanned), 5 = countWords (device count)
+//           4 = hist (scanned) or the look-back workspace, 5 = countWords (device count)
 #include "sort/sort_layout.h"
 layout(std430, binding = 0) readonly buffer KeysIn { uvec4 keys4[]; };
 layout(std430, binding = 1) readonly buffer ValuesIn { uvec4 values4[]; };
 layout(std430, binding = 2) writeonly buffer KeysOut { uint keysOut[]; };
 layout(std430, binding = 3) writeonly buffer ValuesOut { uint valuesOut[]; };
-layout(std430, binding = 4) readonly buffer Hist { uint hist[]; };
+layout(std430, binding = 4) buffer Hist { uint hist[]; };
 layout(std430, binding = 5) readonly buffer CountWords { uint countWords[]; };
 layout(push_constant) uniform Push { RadixPush pc; };
 #include "sort/common.glsl"
 #include "sort/radix.glsl"
+layout(constant_id = 2) const bool LOOKBACK = false;
 #define WG_SIZE SORT_THREADS
 #define WG_RAKE SORT_RAKE
 #include "sort/workgroup_scan.glsl"
@@ -25,6 +35,7 @@ layout(push_constant) uniform Push { RadixPush pc; };
 const uint kWords = RADIX_WORDS * SORT_THREADS;
 shared uint counters[kWords + kWords / 32u];  // padded: one spare word per 32 keeps raking conflict-free
 shared uint adjust[RADIX_BINS];               // global position of the tile's first key of each digit, minus its tile rank
+shared uint lookbackTile;                     // look-back: the tile this workgroup took
 
 uint slot(uint word, uint t) {
   uint i = word * SORT_THREADS + t;
@@ -42,8 +53,48 @@ uvec4 loadValues(uint v, uint n) {
 }
 uint increment(uint d) { return d < RADIX_WORDS ? 1u : 0x10000u; }
 
+uint statusWord(uint tile, uint d) { return LOOKBACK_STATUS + (pc.pass * pc.tiles + tile) * RADIX_BINS + d; }
+
+// Look-back: adjust[] for the digits of this invocation's contiguous share (RADIX_BINS / SORT_THREADS
+// of them), from the tile-local starts in counters[] (scanned) and the tiles before this one. Called by
+// every invocation.
+uint tileStart(uint d, uint lowTotal) { return unpackRank(counters[slot(d % RADIX_WORDS, 0u)], d, lowTotal); }
+uint tileCount(uint d, uint tileKeys, uint lowTotal) {
+  return (d == pc.digitMask ? tileKeys : tileStart(d + 1u, lowTotal)) - tileStart(d, lowTotal);
+}
+void lookBack(uint tile, uint tileKeys, uint lowTotal) {
+  uint d0 = gl_LocalInvocationIndex * (RADIX_BINS / SORT_THREADS), d1 = min(d0 + RADIX_BINS / SORT_THREADS, pc.digitMask + 1u);
+  uint totals = 0u;
+  for (uint d = d0; d < d1; ++d) {
+    totals += hist[LOOKBACK_DIGITS + pc.pass * RADIX_BINS + d];
+    atomicExchange(hist[statusWord(tile, d)], (tile == 0u ? LOOKBACK_PREFIX : LOOKBACK_AGGREGATE) | tileCount(d, tileKeys, lowTotal));
+  }
+  uint allTotals;
+  uint digitStart = workgroupExclusiveSum(totals, allTotals);  // keys of the digits below d0, all tiles
+  for (uint d = d0; d < d1; ++d) {
+    uint before = 0u;  // keys of digit d in tiles 0 .. tile - 1
+    for (uint j = tile; j > 0u;) {
+      uint word = atomicAdd(hist[statusWord(j - 1u, d)], 0u);
+      if ((word & (LOOKBACK_AGGREGATE | LOOKBACK_PREFIX)) == 0u) continue;  // not published yet: wait
+      before += word & LOOKBACK_VALUE;
+      if ((word & LOOKBACK_PREFIX) != 0u) break;
+      --j;
+    }
+    if (tile != 0u) atomicExchange(hist[statusWord(tile, d)], LOOKBACK_PREFIX | (before + tileCount(d, tileKeys, lowTotal)));
+    adjust[d] = digitStart + before - tileStart(d, lowTotal);
+    digitStart += hist[LOOKBACK_DIGITS + pc.pass * RADIX_BINS + d];
+  }
+}
+
 void main() {
-  uint tile = flatWorkgroup();
+  uint tile;
+  if (LOOKBACK) {
+    if (gl_LocalInvocationIndex == 0u) lookbackTile = atomicAdd(hist[LOOKBACK_PARTITIONS + pc.pass], 1u);
+    barrier();
+    tile = lookbackTile;
+  } else {
+    tile = flatWorkgroup();
+  }
   if (tile >= pc.tiles) return;
   uint n = countOf(pc.count, pc.countIndex, pc.flags);
   uint base = tile * SORT_TILE;
@@ -81,8 +132,12 @@ void main() {
     running += x;
   }
   barrier();
-  for (uint d = t; d <= pc.digitMask; d += SORT_THREADS)
-    adjust[d] = hist[d * pc.tiles + tile] - unpackRank(counters[slot(d % RADIX_WORDS, 0u)], d, lowTotal);
+  if (LOOKBACK) {
+    lookBack(tile, min(SORT_TILE, n - base), lowTotal);
+  } else {
+    for (uint d = t; d <= pc.digitMask; d += SORT_THREADS)
+      adjust[d] = hist[d * pc.tiles + tile] - unpackRank(counters[slot(d % RADIX_WORDS, 0u)], d, lowTotal);
+  }
   barrier();
 
   bool hasValues = (pc.flags & FLAG_HAS_VALUES) != 0u;

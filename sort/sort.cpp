@@ -8,6 +8,7 @@
 #include "sort/compact_scatter.comp.h"
 #include "sort/groups_for.comp.h"
 #include "sort/radix_count.comp.h"
+#include "sort/radix_histogram.comp.h"
 #include "sort/radix_scatter.comp.h"
 #include "sort/scan_block.comp.h"
 #include "sort/scan_reduce.comp.h"
@@ -35,9 +36,13 @@ uint32_t radixPasses(uint32_t keyBits) { return ceilDiv(keyBits, RADIX_BITS); }
 uint32_t sortTiles(uint32_t count, SortShape shape) { return ceilDiv(count, shape.tile()); }
 uint64_t histogramEntries(uint32_t count, SortShape shape) { return uint64_t(RADIX_BINS) * sortTiles(count, shape); }
 
+uint64_t lookBackWords(uint32_t count, SortShape shape) {
+  return LOOKBACK_STATUS + uint64_t(LOOKBACK_MAX_PASSES) * RADIX_BINS * std::max(sortTiles(count, shape), 1u);
+}
+
 uint32_t radixScatterSharedBytes(SortShape shape) {
   const uint32_t words = RADIX_WORDS * shape.threads;
-  return 4 * (words + words / 32 + RADIX_BINS + shape.threads + shape.threads / SORT_RAKE + 1);
+  return 4 * (words + words / 32 + RADIX_BINS + 1 + shape.threads + shape.threads / SORT_RAKE + 1);
 }
 
 namespace {
@@ -51,6 +56,17 @@ bool shapeFits(const vk::Context& ctx, SortShape shape) {
 SortShape sortShapeFor(const vk::Context& ctx) {
   if (ctx.properties.deviceType != VK_PHYSICAL_DEVICE_TYPE_CPU && shapeFits(ctx, kGpuSortShape)) return kGpuSortShape;
   return kCpuSortShape;
+}
+
+const char* sortSchemeName(SortScheme scheme) {
+  return scheme == SortScheme::LookBack ? "look-back" : "reduce-then-scan";
+}
+
+SortScheme sortSchemeFor(const vk::Context& ctx) {
+  constexpr uint32_t kNvidia = 0x10DE, kAmd = 0x1002;
+  const auto& p = ctx.properties;
+  if (p.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU || p.vendorID == kNvidia || p.vendorID == kAmd) return SortScheme::LookBack;
+  return SortScheme::ReduceThenScan;
 }
 
 void checkBinding(const vk::Context& ctx, uint64_t elements, uint32_t bytesPerElement, const char* what) {
@@ -223,11 +239,14 @@ void IndirectGroups::record(vk::Commands& cmd, const Count& count, uint32_t perG
 // ---- radix sort ---------------------------------------------------------------------------------
 
 namespace {
-// The histogram table's size, after checking that the pairs and the table fit one binding each.
-uint32_t checkedHistogram(const vk::Context& ctx, uint32_t capacity, SortShape shape) {
+// The histogram table's size (in words: the table, or the look-back workspace), after checking that
+// the pairs and the table fit one binding each.
+uint64_t checkedHistogram(const vk::Context& ctx, uint32_t capacity, SortShape shape, SortScheme scheme) {
   checkBinding(ctx, capacity, 4, "radix sort");
-  checkBinding(ctx, histogramEntries(capacity, shape), 4, "radix sort histogram");
-  CS_CHECK(shape.threads % SORT_RAKE == 0 && shape.items % 4 == 0 && shape.items > 0 && shape.tile() < 65536,
+  const uint64_t words = scheme == SortScheme::LookBack ? lookBackWords(capacity, shape) : histogramEntries(capacity, shape);
+  checkBinding(ctx, words, 4, "radix sort histogram");
+  CS_CHECK(shape.threads % SORT_RAKE == 0 && shape.items % 4 == 0 && shape.items > 0 && shape.tile() < 65536 &&
+               RADIX_BINS % shape.threads == 0,
            "radix sort tile of " << shape.threads << " x " << shape.items << " keys");
   const uint32_t shared = ctx.properties.limits.maxComputeSharedMemorySize;
   if (!shapeFits(ctx, shape))
@@ -236,26 +255,35 @@ uint32_t checkedHistogram(const vk::Context& ctx, uint32_t capacity, SortShape s
                     " invocations a workgroup, the device offers " + std::to_string(shared) + " bytes and " +
                     std::to_string(ctx.properties.limits.maxComputeWorkGroupInvocations),
                 "sort on " + ctx.deviceName(), "lower SORT_THREADS_CPU or RADIX_BITS in sort/sort_layout.h");
-  return uint32_t(histogramEntries(capacity, shape));
+  return words;
 }
 }  // namespace
 
 RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity) : RadixSort(ctx, capacity, sortShapeFor(ctx)) {}
 
 RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape)
-    : ctx_(ctx), capacity_(capacity), shape_(shape), scan_(ctx, checkedHistogram(ctx, capacity, shape)), groups_(ctx) {
+    : RadixSort(ctx, capacity, shape, sortSchemeFor(ctx)) {}
+
+RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape, SortScheme scheme)
+    : ctx_(ctx), capacity_(capacity), shape_(shape), scheme_(scheme), groups_(ctx) {
+  const uint64_t histWords = checkedHistogram(ctx, capacity, shape, scheme);
+  const bool lookBack = scheme == SortScheme::LookBack;
+  if (!lookBack) scan_.emplace(ctx, uint32_t(histWords));
   altKeys_ = vk::createBuffer(ctx, VkDeviceSize(capacity) * 4);
   altValues_ = vk::createBuffer(ctx, VkDeviceSize(capacity) * 4);
-  hist_ = vk::createBuffer(ctx, histogramEntries(capacity, shape) * 4);
+  hist_ = vk::createBuffer(ctx, histWords * 4);
   dummy_ = dummyBuffer(ctx);
   args_ = vk::createBuffer(ctx, 16, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
-  const std::initializer_list<vk::SpecConstant> spec = {{0, shape.threads}, {1, shape.items}};
-  count_ = vk::createKernel(ctx, "radix_count", spv_radix_count_comp, 3, sizeof(RadixPush), spec);
+  const std::initializer_list<vk::SpecConstant> spec = {{0, shape.threads}, {1, shape.items}, {2, lookBack ? 1u : 0u}};
+  if (lookBack)
+    count_ = vk::createKernel(ctx, "radix_histogram", spv_radix_histogram_comp, 3, sizeof(RadixPush), spec);
+  else
+    count_ = vk::createKernel(ctx, "radix_count", spv_radix_count_comp, 3, sizeof(RadixPush), spec);
   scatter_ = vk::createKernel(ctx, "radix_scatter", spv_radix_scatter_comp, 6, sizeof(RadixPush), spec);
 }
 
 uint64_t RadixSort::bytesAllocated() const {
-  return altKeys_.size + altValues_.size + hist_.size + dummy_.size + args_.size + scan_.bytesAllocated();
+  return altKeys_.size + altValues_.size + hist_.size + dummy_.size + args_.size + (scan_ ? scan_->bytesAllocated() : 0);
 }
 
 void RadixSort::record(vk::Commands& cmd, const vk::BufferRange& keys, const vk::BufferRange& values, Count count,
@@ -288,29 +316,37 @@ void RadixSort::record(vk::Commands& cmd, const vk::BufferRange& keys, const vk:
     groups_.record(cmd, count, shape_.tile(), args_, 0);
     cmd.barrier();
   }
+  const uint32_t flags = countFlags(count) | (hasValues ? FLAG_HAS_VALUES : 0u);
+  // One kernel over the tiles (those the device count fills, or all of count.max's), then a barrier.
+  auto overTiles = [&](const vk::Kernel& kernel, std::initializer_list<vk::BufferRange> buffers, const RadixPush& push) {
+    if (indirect)
+      cmd.dispatchIndirect(kernel, buffers, &push, sizeof(push), args_);
+    else
+      cmd.dispatch(kernel, buffers, push, g.x, g.y);
+    cmd.barrier();
+  };
+  const bool lookBack = scheme_ == SortScheme::LookBack;
+  if (lookBack) {  // every pass's digit totals, from one read of the keys, into a zeroed workspace
+    const VkDeviceSize words = LOOKBACK_STATUS + VkDeviceSize(passes) * RADIX_BINS * tiles;
+    cmd.fill(hist_, 0, 0, words * 4);
+    cmd.barrier();
+    overTiles(count_, {src.keys, range(hist_, 0, words * 4), countBinding},
+              RadixPush{count.max, count.word.index, flags, 0, 0, tiles, 0, keyBits});
+  }
   for (uint32_t p = 0; p < passes; ++p) {
     const uint32_t shift = p * RADIX_BITS, bits = std::min<uint32_t>(RADIX_BITS, keyBits - shift);
-    RadixPush push{count.max, count.word.index, countFlags(count) | (hasValues ? FLAG_HAS_VALUES : 0u), shift,
-                   (1u << bits) - 1u, tiles, 0, 0};
-    const uint32_t entries = (1u << bits) * tiles;
-    // Count: digit histogram per tile, digit-major.
-    if (indirect)
-      cmd.dispatchIndirect(count_, {src.keys, range(hist_, 0, VkDeviceSize(entries) * 4), countBinding}, &push,
-                           sizeof(push), args_);
-    else
-      cmd.dispatch(count_, {src.keys, range(hist_, 0, VkDeviceSize(entries) * 4), countBinding}, push, g.x, g.y);
-    cmd.barrier();
-    // Scan: every (digit, tile) learns where its keys start.
-    scan_.record(cmd, range(hist_, 0, VkDeviceSize(entries) * 4), range(hist_, 0, VkDeviceSize(entries) * 4), entries);
-    // Scatter: stable rank inside the tile, written from that start.
-    const std::initializer_list<vk::BufferRange> scatterBuffers = {
-        src.keys, src.values, dst.keys, dst.values, range(hist_, 0, VkDeviceSize(entries) * 4), countBinding};
-    if (indirect)
-      cmd.dispatchIndirect(scatter_, scatterBuffers, &push, sizeof(push), args_);
-    else
-      cmd.dispatch(scatter_, scatterBuffers, push, g.x, g.y);
-    cmd.barrier();
-    // Swap.
+    const RadixPush push{count.max, count.word.index, flags, shift, (1u << bits) - 1u, tiles, p, keyBits};
+    // The scatter's table: the look-back workspace (the tiles add up the ones before them while they run),
+    // or this pass's (digit, tile) table, counted and scanned first so every (digit, tile) knows its start.
+    vk::BufferRange table = range(hist_, 0, hist_.size);
+    if (!lookBack) {
+      const uint32_t entries = (1u << bits) * tiles;
+      table = range(hist_, 0, VkDeviceSize(entries) * 4);
+      overTiles(count_, {src.keys, table, countBinding}, push);
+      scan_->record(cmd, table, table, entries);
+    }
+    // Scatter: stable rank inside the tile, written from the tile's start of each digit.
+    overTiles(scatter_, {src.keys, src.values, dst.keys, dst.values, table, countBinding}, push);
     std::swap(src, dst);
   }
 }

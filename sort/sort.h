@@ -30,10 +30,12 @@
 // (RADIX_BITS = 8, so ceil(keyBits / 8) passes), each tile (8192 keys on lavapipe, SortShape) builds its digit
 // histogram, one scan of the digit-major histogram table gives every (digit, tile) its output offset, and
 // a scatter ranks keys stably inside the tile with per-invocation 16-bit counters in shared memory
-// (radix_scatter.comp). Passes ping-pong between the caller's arrays and the object's; an odd pass count
-// starts with a copy so the result always lands in the caller's arrays.
+// (radix_scatter.comp); or, by look-back (SortScheme), one histogram of every pass's digits up front and
+// no count or scan per pass. Passes ping-pong between the caller's arrays and the object's; an odd pass
+// count starts with a copy so the result always lands in the caller's arrays.
 #pragma once
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "sort/sort_layout.h"
@@ -93,6 +95,19 @@ inline constexpr SortShape kGpuSortShape{SORT_THREADS_GPU, SORT_ITEMS_GPU};
 // A CPU device (lavapipe) gets kCpuSortShape, as measured there (README, "GPU sort primitives"); any
 // other device kGpuSortShape when its shared memory and workgroup limits hold it, else kCpuSortShape.
 SortShape sortShapeFor(const vk::Context& ctx);
+// How the sort learns where a tile's keys of a digit start (radix_scatter.comp): ReduceThenScan, a count
+// pass and a scan of the (digit, tile) table every pass, is correct on any device; LookBack counts every
+// pass's digits in one pass over the keys up front and lets each tile add up the tiles before it while
+// they run (decoupled look-back): no count pass and no scan per pass, but a workgroup waits on others,
+// which needs a device that keeps a running workgroup running while another spins.
+enum class SortScheme { ReduceThenScan, LookBack };
+const char* sortSchemeName(SortScheme scheme);
+// LookBack on a CPU device (lavapipe: every workgroup runs to its end on one thread, and tiles are taken
+// in launch order, so the tiles waited on are running or done) and on NVIDIA and AMD GPUs (which keep
+// resident workgroups running; GPU sorts rely on it there); ReduceThenScan elsewhere.
+SortScheme sortSchemeFor(const vk::Context& ctx);
+// uint32 words of the look-back workspace (sort_layout.h) for `count` keys.
+uint64_t lookBackWords(uint32_t count, SortShape shape = {});
 uint32_t sortTiles(uint32_t count, SortShape shape = {});         // ceil(count / tile)
 uint64_t histogramEntries(uint32_t count, SortShape shape = {});  // RADIX_BINS * sortTiles(count)
 // Shared memory radix_scatter.comp declares (counters + padding, per-digit offsets, workgroup scan):
@@ -172,8 +187,9 @@ class IndirectGroups {
 // ---- radix sort ---------------------------------------------------------------------------------
 class RadixSort {
  public:
-  RadixSort(vk::Context& ctx, uint32_t capacity);  // the device's shape (sortShapeFor)
-  RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape);
+  RadixSort(vk::Context& ctx, uint32_t capacity);  // the device's shape and scheme (sortShapeFor, sortSchemeFor)
+  RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape);  // the device's scheme
+  RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape, SortScheme scheme);
   // Sorts the first `count` (key, value) pairs by the low `keyBits` bits of the key (higher bits are
   // ignored and travel with the key), stably, in place: the results are back in `keys` and `values`.
   // `values` may be empty (buffer == VK_NULL_HANDLE) to sort keys alone. ceil(keyBits / 8) passes. With
@@ -182,16 +198,18 @@ class RadixSort {
               uint32_t keyBits = 32);
   uint32_t capacity() const { return capacity_; }
   SortShape shape() const { return shape_; }
+  SortScheme scheme() const { return scheme_; }
   uint64_t bytesAllocated() const;
 
  private:
   vk::Context& ctx_;
   uint32_t capacity_;
   SortShape shape_;
-  Scan scan_;  // of the histogram table
+  SortScheme scheme_;
+  std::optional<Scan> scan_;  // of the histogram table (ReduceThenScan)
   IndirectGroups groups_;  // a device count: the count and scatter passes launch only the tiles it fills
-  vk::Kernel count_, scatter_;
-  vk::Buffer altKeys_, altValues_, hist_, dummy_, args_;
+  vk::Kernel count_, scatter_;  // count_: radix_count (ReduceThenScan) or radix_histogram (LookBack)
+  vk::Buffer altKeys_, altValues_, hist_, dummy_, args_;  // hist_: the table, or the look-back workspace
 };
 
 }  // namespace cs::sort

@@ -42,6 +42,22 @@
 #define SORT_ITEMS_GPU 64
 #define SORT_RAKE 8  // workgroup scan segments of the ranking step (SORT_THREADS / SORT_RAKE of them)
 
+// Radix sort by look-back (sort::SortScheme::LookBack, radix_histogram.comp + radix_scatter.comp with
+// LOOKBACK set): one workspace of uint32 words, zeroed before every sort --
+//   [LOOKBACK_PARTITIONS + p]            pass p's tile counter: a workgroup takes its tile in launch order
+//   [LOOKBACK_DIGITS + p * RADIX_BINS + d] keys whose pass-p digit is d, over the whole input (one fused
+//                                        histogram pass writes all of them)
+//   [LOOKBACK_STATUS + (p * tiles + t) * RADIX_BINS + d]  tile t's word for digit d in pass p: 0 (not yet),
+//                                        LOOKBACK_AGGREGATE | the tile's own count, or LOOKBACK_PREFIX | the
+//                                        count of tiles 0..t together (counts stay below 2^30)
+#define LOOKBACK_MAX_PASSES 4  // 32 key bits / RADIX_BITS
+#define LOOKBACK_PARTITIONS 0
+#define LOOKBACK_DIGITS 16  // past the counters, 64-byte aligned
+#define LOOKBACK_STATUS (LOOKBACK_DIGITS + LOOKBACK_MAX_PASSES * RADIX_BINS)
+#define LOOKBACK_AGGREGATE 0x40000000u
+#define LOOKBACK_PREFIX 0x80000000u
+#define LOOKBACK_VALUE 0x3FFFFFFFu
+
 // ---- flags (ScanPush.flags, CompactPush.flags, RadixPush.flags, rays/'s KeysPush.flags) ------------------
 #define FLAG_COUNT_FROM_BUFFER 1u  // the element count is min(countBuffer[countIndex], push.count)
 #define FLAG_NONZERO_AS_ONE 2u     // reduce: count nonzero elements instead of summing them
@@ -86,7 +102,8 @@ struct RadixPush {
   uint shift;       // lowest key bit of this pass's digit
   uint digitMask;   // (1 << bits of this pass) - 1
   uint tiles;       // tiles the histogram table is laid out for (its row stride)
-  uint pad0, pad1;
+  uint pass;        // look-back: this pass's index (its tile counter and status rows)
+  uint keyBits;     // look-back histogram: key bits sorted (every pass's digit is counted at once)
 };
 
 #ifdef __cplusplus
@@ -98,6 +115,7 @@ static_assert(SORT_THREADS_CPU * SORT_ITEMS_CPU < 65536 && SORT_THREADS_GPU * SO
 static_assert(SORT_THREADS_CPU % SORT_RAKE == 0 && SORT_THREADS_GPU % SORT_RAKE == 0 && SCAN_THREADS % SCAN_RAKE == 0,
               "rake segments");
 static_assert(RADIX_BITS >= 1 && RADIX_BITS <= 8, "radix digit width");
+static_assert(LOOKBACK_MAX_PASSES * RADIX_BITS >= 32, "look-back workspace holds every pass of a 32-bit key");
 static_assert(SCAN_ITEMS % 4 == 0 && SCAN_ITEMS <= 32 && SORT_ITEMS_CPU % 4 == 0 && SORT_ITEMS_GPU % 4 == 0,
               "uvec4 access, kept-bit masks");
 }  // namespace cs::sort

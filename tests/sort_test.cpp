@@ -115,6 +115,14 @@ TEST(SortSizing, TheTileShapeIsChosenPerDevice) {
   }
   sort::RadixSort sorter(ctx, 1000);
   EXPECT_EQ(sorter.shape().tile(), chosen.tile());
+  // The scheme too: look-back on a CPU device (a workgroup runs to its end on one thread), NVIDIA and AMD.
+  const bool lookBackDevice = ctx.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ||
+                              ctx.properties.vendorID == 0x10DE || ctx.properties.vendorID == 0x1002;
+  EXPECT_EQ(sort::sortSchemeFor(ctx), lookBackDevice ? sort::SortScheme::LookBack : sort::SortScheme::ReduceThenScan);
+  EXPECT_EQ(sorter.scheme(), sort::sortSchemeFor(ctx));
+  // The look-back workspace: counters, every pass's digit totals, and a status row per pass and tile.
+  EXPECT_EQ(sort::lookBackWords(sort::kCpuSortShape.tile() + 1, sort::kCpuSortShape),
+            uint64_t(LOOKBACK_STATUS) + 4u * 2u * RADIX_BINS);
   // A shape whose packed counters would carry, or that the device cannot hold, is a clear error.
   EXPECT_THROW(sort::RadixSort(ctx, 1000, sort::SortShape{64, 1024}), Error);
   EXPECT_THROW(sort::RadixSort(ctx, 1000, sort::SortShape{4096, 4}), Error);
@@ -310,17 +318,30 @@ Pairs withPositions(std::vector<uint32_t> keys) {
   return p;
 }
 
-// Every test below runs with both tile shapes on whatever device runs the tests, so the shape a GPU gets
-// is proven on lavapipe too.
-class RadixSortShapes : public testing::TestWithParam<sort::SortShape> {};
-INSTANTIATE_TEST_SUITE_P(Shapes, RadixSortShapes, testing::Values(sort::kCpuSortShape, sort::kGpuSortShape),
-                         [](const testing::TestParamInfo<sort::SortShape>& info) {
-                           return std::to_string(info.param.threads) + "x" + std::to_string(info.param.items);
+// Every test below runs with both tile shapes and both schemes on whatever device runs the tests, so the
+// shape and the scheme a GPU gets are proven on lavapipe too.
+struct SortSetup {
+  sort::SortShape shape;
+  sort::SortScheme scheme;
+};
+class RadixSortShapes : public testing::TestWithParam<SortSetup> {
+ protected:
+  sort::RadixSort makeSorter(uint32_t capacity) {
+    return sort::RadixSort(test::context(), capacity, GetParam().shape, GetParam().scheme);
+  }
+};
+INSTANTIATE_TEST_SUITE_P(Shapes, RadixSortShapes,
+                         testing::Values(SortSetup{sort::kCpuSortShape, sort::SortScheme::ReduceThenScan},
+                                         SortSetup{sort::kGpuSortShape, sort::SortScheme::ReduceThenScan},
+                                         SortSetup{sort::kCpuSortShape, sort::SortScheme::LookBack},
+                                         SortSetup{sort::kGpuSortShape, sort::SortScheme::LookBack}),
+                         [](const testing::TestParamInfo<SortSetup>& p) {
+                           return std::to_string(p.param.shape.threads) + "x" + std::to_string(p.param.shape.items) +
+                                  (p.param.scheme == sort::SortScheme::LookBack ? "_LookBack" : "_ReduceThenScan");
                          });
 
 TEST_P(RadixSortShapes, MatchesStableSortOnRandomKeysOfEveryLength) {
-  auto& ctx = test::context();
-  sort::RadixSort sorter(ctx, kLengths.back(), GetParam());
+  sort::RadixSort sorter = makeSorter(kLengths.back());
   for (uint32_t n : kLengths) {
     Pairs in = withPositions(randomWords(n, 100 + n));
     Pairs want = stableSorted(in), got = gpuSorted(sorter, in);
@@ -330,9 +351,8 @@ TEST_P(RadixSortShapes, MatchesStableSortOnRandomKeysOfEveryLength) {
 }
 
 TEST_P(RadixSortShapes, MatchesStableSortOnSortedReversedAndAllEqualKeys) {
-  auto& ctx = test::context();
   const uint32_t n = 300007;
-  sort::RadixSort sorter(ctx, n, GetParam());
+  sort::RadixSort sorter = makeSorter(n);
   std::vector<uint32_t> sorted = randomWords(n, 11);
   std::sort(sorted.begin(), sorted.end());
   std::vector<uint32_t> reversed(sorted.rbegin(), sorted.rend());
@@ -351,9 +371,8 @@ TEST_P(RadixSortShapes, MatchesStableSortOnSortedReversedAndAllEqualKeys) {
 }
 
 TEST_P(RadixSortShapes, IsStableOnFewDistinctKeys) {
-  auto& ctx = test::context();
   const uint32_t n = (1u << 20) + 3;
-  sort::RadixSort sorter(ctx, n, GetParam());
+  sort::RadixSort sorter = makeSorter(n);
   for (uint32_t distinct : {2u, 3u, 17u}) {
     std::vector<uint32_t> keys = randomWords(n, distinct, distinct);
     for (auto& k : keys) k *= 0x01010101u;  // the same digit in every byte: every pass moves them
@@ -365,9 +384,8 @@ TEST_P(RadixSortShapes, IsStableOnFewDistinctKeys) {
 }
 
 TEST_P(RadixSortShapes, SortsOnlyTheRequestedKeyBitsInOddAndEvenPassCounts) {
-  auto& ctx = test::context();
   const uint32_t n = 123457;
-  sort::RadixSort sorter(ctx, n, GetParam());
+  sort::RadixSort sorter = makeSorter(n);
   Pairs in = withPositions(randomWords(n, 77));
   for (uint32_t bits : {1u, 7u, 8u, 12u, 24u, 31u}) {
     Pairs want = stableSorted(in, bits), got = gpuSorted(sorter, in, bits);
@@ -380,7 +398,7 @@ TEST_P(RadixSortShapes, SortsKeysAloneUpToACountReadFromTheGpu) {
   auto& ctx = test::context();
   const uint32_t bound = 90000;
   std::vector<uint32_t> keys = randomWords(bound, 8);
-  sort::RadixSort sorter(ctx, bound, GetParam());
+  sort::RadixSort sorter = makeSorter(bound);
   // Larger counts before smaller ones: the indirect passes launch only the tiles a count fills, and the
   // histogram entries a larger count left in the others must not reach the scan.
   for (uint32_t n : {0u, 1u, 2049u, 77777u, 2049u, 1u, 0u, 90000u}) {

@@ -17,6 +17,7 @@
 #include "eval/metrics.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
+#include "sort/sort.h"
 #include "eval/epsilon.h"
 #include "tests/cone_test_support.h"
 #include "tests/test_context.h"
@@ -134,6 +135,12 @@ TEST(VariantNames, MapToTheirOptionsAndTheSwitchesCombine) {
     const std::string what = settings.empty() ? "defaults" : settings.front().second;
     EXPECT_EQ(out.stats["sorted"], sorted) << what;
     EXPECT_EQ(out.stats.contains("ray_order_choice"), sorted && adaptive) << what;
+    // The stats name the sort this device gets (sort::sortSchemeFor, sortShapeFor).
+    const sort::SortShape shape = sort::sortShapeFor(test::context());
+    EXPECT_EQ(out.stats.value("ray_sort", ""), std::string(sort::sortSchemeName(sort::sortSchemeFor(test::context()))) +
+                                                   ", tiles of " + std::to_string(shape.threads) + " x " +
+                                                   std::to_string(shape.items) + " keys")
+        << what;
   }
   try {
     cone.check(settingsOf({{"variant", "Precise"}, {"ray-order", "auto"}}));

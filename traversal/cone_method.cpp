@@ -362,6 +362,7 @@ class ConeMethod : public ShadowMethod {
     const uint32_t lit = shape[SHAPE_LEAVES];
     tree_.setShape(lit);
     stats["lit_samples"] = lit;
+    stats["ray_sort"] = raySortName();
     stats["tree_depth"] = shape[SHAPE_DEPTH];
     stats["tree_nodes"] = shape[SHAPE_NODES];
     if (adaptive) {
@@ -423,6 +424,13 @@ class ConeMethod : public ShadowMethod {
     return ts;
   }
 
+  // How the rays are sorted on this device: the radix sort's scheme and tile (sort::sortSchemeFor, sortShapeFor).
+  std::string raySortName() const {
+    const sort::RadixSort& s = rays_->sorter();
+    return std::string(sort::sortSchemeName(s.scheme())) + ", tiles of " + std::to_string(s.shape().threads) + " x " +
+           std::to_string(s.shape().items) + " keys";
+  }
+
   // The GPU's choice of ray order in the stats: the order, and the screen-order tree's spread per depth
   // (sum of 1 - cos(half-angle), order_choice.comp) that decided it.
   static void reportOrderChoice(const uint32_t* words, uint32_t depth, nlohmann::json& stats) {
@@ -481,6 +489,7 @@ class ConeMethod : public ShadowMethod {
     }
     const uint32_t lit = rays_->readCount();
     stats["lit_samples"] = lit;
+    stats["ray_sort"] = raySortName();
     stats["traversal_path"] = "per-stage submits (two-pass: the update is decided on the host)";
     stats["stage_timing"] = "one submission per stage, host wall clock (two-pass)";
     traversal::TraversalStats ts;

@@ -106,7 +106,8 @@ struct ConeOptions {
 //   totalMs     wall clock of the frame's shadow work up to the mask on the GPU; the readback of the mask
 //               to the host is stats.readback_ms.
 //   stats       variant ("PreciseSorted", ...), test ("precise" | "sphere"), front_face_culling, early_accept,
-//               ray_order ("hilbert" | "screen": the order this frame used); with adaptiveOrder
+//               ray_order ("hilbert" | "screen": the order this frame used), ray_sort (the radix sort's
+//               scheme and tile on this device, sort::sortSchemeFor / sortShapeFor); with adaptiveOrder
 //               ray_order_choice (measured this frame, or sorted on a recent loose verdict) and, when
 //               measured, screen_tree_solid_angle_sr (per depth) and screen_tree_looseness,
 //               two_pass (when on: blockers, rays finished in pass one, update rebuilt or skipped and why,
