@@ -13,8 +13,9 @@
 //    launch order from the pass's counter; a tile publishes its own count of each digit, then walks back
 //    over the tiles before it, adding their counts until one has published its inclusive prefix, and
 //    publishes its own. The digit's start over all keys comes from radix_histogram.comp's totals. No count
-//    pass, no table scan. It waits on earlier tiles only, which already run (or ran) on the device: safe
-//    where a running workgroup keeps running while another spins (sort::sortSchemeFor).
+//    pass, no table scan. It waits on earlier tiles only, which already run (or ran) on the device, and
+//    only for SPINS reads: a tile still unpublished by then is counted from its keys here, so the
+//    result never depends on scheduling (sort::sortSchemeFor says where waiting is expected to be short).
 // bindings: 0 = keysIn, 1 = valuesIn (uint[], read as uvec4), 2 = keysOut, 3 = valuesOut (uint[]),
 //           4 = hist (scanned) or the look-back workspace, 5 = countWords (device count)
 #include "sort/sort_layout.h"
@@ -28,6 +29,7 @@ layout(push_constant) uniform Push { RadixPush pc; };
 #include "sort/common.glsl"
 #include "sort/radix.glsl"
 layout(constant_id = 2) const bool LOOKBACK = false;
+layout(constant_id = 3) const uint SPINS = LOOKBACK_SPINS;
 #define WG_SIZE SORT_THREADS
 #define WG_RAKE SORT_RAKE
 #include "sort/workgroup_scan.glsl"
@@ -62,6 +64,19 @@ uint tileStart(uint d, uint lowTotal) { return unpackRank(counters[slot(d % RADI
 uint tileCount(uint d, uint tileKeys, uint lowTotal) {
   return (d == pc.digitMask ? tileKeys : tileStart(d + 1u, lowTotal)) - tileStart(d, lowTotal);
 }
+// Keys of digit d in tile j, counted from the keys themselves: what a tile that has not published yet
+// would publish, so the walk never depends on how long another workgroup takes (and every loop is bounded:
+// a CPU driver may cut a loop that runs past its iteration limit).
+uint digitCountOfTile(uint j, uint d) {
+  uint n = countOf(pc.count, pc.countIndex, pc.flags), first = j * SORT_TILE, last = min(first + SORT_TILE, n), c = 0u;
+  for (uint i = first; i < last; i += 4u) {
+    uvec4 key = loadKeys(i / 4u, n);
+    for (uint k = 0u; k < 4u; ++k)
+      if (i + k < last && digitOf(key[k]) == d) ++c;
+  }
+  return c;
+}
+
 void lookBack(uint tile, uint tileKeys, uint lowTotal) {
   uint d0 = gl_LocalInvocationIndex * (RADIX_BINS / SORT_THREADS), d1 = min(d0 + RADIX_BINS / SORT_THREADS, pc.digitMask + 1u);
   uint totals = 0u;
@@ -73,12 +88,14 @@ void lookBack(uint tile, uint tileKeys, uint lowTotal) {
   uint digitStart = workgroupExclusiveSum(totals, allTotals);  // keys of the digits below d0, all tiles
   for (uint d = d0; d < d1; ++d) {
     uint before = 0u;  // keys of digit d in tiles 0 .. tile - 1
-    for (uint j = tile; j > 0u;) {
-      uint word = atomicAdd(hist[statusWord(j - 1u, d)], 0u);
-      if ((word & (LOOKBACK_AGGREGATE | LOOKBACK_PREFIX)) == 0u) continue;  // not published yet: wait
+    for (uint j = tile; j > 0u; --j) {
+      uint word = 0u;
+      for (uint tries = 0u; tries < SPINS && (word & (LOOKBACK_AGGREGATE | LOOKBACK_PREFIX)) == 0u; ++tries)
+        word = atomicAdd(hist[statusWord(j - 1u, d)], 0u);
+      if ((word & (LOOKBACK_AGGREGATE | LOOKBACK_PREFIX)) == 0u)  // not published yet: count it here
+        word = LOOKBACK_AGGREGATE | digitCountOfTile(j - 1u, d);
       before += word & LOOKBACK_VALUE;
       if ((word & LOOKBACK_PREFIX) != 0u) break;
-      --j;
     }
     if (tile != 0u) atomicExchange(hist[statusWord(tile, d)], LOOKBACK_PREFIX | (before + tileCount(d, tileKeys, lowTotal)));
     adjust[d] = digitStart + before - tileStart(d, lowTotal);

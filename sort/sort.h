@@ -121,6 +121,9 @@ vk::Grid workgroupGrid(const vk::Context& ctx, uint64_t workgroups);
 // Tests only: cap the workgroups per grid dimension (0 = the device's limit), so small inputs exercise
 // the 2-D grids that only counts beyond 65,535 workgroups need otherwise.
 void setGridLimitForTesting(uint32_t maxPerDimension);
+// Tests only: the look-back's reads of a tile's word before counting its keys itself, for sorts made
+// afterwards (-1 = the default, LOOKBACK_SPINS; 0 = never read: every tile before is counted).
+void setLookBackSpinsForTesting(int32_t spins);
 
 // ---- exclusive scan -----------------------------------------------------------------------------
 class Scan {

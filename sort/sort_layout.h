@@ -57,6 +57,8 @@
 #define LOOKBACK_AGGREGATE 0x40000000u
 #define LOOKBACK_PREFIX 0x80000000u
 #define LOOKBACK_VALUE 0x3FFFFFFFu
+#define LOOKBACK_SPINS 2048u  // reads of an unpublished tile's word before the waiting tile counts its keys
+                              // itself (radix_scatter.comp's constant_id 3; sort::setLookBackSpinsForTesting)
 
 // ---- flags (ScanPush.flags, CompactPush.flags, RadixPush.flags, rays/'s KeysPush.flags) ------------------
 #define FLAG_COUNT_FROM_BUFFER 1u  // the element count is min(countBuffer[countIndex], push.count)

@@ -412,6 +412,27 @@ TEST_P(RadixSortShapes, SortsKeysAloneUpToACountReadFromTheGpu) {
   }
 }
 
+// The look-back never depends on how long another tile takes: a tile still unpublished after a few reads
+// is counted from its keys by the one waiting. With no read at all, every tile before is counted (the
+// walk never meets a published prefix); with one, any wait takes that path; the sort is the stable one.
+TEST(RadixSortLookBack, CountingAnUnpublishedTileItselfGivesTheSameSort) {
+  struct Restore {
+    ~Restore() { sort::setLookBackSpinsForTesting(-1); }
+  } restore;
+  for (auto [spins, n] : {std::pair{0, 20011u}, std::pair{1, 300007u}}) {
+    sort::setLookBackSpinsForTesting(spins);
+    for (sort::SortShape shape : {sort::kCpuSortShape, sort::kGpuSortShape}) {
+      sort::RadixSort sorter(test::context(), n, shape, sort::SortScheme::LookBack);
+      for (uint32_t bits : {1u, 8u, 31u}) {
+        Pairs in = withPositions(randomWords(n, 5 + bits));
+        Pairs want = stableSorted(in, bits), got = gpuSorted(sorter, in, bits);
+        EXPECT_SAME_ARRAY(got.keys, want.keys, bits << " key bits, tile " << shape.tile() << ", " << spins << " reads");
+        EXPECT_SAME_ARRAY(got.values, want.values, bits << " key bits, tile " << shape.tile() << ", " << spins << " reads");
+      }
+    }
+  }
+}
+
 // The indirect grid for a device count is the one vk::gridFor makes on the host for the same count
 // (clamped to the bound), 2-D past the device's workgroups per dimension, and zero workgroups for zero.
 TEST(IndirectGroups, WriteTheHostsGridForTheDeviceCount) {
