@@ -365,8 +365,8 @@ struct Rmsm::State {
     }
     for (auto& [n, ms] : timer.intervalsOr("analysis", submitMs)) stages.add(n, ms);
     const auto t0 = Clock::now();
-    const uint32_t unique = std::min(a.counters[SM_COUNT_UNIQUE], std::min(a.counters[SM_COUNT_PRUNED], slots));
-    a.unique = unique ? vk::download<uint32_t>(ctx, uniqueBuf, unique) : std::vector<uint32_t>{};
+    const uint32_t uniqueCount = std::min(a.counters[SM_COUNT_UNIQUE], std::min(a.counters[SM_COUNT_PRUNED], slots));
+    a.unique = uniqueCount ? vk::download<uint32_t>(ctx, uniqueBuf, uniqueCount) : std::vector<uint32_t>{};
     stages.add("readback", msSince(t0));
     return a;
   }

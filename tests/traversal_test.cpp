@@ -375,8 +375,8 @@ TEST(ConeMethod, MaskIsBitIdenticalAtAnyTraversalMemoryAndPeakStaysUnderTheBound
     // The one-submission path holds a whole depth per step; past that it overflows on the GPU and the
     // frame's traversal is redone chunked -- the two smallest arenas must take that way.
     const bool chunked = out.stats["traversal_path"].get<std::string>().rfind("chunked", 0) == 0;
-    if (bytes <= 9000) EXPECT_TRUE(chunked) << bytes << " bytes: " << out.stats["traversal_path"];
-    if (chunked) EXPECT_GT(t["submits"].get<uint64_t>(), 20u) << "a small arena must split the work (" << bytes << " bytes)";
+    if (bytes <= 9000) { EXPECT_TRUE(chunked) << bytes << " bytes: " << out.stats["traversal_path"]; }
+    if (chunked) { EXPECT_GT(t["submits"].get<uint64_t>(), 20u) << "a small arena must split the work (" << bytes << " bytes)"; }
     if (chunked && bytes > 9000 && o.arena.pairCapacity == 0) {
       // The batches shrink after an overflow: a few frames later the same arena fits in one submission.
       MethodOutput later;
@@ -418,7 +418,7 @@ TEST(ConeFrame, OneSubmissionOneHostSyncNoAllocationAfterWarmUp) {
     GBuffer host;
     const bool empty = std::string(v.name) == "nothing";
     raster.render(empty ? nothing : *scene.findCamera(v.name), v.light, 48, 40, dev, &host);
-    if (empty) ASSERT_EQ(host.litCount(), 0u);
+    if (empty) { ASSERT_EQ(host.litCount(), 0u); }
     FrameInput frame = frameInputOf(scene, host, dev, ctx, v.light, EpsilonPolicy::forScene(scene).eps);
     const uint64_t maskBytes = uint64_t(host.size()) * 4;
     for (const std::string& variant : coneVariantNames()) {
@@ -446,7 +446,7 @@ TEST(ConeFrame, OneSubmissionOneHostSyncNoAllocationAfterWarmUp) {
       const MethodOutput without = runCounted(*makeConeMethod(ctx, plain), frame);
       EXPECT_EQ(without.visibility, out.visibility) << what << ": clusters changed the mask";
       if (variant != "PreciseSorted") continue;
-      if (!empty) EXPECT_GT(std::count(out.visibility.begin(), out.visibility.end(), 0.0f), 0) << what;
+      if (!empty) { EXPECT_GT(std::count(out.visibility.begin(), out.visibility.end(), 0.0f), 0) << what; }
       ConeOptions p = o;
       p.profileStages = true;
       auto profiled = makeConeMethod(ctx, p);
@@ -503,7 +503,7 @@ TEST(ConeMethod, RayOrderChosenOnTheGpuKeepsTheMaskOfBothOrders) {
       EXPECT_EQ(next.stats["ray_order"], wall ? "screen" : "hilbert") << view << " frame " << k;
       const bool measures = wall || k == 8;
       EXPECT_EQ(next.stats["ray_order_choice"] == "auto: measured this frame", measures) << view << " frame " << k;
-      if (!measures) EXPECT_EQ(next.stats["allocations_per_frame"], 0u) << view << " frame " << k;
+      if (!measures) { EXPECT_EQ(next.stats["allocations_per_frame"], 0u) << view << " frame " << k; }
     }
   }
 }
