@@ -98,8 +98,9 @@ SortShape sortShapeFor(const vk::Context& ctx);
 // How the sort learns where a tile's keys of a digit start (radix_scatter.comp): ReduceThenScan, a count
 // pass and a scan of the (digit, tile) table every pass, is correct on any device; LookBack counts every
 // pass's digits in one pass over the keys up front and lets each tile add up the tiles before it while
-// they run (decoupled look-back): no count pass and no scan per pass, but a workgroup waits on others,
-// which needs a device that keeps a running workgroup running while another spins.
+// they run (decoupled look-back): no count pass and no scan per pass. A tile waits on another for a
+// bounded number of reads, then counts that tile's keys itself, so both are correct on any device; a
+// wait is short only where a running workgroup keeps running while another spins.
 enum class SortScheme { ReduceThenScan, LookBack };
 const char* sortSchemeName(SortScheme scheme);
 // LookBack on a CPU device (lavapipe: every workgroup runs to its end on one thread, and tiles are taken
