@@ -280,7 +280,9 @@ RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape, SortS
   hist_ = vk::createBuffer(ctx, histWords * 4);
   dummy_ = dummyBuffer(ctx);
   args_ = vk::createBuffer(ctx, 16, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
-  const std::initializer_list<vk::SpecConstant> spec = {{0, shape.threads}, {1, shape.items}, {2, lookBack ? 1u : 0u}, {3, lookBackSpins >= 0 ? uint32_t(lookBackSpins) : LOOKBACK_SPINS}};
+  const uint32_t spins = lookBackSpins >= 0 ? uint32_t(lookBackSpins) : LOOKBACK_SPINS;
+  const std::initializer_list<vk::SpecConstant> spec = {
+      {0, shape.threads}, {1, shape.items}, {2, lookBack ? 1u : 0u}, {3, spins}};
   if (lookBack)
     count_ = vk::createKernel(ctx, "radix_histogram", spv_radix_histogram_comp, 3, sizeof(RadixPush), spec);
   else
