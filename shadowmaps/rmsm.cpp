@@ -262,7 +262,9 @@ struct Rmsm::State {
     tableBuf = vk::createBuffer(c, layout.tableBytes);
     pool = vk::createBuffer(c, layout.poolBytes);
     counters = vk::createBuffer(c, SM_COUNT_WORDS * 4, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
-    updates = vk::createBuffer(c, uint64_t(2) * layout.poolPages * 8);
+    // Written by the host every frame, read once by the tables kernel: host visible on every device, so
+    // the update costs no staged copy (a submission and a wait) where device memory is not host visible.
+    updates = vk::createBuffer(c, uint64_t(2) * layout.poolPages * 8, vk::Memory::HostVisible);
     vk::Commands cmd(c);
     cmd.fill(tableBuf, 0);
     cmd.fill(pool, 0);
@@ -290,7 +292,9 @@ struct Rmsm::State {
     requestBuf = vk::createBuffer(ctx, 8 * pixels);
     flags = vk::createBuffer(ctx, 8 * pixels);
     compacted = vk::createBuffer(ctx, 8 * pixels);
-    uniqueBuf = vk::createBuffer(ctx, 8 * pixels);
+    // The unique pages go to the host after the analysis: host visible, so that reading them is a copy
+    // out of the mapping and not a staged copy of its own.
+    uniqueBuf = vk::createBuffer(ctx, 8 * pixels, vk::Memory::HostVisible);
     lod = vk::createBuffer(ctx, 4 * pixels);
     visibility = vk::createBuffer(ctx, 4 * pixels);
     compact = std::make_unique<sort::Compact>(ctx, uint32_t(2 * pixels));

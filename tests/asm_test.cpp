@@ -44,8 +44,11 @@ void expectTreeInvariants(const AsmTree& tree, uint32_t cells, const char* what)
     EXPECT_EQ(sm::keyPageY(n.key) / cells, sm::keyPageY(p.key)) << what;
     children[n.parent]++;
   }
-  for (uint32_t s = 0; s < nodes.size(); ++s)
-    if (nodes[s].key != SM_INVALID_KEY) EXPECT_EQ(nodes[s].children, children[s]) << what << ": slot " << s;
+  for (uint32_t s = 0; s < nodes.size(); ++s) {
+    if (nodes[s].key != SM_INVALID_KEY) {
+      EXPECT_EQ(nodes[s].children, children[s]) << what << ": slot " << s;
+    }
+  }
   EXPECT_LE(tree.resident(), nodes.size());
   const uint32_t capacity = 4 * uint32_t(nodes.size());
   uint32_t pow2 = 1;

@@ -723,7 +723,8 @@ TEST(Rmsm, CachedModeAddsOnlyNewPagesAndFlushesWhenTheLightMoves) {
 
 // Superpage passes and page copies put the right texels in the right slots: every texel of every
 // resident page (its apron included) holds the distance from the light to the box along that texel's
-// centre direction — a one-texel offset in a window or a copy region would move thousands of them.
+// centre direction, up to the rasterizer's sub-pixel snapping — a one-texel offset in a window or a copy
+// region would move thousands of them.
 TEST(Rmsm, RenderedPagesHoldTheDistanceAlongEachTexelCentre) {
   const glm::vec3 lo = kBoxLo, hi = kBoxHi;
   Frame f = boxFrame(160, 120);
@@ -737,28 +738,45 @@ TEST(Rmsm, RenderedPagesHoldTheDistanceAlongEachTexelCentre) {
   EXPECT_LT(f.compare(out.visibility).misclassifiedFraction, 1e-4);  // nothing casts a shadow in a box
   const std::vector<uint32_t> pages = RmsmInspector(rmsm).residentPages();
   const std::vector<float> pool = RmsmInspector(rmsm).pool();
+  // The rasterizer may snap vertices to 1 / 2^subPixelPrecisionBits of a texel (Vulkan's
+  // subPixelPrecisionBits; lavapipe and NVIDIA: 8), so a texel may hold the distance of a point that far
+  // from its centre: the wanted distance is the range over the centre moved by up to one such step.
+  const double snap = std::ldexp(1.0, -int(test::context().properties.limits.subPixelPrecisionBits));
   std::set<uint32_t> faces;
   size_t texels = 0, wrong = 0;
+  double worst = 0;
   for (size_t slot = 0; slot < pages.size(); ++slot) {
     const uint32_t k = pages[slot], face = sm::keyFace(k), axis = face >> 1;
     faces.insert(face);
     const double res = double(16u << sm::keyLevel(k));
+    auto distance = [&](double px, double py) {  // along the direction of texel position (px, py)
+      const double u = 2 * px / res - 1, v = 2 * py / res - 1;
+      glm::dvec3 d;
+      d[axis] = (face & 1) ? -1 : 1;
+      d[(axis + 1) % 3] = u;
+      d[(axis + 2) % 3] = v;
+      double t = INFINITY;
+      for (int a = 0; a < 3; ++a)
+        if (d[a] != 0) t = std::min(t, ((d[a] > 0 ? hi[a] : lo[a]) - f.light[a]) / d[a]);
+      return t * glm::length(d);
+    };
     for (uint32_t y = 0; y <= 16; ++y)
       for (uint32_t x = 0; x <= 16; ++x) {
-        const double u = 2 * (sm::keyPageX(k) * 16 + x + 0.5) / res - 1, v = 2 * (sm::keyPageY(k) * 16 + y + 0.5) / res - 1;
-        glm::dvec3 d;
-        d[axis] = (face & 1) ? -1 : 1;
-        d[(axis + 1) % 3] = u;
-        d[(axis + 2) % 3] = v;
-        double t = INFINITY;
-        for (int a = 0; a < 3; ++a)
-          if (d[a] != 0) t = std::min(t, ((d[a] > 0 ? hi[a] : lo[a]) - f.light[a]) / d[a]);
-        const double want = t * glm::length(d);
+        const double px = sm::keyPageX(k) * 16 + x + 0.5, py = sm::keyPageY(k) * 16 + y + 0.5;
+        double lowest = distance(px, py), highest = lowest;
+        for (double dx : {-snap, snap})
+          for (double dy : {-snap, snap}) {
+            const double w = distance(px + dx, py + dy);
+            lowest = std::min(lowest, w), highest = std::max(highest, w);
+          }
         const float got = pool[slot * 17 * 17 + y * 17 + x];
+        const double off = std::max(lowest - got, got - highest) / lowest;
         ++texels;
-        wrong += std::abs(got - want) > 2e-5 * want;
+        wrong += off > 2e-5;
+        worst = std::max(worst, off);
       }
   }
+  std::printf("rendered pages: worst %.3g relative outside the snapped range\n", worst);
   EXPECT_GE(faces.size(), 3u);
   EXPECT_GT(texels, 20000u);
   std::printf("rendered pages: %zu of %zu texels off\n", wrong, texels);
@@ -842,9 +860,11 @@ TEST(ShadowMaps, FrustumCullingLeavesTheShadowsUnchanged) {
 }
 
 // What an RMSM frame costs the host once warm: the analysis in one submission (every count on the GPU,
-// the uniquify pass dispatched indirectly) and the page tables, superpages and lookup in a second, with
-// one copy of the unique pages between them (the host allocates the pages); nothing allocated. The mask is the same frame after frame.
-TEST(Rmsm, AWarmFrameIsTwoSubmissionsAndThreeHostSyncs) {
+// the uniquify pass dispatched indirectly) and the page tables, superpages and lookup in a second; the
+// host reads the unique pages and writes the table updates through host-visible buffers between them
+// (the host allocates the pages), on unified and discrete memory alike; nothing allocated. The mask is
+// the same frame after frame.
+TEST(Rmsm, AWarmFrameIsTwoSubmissionsAndTwoHostSyncs) {
   Frame f = builtinFrame("room", 128, 96);
   Rmsm rmsm(test::context(), RmsmOptions{});
   const MethodOutput first = rmsm.run(f.input());
@@ -852,8 +872,7 @@ TEST(Rmsm, AWarmFrameIsTwoSubmissionsAndThreeHostSyncs) {
   const vk::HostCost before = cost;
   const MethodOutput warm = rmsm.run(f.input());
   EXPECT_EQ(cost.submits - before.submits, 2u);
-  // The copy of the unique pages is a submission and a wait where memory is not host visible.
-  EXPECT_EQ(cost.hostSyncs - before.hostSyncs, test::context().hostVisibleDeviceLocal ? 2u : 3u);
+  EXPECT_EQ(cost.hostSyncs - before.hostSyncs, 2u);
   EXPECT_EQ(cost.allocations - before.allocations, 0u);
   EXPECT_EQ(warm.visibility, first.visibility);
   EXPECT_GT(warm.stats["unique_pages"].get<uint64_t>(), 10u);

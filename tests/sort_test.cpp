@@ -535,6 +535,29 @@ TEST(Hilbert, ConsecutiveIndicesAreNeighbouringCells) {
   }
 }
 
+// Whether `got` is the ray key of d with each face coordinate (d[axis+1] / |d[axis]|, d[axis+2] / ...)
+// moved by up to `ulps` ulp: what a GPU may give, since Vulkan lets its division be 2.5 ulp off (a
+// direction that close to a cell edge may land in the neighbouring cell). The face must be exact: it
+// comes from comparisons alone.
+bool isRayKeyUpToDivision(glm::vec3 d, uint32_t got, int ulps = 3) {
+  const uint32_t want = rays::rayKey(d);
+  if (got == want) return true;
+  if (want == RAY_KEY_DEGENERATE || got >> RAY_KEY_FACE_SHIFT != want >> RAY_KEY_FACE_SHIFT) return false;
+  const uint32_t face = want >> RAY_KEY_FACE_SHIFT, axis = face >> 1, order = RAY_KEY_HILBERT_ORDER;
+  const float m = std::abs(d[axis]), half = float(1u << (order - 1)), last = float((1u << order) - 1);
+  auto cells = [&](float q) {  // the range of cells q moved by up to `ulps` ulp falls in
+    float lo = q, hi = q;
+    for (int i = 0; i < ulps; ++i) lo = std::nextafter(lo, -INFINITY), hi = std::nextafter(hi, INFINITY);
+    auto cell = [&](float x) { return uint32_t(std::clamp(std::floor(x * half + half), 0.0f, last)); };
+    return glm::uvec2(cell(lo), cell(hi));
+  };
+  const glm::uvec2 xs = cells(d[(axis + 1) % 3] / m), ys = cells(d[(axis + 2) % 3] / m);
+  for (uint32_t x = xs.x; x <= xs.y; ++x)
+    for (uint32_t y = ys.x; y <= ys.y; ++y)
+      if (((face << RAY_KEY_FACE_SHIFT) | rays::hilbertIndex(x, y, order)) == got) return true;
+  return false;
+}
+
 TEST(RayKeys, FaceIsTheMajorAxisWithTiesGoingToTheLowestAxis) {
   using glm::vec3;
   EXPECT_EQ(rays::rayFace(vec3(2, 1, -1)), 0u);
@@ -588,13 +611,15 @@ TEST(RayKeys, GpuMatchesCpuOnRandomAndFaceBoundaryDirections) {
   gpuHilbert(1, dirs, &gpu);
   size_t differ = 0;
   for (size_t i = 0; i < dirs.size(); ++i) {
-    uint32_t want = rays::rayKey(glm::vec3(dirs[i]));
-    ASSERT_EQ(gpu[i] >> RAY_KEY_FACE_SHIFT, want >> RAY_KEY_FACE_SHIFT) << "face of direction " << i;
-    differ += gpu[i] != want;
+    const glm::vec3 d(dirs[i]);
+    ASSERT_EQ(gpu[i] >> RAY_KEY_FACE_SHIFT, rays::rayKey(d) >> RAY_KEY_FACE_SHIFT) << "face of direction " << i;
+    ASSERT_TRUE(isRayKeyUpToDivision(d, gpu[i]))
+        << "direction " << i << " (" << d.x << ", " << d.y << ", " << d.z << "): key " << gpu[i] << ", want "
+        << rays::rayKey(d) << " or a neighbouring cell's";
+    differ += gpu[i] != rays::rayKey(d);
   }
-  // Vulkan lets a division be 2.5 ulp off: a GPU may move a direction within ~1e-7 of a cell edge to the
-  // next cell. Lavapipe divides exactly, so there the keys are identical.
-  EXPECT_LE(differ, dirs.size() / 10000) << differ << " keys differ";
+  std::printf("ray keys: %zu of %zu differ from the CPU's by a division's rounding\n", differ, dirs.size());
+  // Lavapipe divides exactly, so there the keys are identical.
   if (test::context().properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU) {
     EXPECT_EQ(differ, 0u);
   }
@@ -631,7 +656,29 @@ TEST(LitRays, MatchTheCpuReferenceInEveryOrder) {
     std::vector<uint32_t> want = rays::referenceRayOrder(f.host, f.light, order);
     ASSERT_EQ(rays.readCount(), f.host.litCount()) << rays::rayOrderName(order);
     ASSERT_GT(want.size(), 1000u);
-    EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), want.size()), want, rays::rayOrderName(order));
+    const std::vector<uint32_t> got = vk::download<uint32_t>(ctx, rays.samples(), want.size());
+    if (order != rays::RayOrder::Hilbert || ctx.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU) {
+      EXPECT_SAME_ARRAY(got, want, rays::rayOrderName(order));
+      continue;
+    }
+    // A GPU may put a ray near a cell edge in the neighbouring cell (isRayKeyUpToDivision): the order is
+    // then the stable sort of the lit samples by the keys it computed, each the CPU's up to a division.
+    const std::vector<uint32_t> keys = vk::download<uint32_t>(ctx, rays.keys(), want.size());
+    std::vector<uint32_t> a = got, b = want;
+    std::sort(a.begin(), a.end());
+    std::sort(b.begin(), b.end());
+    ASSERT_EQ(a, b) << "not the lit samples";
+    size_t differ = 0;
+    for (size_t i = 0; i < got.size(); ++i) {
+      const glm::vec3 d = glm::vec3(f.host.position[got[i]]) - f.light;
+      ASSERT_TRUE(isRayKeyUpToDivision(d, keys[i])) << "sample " << got[i] << " at " << i;
+      differ += keys[i] != rays::rayKey(d);
+      if (i > 0) {
+        ASSERT_TRUE(keys[i - 1] < keys[i] || (keys[i - 1] == keys[i] && got[i - 1] < got[i]))
+            << "not a stable sort at " << i;
+      }
+    }
+    std::printf("hilbert order: %zu of %zu keys differ from the CPU's by a division's rounding\n", differ, got.size());
   }
 }
 

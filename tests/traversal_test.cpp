@@ -490,7 +490,9 @@ TEST(ConeMethod, RayOrderChosenOnTheGpuKeepsTheMaskOfBothOrders) {
     EXPECT_EQ(first.visibility, sc.visibility) << view;
     EXPECT_EQ(first.stats["ray_order_choice"], "auto: measured this frame") << view;
     EXPECT_EQ(first.stats["traversal_path"], "one submission") << view;
-    EXPECT_EQ(first.stats["submits_per_frame"], 1u) << view;
+    // One submission for the frame; a fresh method's first frame also uploads the scene's triangles,
+    // which where device memory is not host visible is one staged copy (this scene is one chunk).
+    EXPECT_EQ(first.stats["submits_per_frame"], ctx.hostVisibleDeviceLocal ? 1u : 2u) << view;
     const double looseness = first.stats["screen_tree_looseness"].get<double>();
     const bool wall = std::string(view) == "wall";
     EXPECT_EQ(first.stats["ray_order"], wall ? "screen" : "hilbert") << view << ": looseness " << looseness;

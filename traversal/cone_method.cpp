@@ -765,8 +765,10 @@ class ConeMethod : public ShadowMethod {
                                : clusters       ? n * (sizeof(uint64_t) + sizeof(uint32_t))
                                                 : 0;
     const uint64_t boundsBytes = clusters ? (n + CLUSTER_SIZE - 1) / CLUSTER_SIZE * sizeof(glm::dvec4) : 0;
+    // The vertices are written straight into the device buffer's mapping, or where device memory is not
+    // host visible into the staging buffer (one chunk): the host holds no copy of them.
     const uint64_t staging = ctx_.hostVisibleDeviceLocal ? 0 : chunkBytes;
-    hostPeakBytes_ = orderBytes + std::max({rankBytes, orderBytes, boundsBytes + chunkBytes + staging});
+    hostPeakBytes_ = orderBytes + std::max({rankBytes, orderBytes, boundsBytes + staging});
     if (options_.memoryBudgetBytes) {
       uint64_t device = 0;
       for (size_t c = 0; c < chunks; ++c)
@@ -789,7 +791,6 @@ class ConeMethod : public ShadowMethod {
     triangles_.resize(chunks);
     if (clusters) clusterWorld_.assign((n + CLUSTER_SIZE - 1) / CLUSTER_SIZE, glm::dvec4(0));
     else std::vector<glm::dvec4>().swap(clusterWorld_);
-    std::vector<glm::vec4> chunk(chunkBytes / sizeof(glm::vec4));
     const uint64_t perChunk = chunkBytes / kTriangleBytes;  // a multiple of CLUSTER_SIZE or all triangles
     for (size_t c = 0; c < chunks; ++c) {
       const uint64_t first = uint64_t(c) * chunkTriangles_;
@@ -801,13 +802,18 @@ class ConeMethod : public ShadowMethod {
       }
       for (uint64_t done = 0; done < count; done += perChunk) {
         const uint64_t m = std::min(perChunk, count - done);
-        for (uint64_t t = 0; t < m; ++t)
-          for (int k = 0; k < 3; ++k) chunk[3 * t + k] = glm::vec4(vertex(order_[first + done + t], k), 1.0f);
-        if (clusters)  // chunks start on a cluster (perChunk and chunkTriangles_ are multiples of it)
-          for (uint64_t t = 0; t < m; t += CLUSTER_SIZE)
-            clusterWorld_[(first + done + t) / CLUSTER_SIZE] =
-                traversal::clusterBounds(chunk.data() + 3 * t, 3 * std::min<uint64_t>(CLUSTER_SIZE, m - t));
-        vk::upload(ctx_, triangles_[c], chunk.data(), m * kTriangleBytes, done * kTriangleBytes);
+        // A cluster's vertices at a time (chunks start on a cluster: perChunk and chunkTriangles_ are
+        // multiples of it): its bounds from them, then written out, never read back from the mapping.
+        vk::uploadInPlace(ctx_, triangles_[c], m * kTriangleBytes, done * kTriangleBytes, [&](void* out) {
+          glm::vec4 cluster[3 * CLUSTER_SIZE];
+          for (uint64_t t = 0; t < m; t += CLUSTER_SIZE) {
+            const uint64_t k = std::min<uint64_t>(CLUSTER_SIZE, m - t);
+            for (uint64_t i = 0; i < k; ++i)
+              for (int v = 0; v < 3; ++v) cluster[3 * i + v] = glm::vec4(vertex(order_[first + done + t + i], v), 1.0f);
+            if (clusters) clusterWorld_[(first + done + t) / CLUSTER_SIZE] = traversal::clusterBounds(cluster, 3 * k);
+            std::memcpy(static_cast<glm::vec4*>(out) + 3 * t, cluster, 3 * k * sizeof(glm::vec4));
+          }
+        });
       }
     }
     revision_ = revision;

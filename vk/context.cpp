@@ -513,6 +513,21 @@ void upload(Context& ctx, Buffer& dst, const void* data, VkDeviceSize bytes, VkD
   cmd.submit();
 }
 
+void uploadInPlace(Context& ctx, Buffer& dst, VkDeviceSize bytes, VkDeviceSize offset,
+                   const std::function<void(void*)>& fill) {
+  CS_CHECK(offset + bytes <= dst.size, "upload of " << bytes << " bytes at " << offset << " past buffer of " << dst.size);
+  if (bytes == 0) return;
+  if (dst.mapped) {
+    fill(static_cast<char*>(dst.mapped) + offset);
+    return;
+  }
+  Buffer& staging = stagingFor(ctx, bytes);
+  fill(staging.mapped);
+  Commands cmd(ctx);
+  cmd.copy(staging, dst, bytes, 0, offset);
+  cmd.submit();
+}
+
 void download(Context& ctx, const Buffer& src, void* data, VkDeviceSize bytes, VkDeviceSize offset) {
   CS_CHECK(offset + bytes <= src.size, "download of " << bytes << " bytes at " << offset << " past buffer of " << src.size);
   if (bytes == 0) return;

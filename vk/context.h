@@ -148,6 +148,12 @@ Buffer createBuffer(Context& ctx, VkDeviceSize size, Memory memory = Memory::Dev
 // is not host visible. Downloads count their bytes in ctx.cost.readbackBytes.
 void upload(Context& ctx, Buffer& dst, const void* data, VkDeviceSize bytes, VkDeviceSize offset = 0);
 void download(Context& ctx, const Buffer& src, void* data, VkDeviceSize bytes, VkDeviceSize offset = 0);
+// An upload written in place: fill(p) writes the `bytes` at p, which is dst's own mapping (at `offset`)
+// where dst is host visible, else the context's staging buffer, then copied (one submit and wait). No
+// host copy of the data: the caller's fill is the only writer. fill must only write p, never read it
+// (staging memory may be uncached).
+void uploadInPlace(Context& ctx, Buffer& dst, VkDeviceSize bytes, VkDeviceSize offset,
+                   const std::function<void(void*)>& fill);
 template <class T>
 std::vector<T> download(Context& ctx, const Buffer& src, size_t count, size_t first = 0) {
   std::vector<T> v(count);
