@@ -20,8 +20,11 @@
 # to use the current build/ as is; BUILD (default build) to run another build's binaries while this one
 # changes; QUICK=1 (a check of the script: the scale bench on one small field); ONLY=far,sort (a comma
 # list of run names: frames (the results and host-cost sections), variants, sort, access, dynamic,
-# scaling, scale, far) reruns those alone and leaves the other sections as they are. About 20 minutes
-# on 2 CPU cores with lavapipe for everything.
+# scaling, scale, far) reruns those alone and leaves the other sections as they are; TAG=gpu writes
+# each section NAME into the README's NAME-gpu markers instead (the README keeps a GPU's figures beside
+# lavapipe's: `TAG=gpu ONLY=frames,variants,sort,scale tools/readme_results.sh` on a machine whose
+# Vulkan device is that GPU) and copies no plots. About 20 minutes on 2 CPU cores with lavapipe for
+# everything; about 5 on a GPU with 16 cores.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -43,13 +46,19 @@ for b in "$CLI" "$BUILD"/bench/{frame_bench,variants_bench,sort_bench,access_ben
 done
 [ -f "$ENGINE" ] || { echo "readme_results: $ENGINE not found (Debian package assimp-testmodels)" >&2; exit 1; }
 [ -f "$MUSEUM" ] || { echo "readme_results: $MUSEUM not found (the BART scenes, ../shared/scenes/bart)" >&2; exit 1; }
-for name in results host-cost variants sort access dynamic scaling scale far; do
-  grep -q "^<!-- $name:begin -->\$" "$README" && grep -q "^<!-- $name:end -->\$" "$README" || {
-    echo "readme_results: $README lacks the <!-- $name:begin --> / <!-- $name:end --> lines" >&2; exit 1; }
-done
-
+TAG=${TAG:-}
+# marker NAME: the README markers section NAME goes between (NAME, or NAME-TAG).
+marker() { echo "$1${TAG:+-$TAG}"; }
 # want NAME: whether this run of the script reruns NAME (ONLY unset: every one).
 want() { [ -z "${ONLY:-}" ] || [[ ",$ONLY," == *",$1,"* ]]; }
+for name in results host-cost variants sort access dynamic scaling scale far; do
+  run_name=$name
+  case $name in results | host-cost) run_name=frames ;; esac
+  [ -z "$TAG" ] || want "$run_name" || continue  # a tagged run needs the markers of what it reruns only
+  m=$(marker "$name")
+  grep -q "^<!-- $m:begin -->\$" "$README" && grep -q "^<!-- $m:end -->\$" "$README" || {
+    echo "readme_results: $README lacks the <!-- $m:begin --> / <!-- $m:end --> lines" >&2; exit 1; }
+done
 
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
@@ -68,6 +77,9 @@ run() {
   echo "$shown" >> "$work/$name.cmd"
   "$@" >> "$work/$name.out"
 }
+# plot FILE NAME: copies a plot the README shows into $IMG as NAME (not for a TAG run: the README
+# shows lavapipe's).
+plot() { [ -n "$TAG" ] || { mkdir -p "$IMG"; cp "$1" "$IMG/$2"; }; }
 # tables FILE: the markdown tables of a report, its "## view" headings as bold lines.
 tables() { awk '/^## / { sub(/^## /, ""); print ""; print "**" $0 "**"; print ""; next } /^\|/ { print }' "$1"; }
 # section NAME: the header every section starts with (its date, device and commands), then stdin.
@@ -76,17 +88,19 @@ section() {
   # A run without the frames (ONLY=...) names the device from the first bench output that prints it.
   [ "$device" != unknown ] || device=$(cat "$work"/*.out 2>/dev/null | sed -n 's/^device: //p' | head -1)
   [ -n "$device" ] || device=unknown
+  local m
+  m=$(marker "$name")
   {
-    echo "<!-- $name:begin -->"
-    echo "Run on $date at \`$rev\` by \`tools/readme_results.sh\` (SIZE=$SIZE SMALL=$SMALL FRAMES=$FRAMES${ONLY:+ ONLY=$ONLY}), device \`$device\`; command(s):"
+    echo "<!-- $m:begin -->"
+    echo "Run on $date at \`$rev\` by \`tools/readme_results.sh\` (SIZE=$SIZE SMALL=$SMALL FRAMES=$FRAMES${ONLY:+ ONLY=$ONLY}${TAG:+ TAG=$TAG}), device \`$device\`; command(s):"
     echo
     echo '```'
     cat "$work/$name.cmd"
     echo '```'
     echo
     cat
-    echo "<!-- $name:end -->"
-  } > "$work/$name.section"
+    echo "<!-- $m:end -->"
+  } > "$work/$m.section"
 }
 
 # ---- the frames: every method and setting per view, at 512² and SIZE² ----------------------------
@@ -100,10 +114,9 @@ cp "$work/frames.cmd" "$work/results.cmd"
 cp "$work/frames.cmd" "$work/host-cost.cmd"
 "$CLI" results-table --host-cost "$OUT/frames/builtin_$SMALL" "$OUT/frames/builtin_$SIZE" "$OUT/frames/engine_$SMALL" \
   "$OUT/frames/engine_$SIZE" "$OUT/frames/museum_$SMALL" "$OUT/frames/museum_$SIZE" | section host-cost
-mkdir -p "$IMG"
-cp "$OUT/frames/builtin_$SIZE/speed_vs_error.png" "$IMG"/speed_vs_error_builtin.png
-cp "$OUT/frames/museum_$SIZE/speed_vs_error.png" "$IMG"/speed_vs_error_museum.png
-cp "$OUT/frames/builtin_$SIZE/error_vs_bytes.png" "$IMG"/error_vs_bytes_builtin.png
+plot "$OUT/frames/builtin_$SIZE/speed_vs_error.png" speed_vs_error_builtin.png
+plot "$OUT/frames/museum_$SIZE/speed_vs_error.png" speed_vs_error_museum.png
+plot "$OUT/frames/builtin_$SIZE/error_vs_bytes.png" error_vs_bytes_builtin.png
 fi
 
 # ---- the other benchmarks -------------------------------------------------------------------------
@@ -137,8 +150,8 @@ fi
 if want scaling; then
   run scaling "$CLI" compare --scaling --views wall --frames "$FRAMES" --out "$OUT/scaling" --quiet
   tables "$OUT/scaling/scaling.md" | section scaling
-  cp "$OUT/scaling/scaling_triangles.png" "$IMG"/scaling_triangles.png
-  cp "$OUT/scaling/scaling_resolution.png" "$IMG"/scaling_resolution.png
+  plot "$OUT/scaling/scaling_triangles.png" scaling_triangles.png
+  plot "$OUT/scaling/scaling_resolution.png" scaling_resolution.png
 fi
 
 if ! want scale; then
@@ -157,7 +170,7 @@ if want far; then
     --frames "$FRAMES" --out "$OUT/far" --quiet
   [ "$device" != unknown ] || device=$(sed -n 's/^device: //p' "$OUT/far/light_distances.md" | head -1)
   tables "$OUT/far/light_distances.md" | section far
-  cp "$OUT/far/light_distances.png" "$IMG"/light_distances_engine.png
+  plot "$OUT/far/light_distances.png" light_distances_engine.png
 fi
 
 # ---- every section into the README at once --------------------------------------------------------
