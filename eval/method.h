@@ -58,7 +58,9 @@ inline const char* stageKindName(StageKind k) {
 struct MethodOutput {
   std::vector<float> visibility;             // one per pixel, in [0,1], 1 = lit; 1 where the sample is not lit
   std::vector<StageTime> stages;             // in execution order
-  double totalMs = 0;                        // shadow work only (raster excluded)
+  // Shadow work only: raster excluded, and the mask's copy into `visibility` (with that vector's
+  // allocation) excluded, on every method alike -- stats.readback_ms holds it.
+  double totalMs = 0;
   uint64_t bytesAllocated = 0;               // bytes this method allocated for the frame
   uint64_t peakBytes = 0;                    // peak working set
   std::string work;                          // the method's own measure of its work, for reports:

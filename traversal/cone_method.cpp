@@ -114,18 +114,26 @@ class ConeMethod : public ShadowMethod {
     if (uploadMs > 0) stages.push_back({"upload", uploadMs, StageKind::Rebuild});
     nlohmann::json timestamps = nlohmann::json::object();
     MethodOutput out;
-    out.visibility.resize(pixels);
-    double readbackMs = 0;
+    double readbackMs = 0;  // the mask's copy into out.visibility, and that vector's allocation: not in totalMs
     traversal::TraversalStats ts;
     if (options_.twoPass) {
       ts = runStaged(frame, g, in, stages, timestamps, stats);
       const auto t1 = Clock::now();
       out.totalMs = msSince(t0);
+      out.visibility.resize(pixels);
       if (pixels) vk::download(ctx_, visibility_, out.visibility.data(), uint64_t(pixels) * 4);
       readbackMs = msSince(t1);
     } else {
       ts = runSubmitted(frame, g, in, stages, timestamps, stats, out.visibility, readbackMs);
       out.totalMs = msSince(t0) - readbackMs;
+      // Where the frame's wall clock goes on the host: preparing and recording the command buffer, the
+      // one submission and its wait (the GPU's work and the driver's latency), and reading the results
+      // into the stats (the mask's readback excluded, as from totalMs).
+      const double recordMs = std::chrono::duration<double, std::milli>(submitStart_ - t0).count();
+      const double submitMs = std::chrono::duration<double, std::milli>(submitEnd_ - submitStart_).count();
+      stats["host_split_ms"] = {{"prepare_and_record", recordMs},
+                                {"submit_and_wait", submitMs},
+                                {"after", std::max(0.0, out.totalMs - recordMs - submitMs)}};
     }
     // The words hold 1.0f or 0.0f bits; nothing else is ever written, so no NaN or inf can appear.
     stats["readback_ms"] = readbackMs;
@@ -351,7 +359,9 @@ class ConeMethod : public ShadowMethod {
     readback_.record(cmd);
     cmd.barrier();
     cmd.mark("readback");
+    submitStart_ = Clock::now();
     cmd.submit();
+    submitEnd_ = Clock::now();
     if (profile) addWall("readback copy", msSince(s0));
     else wall.push_back({"frame", msSince(s0)});
     addTimestamps();
@@ -400,8 +410,10 @@ class ConeMethod : public ShadowMethod {
                     : "chunked from triangle " + std::to_string(from) +
                           ": a step's pairs passed the arena on the GPU (the next frame's batches are smaller)";
       t1 = Clock::now();
+      mask.resize(pixels);
       if (pixels) vk::download(ctx_, visibility_, mask.data(), uint64_t(pixels) * 4);
     } else {
+      mask.resize(pixels);
       readback_.read(maskSlot, mask);
     }
     readbackMs = msSince(t1);
@@ -943,6 +955,7 @@ class ConeMethod : public ShadowMethod {
   GeometryRevision revision_;  // of the uploaded scene
   std::vector<uint32_t> order_;         // scene triangle (the kept ones) of each triangle buffer slot, in order
   uint64_t hostPeakBytes_ = 0;          // host working set of the last upload (uploadTriangles)
+  Clock::time_point submitStart_, submitEnd_;  // the frame's one submission (runSubmitted)
   uint64_t traversalMemory_ = 0;        // the traversal's memory bound this frame (ensureTraversal)
   glm::vec3 cachedLight_{0};
   glm::vec3 boundsLo_{0}, boundsHi_{0};  // of the uploaded (finite) triangles
