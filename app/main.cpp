@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <exception>
+#include <iostream>
 #include <new>
 #include <typeinfo>
 
@@ -20,19 +21,31 @@ void say(const char* text) { [[maybe_unused]] ssize_t n = ::write(STDERR_FILENO,
 
 // An exception no handler takes -- thrown on a thread of a library (the driver's, Embree's pool) or out
 // of a destructor while another unwinds -- ends the run with one line and the usual exit code, not an
-// abort whose message needs the memory that ran out. Allocates nothing: write(2) alone. The frames that
+// abort whose message needs the memory that ran out. Allocates nothing: write(2) alone, the message read
+// by rethrowing the exception in flight (no new one). The frames that
 // follow the line say where it was thrown, for a report.
 [[noreturn]] void onUnhandledException() {
   const std::type_info* type = abi::__cxa_current_exception_type();
   const bool outOfMemory = type && (*type == typeid(std::bad_alloc) || *type == typeid(std::bad_array_new_length));
+  const char* what = nullptr;  // the exception's own message, as the default handler finds it
+  if (type && !outOfMemory) {
+    try {
+      throw;
+    } catch (const std::exception& e) {
+      what = e.what();
+    } catch (...) {
+    }
+  }
   say("coneshadow: error: ");
   if (outOfMemory) {
     say("out of host memory on a thread the run could not report it from (raise the process's memory limit: "
         "ulimit -v; or lower the resolution)\n");
   } else {
-    say("an exception of type ");
-    say(type ? type->name() : "unknown");
-    say(" escaped where nothing could report it (report it, with the command line and the frames below)\n");
+    say(what ? what : "an exception");
+    say(" (thrown where nothing could report it, as ");
+    say(type ? type->name() : "an unknown type");
+    say("; where the process's memory is capped, a library's thread may have failed to start: raise the cap, "
+        "ulimit -v; otherwise report it with the command line and the frames below)\n");
   }
   void* frames[48];
   const int n = backtrace(frames, 48);
@@ -45,12 +58,17 @@ void say(const char* text) { [[maybe_unused]] ssize_t n = ::write(STDERR_FILENO,
 }  // namespace
 
 int main(int argc, char** argv) {
-  cs::installInterruptCleanup();  // before any thread starts: an interrupted run leaves no staging folder
-  cs::vk::setDriverCrashCleanup(&cs::removeLiveStagingOnCrash);  // nor does a driver crashing out of memory
   {
     void* warm[1];
     backtrace(warm, 1);  // loads the unwinder now: the handler must not need memory to find it
   }
   std::set_terminate(&onUnhandledException);
+  try {
+    cs::installInterruptCleanup();  // before any thread starts: an interrupted run leaves no staging folder
+  } catch (const std::exception& e) {
+    std::cerr << "coneshadow: error: " << e.what() << "\n";
+    return cs::kExitFailure;
+  }
+  cs::vk::setDriverCrashCleanup(&cs::removeLiveStagingOnCrash);  // nor does a driver crashing out of memory
   return cs::runMain(argc, argv);
 }

@@ -158,8 +158,11 @@ void installInterruptCleanup() {
     sigaddset(&set, SIGINT);
     sigaddset(&set, SIGTERM);
     sigaddset(&set, SIGHUP);
-    if (pthread_sigmask(SIG_BLOCK, &set, nullptr) != 0) return;
-    std::thread([set] {
+    sigset_t previous;
+    if (pthread_sigmask(SIG_BLOCK, &set, &previous) != 0) return;
+    std::thread waiter;
+    try {
+      waiter = std::thread([set] {
       int sig = 0;
       while (sigwait(&set, &sig) != 0) {
       }
@@ -170,7 +173,15 @@ void installInterruptCleanup() {
       const char text[] = "coneshadow: interrupted: the run's unfinished output was removed\n";
       [[maybe_unused]] ssize_t n = ::write(STDERR_FILENO, text, sizeof text - 1);
       std::_Exit(128 + sig);
-    }).detach();
+      });
+    } catch (const std::system_error& e) {
+      // No thread to wait for the signals: unblock them again (an interrupt then ends the process as
+      // usual) and say why, before the run has made anything.
+      pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+      throw Error(std::string("could not start the thread that cleans up after an interrupt: ") + e.what(),
+                  "interrupt cleanup", "the process may not start threads: raise its memory or thread limits (ulimit -v, -u)");
+    }
+    waiter.detach();
   });
 }
 

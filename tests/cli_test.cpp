@@ -415,5 +415,35 @@ TEST(Cli, EveryMemoryLimitGivesACompleteResultOrOneClearLineAndNoOutput) {
 #endif
 }
 
+// A process that cannot start a thread (no memory left for a thread's stack, or its thread limit
+// reached): the first thread the CLI starts is its own, the interrupt cleanup's, before any driver or
+// library loads; that failing ends the run with one line saying what and what to do, exit 1, no output
+// folder -- where it used to abort before anything could report it. With threads allowed, the same run
+// completes. (Later thread starts belong to the driver and the libraries: Embree reports its own; seen
+// on lavapipe, its queue thread can wait forever for a worker that never started.)
+TEST(Cli, AProcessThatCannotStartThreadsGetsOneClearLine) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "AddressSanitizer's runtime must come first: no library can be preloaded before it";
+#else
+  namespace fs = std::filesystem;
+  const fs::path out = fs::temp_directory_path() / "coneshadow_thread_start_test";
+  fs::remove_all(out);
+  const std::string args = "render --methods cone --width 32 --height 32 --frames 1 --quiet --out " + out.string();
+  const std::string preload = std::string("LD_PRELOAD=") + CONESHADOW_THREAD_START_FAILURE + " ";
+  const CliRun none = cli(args, preload + "CONESHADOW_THREADS_ALLOWED=0 ");
+  EXPECT_EQ(none.code, 1) << none.out;
+  const size_t at = none.out.find("coneshadow: error: ");
+  ASSERT_NE(at, std::string::npos) << none.out;
+  const std::string line = none.out.substr(at, none.out.find('\n', at) - at);
+  EXPECT_NE(line.find("thread"), std::string::npos) << line;
+  EXPECT_NE(line.find("ulimit"), std::string::npos) << line;
+  EXPECT_FALSE(fs::exists(out)) << "a failed run left its --out folder";
+  const CliRun all = cli(args, preload + "CONESHADOW_THREADS_ALLOWED=1000000 ");
+  EXPECT_EQ(all.code, 0) << all.out;
+  EXPECT_TRUE(fs::exists(out / "results.json"));
+  fs::remove_all(out);
+#endif
+}
+
 }  // namespace
 }  // namespace cs::test

@@ -42,6 +42,9 @@ void fail(VkResult r, const char* call, const char* file, int line) {
            "process have the memory a driver needs (ulimit -v)?";
   else if (r == VK_ERROR_DEVICE_LOST)
     hint = "the GPU reset; try again or pick another device with --device";
+  else if (r == VK_ERROR_UNKNOWN)
+    hint = "the driver failed without saying why; drivers do when they cannot get memory or start their "
+           "threads: raise the process's limits (ulimit -v, -u), or try another device with --device";
   throw Error(std::string(call) + " returned " + resultName(r),
               std::string(file) + ":" + std::to_string(line), hint);
 }
