@@ -22,8 +22,8 @@ void say(const char* text) { [[maybe_unused]] ssize_t n = ::write(STDERR_FILENO,
 // An exception no handler takes -- thrown on a thread of a library (the driver's, Embree's pool) or out
 // of a destructor while another unwinds -- ends the run with one line and the usual exit code, not an
 // abort whose message needs the memory that ran out. Allocates nothing: write(2) alone, the message read
-// by rethrowing the exception in flight (no new one). The frames that
-// follow the line say where it was thrown, for a report.
+// by rethrowing the exception in flight (no new one). The frames that follow the line say where it was
+// thrown, for a report.
 [[noreturn]] void onUnhandledException() {
   const std::type_info* type = abi::__cxa_current_exception_type();
   const bool outOfMemory = type && (*type == typeid(std::bad_alloc) || *type == typeid(std::bad_array_new_length));

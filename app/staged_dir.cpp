@@ -163,16 +163,16 @@ void installInterruptCleanup() {
     std::thread waiter;
     try {
       waiter = std::thread([set] {
-      int sig = 0;
-      while (sigwait(&set, &sig) != 0) {
-      }
-      {
-        std::lock_guard<std::mutex> lock(gLiveMutex);
-        for (const std::string& path : live()) removeTree(path);
-      }
-      const char text[] = "coneshadow: interrupted: the run's unfinished output was removed\n";
-      [[maybe_unused]] ssize_t n = ::write(STDERR_FILENO, text, sizeof text - 1);
-      std::_Exit(128 + sig);
+        int sig = 0;
+        while (sigwait(&set, &sig) != 0) {
+        }
+        {
+          std::lock_guard<std::mutex> lock(gLiveMutex);
+          for (const std::string& path : live()) removeTree(path);
+        }
+        const char text[] = "coneshadow: interrupted: the run's unfinished output was removed\n";
+        [[maybe_unused]] ssize_t n = ::write(STDERR_FILENO, text, sizeof text - 1);
+        std::_Exit(128 + sig);
       });
     } catch (const std::system_error& e) {
       // No thread to wait for the signals: unblock them again (an interrupt then ends the process as

@@ -503,17 +503,7 @@ static Buffer& stagingFor(Context& ctx, VkDeviceSize bytes) {
 }
 
 void upload(Context& ctx, Buffer& dst, const void* data, VkDeviceSize bytes, VkDeviceSize offset) {
-  CS_CHECK(offset + bytes <= dst.size, "upload of " << bytes << " bytes at " << offset << " past buffer of " << dst.size);
-  if (bytes == 0) return;
-  if (dst.mapped) {
-    std::memcpy(static_cast<char*>(dst.mapped) + offset, data, bytes);
-    return;
-  }
-  Buffer& staging = stagingFor(ctx, bytes);
-  std::memcpy(staging.mapped, data, bytes);
-  Commands cmd(ctx);
-  cmd.copy(staging, dst, bytes, 0, offset);
-  cmd.submit();
+  uploadInPlace(ctx, dst, bytes, offset, [&](void* p) { std::memcpy(p, data, bytes); });
 }
 
 void uploadInPlace(Context& ctx, Buffer& dst, VkDeviceSize bytes, VkDeviceSize offset,
