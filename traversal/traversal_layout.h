@@ -57,6 +57,13 @@
 #define STEP_TRIANGLES 0u
 #define STEP_CLUSTERS 1u
 #define STEP_EXPAND 2u
+// The last depth's expansion in the sphere-test kernel (AdvancePush::sphereExpansion): input i is (cluster,
+// node) pair i itself, and one invocation tests every triangle of the cluster against the node's children
+// (the step's tests and inputs are still counted per triangle pair). On lavapipe an invocation costs about
+// 20 ns before it does anything (an empty kernel over the 1 M height field's expansion took 120 ms of a
+// 170 ms traversal), so sixteen triangles a lane, with the node's children read once, cost a fraction of
+// sixteen lanes; on a GPU the step still has a lane per cluster pair.
+#define STEP_EXPAND_WHOLE 3u
 // The expansion rule's K (traverse_advance.comp): cluster pairs expand at the first depth with more than
 // 1/K as many nodes as pass 0 kept clusters. Measured (bench/scale_bench, K = 4, 8, 16, 32): 8 and 16
 // test the fewest pairs on the height fields, the BART scenes, 2CylinderEngine x8 and the built-in views.

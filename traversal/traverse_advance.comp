@@ -56,8 +56,9 @@ void main() {
     }
     count = n;
   } else {
-    uint inputs = state[STATE_COUNT];
     uint was = state[STATE_MODE];
+    // Triangle pairs: an invocation of a whole-cluster expansion stands for CLUSTER_SIZE of them.
+    uint inputs = state[STATE_COUNT] << (was == STEP_EXPAND_WHOLE ? CLUSTER_SHIFT : 0u);
     if (inputs > 0u) {
       uint survivors = state[STAT_TOTAL];
       uint acc = STATE_ACC + STATE_ACC_WORDS * (c - 1u);
@@ -97,6 +98,8 @@ void main() {
           }
         }
       }
+      // The last depth's expansion in the sphere-test kernel: a lane per cluster pair.
+      if (mode == STEP_EXPAND && p.sphereExpansion != 0u && c + 1u >= depth) mode = STEP_EXPAND_WHOLE;
       count = mode == STEP_EXPAND ? n << CLUSTER_SHIFT : n;
     }
   }
@@ -114,8 +117,7 @@ void main() {
     // The step's test: the cluster kernel for cluster pairs, the triangle kernel otherwise, or the
     // sphere-test triangle kernel for an expansion one depth above the leaves when the host asks for it
     // (traversal.h, "Clusters"). All are recorded; the others get zero workgroups.
-    uint args = mode == STEP_CLUSTERS ? STATE_CLUSTER_ARGS
-                : (mode == STEP_EXPAND && p.sphereExpansion != 0u && c + 1u >= depth ? STATE_SPHERE_ARGS : STATE_TEST_ARGS);
+    uint args = mode == STEP_CLUSTERS ? STATE_CLUSTER_ARGS : (mode == STEP_EXPAND_WHOLE ? STATE_SPHERE_ARGS : STATE_TEST_ARGS);
     writeArgs(args, count, count, TRAVERSE_THREADS);
     state[STATE_CHILD_OFFSET] = shape[SHAPE_OFFSETS + c];
     state[STATE_CHILD_COUNT] = shape[SHAPE_COUNTS + c];

@@ -32,7 +32,9 @@
 // cluster's sphere (sphere_test.h: false only when no ray of the cone meets the sphere, which holds all
 // the cluster's triangles) and writes (cluster, child) pairs; a STEP_EXPAND step's input i is triangle
 // CLUSTER_SIZE * cluster + i % CLUSTER_SIZE of cluster pair i / CLUSTER_SIZE, tested as a triangle pair
-// (front-face culling applies there: its pass 0 was the clusters').
+// (front-face culling applies there: its pass 0 was the clusters'). A STEP_EXPAND_WHOLE step (the sphere
+// kernel only) takes (cluster, node) pair i whole: one invocation tests each of the cluster's triangles
+// against the node's children, read once (expandCluster).
 #include "traversal/precise_test.h"
 #include "traversal/sphere_test.h"
 #include "traversal/traverse.glsl"
@@ -167,6 +169,67 @@ uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild) {
   return mask;
 }
 
+// The appends' slots: `n` pairs of this invocation, `total` (subgroupAdd(n)) of the invocations still
+// active here. One atomic per subgroup; each invocation's pairs at its exclusive prefix within the
+// subgroup's reservation. Returns the first slot of this invocation's pairs.
+uint reserve(uint n, uint total) {
+  uint before = subgroupExclusiveAdd(n);
+  uint base = 0u;
+  if (subgroupElect()) base = atomicAdd(stats[STAT_TOTAL], total);
+  return subgroupBroadcastFirst(base) + before;
+}
+
+// A STEP_EXPAND_WHOLE input: (cluster, node) pair i; its triangles against the node's children with the
+// sphere test, the survivors appended as (triangle, child) pairs. Tests short of four per triangle (past
+// the buffer's last triangle, past the level's last node) go to STAT_MISSING.
+void expandCluster(uint i) {
+  uvec2 cp = pairs[p.first + i];
+  uvec2 r = childRange(cp.y, childCount);
+  uint kids = r.y - r.x;
+  ConeNode n0 = node(childOffset + r.x);
+  ConeNode n1 = node(childOffset + min(r.x + 1u, r.y - 1u));
+  ConeNode n2 = node(childOffset + min(r.x + 2u, r.y - 1u));
+  ConeNode n3 = node(childOffset + min(r.x + 3u, r.y - 1u));
+  uint first = cp.x << CLUSTER_SHIFT;
+  uint tris_ = min(CLUSTER_SIZE, p.triangleEnd > first ? p.triangleEnd - first : 0u);
+  uint missing = 4u * (CLUSTER_SIZE - tris_) + tris_ * (4u - kids);
+  if (missing != 0u) atomicAdd(stats[STAT_MISSING], missing);
+  float scale = p.coneScale;
+  uvec2 mask = uvec2(0u);  // bit 4 t + k of the 64: triangle first + t against child r.x + k
+  for (uint t = 0u; t < tris_; t++) {
+    precise vec3 v0 = texelFetch(tris, int(3u * (first + t))).xyz;
+    precise vec3 v1 = texelFetch(tris, int(3u * (first + t) + 1u)).xyz;
+    precise vec3 v2 = texelFetch(tris, int(3u * (first + t) + 2u)).xyz;
+    if (p.frameVertices == 0u) {
+      v0 -= p.light.xyz;
+      v1 -= p.light.xyz;
+      v2 -= p.light.xyz;
+    }
+    if (SPEC_FRONT_FACE_CULLING != 0u && facesLight(v0, v1, v2)) continue;
+    vec4 sphere = boundingSphere(v0, v1, v2, scale);
+    uint m = sphereConeTriangle(n0, sphere, p.eps, scale) ? 1u : 0u;
+    if (kids > 1u && sphereConeTriangle(n1, sphere, p.eps, scale)) m |= 2u;
+    if (kids > 2u && sphereConeTriangle(n2, sphere, p.eps, scale)) m |= 4u;
+    if (kids > 3u && sphereConeTriangle(n3, sphere, p.eps, scale)) m |= 8u;
+    if (t < 8u) mask.x |= m << (4u * t);
+    else mask.y |= m << (4u * (t - 8u));
+  }
+  uint n = bitCount(mask.x) + bitCount(mask.y);
+  uint total = subgroupAdd(n);
+  if (total == 0u) return;
+  uint slot = reserve(n, total);
+  uint room = p.outLimit - p.outFirst;
+  for (uint w = 0u; w < 2u; w++) {
+    uint bits = mask[w];
+    while (bits != 0u) {
+      uint b = uint(findLSB(bits));
+      bits &= bits - 1u;
+      if (slot < room) outPairs[p.outFirst + slot] = uvec2(first + 8u * w + (b >> 2u), r.x + (b & 3u));
+      slot++;
+    }
+  }
+}
+
 void main() {
   uint i = flatIndex();
   count = p.countWord != 0u ? statWord(p.countWord) : p.count;
@@ -180,6 +243,10 @@ void main() {
   }
   uint mode = p.deviceParams != 0u ? statWord(STATE_MODE) : STEP_TRIANGLES;
   if ((mode == STEP_CLUSTERS) != (SPEC_CLUSTERS != 0u)) return;  // the other kernel's step (given no workgroups)
+  if (SPEC_CLUSTERS == 0u && SPEC_TEST == TRAVERSE_TEST_SPHERE && mode == STEP_EXPAND_WHOLE) {
+    expandCluster(i);
+    return;
+  }
   uvec2 pair;
   uint firstChild;
   uint mask = testInput(i, mode, pair, firstChild);
@@ -189,12 +256,8 @@ void main() {
   uint n = bitCount(mask);
   uint total = subgroupAdd(n);
   if (total == 0u) return;
-  uint before = subgroupExclusiveAdd(n);
-  uint base = 0u;
-  if (subgroupElect()) base = atomicAdd(stats[STAT_TOTAL], total);
-  base = subgroupBroadcastFirst(base);
   uint room = p.outLimit - p.outFirst;
-  uint slot = base + before;
+  uint slot = reserve(n, total);
   for (uint k = 0u; k < 4u; k++)
     if ((mask & (1u << k)) != 0u) {
       if (slot < room) outPairs[p.outFirst + slot] = uvec2(pair.x, firstChild + k);
