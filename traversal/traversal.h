@@ -116,7 +116,7 @@
 // spheres worse (measured on the built-in views, 2CylinderEngine and the museum with the sphere test on
 // every last step: leaf pairs +18-60 %, the frames slower). That expansion takes a lane per cluster pair,
 // not per triangle pair (STEP_EXPAND_WHOLE): the lane tests the cluster's sixteen triangles against the
-// node's children, read once. On lavapipe a lane costs ~20 ns before it does any work, and the step held
+// node's children, read once. On lavapipe a lane of the test kernel costs ~20 ns before any work, and the step held
 // most of the frame's lanes (docs/ARCHITECTURE.md, "Clusters").
 //
 // Stats per frame: for each pass (depth), the (triangle, node) pairs tested, the survivors and the chunks;

@@ -59,10 +59,10 @@
 #define STEP_EXPAND 2u
 // The last depth's expansion in the sphere-test kernel (AdvancePush::sphereExpansion): input i is (cluster,
 // node) pair i itself, and one invocation tests every triangle of the cluster against the node's children
-// (the step's tests and inputs are still counted per triangle pair). On lavapipe an invocation costs about
-// 20 ns before it does anything (an empty kernel over the 1 M height field's expansion took 120 ms of a
-// 170 ms traversal), so sixteen triangles a lane, with the node's children read once, cost a fraction of
-// sixteen lanes; on a GPU the step still has a lane per cluster pair.
+// (the step's tests and inputs are still counted per triangle pair). On lavapipe a lane of the test
+// kernel costs about 20 ns before it does anything (the step's lanes running a kernel that returned at
+// once took 120 ms of the 1 M height field's 170 ms traversal), so sixteen triangles a lane, with the
+// node's children read once, cost a fraction of sixteen lanes; on a GPU the step keeps a lane per cluster pair.
 #define STEP_EXPAND_WHOLE 3u
 // The expansion rule's K (traverse_advance.comp): cluster pairs expand at the first depth with more than
 // 1/K as many nodes as pass 0 kept clusters. Measured (bench/scale_bench, K = 4, 8, 16, 32): 8 and 16
