@@ -609,6 +609,38 @@ TEST(ConeMethod, ALastDepthExpansionTakesTheSphereTestWithTheSameMask) {
   EXPECT_EQ(runCounted(*without, frame).visibility, sphere.visibility);
 }
 
+// That expansion as a lane per cluster pair (its sixteen triangles in one invocation, STEP_EXPAND_WHOLE)
+// or a lane per triangle pair: the same inputs, tests, survivors and mask; auto takes the first on a CPU
+// device and the second on a GPU.
+TEST(ConeMethod, TheLastExpansionPerClusterOrPerTriangleGivesTheSamePairsAndMask) {
+  auto& ctx = test::context();
+  HeightFieldFrame field(48);
+  const FrameInput& frame = field.frame;
+  auto run = [&](traversal::ExpansionLanes lanes) {
+    ConeOptions o;
+    o.lastExpansionLanes = lanes;
+    auto m = makeConeMethod(ctx, o);
+    runCounted(*m, frame);
+    return runCounted(*m, frame);
+  };
+  const MethodOutput cluster = run(traversal::ExpansionLanes::PerCluster);
+  const MethodOutput triangle = run(traversal::ExpansionLanes::PerTriangle);
+  const MethodOutput automatic = run(traversal::ExpansionLanes::Auto);
+  EXPECT_EQ(cluster.stats["last_expansion_lanes"], "cluster");
+  EXPECT_EQ(triangle.stats["last_expansion_lanes"], "triangle");
+  EXPECT_EQ(automatic.stats["last_expansion_lanes"],
+            ctx.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? "cluster" : "triangle");
+  ASSERT_GT(cluster.stats["traversal"]["expanded_clusters"].get<uint64_t>(), 0u);
+  const uint32_t depth = cluster.stats["tree_depth"].get<uint32_t>();
+  EXPECT_EQ(cluster.stats["traversal"]["passes"][depth - 1]["cluster_tests"], 0u) << "the last step expands";
+  EXPECT_EQ(cluster.stats["traversal"]["passes"], triangle.stats["traversal"]["passes"]);
+  EXPECT_EQ(cluster.stats["pairs_tested"], triangle.stats["pairs_tested"]);
+  EXPECT_EQ(cluster.stats["traversal"]["leaf_pairs"], triangle.stats["traversal"]["leaf_pairs"]);
+  EXPECT_EQ(cluster.stats["traversal"]["leaf_tests"], triangle.stats["traversal"]["leaf_tests"]);
+  EXPECT_EQ(cluster.visibility, triangle.visibility);
+  EXPECT_GT(std::count(cluster.visibility.begin(), cluster.visibility.end(), 0.0f), 0);
+}
+
 // The whole traversal is conservative end to end: the mask equals the leaf test run on every (triangle,
 // lit sample) pair by brute force on the CPU (the same source), for any ray order, down to frames of a
 // single ray (a tree of depth 1). On lavapipe the GPU's arithmetic is the CPU's, so equality is exact;

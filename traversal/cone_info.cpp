@@ -48,6 +48,12 @@ ConeOptions coneOptions(const Settings& s) {
   cone.clusters = s.onOff("clusters", cone.clusters);
   if (s.has("last-expansion-test"))
     cone.sphereLastExpansion = s.choice("last-expansion-test", {"sphere", "precise"}, "sphere") == "sphere";
+  if (s.has("last-expansion-lanes")) {
+    const std::string lanes = s.choice("last-expansion-lanes", {"auto", "cluster", "triangle"}, "auto");
+    cone.lastExpansionLanes = lanes == "cluster"    ? traversal::ExpansionLanes::PerCluster
+                              : lanes == "triangle" ? traversal::ExpansionLanes::PerTriangle
+                                                    : traversal::ExpansionLanes::Auto;
+  }
   if (s.has("test"))
     cone.test = s.choice("test", {"precise", "sphere"}, "precise") == "sphere" ? ConeTest::Sphere : ConeTest::Precise;
   cone.blockerSolidAngle = float(s.number("blocker-solid-angle", 0.0, 12.5664, cone.blockerSolidAngle));
@@ -94,6 +100,10 @@ MethodInfo coneMethodInfo() {
        "with clusters and the precise test: the test of cluster pairs expanded one depth above the leaves, "
        "sphere or precise (default sphere: cheaper where clusters stay small down to there; the same mask)",
        {"sphere", "precise"}},
+      {"last-expansion-lanes", "L",
+       "with the sphere test there: a lane per cluster pair (its sixteen triangles) or per triangle pair; "
+       "auto (default) takes cluster on a CPU device (lavapipe), triangle on a GPU (the same pairs and mask)",
+       {"auto", "cluster", "triangle"}},
       {"profile-stages", "on|off",
        "one submission per stage (compact, keys, sort, build, traversal, leaves) to time each by wall clock, "
        "instead of the frame's single submission (the same mask)",

@@ -211,6 +211,7 @@ class ConeMethod : public ShadowMethod {
     in.frontFaceCulling = options_.frontFaceCulling;
     in.earlyAccept = options_.earlyAccept;
     in.sphereLastExpansion = options_.sphereLastExpansion;
+    in.lastExpansionLanes = options_.lastExpansionLanes;
     return in;
   }
 
@@ -350,6 +351,8 @@ class ConeMethod : public ShadowMethod {
       });
     stats["clusters"] = clusters && onDevice;
     stats["last_expansion_test"] = options_.sphereLastExpansion && options_.test == ConeTest::Precise ? "sphere" : "precise";
+    // a lane per cluster pair or per triangle pair, where that expansion runs in the sphere-test kernel
+    stats["last_expansion_lanes"] = traversal::expansionLanesName(traversal_->lastExpansionLanes());
     stats["traversal_batch_triangles"] = batch;
     readback_.clear();
     const uint32_t maskSlot = readback_.add(visibility_, uint64_t(pixels) * 4);

@@ -76,6 +76,9 @@ struct ConeOptions {
   // With clusters: expansions one depth above the leaves take the sphere test, not the precise one
   // (traversal.h, "Clusters"; --last-expansion-test). The same mask.
   bool sphereLastExpansion = true;
+  // Those expansions' lanes (traversal.h ExpansionLanes; --last-expansion-lanes): auto (a lane per cluster
+  // pair on a CPU device, per triangle pair on a GPU), cluster or triangle. The same pairs and mask.
+  traversal::ExpansionLanes lastExpansionLanes = traversal::ExpansionLanes::Auto;
   // --memory-budget: a cap on everything the cone path holds for a frame, device buffers and host working
   // set together (0: none). The traversal's arena is what the other buffers leave, at most
   // traversalMemoryBytes (a smaller arena is slower, never different); a budget that cannot hold the

@@ -146,17 +146,21 @@ Traversal::Traversal(vk::Context& ctx, const ArenaPlan& plan) : ctx_(ctx), plan_
 Traversal::~Traversal() = default;
 
 // The test kernel specialised for the switches in `p` (traverse_test.comp), made on first use.
-// `clusters`: the kernel of (cluster, node) steps instead (device path).
-const vk::Kernel& Traversal::testKernel(const TraversePush& p, bool clusters) {
+// `clusters`: the kernel of (cluster, node) steps instead (device path); `whole`: the whole-cluster
+// expansion's (STEP_EXPAND_WHOLE: the sphere test, no early accept; front-face culling from `p`).
+const vk::Kernel& Traversal::testKernel(const TraversePush& p, bool clusters, bool whole) {
   // The cluster kernel runs the sphere test alone whatever the switches: one pipeline for every frame.
-  const bool sphere = p.test == TRAVERSE_TEST_SPHERE, early = !clusters && p.earlyAccept, culling = !clusters && p.frontFaceCulling;
-  const uint32_t key = clusters ? 8u : (sphere ? 1u : 0u) | (early ? 2u : 0u) | (culling ? 4u : 0u);
+  const bool sphere = whole || p.test == TRAVERSE_TEST_SPHERE, early = !clusters && !whole && p.earlyAccept,
+             culling = !clusters && p.frontFaceCulling;
+  const uint32_t key =
+      clusters ? 8u : whole ? 9u + (culling ? 1u : 0u) : (sphere ? 1u : 0u) | (early ? 2u : 0u) | (culling ? 4u : 0u);
   std::unique_ptr<vk::Kernel>& k = tests_[key];
   if (!k)
     k = std::make_unique<vk::Kernel>(vk::createKernel(
-        ctx_, clusters ? "traverse test (clusters)" : "traverse test", spv_traverse_test_comp, 11, sizeof(TraversePush),
+        ctx_, clusters ? "traverse test (clusters)" : whole ? "traverse test (whole clusters)" : "traverse test",
+        spv_traverse_test_comp, 11, sizeof(TraversePush),
         {{0, sphere && !clusters ? TRAVERSE_TEST_SPHERE : TRAVERSE_TEST_PRECISE}, {1, early ? 1u : 0u},
-         {2, culling ? 1u : 0u}, {3, clusters ? 1u : 0u}},
+         {2, culling ? 1u : 0u}, {3, clusters ? 1u : 0u}, {4, whole ? 1u : 0u}},
         0x403u));
   return *k;
 }
@@ -399,6 +403,11 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
   // The last depth's expansions in the sphere-test kernel ("Clusters"); its pairs, like the precise
   // kernel's, go on to the leaves.
   const bool sphereExpansion = clusters && in.test == TRAVERSE_TEST_PRECISE && in.sphereLastExpansion;
+  const bool cpu = ctx_.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
+  lastExpansionLanes_ = in.lastExpansionLanes == ExpansionLanes::Auto
+                            ? (cpu ? ExpansionLanes::PerCluster : ExpansionLanes::PerTriangle)
+                            : in.lastExpansionLanes;
+  const bool wholeExpansion = lastExpansionLanes_ == ExpansionLanes::PerCluster;
   const vk::Buffer& shape = in.tree->shapeBuffer();
   const vk::Buffer* buffers[2] = {&arena_, &chunk_};  // step c writes buffers[c % 2]
 
@@ -419,7 +428,7 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
 
   auto advance = [&](uint32_t step, uint32_t triangles) {
     AdvancePush a{step, triangles, capacity, ctx_.maxWorkgroups(), clusters ? 1u : 0u, in.triangleCount,
-                  sphereExpansion ? 1u : 0u, 0};
+                  sphereExpansion ? 1u : 0u, wholeExpansion ? 1u : 0u};
     cmd.dispatch(advance_, {shape, state_}, a, 1);
     cmd.barrier();
   };
@@ -433,7 +442,7 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
       TraversePush ps = p;
       ps.test = TRAVERSE_TEST_SPHERE;
       ps.earlyAccept = 0u;
-      cmd.dispatchIndirect(testKernel(ps, false),
+      cmd.dispatchIndirect(testKernel(ps, false, wholeExpansion),
                            {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), src, dst, state_,
                             state_, state_, state_, state_, spheres, vk::texels(state_, kWordFormat)},
                            &ps, sizeof(ps), state_, STATE_SPHERE_ARGS * 4);
@@ -509,6 +518,15 @@ void Traversal::learnBatch(const uint32_t* w, const TraversalStats& frame, uint6
   } else if (w[STATE_PEAK_PAIRS] < capacity / 8 && used < capacity) {
     batchTriangles_ = uint32_t(std::min<uint64_t>(capacity, 2ull * used));
   }
+}
+
+const char* expansionLanesName(ExpansionLanes lanes) {
+  switch (lanes) {
+    case ExpansionLanes::Auto: return "auto";
+    case ExpansionLanes::PerCluster: return "cluster";
+    case ExpansionLanes::PerTriangle: return "triangle";
+  }
+  return "?";
 }
 
 TraversalStats Traversal::statsFromState(const uint32_t* words, uint32_t depth, bool committed) const {

@@ -116,8 +116,9 @@
 // spheres worse (measured on the built-in views, 2CylinderEngine and the museum with the sphere test on
 // every last step: leaf pairs +18-60 %, the frames slower). That expansion takes a lane per cluster pair,
 // not per triangle pair (STEP_EXPAND_WHOLE): the lane tests the cluster's sixteen triangles against the
-// node's children, read once. On lavapipe a lane of the test kernel costs ~20 ns before any work, and the step held
-// most of the frame's lanes (docs/ARCHITECTURE.md, "Clusters").
+// node's children, read once, on a CPU device: on lavapipe a lane of the test kernel costs ~20 ns before any
+// work, and the step held most of the frame's lanes (docs/ARCHITECTURE.md, "Clusters"). A GPU keeps a lane
+// per triangle pair (ExpansionLanes).
 //
 // Stats per frame: for each pass (depth), the (triangle, node) pairs tested, the survivors and the chunks;
 // the leaf tests; the submits; the time of the passes ("traversal") and of the leaf tests
@@ -194,6 +195,13 @@ struct TraversalStats {
   nlohmann::json toJson() const;
 };
 
+// How the sphere-test kernel's last-depth expansion spreads over lanes (see "Clusters"): a lane per cluster
+// pair, testing its sixteen triangles (STEP_EXPAND_WHOLE), or a lane per triangle pair. Auto: per cluster
+// pair on a CPU device, where a lane costs ~20 ns before any work; per triangle pair on a GPU, where lanes
+// are cheap and sixteen run side by side. The same pairs and mask either way.
+enum class ExpansionLanes { Auto, PerCluster, PerTriangle };
+const char* expansionLanesName(ExpansionLanes lanes);
+
 // What one traversal reads. Buffers stay owned by the caller.
 struct TraversalInput {
   const vk::Buffer* triangles = nullptr;  // vec4 x 3 per triangle, world space (w ignored)
@@ -219,6 +227,7 @@ struct TraversalInput {
   // the sphere test alone (see "Clusters"); off: the precise test, as every other triangle step. The same
   // mask either way.
   bool sphereLastExpansion = true;
+  ExpansionLanes lastExpansionLanes = ExpansionLanes::Auto;  // that expansion's lanes (see ExpansionLanes)
 };
 
 class Traversal {
@@ -253,6 +262,9 @@ class Traversal {
   // Whether the device path may start its batches as clusters (an arena too small for one cluster's
   // expansion turns them off for good).
   bool clustersFit() const { return clustersFit_; }
+  // What the last record() gave the sphere-test kernel's last-depth expansion: PerCluster or PerTriangle
+  // (ExpansionLanes::Auto resolved for this device).
+  ExpansionLanes lastExpansionLanes() const { return lastExpansionLanes_; }
   const vk::Buffer& stateBuffer() const { return state_; }
   // The counters of the device path from the state words read back (STATE_WORDS of them), for a tree
   // of `depth` (the shape's SHAPE_DEPTH).
@@ -279,13 +291,14 @@ class Traversal {
   ArenaPlan plan_;
   void ensureFlags(uint64_t nodes);
 
-  const vk::Kernel& testKernel(const TraversePush& p, bool clusters);
-  std::unique_ptr<vk::Kernel> tests_[9];   // the test kernels per switches, and the cluster kernel (testKernel)
+  const vk::Kernel& testKernel(const TraversePush& p, bool clusters, bool whole = false);
+  std::unique_ptr<vk::Kernel> tests_[11];  // the test kernels per switches, the cluster kernel, the whole-cluster ones
   vk::Kernel leaves_, advance_;
   vk::Buffer arena_, chunk_, stats_, flags_, state_;
   uint32_t batchTriangles_ = 1;  // triangles per batch of the device path (learnBatch)
   bool clustersFit_ = true;      // false once a one-cluster batch overflowed: triangles only from then on
   bool usedClusters_ = false;    // the last record() started its batches as clusters
+  ExpansionLanes lastExpansionLanes_ = ExpansionLanes::PerTriangle;
 };
 
 }  // namespace cs::traversal

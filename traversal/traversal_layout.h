@@ -57,9 +57,10 @@
 #define STEP_TRIANGLES 0u
 #define STEP_CLUSTERS 1u
 #define STEP_EXPAND 2u
-// The last depth's expansion in the sphere-test kernel (AdvancePush::sphereExpansion): input i is (cluster,
-// node) pair i itself, and one invocation tests every triangle of the cluster against the node's children
-// (the step's tests and inputs are still counted per triangle pair). On lavapipe a lane of the test
+// The last depth's expansion in the sphere-test kernel (AdvancePush::sphereExpansion) on a CPU device
+// (AdvancePush::wholeExpansion, traversal.h ExpansionLanes): input i is (cluster, node) pair i itself, and
+// one invocation tests every triangle of the cluster against the node's children (the step's tests and
+// inputs are still counted per triangle pair). On lavapipe a lane of the test
 // kernel costs about 20 ns before it does anything (the step's lanes running a kernel that returned at
 // once took 120 ms of the 1 M height field's 170 ms traversal), so sixteen triangles a lane, with the
 // node's children read once, cost a fraction of sixteen lanes; on a GPU the step keeps a lane per cluster pair.
@@ -127,7 +128,7 @@ struct AdvancePush {
   uint clusters;      // step 0: 1 = the batch starts as (cluster, root) tests when the tree is deep enough
   uint frameTriangles;  // the triangles of the whole record() the batch is one of (the expansion rule's scale)
   uint sphereExpansion;  // 1: an expansion step's triangle pairs go to the sphere-test kernel (STATE_SPHERE_ARGS)
-  uint pad2;
+  uint wholeExpansion;   // with sphereExpansion: 1 = that step is STEP_EXPAND_WHOLE (a lane per cluster pair)
 };
 
 // frame_triangles.comp: the triangles' vertices relative to the light in the far-light frame.

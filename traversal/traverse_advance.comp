@@ -98,8 +98,9 @@ void main() {
           }
         }
       }
-      // The last depth's expansion in the sphere-test kernel: a lane per cluster pair.
-      if (mode == STEP_EXPAND && p.sphereExpansion != 0u && c + 1u >= depth) mode = STEP_EXPAND_WHOLE;
+      // The last depth's expansion in the sphere-test kernel: a lane per cluster pair where the host asks.
+      if (mode == STEP_EXPAND && p.sphereExpansion != 0u && p.wholeExpansion != 0u && c + 1u >= depth)
+        mode = STEP_EXPAND_WHOLE;
       count = mode == STEP_EXPAND ? n << CLUSTER_SHIFT : n;
     }
   }
@@ -117,7 +118,8 @@ void main() {
     // The step's test: the cluster kernel for cluster pairs, the triangle kernel otherwise, or the
     // sphere-test triangle kernel for an expansion one depth above the leaves when the host asks for it
     // (traversal.h, "Clusters"). All are recorded; the others get zero workgroups.
-    uint args = mode == STEP_CLUSTERS ? STATE_CLUSTER_ARGS : (mode == STEP_EXPAND_WHOLE ? STATE_SPHERE_ARGS : STATE_TEST_ARGS);
+    uint args = mode == STEP_CLUSTERS ? STATE_CLUSTER_ARGS
+                : (mode != STEP_TRIANGLES && p.sphereExpansion != 0u && c + 1u >= depth ? STATE_SPHERE_ARGS : STATE_TEST_ARGS);
     writeArgs(args, count, count, TRAVERSE_THREADS);
     state[STATE_CHILD_OFFSET] = shape[SHAPE_OFFSETS + c];
     state[STATE_CHILD_COUNT] = shape[SHAPE_COUNTS + c];

@@ -32,9 +32,9 @@
 // cluster's sphere (sphere_test.h: false only when no ray of the cone meets the sphere, which holds all
 // the cluster's triangles) and writes (cluster, child) pairs; a STEP_EXPAND step's input i is triangle
 // CLUSTER_SIZE * cluster + i % CLUSTER_SIZE of cluster pair i / CLUSTER_SIZE, tested as a triangle pair
-// (front-face culling applies there: its pass 0 was the clusters'). A STEP_EXPAND_WHOLE step (the sphere
-// kernel only) takes (cluster, node) pair i whole: one invocation tests each of the cluster's triangles
-// against the node's children, read once (expandCluster).
+// (front-face culling applies there: its pass 0 was the clusters'). A STEP_EXPAND_WHOLE step (its own
+// kernel, SPEC_WHOLE) takes (cluster, node) pair i whole: one invocation tests each of the cluster's
+// triangles against the node's children, read once (expandCluster).
 #include "traversal/precise_test.h"
 #include "traversal/sphere_test.h"
 #include "traversal/traverse.glsl"
@@ -68,6 +68,10 @@ layout(constant_id = 2) const uint SPEC_FRONT_FACE_CULLING = 0u;       // = p.fr
 // triangle kernel (STEP_TRIANGLES, STEP_EXPAND). The device path records both for every step, the advance
 // kernel giving the other zero workgroups.
 layout(constant_id = 3) const uint SPEC_CLUSTERS = 0u;
+// 1: the whole-cluster expansion kernel (STEP_EXPAND_WHOLE, sphere test, no early accept): expandCluster and
+// nothing else. Its own pipeline, because on lavapipe the lanes of a kernel pay for its code whether a
+// uniform branch enters it or not.
+layout(constant_id = 4) const uint SPEC_WHOLE = 0u;
 
 uint statWord(uint w) {
   uvec4 t = texelFetch(statWords, int(w >> 2u));
@@ -242,11 +246,11 @@ void main() {
     inputOffset = p.inputOffset, leafShift = p.leafShift, leafCount = p.leafCount;
   }
   uint mode = p.deviceParams != 0u ? statWord(STATE_MODE) : STEP_TRIANGLES;
-  if ((mode == STEP_CLUSTERS) != (SPEC_CLUSTERS != 0u)) return;  // the other kernel's step (given no workgroups)
-  if (SPEC_CLUSTERS == 0u && SPEC_TEST == TRAVERSE_TEST_SPHERE && mode == STEP_EXPAND_WHOLE) {
-    expandCluster(i);
+  if (SPEC_WHOLE != 0u) {
+    if (mode == STEP_EXPAND_WHOLE) expandCluster(i);  // (dispatched for no other step)
     return;
   }
+  if ((mode == STEP_CLUSTERS) != (SPEC_CLUSTERS != 0u)) return;  // the other kernel's step (given no workgroups)
   uvec2 pair;
   uint firstChild;
   uint mask = testInput(i, mode, pair, firstChild);
