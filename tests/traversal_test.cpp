@@ -609,6 +609,39 @@ TEST(ConeMethod, ALastDepthExpansionTakesTheSphereTestWithTheSameMask) {
   EXPECT_EQ(runCounted(*without, frame).visibility, sphere.visibility);
 }
 
+// A pair arena too small for the last depth's expansion: the one-submission frame overflows there and is
+// redone chunked, with a lane per cluster pair or per triangle pair alike -- the mask is the roomy
+// arena's.
+TEST(ConeMethod, ALastExpansionThatOverflowsIsRedoneWithTheSameMask) {
+  auto& ctx = test::context();
+  HeightFieldFrame field(48);
+  const FrameInput& frame = field.frame;
+  ConeOptions roomy;
+  const MethodOutput want = runCounted(*makeConeMethod(ctx, roomy), frame);
+  ASSERT_EQ(want.stats["traversal_path"], "one submission");
+  ASSERT_GT(want.stats["traversal"]["expanded_clusters"].get<uint64_t>(), 0u);
+  for (auto lanes : {traversal::ExpansionLanes::PerCluster, traversal::ExpansionLanes::PerTriangle}) {
+    bool overflowed = false;
+    for (uint64_t bytes : {uint64_t(256) << 10, uint64_t(64) << 10}) {
+      ConeOptions o;
+      o.lastExpansionLanes = lanes;
+      o.traversalMemoryBytes = bytes;
+      auto method = makeConeMethod(ctx, o);
+      // The first frame overflows and is redone chunked; later ones run smaller batches (learnBatch), in
+      // one submission where they fit.
+      for (int k = 0; k < 3; ++k) {
+        const MethodOutput out = runCounted(*method, frame);
+        const std::string path = out.stats["traversal_path"];
+        std::printf("  %s lanes, %llu bytes, frame %d: %s\n", traversal::expansionLanesName(lanes),
+                    (unsigned long long)bytes, k, path.c_str());
+        overflowed = overflowed || path != "one submission";
+        EXPECT_EQ(out.visibility, want.visibility) << traversal::expansionLanesName(lanes) << ", " << bytes << " bytes";
+      }
+    }
+    EXPECT_TRUE(overflowed) << "no arena overflowed: the test shows nothing";
+  }
+}
+
 // That expansion as a lane per cluster pair (its sixteen triangles in one invocation, STEP_EXPAND_WHOLE)
 // or a lane per triangle pair: the same inputs, tests, survivors and mask; auto takes the first on a CPU
 // device and the second on a GPU.
