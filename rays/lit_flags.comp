@@ -13,13 +13,16 @@ layout(std430, binding = 1) readonly buffer Normal { vec4 normal[]; };
 layout(std430, binding = 2) writeonly buffer Flags { uint flags[]; };
 layout(std430, binding = 3) writeonly buffer PixelOf { uint pixelOf[]; };
 layout(push_constant) uniform Push { LitPush pc; };
+// = pc.order != 0, as a specialisation constant: the row-major pipeline holds no Morton code (on lavapipe a
+// lane pays for a kernel's code whether a uniform branch enters it or not).
+layout(constant_id = 0) const uint SPEC_MORTON = 0u;
 
 void main() {
   uint i = CS_FLAT_INDEX(PIXEL_THREADS);
   if (i >= pc.domain) return;
   uint pixel = i;
   bool inside = true;
-  if (pc.order != 0u) {
+  if (SPEC_MORTON != 0u) {
     uvec2 p = screenOrderPixel(i, pc.tilesX);
     inside = p.x < pc.width && p.y < pc.height;
     pixel = inside ? p.y * pc.width + p.x : 0u;

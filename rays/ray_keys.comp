@@ -12,13 +12,16 @@ layout(std430, binding = 1) readonly buffer Samples { uint samples[]; };
 layout(std430, binding = 2) writeonly buffer Keys { uint keys[]; };
 layout(std430, binding = 3) readonly buffer CountWords { uint countWords[]; };
 layout(push_constant) uniform Push { KeysPush pc; };
+// = pc.framed, as a specialisation constant: each pipeline holds one key's code (on lavapipe a lane pays
+// for a kernel's code whether a uniform branch enters it or not, and each key has its own Hilbert loop).
+layout(constant_id = 0) const uint SPEC_FRAMED = 0u;
 #include "sort/common.glsl"
 
 void main() {
   uint i = flatWorkgroup() * PIXEL_THREADS + gl_LocalInvocationIndex;
   if (i >= countOf(pc.count, pc.countIndex, pc.flags)) return;
   vec3 x = position[samples[i]].xyz;
-  if (pc.framed != 0u) {  // R (x - origin) - lightFrame: the ray in the rotated frame
+  if (SPEC_FRAMED != 0u) {  // R (x - origin) - lightFrame: the ray in the rotated frame
     vec3 d = x - pc.origin.xyz;
     vec3 f = vec3(dot(pc.rowX.xyz, d), dot(pc.rowY.xyz, d), dot(pc.rowZ.xyz, d));
     keys[i] = frameRayKey(f - pc.lightFrame.xyz, pc.rect);

@@ -47,8 +47,10 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
       compact_(ctx, uint32_t(maxDomain_)),
       sort_(ctx, maxPixels_),
       groups_(ctx) {
-  flags_ = vk::createKernel(ctx, "lit_flags", spv_lit_flags_comp, 4, sizeof(LitPush));
-  rayKeys_ = vk::createKernel(ctx, "ray_keys", spv_ray_keys_comp, 4, sizeof(KeysPush));
+  flags_ = vk::createKernel(ctx, "lit_flags", spv_lit_flags_comp, 4, sizeof(LitPush), {{0, 0u}});
+  mortonFlags_ = vk::createKernel(ctx, "lit_flags (Morton)", spv_lit_flags_comp, 4, sizeof(LitPush), {{0, 1u}});
+  rayKeys_ = vk::createKernel(ctx, "ray_keys", spv_ray_keys_comp, 4, sizeof(KeysPush), {{0, 0u}});
+  frameRayKeys_ = vk::createKernel(ctx, "ray_keys (frame)", spv_ray_keys_comp, 4, sizeof(KeysPush), {{0, 1u}});
   flagBuffer_ = vk::createBuffer(ctx, maxDomain_ * 4);
   pixelOf_ = vk::createBuffer(ctx, maxDomain_ * 4);
   samples_ = vk::createBuffer(ctx, uint64_t(maxPixels_) * 4);
@@ -70,7 +72,7 @@ void LitRays::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, RayOrd
   const bool morton = order == RayOrder::ScreenMorton;
   LitPush push{g.width, g.height, morton ? 1u : 0u, d.tilesX, uint32_t(d.size), 0, 0, 0};
   vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(d.size, PIXEL_THREADS));
-  cmd.dispatch(flags_, {g.position, g.normal, flagBuffer_, pixelOf_}, push, grid.x, grid.y);
+  cmd.dispatch(morton ? mortonFlags_ : flags_, {g.position, g.normal, flagBuffer_, pixelOf_}, push, grid.x, grid.y);
   cmd.barrier();
   // Row-major positions are pixel indices already; Morton positions carry theirs in pixelOf_.
   compact_.record(cmd, flagBuffer_, uint32_t(d.size), samples_, sort::GpuWord(count_, 0),
@@ -89,6 +91,7 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
   push.count = count.max;
   push.countIndex = count.word.index;
   push.flags = count.onDevice() ? FLAG_COUNT_FROM_BUFFER : 0u;
+  const vk::Kernel& keys = frame.framed != 0u ? frameRayKeys_ : rayKeys_;
   vk::BufferRange countBinding = count.onDevice() ? vk::BufferRange() : vk::BufferRange(count_);
   if (count.onDevice()) {
     countBinding.buffer = count.word.buffer;
@@ -98,10 +101,10 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
   if (count.onDevice()) {  // as many workgroups as the device count needs (none for a count of 0)
     groups_.record(cmd, count, PIXEL_THREADS, keyArgs_, 0);
     cmd.barrier();
-    cmd.dispatchIndirect(rayKeys_, {g.position, samples_, keys_, countBinding}, &push, sizeof(push), keyArgs_);
+    cmd.dispatchIndirect(keys, {g.position, samples_, keys_, countBinding}, &push, sizeof(push), keyArgs_);
   } else {
     vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(count.max, PIXEL_THREADS));
-    cmd.dispatch(rayKeys_, {g.position, samples_, keys_, countBinding}, push, grid.x, grid.y);
+    cmd.dispatch(keys, {g.position, samples_, keys_, countBinding}, push, grid.x, grid.y);
   }
   cmd.barrier();
 }

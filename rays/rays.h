@@ -68,7 +68,8 @@ class LitRays {
   sort::Compact compact_;
   sort::RadixSort sort_;
   sort::IndirectGroups groups_;  // a device count: the keys launch only the workgroups it needs
-  vk::Kernel flags_, rayKeys_;
+  vk::Kernel flags_, mortonFlags_;             // row-major, Morton screen order (lit_flags.comp SPEC_MORTON)
+  vk::Kernel rayKeys_, frameRayKeys_;          // the world's keys, a rotated frame's (ray_keys.comp SPEC_FRAMED)
   vk::Buffer flagBuffer_, pixelOf_, samples_, keys_, count_, keyArgs_;
 };
 
