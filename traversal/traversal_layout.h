@@ -59,8 +59,9 @@
 #define STEP_EXPAND 2u
 // The last depth's expansion in the sphere-test kernel (AdvancePush::sphereExpansion) on a CPU device
 // (AdvancePush::wholeExpansion, traversal.h ExpansionLanes): input i is (cluster, node) pair i itself, and
-// one invocation tests every triangle of the cluster against the node's children (the step's tests and
-// inputs are still counted per triangle pair). On lavapipe a lane of the test
+// one invocation tests the cluster's sphere against the node's children, then every triangle of the
+// cluster against the children the cluster kept (the step's inputs are still counted per triangle pair,
+// its tests as made: the cluster's and the triangles'). On lavapipe a lane of the test
 // kernel costs about 20 ns before it does anything (the step's lanes running a kernel that returned at
 // once took 120 ms of the 1 M height field's 170 ms traversal), so sixteen triangles a lane, with the
 // node's children read once, cost a fraction of sixteen lanes; on a GPU the step keeps a lane per cluster pair.

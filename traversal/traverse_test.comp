@@ -183,9 +183,9 @@ uint reserve(uint n, uint total) {
   return subgroupBroadcastFirst(base) + before;
 }
 
-// A STEP_EXPAND_WHOLE input: (cluster, node) pair i; its triangles against the node's children with the
-// sphere test, the survivors appended as (triangle, child) pairs. Tests short of four per triangle (past
-// the buffer's last triangle, past the level's last node) go to STAT_MISSING.
+// A STEP_EXPAND_WHOLE input: (cluster, node) pair i; its triangles against the node's children that the
+// cluster's sphere meets, with the sphere test, the survivors appended as (triangle, child) pairs. The
+// tests not made of the step's four per triangle pair go to STAT_MISSING.
 void expandCluster(uint i) {
   uvec2 cp = pairs[p.first + i];
   uvec2 r = childRange(cp.y, childCount);
@@ -196,11 +196,19 @@ void expandCluster(uint i) {
   ConeNode n3 = node(childOffset + min(r.x + 3u, r.y - 1u));
   uint first = cp.x << CLUSTER_SHIFT;
   uint tris_ = min(CLUSTER_SIZE, p.triangleEnd > first ? p.triangleEnd - first : 0u);
-  uint missing = 4u * (CLUSTER_SIZE - tris_) + tris_ * (4u - kids);
-  if (missing != 0u) atomicAdd(stats[STAT_MISSING], missing);
   float scale = p.coneScale;
+  // The cluster's sphere against the children first: a child it misses, no triangle of it can meet.
+  vec4 cs = clusterSpheres[cp.x];
+  uint near = sphereConeTriangle(n0, cs, p.eps, scale) ? 1u : 0u;
+  if (kids > 1u && sphereConeTriangle(n1, cs, p.eps, scale)) near |= 2u;
+  if (kids > 2u && sphereConeTriangle(n2, cs, p.eps, scale)) near |= 4u;
+  if (kids > 3u && sphereConeTriangle(n3, cs, p.eps, scale)) near |= 8u;
+  // Tests made: the cluster's against its node's children, each triangle's against the children it
+  // kept; the step counts four a triangle pair, so STAT_MISSING gets the difference (mod 2^32).
+  uint missing = 4u * CLUSTER_SIZE - kids - tris_ * uint(bitCount(near));
+  if (missing != 0u) atomicAdd(stats[STAT_MISSING], missing);
   uvec2 mask = uvec2(0u);  // bit 4 t + k of the 64: triangle first + t against child r.x + k
-  for (uint t = 0u; t < tris_; t++) {
+  for (uint t = 0u; near != 0u && t < tris_; t++) {
     precise vec3 v0 = texelFetch(tris, int(3u * (first + t))).xyz;
     precise vec3 v1 = texelFetch(tris, int(3u * (first + t) + 1u)).xyz;
     precise vec3 v2 = texelFetch(tris, int(3u * (first + t) + 2u)).xyz;
@@ -211,10 +219,10 @@ void expandCluster(uint i) {
     }
     if (SPEC_FRONT_FACE_CULLING != 0u && facesLight(v0, v1, v2)) continue;
     vec4 sphere = boundingSphere(v0, v1, v2, scale);
-    uint m = sphereConeTriangle(n0, sphere, p.eps, scale) ? 1u : 0u;
-    if (kids > 1u && sphereConeTriangle(n1, sphere, p.eps, scale)) m |= 2u;
-    if (kids > 2u && sphereConeTriangle(n2, sphere, p.eps, scale)) m |= 4u;
-    if (kids > 3u && sphereConeTriangle(n3, sphere, p.eps, scale)) m |= 8u;
+    uint m = (near & 1u) != 0u && sphereConeTriangle(n0, sphere, p.eps, scale) ? 1u : 0u;
+    if ((near & 2u) != 0u && sphereConeTriangle(n1, sphere, p.eps, scale)) m |= 2u;
+    if ((near & 4u) != 0u && sphereConeTriangle(n2, sphere, p.eps, scale)) m |= 4u;
+    if ((near & 8u) != 0u && sphereConeTriangle(n3, sphere, p.eps, scale)) m |= 8u;
     if (t < 8u) mask.x |= m << (4u * t);
     else mask.y |= m << (4u * (t - 8u));
   }
