@@ -33,8 +33,9 @@
 // the cluster's triangles) and writes (cluster, child) pairs; a STEP_EXPAND step's input i is triangle
 // CLUSTER_SIZE * cluster + i % CLUSTER_SIZE of cluster pair i / CLUSTER_SIZE, tested as a triangle pair
 // (front-face culling applies there: its pass 0 was the clusters'). A STEP_EXPAND_WHOLE step (its own
-// kernel, SPEC_WHOLE) takes (cluster, node) pair i whole: one invocation tests each of the cluster's
-// triangles against the node's children, read once (expandCluster).
+// kernel, SPEC_WHOLE) takes (cluster, node) pair i whole: one invocation tests the cluster's sphere
+// against the node's children, read once, then each of its triangles against the children the cluster
+// kept (expandCluster).
 #include "traversal/precise_test.h"
 #include "traversal/sphere_test.h"
 #include "traversal/traverse.glsl"
