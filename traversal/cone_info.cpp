@@ -102,7 +102,8 @@ MethodInfo coneMethodInfo() {
        {"sphere", "precise"}},
       {"last-expansion-lanes", "L",
        "with the sphere test there: a lane per cluster pair (its sixteen triangles) or per triangle pair; "
-       "auto (default) takes cluster on a CPU device (lavapipe), triangle on a GPU (the same pairs and mask)",
+       "auto (default) takes cluster on a CPU device (lavapipe), triangle on a GPU (the same mask; a cluster "
+       "lane tests its cluster first, so fewer pairs)",
        {"auto", "cluster", "triangle"}},
       {"profile-stages", "on|off",
        "one submission per stage (compact, keys, sort, build, traversal, leaves) to time each by wall clock, "

@@ -77,7 +77,7 @@ struct ConeOptions {
   // (traversal.h, "Clusters"; --last-expansion-test). The same mask.
   bool sphereLastExpansion = true;
   // Those expansions' lanes (traversal.h ExpansionLanes; --last-expansion-lanes): auto (a lane per cluster
-  // pair on a CPU device, per triangle pair on a GPU), cluster or triangle. The same pairs and mask.
+  // pair on a CPU device, per triangle pair on a GPU), cluster or triangle. The same mask.
   traversal::ExpansionLanes lastExpansionLanes = traversal::ExpansionLanes::Auto;
   // --memory-budget: a cap on everything the cone path holds for a frame, device buffers and host working
   // set together (0: none). The traversal's arena is what the other buffers leave, at most

@@ -198,7 +198,8 @@ struct TraversalStats {
 // How the sphere-test kernel's last-depth expansion spreads over lanes (see "Clusters"): a lane per cluster
 // pair, testing its sixteen triangles (STEP_EXPAND_WHOLE), or a lane per triangle pair. Auto: per cluster
 // pair on a CPU device, where a lane costs ~20 ns before any work; per triangle pair on a GPU, where lanes
-// are cheap and sixteen run side by side. The same pairs and mask either way.
+// are cheap and sixteen run side by side. The same mask either way; a cluster's lane tests the cluster's
+// sphere against the children first (each of sixteen lanes would repeat it), so it tests fewer pairs.
 enum class ExpansionLanes { Auto, PerCluster, PerTriangle };
 const char* expansionLanesName(ExpansionLanes lanes);
 
