@@ -21,7 +21,8 @@ CS_GLSL_TYPES
 // lit_flags.comp
 struct LitPush {
   uint width, height;
-  uint order;       // 0: row-major (domain index = pixel index), 1: tiled Morton (see MORTON_TILE_BITS)
+  uint order;       // 0: row-major (domain index = pixel index), 1: tiled Morton (see MORTON_TILE_BITS); the
+                    // kernel takes it as SPEC_MORTON (its pipeline), this copy is for the record
   uint tilesX;      // Morton tiles per row
   uint domain;      // elements enumerated: width * height, or tilesX * tilesY * tile area
   uint pad0, pad1, pad2;
@@ -33,7 +34,8 @@ struct KeysPush {
   uint count;       // rays, or their upper bound when FLAG_COUNT_FROM_BUFFER is set
   uint countIndex;
   uint flags;
-  uint framed;      // 1: keys in a rotated frame (frameRayKey), the rows, origin, light and rect below
+  uint framed;      // 1: keys in a rotated frame (frameRayKey), the rows, origin, light and rect below;
+                    // LitRays picks the pipeline by it (the kernel's SPEC_FRAMED)
   vec4 rowX, rowY, rowZ;  // the frame's rotation, rows (world -> frame)
   vec4 origin;            // xyz: the frame's origin (world)
   vec4 lightFrame;        // xyz: the light in the frame
