@@ -65,6 +65,30 @@ TEST(PreciseConeTriangle, NeverRejectsAPairThatABruteForceSearchFindsIntersectin
   for (int k : {0, 3, 7, 8, 10, 12}) EXPECT_GT(rejectedByKind[k], missesByKind[k] / 2) << kindName(k);
 }
 
+// The cluster order's curve: every cell of the grid gets its own position, and consecutive positions
+// are cells that share a face (a Morton order fails the second at every block boundary).
+TEST(ClusterOrder, TheHilbertCurveVisitsEveryCellOnceFromNeighbourToNeighbour) {
+  for (int bits : {1, 2, 3, 5}) {
+    const uint32_t side = 1u << bits;
+    std::vector<glm::ivec3> cellAt(size_t(side) * side * side, glm::ivec3(-1));
+    for (uint32_t x = 0; x < side; ++x)
+      for (uint32_t y = 0; y < side; ++y)
+        for (uint32_t z = 0; z < side; ++z) {
+          const uint64_t h = traversal::hilbertIndex3(x, y, z, bits);
+          ASSERT_LT(h, cellAt.size()) << bits;
+          ASSERT_EQ(cellAt[h], glm::ivec3(-1)) << "position " << h << " twice, " << bits << " bits";
+          cellAt[h] = glm::ivec3(x, y, z);
+        }
+    for (size_t h = 1; h < cellAt.size(); ++h) {
+      const glm::ivec3 d = glm::abs(cellAt[h] - cellAt[h - 1]);
+      ASSERT_EQ(d.x + d.y + d.z, 1) << "positions " << h - 1 << " and " << h << ", " << bits << " bits";
+    }
+  }
+  // The cluster order's grid: 2^10 a side, positions below 2^30.
+  EXPECT_LT(traversal::hilbertIndex3(1023, 1023, 1023, 10), uint64_t(1) << 30);
+  EXPECT_NE(traversal::hilbertIndex3(1023, 0, 0, 10), traversal::hilbertIndex3(0, 0, 1023, 10));
+}
+
 // Clusters (traversal.h, "Clusters"): the sphere of a cluster holding a triangle that some ray of the
 // cone hits is never rejected by the sphere test -- for clusters of that triangle alone, of it and
 // random triangles around it (up to 50x its size away), of coincident and of degenerate (point, line)

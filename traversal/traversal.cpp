@@ -71,6 +71,31 @@ glm::vec4 clusterSphere(glm::dvec3 rel, double radius, double operands) {
   return glm::vec4(glm::vec3(rel), float((radius + pad) * (1.0 + std::ldexp(1.0, -20))));
 }
 
+uint64_t hilbertIndex3(uint32_t x, uint32_t y, uint32_t z, int bits) {
+  // Skilling's form: undo the excess work of each level on the transposed coordinates, then Gray-decode;
+  // the index is the coordinates' bits interleaved, x's first, from the top level down.
+  uint32_t X[3] = {x, y, z};
+  for (uint32_t q = 1u << (bits - 1); q > 1; q >>= 1) {
+    const uint32_t low = q - 1;
+    for (int i = 0; i < 3; ++i) {
+      if (X[i] & q) {
+        X[0] ^= low;  // invert the low bits of x
+      } else {
+        const uint32_t t = (X[0] ^ X[i]) & low;  // exchange the low bits of x and axis i
+        X[0] ^= t, X[i] ^= t;
+      }
+    }
+  }
+  X[1] ^= X[0], X[2] ^= X[1];
+  uint32_t flip = 0;
+  for (uint32_t q = 1u << (bits - 1); q > 1; q >>= 1)
+    if (X[2] & q) flip ^= q - 1;
+  uint64_t h = 0;
+  for (int b = bits - 1; b >= 0; --b)
+    for (int i = 0; i < 3; ++i) h = (h << 1) | (((X[i] ^ flip) >> b) & 1u);
+  return h;
+}
+
 // ---- statistics ----------------------------------------------------------------------------------------
 
 uint64_t TraversalStats::pairsTested() const {

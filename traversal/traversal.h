@@ -93,8 +93,8 @@
 // and come back once with the mask (statsFromState).
 //
 // Clusters (device path, TraversalInput::clusterSpheres). The triangle buffer is laid out so that every
-// CLUSTER_SIZE consecutive triangles are close in space (cone_method.cpp: Morton order of their
-// centroids, once per upload), each group bounded by a sphere the host computes per frame in double,
+// CLUSTER_SIZE consecutive triangles are close in space (cone_method.cpp: Hilbert order of their
+// centroids on a grid of cubes, once per upload), each group bounded by a sphere the host computes per frame in double,
 // relative to the light in the pass tests' coordinates and padded by 2^-16 of the magnitudes (so it holds
 // the fp32 vertices the GPU sees). With a tree at least 3 deep, a batch starts as (cluster, node) pairs
 // tested with the sphere test (sphere_test.h: false only when no ray of the cone meets the sphere, so
@@ -165,6 +165,11 @@ glm::dvec4 clusterBounds(const glm::vec4* vertices, size_t count);
 // of the fp32 values the GPU's vertices are differences of) so it holds the vertices as the GPU
 // rounds them.
 glm::vec4 clusterSphere(glm::dvec3 rel, double radius, double operands);
+// The position of cell (x, y, z) of a 2^bits-a-side grid (bits 1 to 21) along a 3D Hilbert curve:
+// consecutive positions are cells that share a face, so the triangles of any run of them are one
+// connected piece of space (the cluster order; a Morton order jumps, and a cluster across a jump is two
+// pieces under one sphere).
+uint64_t hilbertIndex3(uint32_t x, uint32_t y, uint32_t z, int bits);
 
 // ---- per-frame statistics -----------------------------------------------------------------------------
 struct PassStats {
