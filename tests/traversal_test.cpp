@@ -132,6 +132,50 @@ TEST(ClusterSphere, NeverRejectsAClusterHoldingATriangleARayOfTheConeHits) {
   EXPECT_GT(rejected, misses / 4) << rejected << " of " << misses;
 }
 
+// A cluster's groups (traversal.h, ClusterWorld): each fp32 group bound holds its four triangles'
+// vertices, measured in double, for clusters of 1 to 16 triangles at magnitudes from 1e-3 to 1e7 (where
+// rounding the centre to fp32 moves it by more than the group's size); a group with no triangles has the
+// cluster's bound; and on a cluster in order along a line (as the Hilbert order makes them) the groups are
+// tighter than the cluster.
+TEST(ClusterSphere, EveryGroupBoundHoldsItsTrianglesInFp32) {
+  std::mt19937 rng(20261204);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  int tighter = 0, spread = 0;
+  for (int i = 0; i < 4000; ++i) {
+    const double magnitude = std::pow(10.0, -3.0 + 10.0 * (i % 11) / 10.0);
+    const double size = magnitude * std::pow(10.0, -1.0 - 7.0 * ((i / 11) % 8) / 7.0);
+    const size_t triangles = 1 + size_t(i) % CLUSTER_SIZE;
+    const glm::dvec3 base(magnitude * u(rng), magnitude * u(rng), magnitude * u(rng));
+    // Even i: vertices anywhere in the cube; odd i: triangle t around t on a line, as an ordered cluster is.
+    const bool line = i % 2 == 1;
+    std::vector<glm::vec4> verts(3 * triangles);
+    for (size_t v = 0; v < verts.size(); ++v) {
+      const glm::dvec3 at = line ? glm::dvec3(double(v / 3), 0, 0) + 0.5 * glm::dvec3(u(rng), u(rng), u(rng))
+                                 : glm::dvec3(u(rng), u(rng), u(rng));
+      verts[v] = glm::vec4(glm::vec3(base + size * at), 1.0f);
+    }
+    const traversal::ClusterWorld w = traversal::clusterWorld(verts.data(), triangles);
+    for (size_t g = 0; g < CLUSTER_GROUPS; ++g) {
+      const glm::dvec3 c(glm::vec3(w.groups[g]));
+      const double r = w.groups[g].w;
+      ASSERT_GE(r, 0.0);
+      if (g * GROUP_SIZE >= triangles) {
+        EXPECT_LE(glm::length(c - glm::dvec3(w.whole)), std::ldexp(glm::length(glm::dvec3(w.whole)), -22)) << i;
+        EXPECT_GE(r, w.whole.w) << i;
+        continue;
+      }
+      for (size_t v = 3 * g * GROUP_SIZE; v < std::min(verts.size(), 3 * (g + 1) * GROUP_SIZE); ++v)
+        ASSERT_LE(glm::length(glm::dvec3(glm::vec3(verts[v])) - c), r)
+            << "cluster " << i << " (" << triangles << " triangles at " << magnitude << "), group " << g << ", vertex " << v;
+      if (line && triangles == CLUSTER_SIZE && size > 1e-4 * magnitude) {
+        spread++;
+        if (r < 0.9 * w.whole.w) tighter++;
+      }
+    }
+  }
+  EXPECT_GT(tighter, spread / 2) << tighter << " of " << spread;
+}
+
 // The far-light frame (traversal.h): with the margins scaled by the frame's angular scale, the precise
 // and sphere tests still never reject a pair a brute-force search finds intersecting, and they reject
 // more of the others than with scale 1 (the point of the frame: there narrow cones far from the apex keep

@@ -583,7 +583,7 @@ class ConeMethod : public ShadowMethod {
     uint64_t bytes = 0;
     const uint64_t perBuffer = chunkTriangles_ / CLUSTER_SIZE, clusters = (triangleCount_ + CLUSTER_SIZE - 1) / CLUSTER_SIZE;
     for (uint64_t b = 0; b < triangles_.size(); ++b)
-      bytes += std::max<uint64_t>(1, std::min(perBuffer, clusters - std::min(clusters, b * perBuffer))) * sizeof(glm::vec4);
+      bytes += std::max<uint64_t>(1, std::min(perBuffer, clusters - std::min(clusters, b * perBuffer))) * CLUSTER_SPHERES * sizeof(glm::vec4);
     return bytes;
   }
 
@@ -775,11 +775,11 @@ class ConeMethod : public ShadowMethod {
     const uint64_t chunkBytes = std::min<uint64_t>(kUploadTriangles, std::max<uint64_t>(n, 1)) * kTriangleBytes;
     const uint64_t orderBytes = n * sizeof(uint32_t);
     // two-pass: the solid angles, the blocker flags, the ranked candidates and the new order; clusters:
-    // the Morton keys and the new order
+    // the Hilbert keys and the new order
     const uint64_t rankBytes = options_.twoPass ? n * (sizeof(double) + 1 + 2 * sizeof(uint32_t))
                                : clusters       ? n * (sizeof(uint64_t) + sizeof(uint32_t))
                                                 : 0;
-    const uint64_t boundsBytes = clusters ? (n + CLUSTER_SIZE - 1) / CLUSTER_SIZE * sizeof(glm::dvec4) : 0;
+    const uint64_t boundsBytes = clusters ? (n + CLUSTER_SIZE - 1) / CLUSTER_SIZE * sizeof(traversal::ClusterWorld) : 0;
     // The vertices are written straight into the device buffer's mapping, or where device memory is not
     // host visible into the staging buffer (one chunk): the host holds no copy of them.
     const uint64_t staging = ctx_.hostVisibleDeviceLocal ? 0 : chunkBytes;
@@ -796,7 +796,7 @@ class ConeMethod : public ShadowMethod {
                                      ": the frame's rays, tree and traversal come on top");
     }
 
-    // The buffers' order of the kept triangles: blockers first (two-pass), Morton order of the centroids
+    // The buffers' order of the kept triangles: blockers first (two-pass), Hilbert order of the centroids
     // (clusters; kept while the index list stays, so moving vertices keep their clusters), else scene order.
     if (options_.twoPass) orderBlockersFirst(kept, vertex, frame.light);
     else if (clusters) orderForClusters(kept, previous, vertex);
@@ -804,8 +804,8 @@ class ConeMethod : public ShadowMethod {
     std::vector<uint32_t>().swap(kept);
 
     triangles_.resize(chunks);
-    if (clusters) clusterWorld_.assign((n + CLUSTER_SIZE - 1) / CLUSTER_SIZE, glm::dvec4(0));
-    else std::vector<glm::dvec4>().swap(clusterWorld_);
+    if (clusters) clusterWorld_.assign((n + CLUSTER_SIZE - 1) / CLUSTER_SIZE, traversal::ClusterWorld{});
+    else std::vector<traversal::ClusterWorld>().swap(clusterWorld_);
     const uint64_t perChunk = chunkBytes / kTriangleBytes;  // a multiple of CLUSTER_SIZE or all triangles
     for (size_t c = 0; c < chunks; ++c) {
       const uint64_t first = uint64_t(c) * chunkTriangles_;
@@ -825,7 +825,7 @@ class ConeMethod : public ShadowMethod {
             const uint64_t k = std::min<uint64_t>(CLUSTER_SIZE, m - t);
             for (uint64_t i = 0; i < k; ++i)
               for (int v = 0; v < 3; ++v) cluster[3 * i + v] = glm::vec4(vertex(order_[first + done + t + i], v), 1.0f);
-            if (clusters) clusterWorld_[(first + done + t) / CLUSTER_SIZE] = traversal::clusterBounds(cluster, 3 * k);
+            if (clusters) clusterWorld_[(first + done + t) / CLUSTER_SIZE] = traversal::clusterWorld(cluster, k);
             std::memcpy(static_cast<glm::vec4*>(out) + 3 * t, cluster, 3 * k * sizeof(glm::vec4));
           }
         });
@@ -883,23 +883,26 @@ class ConeMethod : public ShadowMethod {
     const glm::dmat3 R = glm::transpose(glm::dmat3(glm::dvec3(glm::vec3(f.rowX)), glm::dvec3(glm::vec3(f.rowY)),
                                                    glm::dvec3(glm::vec3(f.rowZ))));
     const glm::dvec3 C(glm::vec3(f.centre)), LF(glm::vec3(f.lightFrame)), L(light);
-    std::vector<glm::vec4> spheres;
+    auto sphere = [&](glm::dvec3 c, double r) {
+      const glm::dvec3 rel = frame_.far ? R * (c - C) - LF : c - L;
+      const double operands = frame_.far ? glm::length(c - C) + r + glm::length(LF) : glm::length(c) + r + glm::length(L);
+      return traversal::clusterSphere(rel, r, operands);
+    };
     for (size_t b = 0; b < triangles_.size(); ++b) {
       const size_t first = b * perBuffer, end = std::min(clusterWorld_.size(), first + perBuffer);
-      spheres.assign(std::max<size_t>(1, end - std::min(first, end)), glm::vec4(0));
-      for (size_t k = first; k < end; ++k) {
-        const glm::dvec3 c(clusterWorld_[k]);
-        const double r = clusterWorld_[k].w;
-        const glm::dvec3 rel = frame_.far ? R * (c - C) - LF : c - L;
-        const double operands = frame_.far ? glm::length(c - C) + r + glm::length(LF) : glm::length(c) + r + glm::length(L);
-        spheres[k - first] = traversal::clusterSphere(rel, r, operands);
-      }
-      const uint64_t bytes = spheres.size() * sizeof(glm::vec4);
+      const uint64_t bytes = std::max<size_t>(1, end - std::min(first, end)) * CLUSTER_SPHERES * sizeof(glm::vec4);
       if (clusterSpheres_[b].size < bytes) {
         clusterSpheres_[b].reset();
         clusterSpheres_[b] = vk::createBuffer(ctx_, bytes, vk::Memory::HostVisible);
       }
-      std::memcpy(clusterSpheres_[b].mapped, spheres.data(), bytes);
+      // Written straight into the mapping, in order, never read back (no host copy of the spheres).
+      glm::vec4* out = static_cast<glm::vec4*>(clusterSpheres_[b].mapped);
+      if (end <= first) std::fill_n(out, CLUSTER_SPHERES, glm::vec4(0));
+      for (size_t k = first; k < end; ++k, out += CLUSTER_SPHERES) {
+        const traversal::ClusterWorld& w = clusterWorld_[k];
+        out[0] = sphere(glm::dvec3(w.whole), w.whole.w);
+        for (uint32_t g = 0; g < CLUSTER_GROUPS; ++g) out[1 + g] = sphere(glm::dvec3(glm::vec3(w.groups[g])), w.groups[g].w);
+      }
     }
   }
 
@@ -964,7 +967,7 @@ class ConeMethod : public ShadowMethod {
   std::vector<vk::Buffer> frameTriangles_;  // far frame: the triangles relative to the light in the frame
   uint64_t uploads_ = 0;                    // triangle uploads so far
   // clusters (traversal.h, "Clusters")
-  std::vector<glm::dvec4> clusterWorld_;     // per cluster: world centre, radius
+  std::vector<traversal::ClusterWorld> clusterWorld_;  // per cluster: its world bound and its groups'
   std::vector<vk::Buffer> clusterSpheres_;   // per triangle buffer: its clusters' spheres for this frame
   uint64_t clusterSpheresUpload_ = ~uint64_t(0);
   glm::vec3 clusterSpheresLight_{0};

@@ -66,6 +66,23 @@ glm::dvec4 clusterBounds(const glm::vec4* vertices, size_t count) {
   return glm::dvec4(c, r);
 }
 
+ClusterWorld clusterWorld(const glm::vec4* vertices, size_t triangles) {
+  ClusterWorld w;
+  w.whole = clusterBounds(vertices, 3 * triangles);
+  for (size_t g = 0; g < CLUSTER_GROUPS; ++g) {
+    const size_t first = g * GROUP_SIZE;
+    const glm::dvec4 b = first < triangles
+                             ? clusterBounds(vertices + 3 * first, 3 * std::min<size_t>(GROUP_SIZE, triangles - first))
+                             : w.whole;
+    const glm::vec3 c(b);  // each component within 2^-24 of itself: |c - b| <= 2^-24 (|x| + |y| + |z|)
+    const double grown = b.w + std::ldexp(std::abs(b.x) + std::abs(b.y) + std::abs(b.z), -23);
+    float r = float(grown);
+    if (double(r) < grown) r = std::nextafter(r, INFINITY);
+    w.groups[g] = glm::vec4(c, r);
+  }
+  return w;
+}
+
 glm::vec4 clusterSphere(glm::dvec3 rel, double radius, double operands) {
   const double pad = std::ldexp(glm::length(rel) + radius + operands, -16);
   return glm::vec4(glm::vec3(rel), float((radius + pad) * (1.0 + std::ldexp(1.0, -20))));

@@ -115,8 +115,9 @@
 // pairs, keep the precise test: there a pair it rejects spares a subtree, and bigger triangles fit their
 // spheres worse (measured on the built-in views, 2CylinderEngine and the museum with the sphere test on
 // every last step: leaf pairs +18-60 %, the frames slower). That expansion takes a lane per cluster pair,
-// not per triangle pair (STEP_EXPAND_WHOLE): the lane tests the cluster's sixteen triangles against the
-// node's children, read once, on a CPU device: on lavapipe a lane of the test kernel costs ~20 ns before any
+// not per triangle pair (STEP_EXPAND_WHOLE): the lane tests the cluster's sphere, then its four groups'
+// (ClusterWorld), then its sixteen triangles against the node's children, read once, each against the
+// children the one before kept, on a CPU device: on lavapipe a lane of the test kernel costs ~20 ns before any
 // work, and the step held most of the frame's lanes (docs/ARCHITECTURE.md, "Clusters"). A GPU keeps a lane
 // per triangle pair (ExpansionLanes).
 //
@@ -160,6 +161,16 @@ constexpr uint64_t kDefaultMemoryBytes = uint64_t(64) << 20;
 // The world bound of `count` fp32 vertices, in double: xyz the centre of their box, w the largest
 // distance from it to a vertex.
 glm::dvec4 clusterBounds(const glm::vec4* vertices, size_t count);
+// A cluster's world bounds: its own (clusterBounds of all its vertices) and its groups', each group's
+// CLUSTER_GROUPS-th share of the triangles (GROUP_SIZE each, in order) bounded by clusterBounds and
+// rounded outward to fp32 (the centre rounded, the radius grown by that rounding, then rounded up): 80
+// bytes a cluster where five double bounds would take 160. A group with no triangles gets the
+// cluster's bound. `triangles`: 1 to CLUSTER_SIZE, three vertices each.
+struct ClusterWorld {
+  glm::dvec4 whole;
+  glm::vec4 groups[CLUSTER_GROUPS];
+};
+ClusterWorld clusterWorld(const glm::vec4* vertices, size_t triangles);
 // The sphere a pass test reads: centre `rel` (the bound's centre relative to the light in the tests'
 // coordinates, exact), radius `radius`, padded by 2^-16 of |rel| + radius + `operands` (the magnitudes
 // of the fp32 values the GPU's vertices are differences of) so it holds the vertices as the GPU
@@ -204,7 +215,8 @@ struct TraversalStats {
 // pair, testing its sixteen triangles (STEP_EXPAND_WHOLE), or a lane per triangle pair. Auto: per cluster
 // pair on a CPU device, where a lane costs ~20 ns before any work; per triangle pair on a GPU, where lanes
 // are cheap and sixteen run side by side. The same mask either way; a cluster's lane tests the cluster's
-// sphere against the children first (each of sixteen lanes would repeat it), so it tests fewer pairs.
+// and groups' spheres against the children first (each of sixteen lanes would repeat them), so it tests
+// fewer pairs.
 enum class ExpansionLanes { Auto, PerCluster, PerTriangle };
 const char* expansionLanesName(ExpansionLanes lanes);
 

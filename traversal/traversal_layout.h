@@ -51,6 +51,12 @@
 // (the last may hold fewer), bounded by one sphere relative to the light (cone_method.cpp).
 #define CLUSTER_SIZE 16u
 #define CLUSTER_SHIFT 4u
+// Each cluster's four runs of four triangles (its groups) have spheres too, read by the whole-cluster
+// expansion only: a cluster's spheres are CLUSTER_SPHERES consecutive vec4s, the cluster's first, then its
+// groups' (a group past the buffer's triangles: the cluster's, never read).
+#define CLUSTER_GROUPS 4u
+#define GROUP_SIZE 4u
+#define CLUSTER_SPHERES 5u
 // A step's inputs (STATE_MODE): (triangle, node) pairs; (cluster, node) pairs, tested with the cluster's
 // sphere; or the expansion of (cluster, node) pairs, input i being triangle CLUSTER_SIZE * cluster + i % CLUSTER_SIZE
 // of pair i / CLUSTER_SIZE (tested as a triangle pair; past the buffer's triangles: nothing).
@@ -59,8 +65,8 @@
 #define STEP_EXPAND 2u
 // The last depth's expansion in the sphere-test kernel (AdvancePush::sphereExpansion) on a CPU device
 // (AdvancePush::wholeExpansion, traversal.h ExpansionLanes): input i is (cluster, node) pair i itself, and
-// one invocation tests the cluster's sphere against the node's children, then every triangle of the
-// cluster against the children the cluster kept (the step's inputs are still counted per triangle pair,
+// one invocation tests the cluster's sphere against the node's children, then its groups' spheres against
+// the children the cluster kept, then every triangle against the children its group kept (the step's inputs are still counted per triangle pair,
 // its tests as made: the cluster's and the triangles'). On lavapipe a lane of the test
 // kernel costs about 20 ns before it does anything (the step's lanes running a kernel that returned at
 // once took 120 ms of the 1 M height field's 170 ms traversal), so sixteen triangles a lane, with the

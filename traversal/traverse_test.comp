@@ -25,17 +25,17 @@
 //           ConeNode), 2 = input pairs (uvec2), 3 = output pairs (uvec2, from slot p.outFirst),
 //           4 = stats (uint[STAT_WORDS]; the device path's state words), 5 = samples (uint pixel per sorted
 //           ray), 6 = positions (vec4 per pixel), 7 = visibility (uint per pixel), 8 = flags (uint per
-//           interior node); 5-8 used with early accept only, 9 = cluster spheres (vec4 per cluster,
-//           relative to the light as binding 0's vertices; device path), 10 = binding 4 as a uniform texel
-//           buffer (RGBA32UI), read
+//           interior node); 5-8 used with early accept only, 9 = cluster spheres (CLUSTER_SPHERES vec4s
+//           per cluster: its own, then its groups'; relative to the light as binding 0's vertices; device
+//           path), 10 = binding 4 as a uniform texel buffer (RGBA32UI), read
 // Clusters (device path, STATE_MODE): a STEP_CLUSTERS step tests (cluster, node) pairs with the
 // cluster's sphere (sphere_test.h: false only when no ray of the cone meets the sphere, which holds all
 // the cluster's triangles) and writes (cluster, child) pairs; a STEP_EXPAND step's input i is triangle
 // CLUSTER_SIZE * cluster + i % CLUSTER_SIZE of cluster pair i / CLUSTER_SIZE, tested as a triangle pair
 // (front-face culling applies there: its pass 0 was the clusters'). A STEP_EXPAND_WHOLE step (its own
 // kernel, SPEC_WHOLE) takes (cluster, node) pair i whole: one invocation tests the cluster's sphere
-// against the node's children, read once, then each of its triangles against the children the cluster
-// kept (expandCluster).
+// against the node's children, read once, then its four groups' spheres against the children the cluster
+// kept, then each of its triangles against the children its group kept (expandCluster).
 #include "traversal/precise_test.h"
 #include "traversal/sphere_test.h"
 #include "traversal/traverse.glsl"
@@ -124,7 +124,7 @@ uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild) {
   if (r.y - r.x < expected) atomicAdd(stats[STAT_MISSING], expected - (r.y - r.x));  // the last node only
   uint mask = 0u;
   if (SPEC_CLUSTERS != 0u) {
-    vec4 sphere = clusterSpheres[pair.x];
+    vec4 sphere = clusterSpheres[CLUSTER_SPHERES * pair.x];
     for (uint c = r.x; c < r.y; c++)
       if (sphereConeTriangle(node(childOffset + c), sphere, p.eps, p.coneScale)) mask |= 1u << (c - r.x);
     return mask;
@@ -185,7 +185,7 @@ uint reserve(uint n, uint total) {
 }
 
 // A STEP_EXPAND_WHOLE input: (cluster, node) pair i; its triangles against the node's children that the
-// cluster's sphere meets, with the sphere test, the survivors appended as (triangle, child) pairs. The
+// cluster's sphere and then their group's sphere meet, with the sphere test, the survivors appended as (triangle, child) pairs. The
 // tests not made of the step's four per triangle pair go to STAT_MISSING.
 void expandCluster(uint i) {
   uvec2 cp = pairs[p.first + i];
@@ -199,17 +199,35 @@ void expandCluster(uint i) {
   uint tris_ = min(CLUSTER_SIZE, p.triangleEnd > first ? p.triangleEnd - first : 0u);
   float scale = p.coneScale;
   // The cluster's sphere against the children first: a child it misses, no triangle of it can meet.
-  vec4 cs = clusterSpheres[cp.x];
+  vec4 cs = clusterSpheres[CLUSTER_SPHERES * cp.x];
   uint near = sphereConeTriangle(n0, cs, p.eps, scale) ? 1u : 0u;
   if (kids > 1u && sphereConeTriangle(n1, cs, p.eps, scale)) near |= 2u;
   if (kids > 2u && sphereConeTriangle(n2, cs, p.eps, scale)) near |= 4u;
   if (kids > 3u && sphereConeTriangle(n3, cs, p.eps, scale)) near |= 8u;
-  // Tests made: the cluster's against its node's children, each triangle's against the children it
-  // kept; the step counts four a triangle pair, so STAT_MISSING gets the difference (mod 2^32).
-  uint missing = 4u * CLUSTER_SIZE - kids - tris_ * uint(bitCount(near));
+  // Then each group's sphere against the children the cluster kept, and each triangle against the
+  // children its group kept (bits 4 g + k of `groupNear`).
+  uint groups = (tris_ + GROUP_SIZE - 1u) / GROUP_SIZE;
+  uint groupNear = 0u;
+  for (uint g = 0u; near != 0u && g < groups; g++) {
+    vec4 gs = clusterSpheres[CLUSTER_SPHERES * cp.x + 1u + g];
+    uint m = (near & 1u) != 0u && sphereConeTriangle(n0, gs, p.eps, scale) ? 1u : 0u;
+    if ((near & 2u) != 0u && sphereConeTriangle(n1, gs, p.eps, scale)) m |= 2u;
+    if ((near & 4u) != 0u && sphereConeTriangle(n2, gs, p.eps, scale)) m |= 4u;
+    if ((near & 8u) != 0u && sphereConeTriangle(n3, gs, p.eps, scale)) m |= 8u;
+    groupNear |= m << (4u * g);
+  }
+  // Tests made: the cluster's against its node's children, each group's against the children the cluster
+  // kept, each triangle's against the children its group kept; the step counts four a triangle pair, so
+  // STAT_MISSING gets the difference (mod 2^32).
+  uint made = kids + groups * uint(bitCount(near));
+  for (uint g = 0u; g < groups; g++)
+    made += min(GROUP_SIZE, tris_ - GROUP_SIZE * g) * uint(bitCount((groupNear >> (4u * g)) & 15u));
+  uint missing = 4u * CLUSTER_SIZE - made;
   if (missing != 0u) atomicAdd(stats[STAT_MISSING], missing);
   uvec2 mask = uvec2(0u);  // bit 4 t + k of the 64: triangle first + t against child r.x + k
-  for (uint t = 0u; near != 0u && t < tris_; t++) {
+  for (uint t = 0u; groupNear != 0u && t < tris_; t++) {
+    uint kept = (groupNear >> (4u * (t / GROUP_SIZE))) & 15u;
+    if (kept == 0u) continue;
     precise vec3 v0 = texelFetch(tris, int(3u * (first + t))).xyz;
     precise vec3 v1 = texelFetch(tris, int(3u * (first + t) + 1u)).xyz;
     precise vec3 v2 = texelFetch(tris, int(3u * (first + t) + 2u)).xyz;
@@ -220,10 +238,10 @@ void expandCluster(uint i) {
     }
     if (SPEC_FRONT_FACE_CULLING != 0u && facesLight(v0, v1, v2)) continue;
     vec4 sphere = boundingSphere(v0, v1, v2, scale);
-    uint m = (near & 1u) != 0u && sphereConeTriangle(n0, sphere, p.eps, scale) ? 1u : 0u;
-    if ((near & 2u) != 0u && sphereConeTriangle(n1, sphere, p.eps, scale)) m |= 2u;
-    if ((near & 4u) != 0u && sphereConeTriangle(n2, sphere, p.eps, scale)) m |= 4u;
-    if ((near & 8u) != 0u && sphereConeTriangle(n3, sphere, p.eps, scale)) m |= 8u;
+    uint m = (kept & 1u) != 0u && sphereConeTriangle(n0, sphere, p.eps, scale) ? 1u : 0u;
+    if ((kept & 2u) != 0u && sphereConeTriangle(n1, sphere, p.eps, scale)) m |= 2u;
+    if ((kept & 4u) != 0u && sphereConeTriangle(n2, sphere, p.eps, scale)) m |= 4u;
+    if ((kept & 8u) != 0u && sphereConeTriangle(n3, sphere, p.eps, scale)) m |= 8u;
     if (t < 8u) mask.x |= m << (4u * t);
     else mask.y |= m << (4u * (t - 8u));
   }
