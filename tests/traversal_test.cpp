@@ -176,6 +176,31 @@ TEST(ClusterSphere, EveryGroupBoundHoldsItsTrianglesInFp32) {
   EXPECT_GT(tighter, spread / 2) << tighter << " of " << spread;
 }
 
+// A super cluster's bound (traversal.h, superBounds) holds every vertex of its 1 to 4 clusters, spread
+// out or on top of one another, at magnitudes from 1e-3 to 1e7.
+TEST(ClusterSphere, ASuperClusterBoundHoldsItsClusters) {
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int i = 0; i < 2000; ++i) {
+    const double magnitude = std::pow(10.0, -3.0 + 10.0 * (i % 11) / 10.0);
+    const double size = magnitude * std::pow(10.0, -1.0 - 6.0 * ((i / 11) % 7) / 6.0);
+    const size_t count = 1 + size_t(i) % SUPER_CLUSTERS;
+    const glm::dvec3 base(magnitude * u(rng), magnitude * u(rng), magnitude * u(rng));
+    std::vector<std::vector<glm::vec4>> verts(count);
+    std::vector<traversal::ClusterWorld> worlds;
+    for (size_t q = 0; q < count; ++q) {
+      const glm::dvec3 at = i % 3 == 0 ? glm::dvec3(0) : 4.0 * glm::dvec3(u(rng), u(rng), u(rng));
+      verts[q].resize(3 * CLUSTER_SIZE);
+      for (glm::vec4& v : verts[q]) v = glm::vec4(glm::vec3(base + size * (at + glm::dvec3(u(rng), u(rng), u(rng)))), 1.0f);
+      worlds.push_back(traversal::clusterWorld(verts[q].data(), CLUSTER_SIZE));
+    }
+    const glm::dvec4 b = traversal::superBounds(worlds.data(), count);
+    for (size_t q = 0; q < count; ++q)
+      for (const glm::vec4& v : verts[q])
+        ASSERT_LE(glm::length(glm::dvec3(glm::vec3(v)) - glm::dvec3(b)), b.w) << "super cluster " << i << ", cluster " << q;
+  }
+}
+
 // The far-light frame (traversal.h): with the margins scaled by the frame's angular scale, the precise
 // and sphere tests still never reject a pair a brute-force search finds intersecting, and they reject
 // more of the others than with scale 1 (the point of the frame: there narrow cones far from the apex keep
@@ -637,6 +662,37 @@ TEST(ConeMethod, ClustersGoDownTheTreeUntilTheNodesAreAsFineAsThem) {
       << out.stats["pairs_tested"] << " pairs with clusters, " << ref.stats["pairs_tested"] << " without";
 }
 
+// Super clusters (traversal.h, "Clusters"): pass 0 tests every 64 triangles' sphere, not every 16's, and
+// the frame tests fewer pairs, with either lanes of the last expansion; the mask is the very mask with
+// clusters alone and without clusters.
+TEST(ConeMethod, SuperClustersGoDownTheTopOfTheTreeWithTheSameMask) {
+  auto& ctx = test::context();
+  HeightFieldFrame field(96);
+  const FrameInput& frame = field.frame;
+  const uint64_t triangles = field.scene.triangleCount();
+  auto run = [&](bool clusters, bool supers, traversal::ExpansionLanes lanes) {
+    ConeOptions o;
+    o.clusters = clusters;
+    o.superClusters = supers;
+    o.lastExpansionLanes = lanes;
+    auto m = makeConeMethod(ctx, o);
+    runCounted(*m, frame);
+    return runCounted(*m, frame);
+  };
+  const MethodOutput plain = run(false, false, traversal::ExpansionLanes::Auto);
+  EXPECT_GT(std::count(plain.visibility.begin(), plain.visibility.end(), 0.0f), 0);
+  for (auto lanes : {traversal::ExpansionLanes::PerCluster, traversal::ExpansionLanes::PerTriangle}) {
+    const std::string what = traversal::expansionLanesName(lanes);
+    const MethodOutput supers = run(true, true, lanes), clusters = run(true, false, lanes);
+    ASSERT_EQ(supers.stats["traversal_path"], "one submission") << what;
+    EXPECT_EQ(supers.stats["traversal"]["passes"][0]["pairs_tested"], (triangles + SUPER_SIZE - 1) / SUPER_SIZE) << what;
+    EXPECT_EQ(clusters.stats["traversal"]["passes"][0]["pairs_tested"], (triangles + CLUSTER_SIZE - 1) / CLUSTER_SIZE) << what;
+    EXPECT_LT(supers.stats["pairs_tested"].get<uint64_t>(), clusters.stats["pairs_tested"].get<uint64_t>()) << what;
+    EXPECT_EQ(supers.visibility, plain.visibility) << what;
+    EXPECT_EQ(clusters.visibility, plain.visibility) << what;
+  }
+}
+
 // When the clusters stay small against every depth's nodes (few samples over many triangles) they expand
 // one depth above the leaves, and that step runs the sphere-test kernel (ConeOptions::sphereLastExpansion):
 // the same inputs and tests as with the precise kernel, more leaf pairs (the sphere test is the looser),
@@ -712,10 +768,11 @@ TEST(ConeMethod, ALastExpansionThatOverflowsIsRedoneWithTheSameMask) {
   }
 }
 
-// That expansion as a lane per cluster pair (its sixteen triangles in one invocation, STEP_EXPAND_WHOLE,
-// which first tests the cluster's sphere against the children and its triangles only against those it
-// keeps) or a lane per triangle pair: the same steps above it, fewer tests in the first, no more leaf
-// pairs, and the same mask; auto takes the first on a CPU device and the second on a GPU.
+// That expansion as a lane per super cluster pair (its 64 triangles in one invocation, STEP_EXPAND_SUPER,
+// which tests the super cluster's sphere, its clusters', their groups' and their triangles', each only
+// against the children the one before kept) or a lane per triangle pair: the same steps above them, fewer
+// tests in the first, no more leaf pairs, and the same mask; auto takes the first on a CPU device and
+// the second on a GPU.
 TEST(ConeMethod, TheLastExpansionPerClusterOrPerTriangleGivesTheSamePairsAndMask) {
   auto& ctx = test::context();
   HeightFieldFrame field(48);
@@ -736,14 +793,21 @@ TEST(ConeMethod, TheLastExpansionPerClusterOrPerTriangleGivesTheSamePairsAndMask
             ctx.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? "cluster" : "triangle");
   ASSERT_GT(cluster.stats["traversal"]["expanded_clusters"].get<uint64_t>(), 0u);
   const uint32_t depth = cluster.stats["tree_depth"].get<uint32_t>();
+  ASSERT_GE(depth, 4u);
   EXPECT_EQ(cluster.stats["traversal"]["passes"][depth - 1]["cluster_tests"], 0u) << "the last step expands";
+  // Super clusters down to the depth above the leaves' parents either way; a lane per triangle pair
+  // splits them there into clusters (the split's tests are cluster tests), a lane per super cluster
+  // pair takes them whole one depth below.
   const nlohmann::json &a = cluster.stats["traversal"]["passes"], &b = triangle.stats["traversal"]["passes"];
   ASSERT_EQ(a.size(), b.size());
-  for (uint32_t d = 0; d + 1 < depth; ++d) EXPECT_EQ(a[d], b[d]) << "depth " << d;
-  EXPECT_EQ(a[depth - 1]["inputs"], b[depth - 1]["inputs"]);
-  const uint64_t tested = a[depth - 1]["pairs_tested"], testedPerTriangle = b[depth - 1]["pairs_tested"];
-  std::printf("last depth: %llu tests a lane per cluster pair, %llu per triangle pair\n", (unsigned long long)tested,
-              (unsigned long long)testedPerTriangle);
+  for (uint32_t d = 0; d + 2 < depth; ++d) EXPECT_EQ(a[d], b[d]) << "depth " << d;
+  EXPECT_EQ(a[depth - 2]["inputs"].get<uint64_t>() * SUPER_CLUSTERS, b[depth - 2]["inputs"].get<uint64_t>())
+      << "the split's inputs are clusters, four a super cluster pair";
+  EXPECT_LT(a[depth - 2]["pairs_tested"].get<uint64_t>(), b[depth - 2]["pairs_tested"].get<uint64_t>());
+  const uint64_t tested = a[depth - 2]["pairs_tested"].get<uint64_t>() + a[depth - 1]["pairs_tested"].get<uint64_t>();
+  const uint64_t testedPerTriangle = b[depth - 2]["pairs_tested"].get<uint64_t>() + b[depth - 1]["pairs_tested"].get<uint64_t>();
+  std::printf("last two depths: %llu tests a lane per super cluster pair, %llu per triangle pair\n",
+              (unsigned long long)tested, (unsigned long long)testedPerTriangle);
   EXPECT_LT(tested, testedPerTriangle);
   EXPECT_LE(cluster.stats["traversal"]["leaf_pairs"].get<uint64_t>(), triangle.stats["traversal"]["leaf_pairs"].get<uint64_t>());
   EXPECT_EQ(cluster.visibility, triangle.visibility);

@@ -46,6 +46,7 @@ ConeOptions coneOptions(const Settings& s) {
   cone.twoPass = s.onOff("two-pass", cone.twoPass);
   cone.profileStages = s.onOff("profile-stages", cone.profileStages);
   cone.clusters = s.onOff("clusters", cone.clusters);
+  cone.superClusters = s.onOff("super-clusters", cone.superClusters);
   if (s.has("last-expansion-test"))
     cone.sphereLastExpansion = s.choice("last-expansion-test", {"sphere", "precise"}, "sphere") == "sphere";
   if (s.has("last-expansion-lanes")) {
@@ -96,6 +97,8 @@ MethodInfo coneMethodInfo() {
        "the rest leaves, at most --traversal-memory; too small for the scene: an error with the bytes it needs",
        {}},
       {"clusters", "on|off", "clusters of 16 triangles go down the tree's upper levels first (default on; the same mask)", {}},
+      {"super-clusters", "on|off",
+       "with clusters: runs of 4 clusters go down the top of the tree before their clusters do (default on; the same mask)", {}},
       {"last-expansion-test", "T",
        "with clusters and the precise test: the test of cluster pairs expanded one depth above the leaves, "
        "sphere or precise (default sphere: cheaper where clusters stay small down to there; the same mask)",

@@ -27,7 +27,7 @@ constexpr uint32_t kOne = 0x3F800000u;  // 1.0f: the visibility words start lit
 constexpr uint64_t kMaxBatches = 256;    // batches one submission may hold (see runSubmitted)
 constexpr uint64_t kUploadTriangles = kConeUploadTriangles;
 constexpr uint32_t kOrderRecheckFrames = 8;  // adaptive order: a loose verdict holds this many frames
-static_assert(kUploadTriangles % CLUSTER_SIZE == 0, "uploads of whole clusters");
+static_assert(kUploadTriangles % SUPER_SIZE == 0, "uploads of whole super clusters");
 
 // Solid angle of triangle (a, b, c), vertices relative to the apex (Van Oosterom & Strackee); 0 for a
 // degenerate one.
@@ -212,6 +212,7 @@ class ConeMethod : public ShadowMethod {
     in.earlyAccept = options_.earlyAccept;
     in.sphereLastExpansion = options_.sphereLastExpansion;
     in.lastExpansionLanes = options_.lastExpansionLanes;
+    in.superClusters = options_.superClusters;
     return in;
   }
 
@@ -583,7 +584,8 @@ class ConeMethod : public ShadowMethod {
     uint64_t bytes = 0;
     const uint64_t perBuffer = chunkTriangles_ / CLUSTER_SIZE, clusters = (triangleCount_ + CLUSTER_SIZE - 1) / CLUSTER_SIZE;
     for (uint64_t b = 0; b < triangles_.size(); ++b)
-      bytes += std::max<uint64_t>(1, std::min(perBuffer, clusters - std::min(clusters, b * perBuffer))) * CLUSTER_SPHERES * sizeof(glm::vec4);
+      bytes += std::max<uint64_t>(1, (std::min(perBuffer, clusters - std::min(clusters, b * perBuffer)) + SUPER_CLUSTERS - 1) / SUPER_CLUSTERS) *
+               SUPER_SPHERES * sizeof(glm::vec4);
     return bytes;
   }
 
@@ -766,7 +768,8 @@ class ConeMethod : public ShadowMethod {
             : std::min<uint64_t>(ctx_.maxStorageBufferRange() / kTriangleBytes, ctx_.properties.limits.maxTexelBufferElements / 3);
     CS_CHECK(perBinding >= 1, "cone: a storage binding of this device cannot hold one triangle");
     chunkTriangles_ = uint32_t(std::min<uint64_t>(perBinding, UINT32_MAX));
-    if (chunkTriangles_ >= CLUSTER_SIZE) chunkTriangles_ -= chunkTriangles_ % CLUSTER_SIZE;  // whole clusters a buffer
+    if (chunkTriangles_ >= SUPER_SIZE) chunkTriangles_ -= chunkTriangles_ % SUPER_SIZE;  // whole super clusters a buffer
+    else if (chunkTriangles_ >= CLUSTER_SIZE) chunkTriangles_ -= chunkTriangles_ % CLUSTER_SIZE;  // whole clusters
     const size_t chunks = std::max<size_t>(1, (triangleCount_ + uint64_t(chunkTriangles_) - 1) / chunkTriangles_);
     const bool clusters = options_.clusters && !options_.twoPass;
 
@@ -890,18 +893,26 @@ class ConeMethod : public ShadowMethod {
     };
     for (size_t b = 0; b < triangles_.size(); ++b) {
       const size_t first = b * perBuffer, end = std::min(clusterWorld_.size(), first + perBuffer);
-      const uint64_t bytes = std::max<size_t>(1, end - std::min(first, end)) * CLUSTER_SPHERES * sizeof(glm::vec4);
+      const size_t supers = std::max<size_t>(1, (end - std::min(first, end) + SUPER_CLUSTERS - 1) / SUPER_CLUSTERS);
+      const uint64_t bytes = supers * SUPER_SPHERES * sizeof(glm::vec4);
       if (clusterSpheres_[b].size < bytes) {
         clusterSpheres_[b].reset();
         clusterSpheres_[b] = vk::createBuffer(ctx_, bytes, vk::Memory::HostVisible);
       }
-      // Written straight into the mapping, in order, never read back (no host copy of the spheres).
+      // Written straight into the mapping, in order, never read back (no host copy of the spheres): per
+      // super cluster its sphere (holding its clusters' world spheres), then each cluster's and its groups'.
       glm::vec4* out = static_cast<glm::vec4*>(clusterSpheres_[b].mapped);
-      if (end <= first) std::fill_n(out, CLUSTER_SPHERES, glm::vec4(0));
-      for (size_t k = first; k < end; ++k, out += CLUSTER_SPHERES) {
-        const traversal::ClusterWorld& w = clusterWorld_[k];
-        out[0] = sphere(glm::dvec3(w.whole), w.whole.w);
-        for (uint32_t g = 0; g < CLUSTER_GROUPS; ++g) out[1 + g] = sphere(glm::dvec3(glm::vec3(w.groups[g])), w.groups[g].w);
+      std::fill_n(out, supers * SUPER_SPHERES, glm::vec4(0));
+      for (size_t k = first; k < end; k += SUPER_CLUSTERS, out += SUPER_SPHERES) {
+        const size_t last = std::min(end, k + SUPER_CLUSTERS);
+        const glm::dvec4 s = traversal::superBounds(&clusterWorld_[k], last - k);
+        out[0] = sphere(glm::dvec3(s), s.w);
+        for (size_t q = k; q < last; ++q) {
+          const traversal::ClusterWorld& w = clusterWorld_[q];
+          glm::vec4* at = out + 1 + CLUSTER_SPHERES * (q - k);
+          at[0] = sphere(glm::dvec3(w.whole), w.whole.w);
+          for (uint32_t g = 0; g < CLUSTER_GROUPS; ++g) at[1 + g] = sphere(glm::dvec3(glm::vec3(w.groups[g])), w.groups[g].w);
+        }
       }
     }
   }

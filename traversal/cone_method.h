@@ -73,6 +73,9 @@ struct ConeOptions {
   // Triangle clusters down the upper levels of the tree (traversal.h, "Clusters"; --clusters): the same
   // mask, fewer pairs tested on large scenes. One-pass frames in one submission only.
   bool clusters = true;
+  // With clusters: every 4 consecutive clusters form a super cluster, which goes down the top of the tree
+  // before they do (traversal.h, "Clusters"; --super-clusters). The same mask.
+  bool superClusters = true;
   // With clusters: expansions one depth above the leaves take the sphere test, not the precise one
   // (traversal.h, "Clusters"; --last-expansion-test). The same mask.
   bool sphereLastExpansion = true;

@@ -83,6 +83,19 @@ ClusterWorld clusterWorld(const glm::vec4* vertices, size_t triangles) {
   return w;
 }
 
+glm::dvec4 superBounds(const ClusterWorld* clusters, size_t count) {
+  glm::dvec3 lo(INFINITY), hi(-INFINITY);
+  for (size_t q = 0; q < count; ++q) {
+    lo = glm::min(lo, glm::dvec3(clusters[q].whole) - clusters[q].whole.w);
+    hi = glm::max(hi, glm::dvec3(clusters[q].whole) + clusters[q].whole.w);
+  }
+  const glm::dvec3 centre = 0.5 * (lo + hi);
+  double radius = 0;
+  for (size_t q = 0; q < count; ++q)
+    radius = std::max(radius, glm::length(glm::dvec3(clusters[q].whole) - centre) + clusters[q].whole.w);
+  return glm::dvec4(centre, radius * (1.0 + std::ldexp(1.0, -40)));  // (the sum's rounding, outward)
+}
+
 glm::vec4 clusterSphere(glm::dvec3 rel, double radius, double operands) {
   const double pad = std::ldexp(glm::length(rel) + radius + operands, -16);
   return glm::vec4(glm::vec3(rel), float((radius + pad) * (1.0 + std::ldexp(1.0, -20))));
@@ -442,6 +455,10 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
   const bool clusters = in.clusterSpheres && clustersFit_ && capacity >= CLUSTER_SIZE && batchTriangles_ >= CLUSTER_SIZE &&
                         in.firstTriangle % CLUSTER_SIZE == 0;
   usedClusters_ = clusters;
+  // Super clusters likewise need batches of whole super clusters and an arena that holds one's split.
+  const bool supers = clusters && in.superClusters && supersFit_ && capacity >= SUPER_SIZE &&
+                      batchTriangles_ >= SUPER_SIZE && in.firstTriangle % SUPER_SIZE == 0;
+  usedSupers_ = supers;
   // The last depth's expansions in the sphere-test kernel ("Clusters"); its pairs, like the precise
   // kernel's, go on to the leaves.
   const bool sphereExpansion = clusters && in.test == TRAVERSE_TEST_PRECISE && in.sphereLastExpansion;
@@ -469,7 +486,7 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
   base.triangleEnd = in.firstTriangle + in.triangleCount;
 
   auto advance = [&](uint32_t step, uint32_t triangles) {
-    AdvancePush a{step, triangles, capacity, ctx_.maxWorkgroups(), clusters ? 1u : 0u, in.triangleCount,
+    AdvancePush a{step, triangles, capacity, ctx_.maxWorkgroups(), supers ? 2u : clusters ? 1u : 0u, in.triangleCount,
                   sphereExpansion ? 1u : 0u, wholeExpansion ? 1u : 0u};
     cmd.dispatch(advance_, {shape, state_}, a, 1);
     cmd.barrier();
@@ -508,7 +525,8 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
 
   const uint64_t end = uint64_t(in.firstTriangle) + in.triangleCount;
   uint32_t batch = std::max(1u, std::min(capacity, batchTriangles_));
-  if (clusters) batch = batch / CLUSTER_SIZE * CLUSTER_SIZE;
+  if (supers) batch = batch / SUPER_SIZE * SUPER_SIZE;
+  else if (clusters) batch = batch / CLUSTER_SIZE * CLUSTER_SIZE;
   for (uint64_t pos = in.firstTriangle; pos < end; pos += batch) {
     const uint32_t m = uint32_t(std::min<uint64_t>(batch, end - pos));
     starts.push_back(uint32_t(pos));
@@ -543,6 +561,8 @@ void Traversal::learnBatch(const uint32_t* w, const TraversalStats& frame, uint6
   const uint32_t used = std::max(1u, std::min(capacity, batchTriangles_));
   if (overflowed(w) && usedClusters_ && used <= CLUSTER_SIZE) {
     clustersFit_ = false;  // even one cluster's expansion does not fit: triangles only
+  } else if (overflowed(w) && usedSupers_ && used <= SUPER_SIZE) {
+    supersFit_ = false;  // even one super cluster's batch does not fit: clusters from then on
   } else if (overflowed(w)) {
     // The most pairs any depth held per triangle over the whole frame: a batch of b triangles holds about
     // b times that at its worst depth; aim at half the capacity (the triangles are not all alike).

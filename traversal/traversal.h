@@ -171,6 +171,9 @@ struct ClusterWorld {
   glm::vec4 groups[CLUSTER_GROUPS];
 };
 ClusterWorld clusterWorld(const glm::vec4* vertices, size_t triangles);
+// A super cluster's world bound: a sphere holding the `count` (1 to SUPER_CLUSTERS) clusters' own spheres
+// (centred on their box), in double.
+glm::dvec4 superBounds(const ClusterWorld* clusters, size_t count);
 // The sphere a pass test reads: centre `rel` (the bound's centre relative to the light in the tests'
 // coordinates, exact), radius `radius`, padded by 2^-16 of |rel| + radius + `operands` (the magnitudes
 // of the fp32 values the GPU's vertices are differences of) so it holds the vertices as the GPU
@@ -246,6 +249,9 @@ struct TraversalInput {
   // mask either way.
   bool sphereLastExpansion = true;
   ExpansionLanes lastExpansionLanes = ExpansionLanes::Auto;  // that expansion's lanes (see ExpansionLanes)
+  // With clusters: batches start as super clusters, which split into their clusters further down
+  // ("Clusters"). The same mask.
+  bool superClusters = true;
 };
 
 class Traversal {
@@ -316,6 +322,8 @@ class Traversal {
   uint32_t batchTriangles_ = 1;  // triangles per batch of the device path (learnBatch)
   bool clustersFit_ = true;      // false once a one-cluster batch overflowed: triangles only from then on
   bool usedClusters_ = false;    // the last record() started its batches as clusters
+  bool supersFit_ = true;        // false once a one-super-cluster batch overflowed: clusters only from then on
+  bool usedSupers_ = false;      // the last record() started its batches as super clusters
   ExpansionLanes lastExpansionLanes_ = ExpansionLanes::PerTriangle;
 };
 

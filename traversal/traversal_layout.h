@@ -27,7 +27,7 @@
 #define STATE_PEAK_CHUNK 12    // most inputs of one step
 #define STATE_LEAF_MISSING 13  // leaf tests short of 4 per pair (rays past the last leaf)
 #define STATE_BATCHES_DONE 14  // batches whose every step and leaf fit (the host resumes after them on overflow)
-#define STATE_MODE 15          // what the current step's inputs are: STEP_TRIANGLES, STEP_CLUSTERS or STEP_EXPAND
+#define STATE_MODE 15          // what the current step's inputs are: STEP_*
 #define STATE_ACC 16           // + 8 d: depth d's inputs, tests, survivors (uint64 as lo, hi), steps that ran and
                                //   the cluster tests among the tests (uint32)
 #define STATE_ACC_WORDS 8
@@ -43,6 +43,7 @@
 #define STATE_COMMITTED 232    // the totals (STATE_LEAF_MISSING, then STATE_ACC .. STATE_TEST_ARGS) as of the last completed batch
 #define STATE_COMMITTED_WORDS (1 + STATE_TEST_ARGS - STATE_ACC)
 #define STATE_ROOT_CLUSTERS 369  // the clusters pass 0 kept, scaled from the batch to the whole record (the expansion rule)
+#define STATE_ROOT_SUPERS 370    // the super clusters pass 0 kept, scaled likewise (the split rule)
 #define STATE_SPHERE_ARGS 372  // uvec4: the current step's dispatch of the sphere-test triangle kernel (AdvancePush::sphereExpansion)
 #define STATE_WORDS 376
 #define ADVANCE_END_OF_BATCH 0xFFFFFFFFu
@@ -57,6 +58,15 @@
 #define CLUSTER_GROUPS 4u
 #define GROUP_SIZE 4u
 #define CLUSTER_SPHERES 5u
+// Every SUPER_CLUSTERS consecutive clusters (SUPER_SIZE triangles; the last may hold fewer) form a super
+// cluster, which goes down the top of the tree before its clusters do (STEP_SUPER, STEP_SPLIT). The
+// sphere buffer holds SUPER_SPHERES vec4s a super cluster: its own sphere, then each of its clusters'
+// CLUSTER_SPHERES (a cluster past the buffer's triangles: never read). clusterSphereAt(c): cluster c's.
+#define SUPER_CLUSTERS 4u
+#define SUPER_SIZE 64u
+#define SUPER_SHIFT 6u
+#define SUPER_SPHERES 21u
+#define clusterSphereAt(c) (SUPER_SPHERES * ((c) >> 2u) + 1u + CLUSTER_SPHERES * ((c) & 3u))
 // A step's inputs (STATE_MODE): (triangle, node) pairs; (cluster, node) pairs, tested with the cluster's
 // sphere; or the expansion of (cluster, node) pairs, input i being triangle CLUSTER_SIZE * cluster + i % CLUSTER_SIZE
 // of pair i / CLUSTER_SIZE (tested as a triangle pair; past the buffer's triangles: nothing).
@@ -66,12 +76,26 @@
 // The last depth's expansion in the sphere-test kernel (AdvancePush::sphereExpansion) on a CPU device
 // (AdvancePush::wholeExpansion, traversal.h ExpansionLanes): input i is (cluster, node) pair i itself, and
 // one invocation tests the cluster's sphere against the node's children, then its groups' spheres against
-// the children the cluster kept, then every triangle against the children its group kept (the step's inputs are still counted per triangle pair,
-// its tests as made: the cluster's and the triangles'). On lavapipe a lane of the test
-// kernel costs about 20 ns before it does anything (the step's lanes running a kernel that returned at
-// once took 120 ms of the 1 M height field's 170 ms traversal), so sixteen triangles a lane, with the
-// node's children read once, cost a fraction of sixteen lanes; on a GPU the step keeps a lane per cluster pair.
+// the children the cluster kept, then every triangle against the children its group kept (the step's
+// inputs are still counted per triangle pair, its tests as made: the cluster's, the groups' and the
+// triangles'). On lavapipe a lane of the test kernel costs about 20 ns before it does anything (the
+// step's lanes running a kernel that returned at once took 120 ms of the 1 M height field's 170 ms
+// traversal), so sixteen triangles a lane, with the node's children read once, cost a fraction of
+// sixteen lanes; on a GPU the step keeps a lane per triangle pair.
 #define STEP_EXPAND_WHOLE 3u
+// (super cluster, node) pairs, tested with the super cluster's sphere in the cluster kernel; pass 0 of a
+// batch that starts from super clusters (AdvancePush::clusters = 2).
+#define STEP_SUPER 4u
+// The split of (super cluster, node) pairs into their clusters: input i is cluster SUPER_CLUSTERS * s +
+// i % SUPER_CLUSTERS of pair i / SUPER_CLUSTERS, tested as a cluster pair (past the buffer's triangles:
+// nothing); its survivors are (cluster, child) pairs. One depth above the one where the clusters expand
+// by the expansion rule, and at the latest two depths above the leaves (traverse_advance.comp).
+#define STEP_SPLIT 5u
+// The last depth's expansion of (super cluster, node) pairs on a CPU device (AdvancePush::wholeExpansion):
+// a lane per super cluster pair, as STEP_EXPAND_WHOLE's per cluster pair, the super cluster's sphere
+// tested first (its inputs counted per triangle pair: SUPER_SIZE a pair). With it super clusters that
+// reach one depth above the leaves are not split two depths above: they expand there whole.
+#define STEP_EXPAND_SUPER 6u
 // The expansion rule's K (traverse_advance.comp): cluster pairs expand at the first depth with more than
 // 1/K as many nodes as pass 0 kept clusters. Measured (bench/scale_bench, K = 4, 8, 16, 32): 8 and 16
 // test the fewest pairs on the height fields, the BART scenes, 2CylinderEngine x8 and the built-in views.
@@ -132,7 +156,8 @@ struct AdvancePush {
   uint triangles;     // step 0: the batch's triangles (pass 0's inputs)
   uint capacity;      // pairs a step may write (its output buffer and the next step's scratch)
   uint maxPerDim;     // workgroups per grid dimension
-  uint clusters;      // step 0: 1 = the batch starts as (cluster, root) tests when the tree is deep enough
+  uint clusters;      // step 0: 1 = the batch starts as (cluster, root) tests when the tree is deep enough,
+                      // 2 = as (super cluster, root) tests
   uint frameTriangles;  // the triangles of the whole record() the batch is one of (the expansion rule's scale)
   uint sphereExpansion;  // 1: an expansion step's triangle pairs go to the sphere-test kernel (STATE_SPHERE_ARGS)
   uint wholeExpansion;   // with sphereExpansion: 1 = that step is STEP_EXPAND_WHOLE (a lane per cluster pair)

@@ -49,8 +49,12 @@ void main() {
   if (c == 0u) {
     n = state[STATE_OVERFLOW] != 0u || depth == 0u ? 0u : p.triangles;
     state[STATE_BATCH_TRIANGLES] = p.triangles;
-    // Clusters go down the upper levels when there are levels to spare before the leaves (see below).
-    if (p.clusters != 0u && depth >= 3u) {
+    // Clusters go down the upper levels when there are levels to spare before the leaves (see below),
+    // super clusters first where the host asks.
+    if (p.clusters == 2u && depth >= 3u) {
+      mode = STEP_SUPER;
+      n = (n + SUPER_SIZE - 1u) >> SUPER_SHIFT;
+    } else if (p.clusters != 0u && depth >= 3u) {
       mode = STEP_CLUSTERS;
       n = (n + CLUSTER_SIZE - 1u) >> CLUSTER_SHIFT;
     }
@@ -58,7 +62,7 @@ void main() {
   } else {
     uint was = state[STATE_MODE];
     // Triangle pairs: an invocation of a whole-cluster expansion stands for CLUSTER_SIZE of them.
-    uint inputs = state[STATE_COUNT] << (was == STEP_EXPAND_WHOLE ? CLUSTER_SHIFT : 0u);
+    uint inputs = state[STATE_COUNT] << (was == STEP_EXPAND_WHOLE ? CLUSTER_SHIFT : (was == STEP_EXPAND_SUPER ? SUPER_SHIFT : 0u));
     if (inputs > 0u) {
       uint survivors = state[STAT_TOTAL];
       uint acc = STATE_ACC + STATE_ACC_WORDS * (c - 1u);
@@ -67,7 +71,7 @@ void main() {
       add64(acc + 2u, tests);
       add64(acc + 4u, survivors);
       state[acc + 6u] += 1u;
-      if (was == STEP_CLUSTERS) state[acc + 7u] += tests;
+      if (was == STEP_CLUSTERS || was == STEP_SUPER || was == STEP_SPLIT) state[acc + 7u] += tests;
       add64(STATE_ACCEPTED, state[STAT_ACCEPTED]);
       add64(STATE_DROPPED, state[STAT_DROPPED]);
       state[STATE_PEAK_CHUNK] = max(state[STATE_PEAK_CHUNK], inputs);
@@ -77,11 +81,43 @@ void main() {
       // Expansion rule (traversal.h, "Clusters"): cluster pairs go on while the nodes are wide against the
       // clusters, and expand into their triangles' pairs at the first depth with more than 1/K as many
       // nodes as the clusters pass 0 kept (scaled from the batch to the whole record: the batches are
-      // contiguous runs of the Morton order, each a part of the scene's footprint) -- there a node covers
+      // contiguous runs of the Hilbert order, each a part of the scene's footprint) -- there a node covers
       // fewer rays than K clusters' share of them -- and at the latest one depth above the leaves.
       // Triangle pairs stay triangle pairs.
-      if (was == STEP_CLUSTERS && n > 0u) {
+      // Super cluster pairs split into their clusters' pairs one step before the clusters would expand by
+      // the rule below (so clusters expand where they would have without super clusters), and otherwise
+      // at the latest two depths above the leaves -- but for a CPU device's whole-cluster lanes, which
+      // take the super cluster pairs that reach one depth above the leaves as they are (STEP_EXPAND_SUPER).
+      if (was == STEP_SUPER && n > 0u) {
         if (c == 1u) {
+          uint batchSupers = (state[STATE_BATCH_TRIANGLES] + SUPER_SIZE - 1u) >> SUPER_SHIFT;
+          uint frameSupers = (p.frameTriangles + SUPER_SIZE - 1u) >> SUPER_SHIFT;
+          uint64_t kept = min(uint64_t(n) * frameSupers / max(batchSupers, 1u), uint64_t(0xFFFFFFFFu));
+          state[STATE_ROOT_SUPERS] = uint(kept);
+          // (the expansion rule's count: at most SUPER_CLUSTERS clusters a super cluster kept)
+          state[STATE_ROOT_CLUSTERS] = uint(min(kept * SUPER_CLUSTERS, uint64_t(0xFFFFFFFFu)));
+        }
+        bool whole = p.sphereExpansion != 0u && p.wholeExpansion != 0u;
+        if (whole && c + 1u >= depth) {
+          mode = STEP_EXPAND_SUPER;
+          add64(STATE_EXPANDED, n * SUPER_CLUSTERS);
+          // A lane a pair, read from the arena where they were written: only the step's 32-bit count of
+          // tests (four per triangle pair) bounds it.
+          if (n > (0xFFFFFFFFu >> (SUPER_SHIFT + 2u))) {
+            state[STATE_OVERFLOW] = 1u;
+            n = 0u;
+          }
+        } else {
+          bool expandNext = uint64_t(shape[SHAPE_COUNTS + c + 1u]) * EXPAND_NODES_PER_CLUSTER > uint64_t(state[STATE_ROOT_CLUSTERS]);
+          bool split = whole ? expandNext && c + 2u < depth : expandNext || c + 2u >= depth;
+          mode = split ? STEP_SPLIT : STEP_SUPER;
+          if (split && n > (p.capacity >> 2u)) {  // (SUPER_CLUSTERS inputs a pair)
+            state[STATE_OVERFLOW] = 1u;
+            n = 0u;
+          }
+        }
+      } else if ((was == STEP_CLUSTERS || was == STEP_SPLIT) && n > 0u) {
+        if (c == 1u && was == STEP_CLUSTERS) {
           uint batchClusters = (state[STATE_BATCH_TRIANGLES] + CLUSTER_SIZE - 1u) >> CLUSTER_SHIFT;
           uint frameClusters = (p.frameTriangles + CLUSTER_SIZE - 1u) >> CLUSTER_SHIFT;
           state[STATE_ROOT_CLUSTERS] =
@@ -101,7 +137,7 @@ void main() {
       // The last depth's expansion in the sphere-test kernel: a lane per cluster pair where the host asks.
       if (mode == STEP_EXPAND && p.sphereExpansion != 0u && p.wholeExpansion != 0u && c + 1u >= depth)
         mode = STEP_EXPAND_WHOLE;
-      count = mode == STEP_EXPAND ? n << CLUSTER_SHIFT : n;
+      count = mode == STEP_EXPAND ? n << CLUSTER_SHIFT : (mode == STEP_SPLIT ? n << 2u : n);
     }
   }
   state[STATE_MODE] = mode;
@@ -118,7 +154,7 @@ void main() {
     // The step's test: the cluster kernel for cluster pairs, the triangle kernel otherwise, or the
     // sphere-test triangle kernel for an expansion one depth above the leaves when the host asks for it
     // (traversal.h, "Clusters"). All are recorded; the others get zero workgroups.
-    uint args = mode == STEP_CLUSTERS ? STATE_CLUSTER_ARGS
+    uint args = mode == STEP_CLUSTERS || mode == STEP_SUPER || mode == STEP_SPLIT ? STATE_CLUSTER_ARGS
                 : (mode != STEP_TRIANGLES && p.sphereExpansion != 0u && c + 1u >= depth ? STATE_SPHERE_ARGS : STATE_TEST_ARGS);
     writeArgs(args, count, count, TRAVERSE_THREADS);
     state[STATE_CHILD_OFFSET] = shape[SHAPE_OFFSETS + c];

@@ -25,17 +25,21 @@
 //           ConeNode), 2 = input pairs (uvec2), 3 = output pairs (uvec2, from slot p.outFirst),
 //           4 = stats (uint[STAT_WORDS]; the device path's state words), 5 = samples (uint pixel per sorted
 //           ray), 6 = positions (vec4 per pixel), 7 = visibility (uint per pixel), 8 = flags (uint per
-//           interior node); 5-8 used with early accept only, 9 = cluster spheres (CLUSTER_SPHERES vec4s
-//           per cluster: its own, then its groups'; relative to the light as binding 0's vertices; device
-//           path), 10 = binding 4 as a uniform texel buffer (RGBA32UI), read
+//           interior node); 5-8 used with early accept only, 9 = cluster spheres (SUPER_SPHERES vec4s a
+//           super cluster: its own, then each cluster's own and its groups'; relative to the light as
+//           binding 0's vertices; device path), 10 = binding 4 as a uniform texel buffer (RGBA32UI), read
 // Clusters (device path, STATE_MODE): a STEP_CLUSTERS step tests (cluster, node) pairs with the
 // cluster's sphere (sphere_test.h: false only when no ray of the cone meets the sphere, which holds all
 // the cluster's triangles) and writes (cluster, child) pairs; a STEP_EXPAND step's input i is triangle
 // CLUSTER_SIZE * cluster + i % CLUSTER_SIZE of cluster pair i / CLUSTER_SIZE, tested as a triangle pair
-// (front-face culling applies there: its pass 0 was the clusters'). A STEP_EXPAND_WHOLE step (its own
-// kernel, SPEC_WHOLE) takes (cluster, node) pair i whole: one invocation tests the cluster's sphere
-// against the node's children, read once, then its four groups' spheres against the children the cluster
-// kept, then each of its triangles against the children its group kept (expandCluster).
+// (front-face culling applies there: its pass 0 was the clusters'). STEP_SUPER and STEP_SPLIT steps run
+// in the cluster kernel: (super cluster, node) pairs tested with the super cluster's sphere, and a split's
+// input i as cluster pair (SUPER_CLUSTERS * s + i % SUPER_CLUSTERS, node) of super pair i / SUPER_CLUSTERS,
+// writing (cluster, child) pairs. A STEP_EXPAND_WHOLE step (its own kernel, SPEC_WHOLE) takes (cluster,
+// node) pair i whole: one invocation tests the cluster's sphere against the node's children, read once,
+// then its four groups' spheres against the children the cluster kept, then each of its triangles against
+// the children its group kept; a STEP_EXPAND_SUPER step takes a (super cluster, node) pair so, its sphere
+// first, then each of its clusters as above (expandWhole).
 #include "traversal/precise_test.h"
 #include "traversal/sphere_test.h"
 #include "traversal/traverse.glsl"
@@ -69,8 +73,8 @@ layout(constant_id = 2) const uint SPEC_FRONT_FACE_CULLING = 0u;       // = p.fr
 // triangle kernel (STEP_TRIANGLES, STEP_EXPAND). The device path records both for every step, the advance
 // kernel giving the other zero workgroups.
 layout(constant_id = 3) const uint SPEC_CLUSTERS = 0u;
-// 1: the whole-cluster expansion kernel (STEP_EXPAND_WHOLE, sphere test, no early accept): expandCluster and
-// nothing else. Its own pipeline, because on lavapipe the lanes of a kernel pay for its code whether a
+// 1: the whole-cluster expansion kernel (STEP_EXPAND_WHOLE or STEP_EXPAND_SUPER, sphere test, no early
+// accept): expandWhole and nothing else. Its own pipeline, because on lavapipe the lanes of a kernel pay for its code whether a
 // uniform branch enters it or not.
 layout(constant_id = 4) const uint SPEC_WHOLE = 0u;
 
@@ -114,8 +118,16 @@ uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild) {
       atomicAdd(stats[STAT_MISSING], 4u);
       return 0u;
     }
+  } else if (SPEC_CLUSTERS != 0u && mode == STEP_SPLIT) {
+    uvec2 sp = pairs[i >> 2u];  // (SUPER_CLUSTERS inputs a pair)
+    pair = uvec2(SUPER_CLUSTERS * sp.x + (i & (SUPER_CLUSTERS - 1u)), sp.y);
+    if ((pair.x << CLUSTER_SHIFT) >= p.triangleEnd) {  // past the last super cluster's clusters: no test
+      atomicAdd(stats[STAT_MISSING], 4u);
+      return 0u;
+    }
   } else {
-    uint first = SPEC_CLUSTERS != 0u ? p.first >> CLUSTER_SHIFT : p.first;  // pass 0: clusters or triangles
+    // pass 0: super clusters, clusters or triangles
+    uint first = SPEC_CLUSTERS == 0u ? p.first : (mode == STEP_SUPER ? p.first >> SUPER_SHIFT : p.first >> CLUSTER_SHIFT);
     pair = p.fromTriangles != 0u ? uvec2(first + i, 0u) : pairs[p.first + i];
   }
   uvec2 r = p.fromTriangles != 0u ? uvec2(0u, 1u) : childRange(pair.y, childCount);
@@ -124,7 +136,7 @@ uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild) {
   if (r.y - r.x < expected) atomicAdd(stats[STAT_MISSING], expected - (r.y - r.x));  // the last node only
   uint mask = 0u;
   if (SPEC_CLUSTERS != 0u) {
-    vec4 sphere = clusterSpheres[CLUSTER_SPHERES * pair.x];
+    vec4 sphere = clusterSpheres[mode == STEP_SUPER ? SUPER_SPHERES * pair.x : clusterSphereAt(pair.x)];
     for (uint c = r.x; c < r.y; c++)
       if (sphereConeTriangle(node(childOffset + c), sphere, p.eps, p.coneScale)) mask |= 1u << (c - r.x);
     return mask;
@@ -184,10 +196,12 @@ uint reserve(uint n, uint total) {
   return subgroupBroadcastFirst(base) + before;
 }
 
-// A STEP_EXPAND_WHOLE input: (cluster, node) pair i; its triangles against the node's children that the
-// cluster's sphere and then their group's sphere meet, with the sphere test, the survivors appended as (triangle, child) pairs. The
-// tests not made of the step's four per triangle pair go to STAT_MISSING.
-void expandCluster(uint i) {
+// A STEP_EXPAND_WHOLE input: (cluster, node) pair i, or a STEP_EXPAND_SUPER input: (super cluster, node)
+// pair i, whose sphere is tested against the node's children first. Then for each cluster: its sphere
+// against the children kept so far, its groups' against those it kept, and its triangles against those
+// their group kept, with the sphere test; the survivors appended as (triangle, child) pairs, a cluster
+// at a time. The tests not made of the step's four per triangle pair go to STAT_MISSING.
+void expandWhole(uint i, bool super) {
   uvec2 cp = pairs[p.first + i];
   uvec2 r = childRange(cp.y, childCount);
   uint kids = r.y - r.x;
@@ -195,70 +209,86 @@ void expandCluster(uint i) {
   ConeNode n1 = node(childOffset + min(r.x + 1u, r.y - 1u));
   ConeNode n2 = node(childOffset + min(r.x + 2u, r.y - 1u));
   ConeNode n3 = node(childOffset + min(r.x + 3u, r.y - 1u));
-  uint first = cp.x << CLUSTER_SHIFT;
-  uint tris_ = min(CLUSTER_SIZE, p.triangleEnd > first ? p.triangleEnd - first : 0u);
   float scale = p.coneScale;
-  // The cluster's sphere against the children first: a child it misses, no triangle of it can meet.
-  vec4 cs = clusterSpheres[CLUSTER_SPHERES * cp.x];
-  uint near = sphereConeTriangle(n0, cs, p.eps, scale) ? 1u : 0u;
-  if (kids > 1u && sphereConeTriangle(n1, cs, p.eps, scale)) near |= 2u;
-  if (kids > 2u && sphereConeTriangle(n2, cs, p.eps, scale)) near |= 4u;
-  if (kids > 3u && sphereConeTriangle(n3, cs, p.eps, scale)) near |= 8u;
-  // Then each group's sphere against the children the cluster kept, and each triangle against the
-  // children its group kept (bits 4 g + k of `groupNear`).
-  uint groups = (tris_ + GROUP_SIZE - 1u) / GROUP_SIZE;
-  uint groupNear = 0u;
-  for (uint g = 0u; near != 0u && g < groups; g++) {
-    vec4 gs = clusterSpheres[CLUSTER_SPHERES * cp.x + 1u + g];
-    uint m = (near & 1u) != 0u && sphereConeTriangle(n0, gs, p.eps, scale) ? 1u : 0u;
-    if ((near & 2u) != 0u && sphereConeTriangle(n1, gs, p.eps, scale)) m |= 2u;
-    if ((near & 4u) != 0u && sphereConeTriangle(n2, gs, p.eps, scale)) m |= 4u;
-    if ((near & 8u) != 0u && sphereConeTriangle(n3, gs, p.eps, scale)) m |= 8u;
-    groupNear |= m << (4u * g);
+  uint outer = (1u << kids) - 1u;  // the children still in play
+  uint made = 0u;                  // tests made
+  if (super) {
+    vec4 ss = clusterSpheres[SUPER_SPHERES * cp.x];
+    uint m = sphereConeTriangle(n0, ss, p.eps, scale) ? 1u : 0u;
+    if (kids > 1u && sphereConeTriangle(n1, ss, p.eps, scale)) m |= 2u;
+    if (kids > 2u && sphereConeTriangle(n2, ss, p.eps, scale)) m |= 4u;
+    if (kids > 3u && sphereConeTriangle(n3, ss, p.eps, scale)) m |= 8u;
+    outer = m;
+    made += kids;
   }
-  // Tests made: the cluster's against its node's children, each group's against the children the cluster
-  // kept, each triangle's against the children its group kept; the step counts four a triangle pair, so
-  // STAT_MISSING gets the difference (mod 2^32).
-  uint made = kids + groups * uint(bitCount(near));
-  for (uint g = 0u; g < groups; g++)
-    made += min(GROUP_SIZE, tris_ - GROUP_SIZE * g) * uint(bitCount((groupNear >> (4u * g)) & 15u));
-  uint missing = 4u * CLUSTER_SIZE - made;
-  if (missing != 0u) atomicAdd(stats[STAT_MISSING], missing);
-  uvec2 mask = uvec2(0u);  // bit 4 t + k of the 64: triangle first + t against child r.x + k
-  for (uint t = 0u; groupNear != 0u && t < tris_; t++) {
-    uint kept = (groupNear >> (4u * (t / GROUP_SIZE))) & 15u;
-    if (kept == 0u) continue;
-    precise vec3 v0 = texelFetch(tris, int(3u * (first + t))).xyz;
-    precise vec3 v1 = texelFetch(tris, int(3u * (first + t) + 1u)).xyz;
-    precise vec3 v2 = texelFetch(tris, int(3u * (first + t) + 2u)).xyz;
-    if (p.frameVertices == 0u) {
-      v0 -= p.light.xyz;
-      v1 -= p.light.xyz;
-      v2 -= p.light.xyz;
-    }
-    if (SPEC_FRONT_FACE_CULLING != 0u && facesLight(v0, v1, v2)) continue;
-    vec4 sphere = boundingSphere(v0, v1, v2, scale);
-    uint m = (kept & 1u) != 0u && sphereConeTriangle(n0, sphere, p.eps, scale) ? 1u : 0u;
-    if ((kept & 2u) != 0u && sphereConeTriangle(n1, sphere, p.eps, scale)) m |= 2u;
-    if ((kept & 4u) != 0u && sphereConeTriangle(n2, sphere, p.eps, scale)) m |= 4u;
-    if ((kept & 8u) != 0u && sphereConeTriangle(n3, sphere, p.eps, scale)) m |= 8u;
-    if (t < 8u) mask.x |= m << (4u * t);
-    else mask.y |= m << (4u * (t - 8u));
-  }
-  uint n = bitCount(mask.x) + bitCount(mask.y);
-  uint total = subgroupAdd(n);
-  if (total == 0u) return;
-  uint slot = reserve(n, total);
+  uint clusters = super ? SUPER_CLUSTERS : 1u;
   uint room = p.outLimit - p.outFirst;
-  for (uint w = 0u; w < 2u; w++) {
-    uint bits = mask[w];
-    while (bits != 0u) {
-      uint b = uint(findLSB(bits));
-      bits &= bits - 1u;
-      if (slot < room) outPairs[p.outFirst + slot] = uvec2(first + 8u * w + (b >> 2u), r.x + (b & 3u));
-      slot++;
+  for (uint q = 0u; q < clusters; q++) {  // a uniform trip count: the appends are subgroup operations
+    uint cluster = super ? SUPER_CLUSTERS * cp.x + q : cp.x;
+    uint first = cluster << CLUSTER_SHIFT;
+    uint tris_ = min(CLUSTER_SIZE, p.triangleEnd > first ? p.triangleEnd - first : 0u);
+    // The cluster's sphere against the children in play: a child it misses, no triangle of it can meet.
+    uint near = 0u;
+    if (tris_ > 0u && outer != 0u) {
+      vec4 cs = clusterSpheres[clusterSphereAt(cluster)];
+      if ((outer & 1u) != 0u && sphereConeTriangle(n0, cs, p.eps, scale)) near |= 1u;
+      if ((outer & 2u) != 0u && sphereConeTriangle(n1, cs, p.eps, scale)) near |= 2u;
+      if ((outer & 4u) != 0u && sphereConeTriangle(n2, cs, p.eps, scale)) near |= 4u;
+      if ((outer & 8u) != 0u && sphereConeTriangle(n3, cs, p.eps, scale)) near |= 8u;
+      made += uint(bitCount(outer));
+    }
+    // Then each group's sphere against the children the cluster kept, and each triangle against the
+    // children its group kept (bits 4 g + k of `groupNear`).
+    uint groups = (tris_ + GROUP_SIZE - 1u) / GROUP_SIZE;
+    uint groupNear = 0u;
+    for (uint g = 0u; near != 0u && g < groups; g++) {
+      vec4 gs = clusterSpheres[clusterSphereAt(cluster) + 1u + g];
+      uint m = (near & 1u) != 0u && sphereConeTriangle(n0, gs, p.eps, scale) ? 1u : 0u;
+      if ((near & 2u) != 0u && sphereConeTriangle(n1, gs, p.eps, scale)) m |= 2u;
+      if ((near & 4u) != 0u && sphereConeTriangle(n2, gs, p.eps, scale)) m |= 4u;
+      if ((near & 8u) != 0u && sphereConeTriangle(n3, gs, p.eps, scale)) m |= 8u;
+      groupNear |= m << (4u * g);
+      made += uint(bitCount(near));
+    }
+    uvec2 mask = uvec2(0u);  // bit 4 t + k of the 64: triangle first + t against child r.x + k
+    for (uint t = 0u; groupNear != 0u && t < tris_; t++) {
+      uint kept = (groupNear >> (4u * (t / GROUP_SIZE))) & 15u;
+      if (kept == 0u) continue;
+      made += uint(bitCount(kept));
+      precise vec3 v0 = texelFetch(tris, int(3u * (first + t))).xyz;
+      precise vec3 v1 = texelFetch(tris, int(3u * (first + t) + 1u)).xyz;
+      precise vec3 v2 = texelFetch(tris, int(3u * (first + t) + 2u)).xyz;
+      if (p.frameVertices == 0u) {
+        v0 -= p.light.xyz;
+        v1 -= p.light.xyz;
+        v2 -= p.light.xyz;
+      }
+      if (SPEC_FRONT_FACE_CULLING != 0u && facesLight(v0, v1, v2)) continue;
+      vec4 sphere = boundingSphere(v0, v1, v2, scale);
+      uint m = (kept & 1u) != 0u && sphereConeTriangle(n0, sphere, p.eps, scale) ? 1u : 0u;
+      if ((kept & 2u) != 0u && sphereConeTriangle(n1, sphere, p.eps, scale)) m |= 2u;
+      if ((kept & 4u) != 0u && sphereConeTriangle(n2, sphere, p.eps, scale)) m |= 4u;
+      if ((kept & 8u) != 0u && sphereConeTriangle(n3, sphere, p.eps, scale)) m |= 8u;
+      if (t < 8u) mask.x |= m << (4u * t);
+      else mask.y |= m << (4u * (t - 8u));
+    }
+    uint n = bitCount(mask.x) + bitCount(mask.y);
+    uint total = subgroupAdd(n);
+    if (total == 0u) continue;
+    uint slot = reserve(n, total);
+    for (uint w = 0u; w < 2u; w++) {
+      uint bits = mask[w];
+      while (bits != 0u) {
+        uint b = uint(findLSB(bits));
+        bits &= bits - 1u;
+        if (slot < room) outPairs[p.outFirst + slot] = uvec2(first + 8u * w + (b >> 2u), r.x + (b & 3u));
+        slot++;
+      }
     }
   }
+  // The step counts four tests a triangle pair: STAT_MISSING gets the difference (mod 2^32).
+  uint missing = 4u * CLUSTER_SIZE * clusters - made;
+  if (missing != 0u) atomicAdd(stats[STAT_MISSING], missing);
 }
 
 void main() {
@@ -274,10 +304,11 @@ void main() {
   }
   uint mode = p.deviceParams != 0u ? statWord(STATE_MODE) : STEP_TRIANGLES;
   if (SPEC_WHOLE != 0u) {
-    if (mode == STEP_EXPAND_WHOLE) expandCluster(i);  // (dispatched for no other step)
+    if (mode == STEP_EXPAND_WHOLE || mode == STEP_EXPAND_SUPER) expandWhole(i, mode == STEP_EXPAND_SUPER);  // (no other step)
     return;
   }
-  if ((mode == STEP_CLUSTERS) != (SPEC_CLUSTERS != 0u)) return;  // the other kernel's step (given no workgroups)
+  bool clusterStep = mode == STEP_CLUSTERS || mode == STEP_SUPER || mode == STEP_SPLIT;
+  if (clusterStep != (SPEC_CLUSTERS != 0u)) return;  // the other kernel's step (given no workgroups)
   uvec2 pair;
   uint firstChild;
   uint mask = testInput(i, mode, pair, firstChild);
