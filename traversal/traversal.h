@@ -121,6 +121,14 @@
 // work, and the step held most of the frame's lanes (docs/ARCHITECTURE.md, "Clusters"). A GPU keeps a lane
 // per triangle pair (ExpansionLanes).
 //
+// Super clusters (TraversalInput::superClusters): every SUPER_CLUSTERS consecutive clusters have one
+// more sphere, holding theirs. A batch then starts as (super cluster, root) pairs, which split into their
+// clusters' pairs (STEP_SPLIT) one depth above the one where the clusters expand by the rule above, and
+// at the latest two depths above the leaves; with a lane per cluster pair for the last expansion they
+// reach one depth above the leaves unsplit and expand there a super cluster a lane (STEP_EXPAND_SUPER).
+// The same mask (tested); the 1 M height field at 512² tests 5.75 M pairs where clusters alone test
+// 8.08 M, the 10 M one 31.1 M where they test 57.8 M (docs/ARCHITECTURE.md, "Clusters").
+//
 // Stats per frame: for each pass (depth), the (triangle, node) pairs tested, the survivors and the chunks;
 // the leaf tests; the submits; the time of the passes ("traversal") and of the leaf tests
 // ("leaves"), as the wall time of their submits (host waits included) and from timestamps.
