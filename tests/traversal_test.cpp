@@ -693,6 +693,30 @@ TEST(ConeMethod, SuperClustersGoDownTheTopOfTheTreeWithTheSameMask) {
   }
 }
 
+// A scene of more than 16384 super clusters (1.2 M triangles) has its spheres written on several of the
+// host's threads where it has them (cone_method.cpp, updateClusterSpheres): the mask is the one without
+// clusters, for one light and for another (every sphere rewritten), both low over the field.
+TEST(ConeMethod, SpheresWrittenOnSeveralThreadsKeepTheMask) {
+  auto& ctx = test::context();
+  Scene scene = heightFieldScene(1200000);
+  Raster raster(ctx, scene);
+  auto method = makeConeMethod(ctx, ConeOptions{});  // one method: the second light rewrites its spheres
+  for (const vec3 light : {vec3(0.9f, 0.4f, 0.3f), vec3(-0.7f, 0.3f, -0.5f)}) {  // low: long shadows
+    DeviceGBuffer dev;
+    GBuffer host;
+    raster.render(automaticCamera(scene), light, 64, 64, dev, &host);
+    FrameInput frame = frameInputOf(scene, host, dev, ctx, light, EpsilonPolicy::forScene(scene).eps);
+    ConeOptions plain;
+    plain.clusters = false;
+    const MethodOutput want = runCounted(*makeConeMethod(ctx, plain), frame);
+    runCounted(*method, frame);  // warm-up: the batch size settles
+    const MethodOutput got = runCounted(*method, frame);
+    EXPECT_GT(got.stats["traversal"]["passes"][0]["cluster_tests"].get<uint64_t>(), 0u);
+    EXPECT_EQ(got.visibility, want.visibility);
+    EXPECT_GT(std::count(got.visibility.begin(), got.visibility.end(), 0.0f), 0);
+  }
+}
+
 // When the clusters stay small against every depth's nodes (few samples over many triangles) they expand
 // one depth above the leaves, and that step runs the sphere-test kernel (ConeOptions::sphereLastExpansion):
 // the same inputs and tests as with the precise kernel, more leaf pairs (the sphere test is the looser),
