@@ -5,7 +5,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
-#include <system_error>
 #include <thread>
 
 #include "conetree/conetree.h"
@@ -857,7 +856,8 @@ class ConeMethod : public ShadowMethod {
       return;
     }
     std::vector<uint32_t>().swap(previous);
-    const glm::vec3 lo = boundsLo_, ext = glm::vec3(std::max({boundsHi_.x - boundsLo_.x, boundsHi_.y - boundsLo_.y, boundsHi_.z - boundsLo_.z, 1e-30f}));
+    const glm::vec3 lo = boundsLo_, size = boundsHi_ - boundsLo_;
+    const glm::vec3 ext(std::max({size.x, size.y, size.z, 1e-30f}));  // cubes
     std::vector<uint64_t> keys(kept.size());  // Hilbert position, then the position in scene order: stable
     for (size_t t = 0; t < kept.size(); ++t) {
       const glm::vec3 c = (vertex(kept[t], 0) + vertex(kept[t], 1) + vertex(kept[t], 2)) / 3.0f;
@@ -929,7 +929,7 @@ class ConeMethod : public ShadowMethod {
         const size_t from = supers * t / parts, to = supers * (t + 1) / parts;
         try {
           threads.emplace_back(write, from, to);
-        } catch (const std::system_error&) {
+        } catch (...) {  // (std::system_error; or no memory for the thread list)
           write(from, to);
         }
       }
