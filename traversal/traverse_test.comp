@@ -74,8 +74,8 @@ layout(constant_id = 2) const uint SPEC_FRONT_FACE_CULLING = 0u;       // = p.fr
 // kernel giving the other zero workgroups.
 layout(constant_id = 3) const uint SPEC_CLUSTERS = 0u;
 // 1: the whole-cluster expansion kernel (STEP_EXPAND_WHOLE or STEP_EXPAND_SUPER, sphere test, no early
-// accept): expandWhole and nothing else. Its own pipeline, because on lavapipe the lanes of a kernel pay for its code whether a
-// uniform branch enters it or not.
+// accept): expandWhole and nothing else. Its own pipeline, because on lavapipe the lanes of a kernel pay
+// for its code whether a uniform branch enters it or not.
 layout(constant_id = 4) const uint SPEC_WHOLE = 0u;
 
 uint statWord(uint w) {
