@@ -904,7 +904,8 @@ class ConeMethod : public ShadowMethod {
       // Written straight into the mapping, never read back (no host copy of the spheres): per super
       // cluster its sphere (holding its clusters' world spheres), then each cluster's and its groups'.
       glm::vec4* out = static_cast<glm::vec4*>(clusterSpheres_[b].mapped);
-      std::fill_n(out, supers * SUPER_SPHERES, glm::vec4(0));
+      // Every slot is written below but a last super cluster's missing clusters', never read: zeroed once.
+      std::fill_n(out + (supers - 1) * SUPER_SPHERES, SUPER_SPHERES, glm::vec4(0));
       auto write = [&, first, end, out](size_t from, size_t to) {  // super clusters [from, to) of the buffer
         for (size_t i = from; i < to; ++i) {
           const size_t k = first + i * SUPER_CLUSTERS, last = std::min(end, k + SUPER_CLUSTERS);
