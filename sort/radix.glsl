@@ -14,9 +14,18 @@ layout(constant_id = 1) const uint SORT_ITEMS = SORT_ITEMS_CPU;
 
 uint digitOf(uint key) { return (key >> pc.shift) & pc.digitMask; }
 
+// The key binding holds either keys alone (uint[]) or, with PAIRS_IN, interleaved (key, value) pairs
+// (uvec2[], two to a uvec4): the sort's own scratch between passes, so a pass stores one uvec2 per key
+// where separate arrays take two scattered stores (sort.h). Pair scratch is padded to whole uvec4s.
+layout(constant_id = 4) const bool PAIRS_IN = false;
+
 // Keys 4v .. 4v+3 (those below n; the rest are never used by callers). Component loads at the tail, so
-// nothing past key n - 1 is read.
+// nothing past key n - 1 is read (pairs: the padding is read and ignored).
 uvec4 loadKeys(uint v, uint n) {
+  if (PAIRS_IN) {
+    uvec4 a = keys4[2u * v], b = keys4[2u * v + 1u];
+    return uvec4(a.x, a.z, b.x, b.z);
+  }
   if (4u * v + 3u < n) return keys4[v];
   uvec4 r = uvec4(0u);
   for (uint c = 0u; c < 3u; ++c)

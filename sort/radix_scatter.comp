@@ -16,8 +16,11 @@
 //    pass, no table scan. It waits on earlier tiles only, which already run (or ran) on the device, and
 //    only for SPINS reads: a tile still unpublished by then is counted from its keys here, so the
 //    result never depends on scheduling (sort::sortSchemeFor says where waiting is expected to be short).
-// bindings: 0 = keysIn, 1 = valuesIn (uint[], read as uvec4), 2 = keysOut, 3 = valuesOut (uint[]),
-//           4 = hist (scanned) or the look-back workspace, 5 = countWords (device count)
+// Layouts (sort.h): the input is separate keys and values, or (PAIRS_IN) interleaved pairs in binding 0;
+// the output separate keys and values, or (PAIRS_OUT) interleaved pairs in binding 6, one uvec2 store a key.
+// bindings: 0 = keysIn (or pairsIn), 1 = valuesIn (uint[], read as uvec4), 2 = keysOut, 3 = valuesOut
+//           (uint[]), 4 = hist (scanned) or the look-back workspace, 5 = countWords (device count),
+//           6 = pairsOut (uvec2[])
 #include "sort/sort_layout.h"
 layout(std430, binding = 0) readonly buffer KeysIn { uvec4 keys4[]; };
 layout(std430, binding = 1) readonly buffer ValuesIn { uvec4 values4[]; };
@@ -25,11 +28,13 @@ layout(std430, binding = 2) writeonly buffer KeysOut { uint keysOut[]; };
 layout(std430, binding = 3) writeonly buffer ValuesOut { uint valuesOut[]; };
 layout(std430, binding = 4) buffer Hist { uint hist[]; };
 layout(std430, binding = 5) readonly buffer CountWords { uint countWords[]; };
+layout(std430, binding = 6) writeonly buffer PairsOut { uvec2 pairsOut[]; };
 layout(push_constant) uniform Push { RadixPush pc; };
 #include "sort/common.glsl"
 #include "sort/radix.glsl"
 layout(constant_id = 2) const bool LOOKBACK = false;
 layout(constant_id = 3) const uint SPINS = LOOKBACK_SPINS;
+layout(constant_id = 5) const bool PAIRS_OUT = false;
 #define WG_SIZE SORT_THREADS
 #define WG_RAKE SORT_RAKE
 #include "sort/workgroup_scan.glsl"
@@ -159,8 +164,15 @@ void main() {
 
   bool hasValues = (pc.flags & FLAG_HAS_VALUES) != 0u;
   for (uint k = 0u; k < items; k += 4u) {
-    uvec4 key = loadKeys((first + k) / 4u, n);
-    uvec4 value = hasValues ? loadValues((first + k) / 4u, n) : uvec4(0u);
+    uvec4 key, value;
+    if (PAIRS_IN) {
+      uvec4 a = keys4[(first + k) / 2u], b = keys4[(first + k) / 2u + 1u];
+      key = uvec4(a.x, a.z, b.x, b.z);
+      value = uvec4(a.y, a.w, b.y, b.w);
+    } else {
+      key = loadKeys((first + k) / 4u, n);
+      value = hasValues ? loadValues((first + k) / 4u, n) : uvec4(0u);
+    }
     for (uint c = 0u; c < 4u; ++c) {
       if (k + c >= items) break;
       uint d = digitOf(key[c]);
@@ -168,8 +180,12 @@ void main() {
       uint packed = counters[s];
       counters[s] = packed + increment(d);
       uint dst = adjust[d] + unpackRank(packed, d, lowTotal);
-      keysOut[dst] = key[c];
-      if (hasValues) valuesOut[dst] = value[c];
+      if (PAIRS_OUT) {
+        pairsOut[dst] = uvec2(key[c], value[c]);
+      } else {
+        keysOut[dst] = key[c];
+        if (hasValues) valuesOut[dst] = value[c];
+      }
     }
   }
 }

@@ -98,6 +98,12 @@ int32_t lookBackSpins = -1;
 void setLookBackSpinsForTesting(int32_t spins) { lookBackSpins = spins; }
 
 namespace {
+int32_t pairScratch = -1;
+}  // namespace
+
+void setPairScratchForTesting(int32_t allowed) { pairScratch = allowed; }
+
+namespace {
 
 VkDeviceSize alignUp(VkDeviceSize v, VkDeviceSize a) { return (v + a - 1) / a * a; }
 
@@ -275,23 +281,36 @@ RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape, SortS
   const uint64_t histWords = checkedHistogram(ctx, capacity, shape, scheme);
   const bool lookBack = scheme == SortScheme::LookBack;
   if (!lookBack) scan_.emplace(ctx, uint32_t(histWords));
-  altKeys_ = vk::createBuffer(ctx, VkDeviceSize(capacity) * 4);
-  altValues_ = vk::createBuffer(ctx, VkDeviceSize(capacity) * 4);
+  // Pair scratch: whole uvec4s (kernels read pairs four at a time) and, for a single pass, room for the
+  // keys then the values at an offset any device's storage alignment (at most 256 bytes) accepts.
+  const VkDeviceSize padded = alignUp(std::max<VkDeviceSize>(capacity, 1), 64);
+  pairs_ = pairScratch != 0 && padded * 8 <= ctx.properties.limits.maxStorageBufferRange;
+  scratchA_ = vk::createBuffer(ctx, pairs_ ? padded * 8 : VkDeviceSize(capacity) * 4);
+  scratchB_ = vk::createBuffer(ctx, pairs_ ? padded * 8 : VkDeviceSize(capacity) * 4);
   hist_ = vk::createBuffer(ctx, histWords * 4);
   dummy_ = dummyBuffer(ctx);
   args_ = vk::createBuffer(ctx, 16, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
   const uint32_t spins = lookBackSpins >= 0 ? uint32_t(lookBackSpins) : LOOKBACK_SPINS;
-  const std::initializer_list<vk::SpecConstant> spec = {
-      {0, shape.threads}, {1, shape.items}, {2, lookBack ? 1u : 0u}, {3, spins}};
-  if (lookBack)
-    count_ = vk::createKernel(ctx, "radix_histogram", spv_radix_histogram_comp, 3, sizeof(RadixPush), spec);
-  else
-    count_ = vk::createKernel(ctx, "radix_count", spv_radix_count_comp, 3, sizeof(RadixPush), spec);
-  scatter_ = vk::createKernel(ctx, "radix_scatter", spv_radix_scatter_comp, 6, sizeof(RadixPush), spec);
+  for (uint32_t in = 0; in < 2; ++in) {
+    if (lookBack && in == 1) break;  // the look-back histogram reads the caller's keys only
+    const std::initializer_list<vk::SpecConstant> spec = {{0, shape.threads}, {1, shape.items}, {2, lookBack ? 1u : 0u},
+                                                          {3, spins}, {4, in}, {5, 0u}};
+    if (lookBack)
+      count_[in] = vk::createKernel(ctx, "radix_histogram", spv_radix_histogram_comp, 3, sizeof(RadixPush), spec);
+    else
+      count_[in] = vk::createKernel(ctx, "radix_count", spv_radix_count_comp, 3, sizeof(RadixPush), spec);
+  }
+  for (uint32_t in = 0; in < 2; ++in)
+    for (uint32_t out = 0; out < 2; ++out) {
+      if (!pairs_ && (in || out)) continue;
+      const std::initializer_list<vk::SpecConstant> spec = {{0, shape.threads}, {1, shape.items}, {2, lookBack ? 1u : 0u},
+                                                            {3, spins}, {4, in}, {5, out}};
+      scatter_[in][out] = vk::createKernel(ctx, "radix_scatter", spv_radix_scatter_comp, 7, sizeof(RadixPush), spec);
+    }
 }
 
 uint64_t RadixSort::bytesAllocated() const {
-  return altKeys_.size + altValues_.size + hist_.size + dummy_.size + args_.size + (scan_ ? scan_->bytesAllocated() : 0);
+  return scratchA_.size + scratchB_.size + hist_.size + dummy_.size + args_.size + (scan_ ? scan_->bytesAllocated() : 0);
 }
 
 void RadixSort::record(vk::Commands& cmd, const vk::BufferRange& keys, const vk::BufferRange& values, Count count,
@@ -304,18 +323,36 @@ void RadixSort::record(vk::Commands& cmd, const vk::BufferRange& keys, const vk:
   if (passes == 0 || tiles == 0) return;
   const bool hasValues = values.buffer != VK_NULL_HANDLE;
   const VkDeviceSize bytes = VkDeviceSize(count.max) * 4;
-  struct Pairs {
+  // Where a pass reads or writes: separate arrays, or interleaved pairs (`pairs`, in `keys`).
+  struct Side {
     vk::BufferRange keys, values;
+    bool pairs = false;
   };
-  Pairs user{keys, hasValues ? values : vk::BufferRange(dummy_)};
-  Pairs alt{range(altKeys_, 0, bytes), hasValues ? range(altValues_, 0, bytes) : vk::BufferRange(dummy_)};
-  Pairs src = user, dst = alt;
-  if (passes % 2 == 1) {  // an odd number of passes starts from a copy, so the last one lands in `keys`
-    VkBufferCopy k{keys.offset, 0, bytes}, v{values.offset, 0, bytes};
-    vkCmdCopyBuffer(cmd.handle(), keys.buffer, altKeys_.buffer, 1, &k);
-    if (hasValues) vkCmdCopyBuffer(cmd.handle(), values.buffer, altValues_.buffer, 1, &v);
-    cmd.barrier();
-    std::swap(src, dst);
+  const Side user{keys, hasValues ? values : vk::BufferRange(dummy_)};
+  const bool interleave = pairs_ && hasValues && passes >= 2;
+  // Separate scratch: keys alone in A, keys and values in A and B, or (pair scratch, one pass) both in A.
+  const VkDeviceSize valuesAt = pairs_ ? scratchA_.size / 2 : 0;
+  const Side alt{range(scratchA_, 0, bytes),
+                 !hasValues ? vk::BufferRange(dummy_) : pairs_ ? range(scratchA_, valuesAt, bytes) : range(scratchB_, 0, bytes)};
+  const VkDeviceSize pairBytes = alignUp(count.max, 4) * 8;  // whole uvec4s
+  const Side pairSide[2] = {{range(scratchA_, 0, pairBytes), vk::BufferRange(dummy_), true},
+                            {range(scratchB_, 0, pairBytes), vk::BufferRange(dummy_), true}};
+  // Pass p reads sides[p] and writes sides[p + 1]; the last lands in the caller's arrays.
+  std::vector<Side> sides;
+  if (interleave) {
+    sides.push_back(user);
+    for (uint32_t p = 1; p < passes; ++p) sides.push_back(pairSide[(p - 1) % 2]);
+    sides.push_back(user);
+  } else {
+    Side a = user, b = alt;
+    if (passes % 2 == 1) {  // an odd number of passes starts from a copy, so the last one lands in `keys`
+      VkBufferCopy k{keys.offset, alt.keys.offset, bytes}, v{values.offset, alt.values.offset, bytes};
+      vkCmdCopyBuffer(cmd.handle(), keys.buffer, alt.keys.buffer, 1, &k);
+      if (hasValues) vkCmdCopyBuffer(cmd.handle(), values.buffer, alt.values.buffer, 1, &v);
+      cmd.barrier();
+      std::swap(a, b);
+    }
+    for (uint32_t p = 0; p <= passes; ++p) sides.push_back(p % 2 == 0 ? a : b);
   }
   const vk::BufferRange countBinding = bindWord(count.word, dummy_);
   const vk::Grid g = groups(ctx_, tiles);
@@ -338,10 +375,12 @@ void RadixSort::record(vk::Commands& cmd, const vk::BufferRange& keys, const vk:
     const VkDeviceSize words = LOOKBACK_STATUS + VkDeviceSize(passes) * RADIX_BINS * tiles;
     cmd.fill(hist_, 0, 0, words * 4);
     cmd.barrier();
-    overTiles(count_, {src.keys, range(hist_, 0, words * 4), countBinding},
+    overTiles(count_[0], {sides[0].keys, range(hist_, 0, words * 4), countBinding},
               RadixPush{count.max, count.word.index, flags, 0, 0, tiles, 0, keyBits});
   }
   for (uint32_t p = 0; p < passes; ++p) {
+    const Side& src = sides[p];
+    const Side& dst = sides[p + 1];
     const uint32_t shift = p * RADIX_BITS, bits = std::min<uint32_t>(RADIX_BITS, keyBits - shift);
     const RadixPush push{count.max, count.word.index, flags, shift, (1u << bits) - 1u, tiles, p, keyBits};
     // The scatter's table: the look-back workspace (the tiles add up the ones before them while they run),
@@ -350,12 +389,15 @@ void RadixSort::record(vk::Commands& cmd, const vk::BufferRange& keys, const vk:
     if (!lookBack) {
       const uint32_t entries = (1u << bits) * tiles;
       table = range(hist_, 0, VkDeviceSize(entries) * 4);
-      overTiles(count_, {src.keys, table, countBinding}, push);
+      overTiles(count_[src.pairs], {src.keys, table, countBinding}, push);
       scan_->record(cmd, table, table, entries);
     }
     // Scatter: stable rank inside the tile, written from the tile's start of each digit.
-    overTiles(scatter_, {src.keys, src.values, dst.keys, dst.values, table, countBinding}, push);
-    std::swap(src, dst);
+    const vk::BufferRange none(dummy_);
+    overTiles(scatter_[src.pairs][dst.pairs],
+              {src.keys, src.values, dst.pairs ? none : dst.keys, dst.pairs ? none : dst.values, table, countBinding,
+               dst.pairs ? dst.keys : none},
+              push);
   }
 }
 

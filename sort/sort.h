@@ -125,6 +125,9 @@ void setGridLimitForTesting(uint32_t maxPerDimension);
 // Tests only: the look-back's reads of a tile's word before counting its keys itself, for sorts made
 // afterwards (-1 = the default, LOOKBACK_SPINS; 0 = never read: every tile before is counted).
 void setLookBackSpinsForTesting(int32_t spins);
+// Tests only: whether sorts made afterwards may keep interleaved pair scratch (RadixSort::record) or must
+// use separate arrays, as they do when pairs would not fit one binding (-1 = the default: when they fit).
+void setPairScratchForTesting(int32_t allowed);
 
 // ---- exclusive scan -----------------------------------------------------------------------------
 class Scan {
@@ -198,6 +201,9 @@ class RadixSort {
   // ignored and travel with the key), stably, in place: the results are back in `keys` and `values`.
   // `values` may be empty (buffer == VK_NULL_HANDLE) to sort keys alone. ceil(keyBits / 8) passes. With
   // a device count the passes are dispatched indirectly for the tiles it fills, not for count.max.
+  // Between passes the pairs travel interleaved in the object's scratch (one uvec2 store a key where two
+  // arrays take two scattered stores; the scatter's stores are its dearest accesses on lavapipe), so two
+  // or more passes with values go: caller's arrays -> pairs -> ... -> pairs -> caller's arrays.
   void record(vk::Commands& cmd, const vk::BufferRange& keys, const vk::BufferRange& values, Count count,
               uint32_t keyBits = 32);
   uint32_t capacity() const { return capacity_; }
@@ -212,8 +218,14 @@ class RadixSort {
   SortScheme scheme_;
   std::optional<Scan> scan_;  // of the histogram table (ReduceThenScan)
   IndirectGroups groups_;  // a device count: the count and scatter passes launch only the tiles it fills
-  vk::Kernel count_, scatter_;  // count_: radix_count (ReduceThenScan) or radix_histogram (LookBack)
-  vk::Buffer altKeys_, altValues_, hist_, dummy_, args_;  // hist_: the table, or the look-back workspace
+  // Scratch between passes. pairs_: scratchA_ and scratchB_ each hold interleaved (key, value) pairs (or
+  // scratchA_ keys alone, or keys then values for a single pass); otherwise (pairs would not fit one
+  // binding) scratchA_ holds keys and scratchB_ values.
+  bool pairs_ = false;
+  // count_: radix_count (ReduceThenScan, [1] reading pairs) or radix_histogram (LookBack);
+  // scatter_[pairs in][pairs out].
+  vk::Kernel count_[2], scatter_[2][2];
+  vk::Buffer scratchA_, scratchB_, hist_, dummy_, args_;  // hist_: the table, or the look-back workspace
 };
 
 }  // namespace cs::sort

@@ -412,6 +412,35 @@ TEST_P(RadixSortShapes, SortsKeysAloneUpToACountReadFromTheGpu) {
   }
 }
 
+// Between passes the pairs travel interleaved in the sort's scratch, or as two arrays where pairs would
+// not fit one binding: both give the stable sort, for every pass count, with a count read from the GPU.
+TEST_P(RadixSortShapes, CarriesValuesAlikeThroughPairedOrSeparateScratch) {
+  struct Restore {
+    ~Restore() { sort::setPairScratchForTesting(-1); }
+  } restore;
+  auto& ctx = test::context();
+  const uint32_t bound = 70001;
+  Pairs in = withPositions(randomWords(bound, 19));
+  for (int32_t paired : {1, 0}) {
+    sort::setPairScratchForTesting(paired);
+    sort::RadixSort sorter = makeSorter(bound);
+    for (uint32_t bits : {8u, 20u, 31u})
+      for (uint32_t n : {0u, 3u, 4099u, 70001u}) {
+        vk::Buffer k = gpuArray(ctx, in.keys), v = gpuArray(ctx, in.values), words = gpuArray(ctx, {n});
+        vk::Commands cmd(ctx);
+        sorter.record(cmd, k, v, Count::device(GpuWord(words, 0), bound), bits);
+        cmd.submit();
+        Pairs head{{in.keys.begin(), in.keys.begin() + n}, {in.values.begin(), in.values.begin() + n}};
+        Pairs want = stableSorted(head, bits);
+        want.keys.insert(want.keys.end(), in.keys.begin() + n, in.keys.end());
+        want.values.insert(want.values.end(), in.values.begin() + n, in.values.end());
+        const char* how = paired ? "paired scratch" : "separate scratch";
+        EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, k, bound), want.keys, how << ", " << bits << " bits, count " << n);
+        EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, v, bound), want.values, how << ", " << bits << " bits, count " << n);
+      }
+  }
+}
+
 // The look-back never depends on how long another tile takes: a tile still unpublished after a few reads
 // is counted from its keys by the one waiting. With no read at all, every tile before is counted (the
 // walk never meets a published prefix); with one, any wait takes that path; the sort is the stable one.
