@@ -1,38 +1,53 @@
 // The ray key of 002 §3.5 and the screen order of its unsorted variant, as plain functions that glslang
 // and C++ both compile: the kernels use them, and so do the tests as their CPU reference.
 //
-// Ray key (32 bits, ray = light -> sample, direction d = sample - light):
-//   bits 28..30  face = 2 * axis + (d[axis] < 0): the major axis of d (x, y, z = 0, 1, 2) and its sign.
+// Ray key (23 bits, ray = light -> sample, direction d = sample - light), sorted in three radix passes:
+//   bits 20..22  face = 2 * axis + (d[axis] < 0): the major axis of d (x, y, z = 0, 1, 2) and its sign.
 //                Ties (|d.x| == |d.y| >= |d.z|, ...) go to the lowest axis, so boundary directions have
 //                exactly one face.
-//   bits  0..27  Hilbert index of the cell that (d[axis+1], d[axis+2]) / |d[axis]| (both in [-1, 1])
-//                falls in, on a 2^14 x 2^14 grid over the face. 28 bits and not 29: a Hilbert curve
-//                needs a square 2^k x 2^k grid (2k bits); the 29th bit would only buy a 2:1 anisotropic
-//                grid, halving the cells' width on one axis. A cell spans ~1.2e-4 rad, far below the
-//                angle between neighbouring pixels' rays at any useful resolution, so rays sharing a
-//                cell are rare and keep their compaction order (the sort is stable).
-//   bit  31      always 0: sort 31 key bits (RAY_KEY_BITS).
+//   bits  0..19  Hilbert index of the cell that the face coordinates (d[axis+1], d[axis+2]) / |d[axis]|
+//                (both in [-1, 1]) fall in, on a 2^10 x 2^10 grid over the face's *fitted box*: the box of
+//                the face coordinates of RAY_BOUNDS_SAMPLES lit samples spread evenly over the frame's
+//                (ray_bounds.comp), or the whole face when none of them is on it. Samples outside the box go
+//                to its edge cells. Fitted, the grid follows the frame: a zoomed view or a distant light,
+//                whose rays span a sliver of a face, still gets its 2^20 cells over them, where a fixed grid
+//                would give it a few; and 20 bits instead of 28 save a radix pass of four. Measured against a
+//                fixed 2^14 grid (28 bits, docs/ARCHITECTURE.md, "Ray keys"): pairs tested within 2 % on
+//                every view and scene of frame_bench.
 // Degenerate rays (zero length: a sample at the light; or a non-finite direction) get
 // RAY_KEY_DEGENERATE, which no real direction produces (face field 7), so they sort after all others.
+// Rays sharing a cell keep their compaction order (row-major pixels; the sort is stable).
 //
-// GPU and CPU agree exactly on the face and on the integer Hilbert index; the cell coordinates come
-// from one float division, which Vulkan allows to be 2.5 ulp off, so a direction within ~1e-7 of a cell
-// boundary may land in the neighbouring cell on a GPU. Lavapipe's division is exact.
+// GPU and CPU agree exactly on the face, the box and the integer Hilbert index; the cell coordinates
+// come from float divisions, which Vulkan allows to be 2.5 ulp off, so a direction within ~1e-7 of a
+// cell boundary may land in the neighbouring cell on a GPU. Lavapipe's division is exact. The key only
+// orders the rays: any order gives the same shadow, the tree is built from the rays themselves.
 #ifndef CONESHADOW_RAYS_HILBERT_H
 #define CONESHADOW_RAYS_HILBERT_H
 
 #include "rays/rays_layout.h"
 
-#define RAY_KEY_HILBERT_ORDER 14
-#define RAY_KEY_FACE_SHIFT 28
-#define RAY_KEY_BITS 31
-#define RAY_KEY_DEGENERATE 0x7FFFFFFFu
+#define RAY_KEY_HILBERT_ORDER 12
+#define RAY_KEY_FACE_SHIFT 24
+#define RAY_KEY_BITS 27
+#define RAY_KEY_DEGENERATE 0x7FFFFFFu
+// The key in the far-light frame (frameRayKey): a 2^15 x 2^15 grid, 30 bits, four passes.
+#define FRAME_KEY_BITS 31
+#define FRAME_KEY_DEGENERATE 0x7FFFFFFFu
+// The box of a face: words 4 * face + (0 .. 3) hold orderedBits of the minimum of u, of v, of -u and of
+// -v over the face's samples of the subset (atomicMin; all ones, RAY_BOUNDS_EMPTY, while it has none).
+#define RAY_BOUNDS_SAMPLES 16384u
+#define RAY_BOUNDS_WORDS 32u
+#define RAY_BOUNDS_EMPTY 0xFFFFFFFFu
+#define RAY_KEY_MAX_ZOOM 24  // halvings of a face's grid at most: past them cells are finer than fp32 resolves
 
 #ifdef __cplusplus
 namespace cs::rays {
 namespace glsl {  // the functions below are GLSL; these names let C++ read them as written
 CS_GLSL_TYPES
 CS_GLSL_MATH
+using glm::floatBitsToUint;
+using glm::uintBitsToFloat;
 #endif
 
 // Index of cell (x, y) along the Hilbert curve over a 2^order x 2^order grid (order 1..16). The curve
@@ -74,24 +89,89 @@ CS_FN uint rayFace(vec3 d) {
   return 2u * axis + (d[axis] < 0.0f ? 1u : 0u);
 }
 
-// The face-local cell of d on the 2^order grid: (d[axis+1], d[axis+2]) / |d[axis]| mapped from
-// [-1, 1] to cells 0 .. 2^order - 1 (the value 1 itself goes to the last cell). d must not be degenerate.
-CS_FN uvec2 rayCell(vec3 d, uint face, uint order) {
+// The face coordinates of d on its face (d must not be degenerate): (d[axis+1], d[axis+2]) / |d[axis]|,
+// both in [-1, 1].
+CS_FN vec2 rayFaceUV(vec3 d, uint face) {
   uint axis = face >> 1u;
   float m = abs(d[axis]);
-  float u = d[(axis + 1u) % 3u] / m;
-  float v = d[(axis + 2u) % 3u] / m;
-  float half_ = float(1u << (order - 1u));  // scaling by a power of two and adding it are exact
-  float last = float((1u << order) - 1u);
-  return uvec2(uint(clamp(floor(u * half_ + half_), 0.0f, last)), uint(clamp(floor(v * half_ + half_), 0.0f, last)));
+  return vec2(d[(axis + 1u) % 3u] / m, d[(axis + 2u) % 3u] / m);
 }
 
-// The 32-bit sort key of the ray with direction d (see the header comment).
+// A key grid over a box of a face: (u0, v0, su, sv), cell = floor(((u, v) - (u0, v0)) * (su, sv)) clamped to
+// 0 .. 2^order - 1. The whole face [-1, 1]^2 (scaling by a power of two is exact):
+CS_FN vec4 wholeFaceGrid(uint order) {
+  float half_ = float(1u << (order - 1u));
+  return vec4(-1.0f, -1.0f, half_, half_);
+}
+CS_FN uvec2 gridCell(vec2 uv, vec4 grid, uint order) {
+  float last = float((1u << order) - 1u);
+  return uvec2(uint(clamp(floor((uv.x - grid.x) * grid.z), 0.0f, last)),
+               uint(clamp(floor((uv.y - grid.y) * grid.w), 0.0f, last)));
+}
+
+// The face-local cell of d on the 2^order grid over the whole face (the value 1 itself goes to the last
+// cell). d must not be degenerate.
+CS_FN uvec2 rayCell(vec3 d, uint face, uint order) { return gridCell(rayFaceUV(d, face), wholeFaceGrid(order), order); }
+
+// Floats as uints in the same order (atomicMin over them is a float minimum): non-negative floats get the
+// sign bit set, negative ones are inverted. Finite values never map to RAY_BOUNDS_EMPTY.
+CS_FN uint orderedBits(float x) {
+  uint b = floatBitsToUint(x);
+  return (b & 0x80000000u) != 0u ? ~b : (b | 0x80000000u);
+}
+CS_FN float fromOrderedBits(uint o) { return uintBitsToFloat((o & 0x80000000u) != 0u ? (o & 0x7FFFFFFFu) : ~o); }
+
+// The start of an interval of length s on a face axis ([-1, 1]) that holds [lo, hi]: one of the face's
+// own intervals of that length (aligned at -1 + k s), else one offset by half their length; 2 (past the
+// face) when neither holds it.
+CS_FN float zoomOrigin(float lo, float hi, float s) {
+  float aligned = floor((lo + 1.0f) / s) * s - 1.0f;  // s is a power of two: the division is exact
+  if (hi <= aligned + s) return aligned;
+  float offset = floor((lo + 1.0f + 0.5f * s) / s) * s - 0.5f * s - 1.0f;
+  if (offset <= lo && hi <= offset + s) return offset;
+  return 2.0f;
+}
+
+// The grid over a face's fitted box (box: its four words, see RAY_BOUNDS_SAMPLES): the whole face's grid
+// zoomed in by halves while a square of half the side still holds the box, each axis's start on the face's
+// own grid of that square's side or half a side off it (RAY_KEY_MAX_ZOOM halvings at most). The cells stay
+// square and the squares stay on the face's grid: a grid placed at the box's own corner, or stretched to
+// its sides, was measured to cost up to a fifth more pairs on the museum than the whole face's. The whole
+// face when the subset had no sample there.
+CS_FN vec4 fittedFaceGrid(uvec4 box, uint order) {
+  vec4 grid = wholeFaceGrid(order);
+  if (box.x == RAY_BOUNDS_EMPTY) return grid;
+  vec2 lo = vec2(fromOrderedBits(box.x), fromOrderedBits(box.y));
+  vec2 hi = vec2(-fromOrderedBits(box.z), -fromOrderedBits(box.w));
+  float side = 2.0f;
+  for (uint level = 1u; level <= uint(RAY_KEY_MAX_ZOOM); ++level) {
+    float s = 0.5f * side;
+    float x = zoomOrigin(lo.x, hi.x, s), y = zoomOrigin(lo.y, hi.y, s);
+    if (x > 1.0f || y > 1.0f) break;
+    side = s;
+    grid = vec4(x, y, float(1u << order) / s, float(1u << order) / s);
+  }
+  return grid;
+}
+
+// Which lit sample the subset's j-th member is (j < RAY_BOUNDS_SAMPLES, n lit samples): spread evenly,
+// floor(j * n / RAY_BOUNDS_SAMPLES) in 32-bit arithmetic. May repeat a sample when n is small.
+CS_FN uint boundsSample(uint j, uint n) {
+  return j * (n / RAY_BOUNDS_SAMPLES) + (j * (n % RAY_BOUNDS_SAMPLES)) / RAY_BOUNDS_SAMPLES;
+}
+
+// The key of a non-degenerate direction d on `face` with the given grid (the frame's: that face's
+// fittedFaceGrid).
+CS_FN uint faceRayKey(vec3 d, uint face, vec4 grid) {
+  uvec2 c = gridCell(rayFaceUV(d, face), grid, uint(RAY_KEY_HILBERT_ORDER));
+  return (face << uint(RAY_KEY_FACE_SHIFT)) | hilbertIndex(c.x, c.y, uint(RAY_KEY_HILBERT_ORDER));
+}
+
+// The key of d on its whole face (no fitted box): the tests' reference for faces and Hilbert order.
 CS_FN uint rayKey(vec3 d) {
   uint face = rayFace(d);
   if (face == 7u) return RAY_KEY_DEGENERATE;
-  uvec2 c = rayCell(d, face, uint(RAY_KEY_HILBERT_ORDER));
-  return (face << uint(RAY_KEY_FACE_SHIFT)) | hilbertIndex(c.x, c.y, uint(RAY_KEY_HILBERT_ORDER));
+  return faceRayKey(d, face, wholeFaceGrid(uint(RAY_KEY_HILBERT_ORDER)));
 }
 
 // The ray key in a rotated frame (the cone path's far-light frame, traversal/traversal.h): d_f = the ray
@@ -99,10 +179,10 @@ CS_FN uint rayKey(vec3 d) {
 // cell of (d_f.x / d_f.z, d_f.y / d_f.z) mapped by rect = (u0, v0, 1 / (u1 - u0), 1 / (v1 - v0)) onto
 // [0, 1]^2 (values outside clamped to the edge cells): the whole grid spans the scene's projection, where
 // the face grid of rayKey would give a far light's rays a handful of cells. Degenerate (d_f.z <= 0 or not
-// finite): RAY_KEY_DEGENERATE.
+// finite): FRAME_KEY_DEGENERATE.
 CS_FN uint frameRayKey(vec3 d, vec4 rect) {
   if (!(d.z > 0.0f) || !(abs(d.x) <= CS_FLT_MAX && abs(d.y) <= CS_FLT_MAX && d.z <= CS_FLT_MAX))
-    return RAY_KEY_DEGENERATE;
+    return FRAME_KEY_DEGENERATE;
   float u = (d.x / d.z - rect.x) * rect.z;
   float v = (d.y / d.z - rect.y) * rect.w;
   float n = 32768.0f;  // 2^15
@@ -129,10 +209,21 @@ using glsl::rayCell;
 using glsl::rayFace;
 using glsl::rayKey;
 using glsl::frameRayKey;
+using glsl::rayFaceUV;
+using glsl::wholeFaceGrid;
+using glsl::gridCell;
+using glsl::orderedBits;
+using glsl::fromOrderedBits;
+using glsl::fittedFaceGrid;
+using glsl::zoomOrigin;
+using glsl::boundsSample;
+using glsl::faceRayKey;
 using glsl::screenOrderPixel;
 constexpr uint32_t kRayKeyDegenerate = RAY_KEY_DEGENERATE;
 constexpr uint32_t kRayKeyBits = RAY_KEY_BITS;
 constexpr uint32_t kRayKeyHilbertOrder = RAY_KEY_HILBERT_ORDER;
+constexpr uint32_t kFrameKeyBits = FRAME_KEY_BITS;
+constexpr uint32_t kFrameKeyDegenerate = FRAME_KEY_DEGENERATE;
 }  // namespace cs::rays
 #endif
 #endif

@@ -1,9 +1,10 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 // The Hilbert ray key (rays/hilbert.h) of every compacted sample: ray = light -> position[sample], in the
-// world (rayKey) or in a rotated frame (frameRayKey, KeysPush::framed).
+// world on its face's fitted grid (faceRayKey on ray_grids.comp's grid) or in a rotated frame
+// (frameRayKey, KeysPush::framed).
 // bindings: 0 = position (vec4[] per pixel), 1 = samples (uint[] pixel indices), 2 = keys (uint[]),
-//           3 = countWords (device count)
+//           3 = countWords (device count), 4 = the faces' grids (vec4 per face, world keys)
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
 layout(local_size_x = PIXEL_THREADS) in;
@@ -11,6 +12,7 @@ layout(std430, binding = 0) readonly buffer Position { vec4 position[]; };
 layout(std430, binding = 1) readonly buffer Samples { uint samples[]; };
 layout(std430, binding = 2) writeonly buffer Keys { uint keys[]; };
 layout(std430, binding = 3) readonly buffer CountWords { uint countWords[]; };
+layout(std430, binding = 4) readonly buffer Grids { vec4 grids[]; };
 layout(push_constant) uniform Push { KeysPush pc; };
 // = pc.framed, as a specialisation constant: each pipeline holds one key's code (on lavapipe a lane pays
 // for a kernel's code whether a uniform branch enters it or not, and each key has its own Hilbert loop).
@@ -26,6 +28,8 @@ void main() {
     vec3 f = vec3(dot(pc.rowX.xyz, d), dot(pc.rowY.xyz, d), dot(pc.rowZ.xyz, d));
     keys[i] = frameRayKey(f - pc.lightFrame.xyz, pc.rect);
   } else {
-    keys[i] = rayKey(x - pc.light.xyz);
+    vec3 d = x - pc.light.xyz;
+    uint face = rayFace(d);
+    keys[i] = face == 7u ? RAY_KEY_DEGENERATE : faceRayKey(d, face, grids[face]);
   }
 }

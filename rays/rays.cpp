@@ -2,13 +2,20 @@
 #include "rays/rays.h"
 
 #include <algorithm>
+#include <array>
 #include <numeric>
 
 #include "rays/hilbert.h"
 #include "rays/lit_flags.comp.h"
+#include "rays/ray_bounds.comp.h"
+#include "rays/ray_grids.comp.h"
 #include "rays/ray_keys.comp.h"
 
 namespace cs::rays {
+
+static_assert(RAY_BOUNDS_THREADS * RAY_BOUNDS_ITEMS * RAY_BOUNDS_GROUPS == RAY_BOUNDS_SAMPLES,
+              "ray_bounds.comp's grid covers the subset once");
+static_assert(RAY_BOUNDS_WORDS >= 24, "four words for each of six faces");
 
 const char* rayOrderName(RayOrder order) {
   switch (order) {
@@ -49,19 +56,23 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
       groups_(ctx) {
   flags_ = vk::createKernel(ctx, "lit_flags", spv_lit_flags_comp, 4, sizeof(LitPush), {{0, 0u}});
   mortonFlags_ = vk::createKernel(ctx, "lit_flags (Morton)", spv_lit_flags_comp, 4, sizeof(LitPush), {{0, 1u}});
-  rayKeys_ = vk::createKernel(ctx, "ray_keys", spv_ray_keys_comp, 4, sizeof(KeysPush), {{0, 0u}});
-  frameRayKeys_ = vk::createKernel(ctx, "ray_keys (frame)", spv_ray_keys_comp, 4, sizeof(KeysPush), {{0, 1u}});
+  rayBounds_ = vk::createKernel(ctx, "ray_bounds", spv_ray_bounds_comp, 4, sizeof(KeysPush));
+  rayGrids_ = vk::createKernel(ctx, "ray_grids", spv_ray_grids_comp, 2, sizeof(KeysPush));
+  rayKeys_ = vk::createKernel(ctx, "ray_keys", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 0u}});
+  frameRayKeys_ = vk::createKernel(ctx, "ray_keys (frame)", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 1u}});
   flagBuffer_ = vk::createBuffer(ctx, maxDomain_ * 4);
   pixelOf_ = vk::createBuffer(ctx, maxDomain_ * 4);
   samples_ = vk::createBuffer(ctx, uint64_t(maxPixels_) * 4);
   keys_ = vk::createBuffer(ctx, uint64_t(maxPixels_) * 4);
   count_ = vk::createBuffer(ctx, 16);
+  bounds_ = vk::createBuffer(ctx, RAY_BOUNDS_WORDS * 4);
+  grids_ = vk::createBuffer(ctx, 8 * 16);
   keyArgs_ = vk::createBuffer(ctx, 16, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
 }
 
 uint64_t LitRays::bytesAllocated() const {
   return compact_.bytesAllocated() + sort_.bytesAllocated() + flagBuffer_.size + pixelOf_.size + samples_.size +
-         keys_.size + count_.size + keyArgs_.size;
+         keys_.size + count_.size + bounds_.size + grids_.size + keyArgs_.size;
 }
 
 void LitRays::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, RayOrder order) {
@@ -91,26 +102,36 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
   push.count = count.max;
   push.countIndex = count.word.index;
   push.flags = count.onDevice() ? FLAG_COUNT_FROM_BUFFER : 0u;
-  const vk::Kernel& keys = frame.framed != 0u ? frameRayKeys_ : rayKeys_;
+  const bool framed = frame.framed != 0u;
+  keyBits_ = framed ? kFrameKeyBits : kRayKeyBits;
   vk::BufferRange countBinding = count.onDevice() ? vk::BufferRange() : vk::BufferRange(count_);
   if (count.onDevice()) {
     countBinding.buffer = count.word.buffer;
     countBinding.offset = 0;
     countBinding.range = (VkDeviceSize(count.word.index) + 1) * 4;
   }
+  if (!framed) {  // each face's box over the subset, for its fitted grid
+    cmd.fill(bounds_, RAY_BOUNDS_EMPTY, 0, bounds_.size);
+    cmd.barrier();
+    cmd.dispatch(rayBounds_, {g.position, samples_, bounds_, countBinding}, push, RAY_BOUNDS_GROUPS);
+    cmd.barrier();
+    cmd.dispatch(rayGrids_, {bounds_, grids_}, push, 1);
+    cmd.barrier();
+  }
+  const vk::Kernel& keys = framed ? frameRayKeys_ : rayKeys_;
   if (count.onDevice()) {  // as many workgroups as the device count needs (none for a count of 0)
     groups_.record(cmd, count, PIXEL_THREADS, keyArgs_, 0);
     cmd.barrier();
-    cmd.dispatchIndirect(keys, {g.position, samples_, keys_, countBinding}, &push, sizeof(push), keyArgs_);
+    cmd.dispatchIndirect(keys, {g.position, samples_, keys_, countBinding, grids_}, &push, sizeof(push), keyArgs_);
   } else {
     vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(count.max, PIXEL_THREADS));
-    cmd.dispatch(keys, {g.position, samples_, keys_, countBinding}, push, grid.x, grid.y);
+    cmd.dispatch(keys, {g.position, samples_, keys_, countBinding, grids_}, push, grid.x, grid.y);
   }
   cmd.barrier();
 }
 
 void LitRays::recordSort(vk::Commands& cmd, sort::Count count) {
-  sort_.record(cmd, keys_, samples_, count, kRayKeyBits);
+  sort_.record(cmd, keys_, samples_, count, keyBits_);
 }
 
 void LitRays::record(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, RayOrder order) {
@@ -126,6 +147,20 @@ void LitRays::record(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light,
 
 uint32_t LitRays::readCount() const { return vk::download<uint32_t>(ctx_, count_, 1)[0]; }
 
+std::array<glm::uvec4, 6> referenceBoxes(const GBuffer& g, const std::vector<uint32_t>& samples, glm::vec3 light) {
+  std::array<glm::uvec4, 6> box;
+  box.fill(glm::uvec4(RAY_BOUNDS_EMPTY));
+  const uint32_t n = uint32_t(samples.size());
+  for (uint32_t j = 0; j < RAY_BOUNDS_SAMPLES && n > 0; ++j) {
+    const glm::vec3 d = glm::vec3(g.position[samples[boundsSample(j, n)]]) - light;
+    const uint32_t face = rayFace(d);
+    if (face == 7) continue;
+    const glm::vec2 uv = rayFaceUV(d, face);
+    box[face] = glm::min(box[face], glm::uvec4(orderedBits(uv.x), orderedBits(uv.y), orderedBits(-uv.x), orderedBits(-uv.y)));
+  }
+  return box;
+}
+
 std::vector<uint32_t> referenceRayOrder(const GBuffer& g, glm::vec3 light, RayOrder order) {
   std::vector<uint32_t> samples;
   if (order == RayOrder::ScreenMorton) {
@@ -139,8 +174,13 @@ std::vector<uint32_t> referenceRayOrder(const GBuffer& g, glm::vec3 light, RayOr
   for (uint32_t i = 0; i < g.size(); ++i)
     if (g.isLit(i)) samples.push_back(i);
   if (order == RayOrder::Hilbert) {
+    const std::array<glm::uvec4, 6> boxes = referenceBoxes(g, samples, light);
     std::vector<uint32_t> keys(g.size());
-    for (uint32_t s : samples) keys[s] = rayKey(glm::vec3(g.position[s]) - light);
+    for (uint32_t s : samples) {
+      const glm::vec3 d = glm::vec3(g.position[s]) - light;
+      const uint32_t face = rayFace(d);
+      keys[s] = face == 7 ? kRayKeyDegenerate : faceRayKey(d, face, fittedFaceGrid(boxes[face], kRayKeyHilbertOrder));
+    }
     std::stable_sort(samples.begin(), samples.end(), [&](uint32_t a, uint32_t b) { return keys[a] < keys[b]; });
   }
   return samples;

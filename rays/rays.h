@@ -9,6 +9,7 @@
 // count (countBuffer()[0] on the GPU, or readCount() on the host: one 4-byte readback). Nothing else per
 // ray. Equal keys keep row-major order (the sort is stable), so the order is deterministic.
 #pragma once
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -16,6 +17,7 @@
 
 #include "raster/gbuffer.h"
 #include "raster/raster.h"
+#include "rays/hilbert.h"
 #include "rays/rays_layout.h"
 #include "sort/sort.h"
 
@@ -50,10 +52,13 @@ class LitRays {
   void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, sort::Count count);  // -> keys()
   // The keys in a rotated frame (frameRayKey): `frame` holds KeysPush's rowX .. rect (framed = 1).
   void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& frame, sort::Count count);
-  void recordSort(vk::Commands& cmd, sort::Count count);  // sorts (keys(), samples()) by key
+  // Sorts (keys(), samples()) by key: the key bits of the last recordKeys' kind (RAY_KEY_BITS or, in a
+  // rotated frame, FRAME_KEY_BITS).
+  void recordSort(vk::Commands& cmd, sort::Count count);
 
   const vk::Buffer& samples() const { return samples_; }
   const vk::Buffer& keys() const { return keys_; }
+  const vk::Buffer& bounds() const { return bounds_; }  // the faces' boxes (RAY_BOUNDS_WORDS uint)
   const sort::RadixSort& sorter() const { return sort_; }
   const vk::Buffer& countBuffer() const { return count_; }
   // The lit count, on the GPU.
@@ -69,9 +74,15 @@ class LitRays {
   sort::RadixSort sort_;
   sort::IndirectGroups groups_;  // a device count: the keys launch only the workgroups it needs
   vk::Kernel flags_, mortonFlags_;             // row-major, Morton screen order (lit_flags.comp SPEC_MORTON)
+  vk::Kernel rayBounds_, rayGrids_;            // the faces' fitted boxes and grids (ray_bounds, ray_grids.comp)
   vk::Kernel rayKeys_, frameRayKeys_;          // the world's keys, a rotated frame's (ray_keys.comp SPEC_FRAMED)
-  vk::Buffer flagBuffer_, pixelOf_, samples_, keys_, count_, keyArgs_;
+  vk::Buffer flagBuffer_, pixelOf_, samples_, keys_, count_, bounds_, grids_, keyArgs_;
+  uint32_t keyBits_ = RAY_KEY_BITS;  // of the keys the last recordKeys recorded
 };
+
+// CPU reference of the faces' fitted boxes (ray_bounds.comp; fittedFaceGrid makes each a grid) for the lit
+// samples `samples` in compaction order.
+std::array<glm::uvec4, 6> referenceBoxes(const GBuffer& g, const std::vector<uint32_t>& samples, glm::vec3 light);
 
 // CPU reference of the whole step (tests, debugging): lit samples of `g` in the given order.
 std::vector<uint32_t> referenceRayOrder(const GBuffer& g, glm::vec3 light, RayOrder order);

@@ -7,6 +7,11 @@
 
 // Per-pixel kernels (lit flags, ray keys, test kernels).
 #define PIXEL_THREADS 256
+// ray_bounds.comp: RAY_BOUNDS_GROUPS workgroups of RAY_BOUNDS_THREADS, each invocation RAY_BOUNDS_ITEMS
+// samples of the subset (their product is RAY_BOUNDS_SAMPLES, rays/hilbert.h).
+#define RAY_BOUNDS_THREADS 64
+#define RAY_BOUNDS_ITEMS 16
+#define RAY_BOUNDS_GROUPS 16
 
 // Unsorted ("screen") order: square tiles of 2^MORTON_TILE_BITS pixels a side, row-major, Morton
 // (Z) order inside a tile. Four consecutive samples are a 2x2 block, 16 a 4x4 block, ... up to the

@@ -69,21 +69,29 @@ uint tileStart(uint d, uint lowTotal) { return unpackRank(counters[slot(d % RADI
 uint tileCount(uint d, uint tileKeys, uint lowTotal) {
   return (d == pc.digitMask ? tileKeys : tileStart(d + 1u, lowTotal)) - tileStart(d, lowTotal);
 }
-// Keys of digit d in tile j, counted from the keys themselves: what a tile that has not published yet
-// would publish, so the walk never depends on how long another workgroup takes (and every loop is bounded:
-// a CPU driver may cut a loop that runs past its iteration limit).
-uint digitCountOfTile(uint j, uint d) {
-  uint n = countOf(pc.count, pc.countIndex, pc.flags), first = j * SORT_TILE, last = min(first + SORT_TILE, n), c = 0u;
+// Digits an invocation walks back for, at most (SORT_THREADS is a multiple of SORT_RAKE, sort.cpp checks).
+const uint kMaxShare = RADIX_BINS / SORT_RAKE;
+
+// Keys of each digit d0 .. d0 + nd - 1 in tile j, counted from the keys themselves: what a tile that has
+// not published yet would publish, so the walk never depends on how long another workgroup takes. One pass
+// over the tile for all the invocation's digits: a CPU driver may end a shader's loops after a fixed
+// number of iterations (lavapipe: 65535, all loops of an invocation together), so the walk keeps its loops
+// short (docs/ARCHITECTURE.md, "Sort").
+void countTile(uint j, uint d0, uint nd, inout uint counts[kMaxShare]) {
+  for (uint k = 0u; k < nd; ++k) counts[k] = 0u;
+  uint n = countOf(pc.count, pc.countIndex, pc.flags), first = j * SORT_TILE, last = min(first + SORT_TILE, n);
   for (uint i = first; i < last; i += 4u) {
     uvec4 key = loadKeys(i / 4u, n);
-    for (uint k = 0u; k < 4u; ++k)
-      if (i + k < last && digitOf(key[k]) == d) ++c;
+    for (uint c = 0u; c < 4u; ++c) {
+      uint k = digitOf(key[c]) - d0;  // wraps past nd for digits below d0
+      if (i + c < last && k < nd) ++counts[k];
+    }
   }
-  return c;
 }
 
 void lookBack(uint tile, uint tileKeys, uint lowTotal) {
   uint d0 = gl_LocalInvocationIndex * (RADIX_BINS / SORT_THREADS), d1 = min(d0 + RADIX_BINS / SORT_THREADS, pc.digitMask + 1u);
+  uint nd = d1 > d0 ? d1 - d0 : 0u;
   uint totals = 0u;
   for (uint d = d0; d < d1; ++d) {
     totals += hist[LOOKBACK_DIGITS + pc.pass * RADIX_BINS + d];
@@ -91,19 +99,37 @@ void lookBack(uint tile, uint tileKeys, uint lowTotal) {
   }
   uint allTotals;
   uint digitStart = workgroupExclusiveSum(totals, allTotals);  // keys of the digits below d0, all tiles
-  for (uint d = d0; d < d1; ++d) {
-    uint before = 0u;  // keys of digit d in tiles 0 .. tile - 1
-    for (uint j = tile; j > 0u; --j) {
-      uint word = 0u;
-      for (uint tries = 0u; tries < SPINS && (word & (LOOKBACK_AGGREGATE | LOOKBACK_PREFIX)) == 0u; ++tries)
-        word = atomicAdd(hist[statusWord(j - 1u, d)], 0u);
-      if ((word & (LOOKBACK_AGGREGATE | LOOKBACK_PREFIX)) == 0u)  // not published yet: count it here
-        word = LOOKBACK_AGGREGATE | digitCountOfTile(j - 1u, d);
-      before += word & LOOKBACK_VALUE;
-      if ((word & LOOKBACK_PREFIX) != 0u) break;
+  // Tile by tile back from this one, each digit until a tile has published its inclusive prefix.
+  uint before[kMaxShare], counts[kMaxShare];  // keys of digit d0 + k in the tiles walked; a counted tile's
+  bool open[kMaxShare];
+  for (uint k = 0u; k < nd; ++k) {
+    before[k] = 0u;
+    open[k] = true;
+  }
+  uint stillOpen = tile > 0u ? nd : 0u;
+  for (uint j = tile; j > 0u && stillOpen > 0u; --j) {
+    bool counted = false;
+    for (uint k = 0u; k < nd; ++k) {
+      if (!open[k]) continue;
+      uint word = 0u;  // once the tile is counted, its counts serve the rest without waiting again
+      for (uint tries = 0u; !counted && tries < SPINS && (word & (LOOKBACK_AGGREGATE | LOOKBACK_PREFIX)) == 0u; ++tries)
+        word = atomicAdd(hist[statusWord(j - 1u, d0 + k)], 0u);
+      if ((word & (LOOKBACK_AGGREGATE | LOOKBACK_PREFIX)) == 0u) {  // not published yet: count it here
+        if (!counted) countTile(j - 1u, d0, nd, counts);
+        counted = true;
+        word = LOOKBACK_AGGREGATE | counts[k];
+      }
+      before[k] += word & LOOKBACK_VALUE;
+      if ((word & LOOKBACK_PREFIX) != 0u) {
+        open[k] = false;
+        --stillOpen;
+      }
     }
-    if (tile != 0u) atomicExchange(hist[statusWord(tile, d)], LOOKBACK_PREFIX | (before + tileCount(d, tileKeys, lowTotal)));
-    adjust[d] = digitStart + before - tileStart(d, lowTotal);
+  }
+  for (uint k = 0u; k < nd; ++k) {
+    uint d = d0 + k;
+    if (tile != 0u) atomicExchange(hist[statusWord(tile, d)], LOOKBACK_PREFIX | (before[k] + tileCount(d, tileKeys, lowTotal)));
+    adjust[d] = digitStart + before[k] - tileStart(d, lowTotal);
     digitStart += hist[LOOKBACK_DIGITS + pc.pass * RADIX_BINS + d];
   }
 }

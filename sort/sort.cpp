@@ -65,7 +65,7 @@ const char* sortSchemeName(SortScheme scheme) {
 SortScheme sortSchemeFor(const vk::Context& ctx) {
   constexpr uint32_t kNvidia = 0x10DE, kAmd = 0x1002;
   const auto& p = ctx.properties;
-  if (p.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU || p.vendorID == kNvidia || p.vendorID == kAmd) return SortScheme::LookBack;
+  if (p.deviceType != VK_PHYSICAL_DEVICE_TYPE_CPU && (p.vendorID == kNvidia || p.vendorID == kAmd)) return SortScheme::LookBack;
   return SortScheme::ReduceThenScan;
 }
 

@@ -27,7 +27,7 @@
 // the block sums, so n elements cost two reads and one write plus ~n/2048 extra; the array and two levels
 // of sums cover any 32-bit count. Compaction: the same reduce (counting nonzero flags), a scan of the
 // block counts, and a scatter that re-derives each element's rank inside its block. Radix sort: per pass
-// (RADIX_BITS = 8, so ceil(keyBits / 8) passes), each tile (8192 keys on lavapipe, SortShape) builds its digit
+// (RADIX_BITS = 9, so ceil(keyBits / 9) passes), each tile (8192 keys on lavapipe, SortShape) builds its digit
 // histogram, one scan of the digit-major histogram table gives every (digit, tile) its output offset, and
 // a scatter ranks keys stably inside the tile with per-invocation 16-bit counters in shared memory
 // (radix_scatter.comp); or, by look-back (SortScheme), one histogram of every pass's digits up front and
@@ -83,7 +83,7 @@ uint32_t ceilDiv(uint64_t a, uint32_t b);
 std::vector<uint32_t> scanLevelCounts(uint32_t n, size_t minLevels = 1);
 // uint32 elements of scratch a Scan of `capacity` needs (block sums and their scans, every level >= 1).
 uint64_t scanScratchElements(uint32_t capacity);
-uint32_t radixPasses(uint32_t keyBits);     // ceil(keyBits / RADIX_BITS)
+uint32_t radixPasses(uint32_t keyBits);     // ceil(keyBits / RADIX_BITS): 27-bit ray keys in 3, 32 bits in 4
 // The radix sort's tile, chosen per device (sort_layout.h): `threads` invocations a workgroup, each
 // owning `items` consecutive keys; the kernels get both as specialisation constants.
 struct SortShape {
@@ -103,9 +103,11 @@ SortShape sortShapeFor(const vk::Context& ctx);
 // wait is short only where a running workgroup keeps running while another spins.
 enum class SortScheme { ReduceThenScan, LookBack };
 const char* sortSchemeName(SortScheme scheme);
-// LookBack on a CPU device (lavapipe: every workgroup runs to its end on one thread, and tiles are taken
-// in launch order, so the tiles waited on are running or done) and on NVIDIA and AMD GPUs (which keep
-// resident workgroups running; GPU sorts rely on it there); ReduceThenScan elsewhere.
+// LookBack on NVIDIA and AMD GPUs (which keep resident workgroups running; GPU sorts rely on it there);
+// ReduceThenScan elsewhere, lavapipe included: there a tile often waits on the one running on the other
+// core until its reads run out and counts that tile itself, and lavapipe ends all of an invocation's loops
+// after 65535 iterations in total, which a long walk of counted tiles would pass (a wrong sort, silently).
+// Measured there, 1 M random pairs: reduce-then-scan 74-77 ms, look-back 89-105 ms (sort_bench).
 SortScheme sortSchemeFor(const vk::Context& ctx);
 // uint32 words of the look-back workspace (sort_layout.h) for `count` keys.
 uint64_t lookBackWords(uint32_t count, SortShape shape = {});
@@ -199,7 +201,7 @@ class RadixSort {
   RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape, SortScheme scheme);
   // Sorts the first `count` (key, value) pairs by the low `keyBits` bits of the key (higher bits are
   // ignored and travel with the key), stably, in place: the results are back in `keys` and `values`.
-  // `values` may be empty (buffer == VK_NULL_HANDLE) to sort keys alone. ceil(keyBits / 8) passes. With
+  // `values` may be empty (buffer == VK_NULL_HANDLE) to sort keys alone. ceil(keyBits / RADIX_BITS) passes. With
   // a device count the passes are dispatched indirectly for the tiles it fills, not for count.max.
   // Between passes the pairs travel interleaved in the object's scratch (one uvec2 store a key where two
   // arrays take two scattered stores; the scatter's stores are its dearest accesses on lavapipe), so two

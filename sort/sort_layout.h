@@ -25,21 +25,25 @@
 // Radix sort: RADIX_BITS per pass, a tile of SORT_THREADS x SORT_ITEMS keys per workgroup. Ranking
 // keeps one 16-bit counter per (digit, invocation) in shared memory, two digits packed per uint
 // (digit d in the low half of word d, digit d + RADIX_BINS/2 in the high half): RADIX_BINS/2 words per
-// invocation, 16 KiB at 32 invocations. A tile must stay below 65536 keys so the packed halves never
+// invocation, 16 KiB at 16 invocations. A tile must stay below 65536 keys so the packed halves never
 // carry into each other. The tile's shape is chosen per device (sort::SortShape, sort::sortShapeFor) and
 // reaches the kernels as specialisation constants: the workgroup size (local_size_x_id 0, SORT_THREADS
 // in the kernels) and SORT_ITEMS (constant_id 1). The defaults below are the CPU device's (lavapipe):
 // few invocations, each with a long run of keys, because every invocation pays for its own counters.
-#define RADIX_BITS 8
+// Nine bits a digit, not eight: the ray key's 27 bits (rays/hilbert.h) take three passes instead of four,
+// for the same counters per key (16 invocations x 256 words where eight bits took 32 x 128); measured on
+// lavapipe, 1 M random 32-bit pairs (four passes either way) sort in 74-77 ms, 8-bit digits 78-97 ms.
+#define RADIX_BITS 9
 #define RADIX_BINS (1 << RADIX_BITS)
 #define RADIX_WORDS (RADIX_BINS / 2)
-#define SORT_THREADS_CPU 32
-#define SORT_ITEMS_CPU 256  // a multiple of 4 (uvec4 access)
-// On other devices (sortShapeFor): the same 32 invocations (their counters fit lavapipe's 32 KiB, so
+#define SORT_THREADS_CPU 16
+#define SORT_ITEMS_CPU 512  // a multiple of 4 (uvec4 access)
+// On other devices (sortShapeFor): the same 16 invocations (their counters fit lavapipe's 32 KiB, so
 // the shape is tested here too), each with a quarter of the run: four times the workgroups, so a 1 M-key
-// pass launches 512 warps' worth of workgroups on a GPU, not 128 (a large GPU holds thousands).
-#define SORT_THREADS_GPU 32
-#define SORT_ITEMS_GPU 64
+// pass launches 512 workgroups, not 128. Half a warp a workgroup on NVIDIA: the counters of 32
+// invocations of 9-bit digits would not fit lavapipe's shared memory, where every shape is tested.
+#define SORT_THREADS_GPU 16
+#define SORT_ITEMS_GPU 128
 #define SORT_RAKE 8  // workgroup scan segments of the ranking step (SORT_THREADS / SORT_RAKE of them)
 
 // Radix sort by look-back (sort::SortScheme::LookBack, radix_histogram.comp + radix_scatter.comp with
@@ -116,7 +120,7 @@ static_assert(SORT_THREADS_CPU * SORT_ITEMS_CPU < 65536 && SORT_THREADS_GPU * SO
               "packed 16-bit rank counters would carry");
 static_assert(SORT_THREADS_CPU % SORT_RAKE == 0 && SORT_THREADS_GPU % SORT_RAKE == 0 && SCAN_THREADS % SCAN_RAKE == 0,
               "rake segments");
-static_assert(RADIX_BITS >= 1 && RADIX_BITS <= 8, "radix digit width");
+static_assert(RADIX_BITS >= 1 && RADIX_BITS <= 9, "radix digit width: the ranking counters (RADIX_WORDS a invocation) must fit shared memory");
 static_assert(LOOKBACK_MAX_PASSES * RADIX_BITS >= 32, "look-back workspace holds every pass of a 32-bit key");
 static_assert(SCAN_ITEMS % 4 == 0 && SCAN_ITEMS <= 32 && SORT_ITEMS_CPU % 4 == 0 && SORT_ITEMS_GPU % 4 == 0,
               "uvec4 access, kept-bit masks");

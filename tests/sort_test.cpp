@@ -6,7 +6,9 @@
 #include <cstdio>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <random>
+#include <set>
 
 #include <gtest/gtest.h>
 
@@ -84,9 +86,10 @@ TEST(SortSizing, ScanLevelsShrinkByOneBlockUntilOneBlockRemains) {
 TEST(SortSizing, RadixPassesAndTilesCoverTheKeysAndTheCount) {
   EXPECT_EQ(sort::radixPasses(0), 0u);
   EXPECT_EQ(sort::radixPasses(1), 1u);
-  EXPECT_EQ(sort::radixPasses(8), 1u);
-  EXPECT_EQ(sort::radixPasses(9), 2u);
-  EXPECT_EQ(sort::radixPasses(rays::kRayKeyBits), 4u);
+  EXPECT_EQ(sort::radixPasses(9), 1u);
+  EXPECT_EQ(sort::radixPasses(10), 2u);
+  EXPECT_EQ(sort::radixPasses(rays::kRayKeyBits), 3u) << "the ray key: three passes";
+  EXPECT_EQ(sort::radixPasses(rays::kFrameKeyBits), 4u);
   EXPECT_EQ(sort::radixPasses(32), 4u);
   for (sort::SortShape shape : {sort::kCpuSortShape, sort::kGpuSortShape}) {
     EXPECT_EQ(sort::sortTiles(0, shape), 0u);
@@ -115,9 +118,10 @@ TEST(SortSizing, TheTileShapeIsChosenPerDevice) {
   }
   sort::RadixSort sorter(ctx, 1000);
   EXPECT_EQ(sorter.shape().tile(), chosen.tile());
-  // The scheme too: look-back on a CPU device (a workgroup runs to its end on one thread), NVIDIA and AMD.
-  const bool lookBackDevice = ctx.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ||
-                              ctx.properties.vendorID == 0x10DE || ctx.properties.vendorID == 0x1002;
+  // The scheme too: look-back on NVIDIA and AMD GPUs; reduce-then-scan on a CPU device (lavapipe ends an
+  // invocation's loops after 65535 iterations, which a long look-back walk could pass) and elsewhere.
+  const bool lookBackDevice = ctx.properties.deviceType != VK_PHYSICAL_DEVICE_TYPE_CPU &&
+                              (ctx.properties.vendorID == 0x10DE || ctx.properties.vendorID == 0x1002);
   EXPECT_EQ(sort::sortSchemeFor(ctx), lookBackDevice ? sort::SortScheme::LookBack : sort::SortScheme::ReduceThenScan);
   EXPECT_EQ(sorter.scheme(), sort::sortSchemeFor(ctx));
   // The look-back workspace: counters, every pass's digit totals, and a status row per pass and tile.
@@ -564,23 +568,26 @@ TEST(Hilbert, ConsecutiveIndicesAreNeighbouringCells) {
   }
 }
 
-// Whether `got` is the ray key of d with each face coordinate (d[axis+1] / |d[axis]|, d[axis+2] / ...)
-// moved by up to `ulps` ulp: what a GPU may give, since Vulkan lets its division be 2.5 ulp off (a
-// direction that close to a cell edge may land in the neighbouring cell). The face must be exact: it
-// comes from comparisons alone.
-bool isRayKeyUpToDivision(glm::vec3 d, uint32_t got, int ulps = 3) {
-  const uint32_t want = rays::rayKey(d);
+// Whether `got` is the ray key of d on `grid` (its face's; default the whole face) with each face
+// coordinate (d[axis+1] / |d[axis]|, d[axis+2] / ...) moved by up to `ulps` ulp: what a GPU may give,
+// since Vulkan lets its division be 2.5 ulp off (a direction that close to a cell edge may land in the
+// neighbouring cell). The face must be exact: it comes from comparisons alone.
+bool isRayKeyUpToDivision(glm::vec3 d, uint32_t got, std::optional<glm::vec4> grid = {}, int ulps = 3) {
+  const uint32_t face = rays::rayFace(d), order = RAY_KEY_HILBERT_ORDER;
+  if (face == 7) return got == RAY_KEY_DEGENERATE;
+  const glm::vec4 gr = grid ? *grid : rays::wholeFaceGrid(order);
+  const uint32_t want = rays::faceRayKey(d, face, gr);
   if (got == want) return true;
-  if (want == RAY_KEY_DEGENERATE || got >> RAY_KEY_FACE_SHIFT != want >> RAY_KEY_FACE_SHIFT) return false;
-  const uint32_t face = want >> RAY_KEY_FACE_SHIFT, axis = face >> 1, order = RAY_KEY_HILBERT_ORDER;
-  const float m = std::abs(d[axis]), half = float(1u << (order - 1)), last = float((1u << order) - 1);
-  auto cells = [&](float q) {  // the range of cells q moved by up to `ulps` ulp falls in
+  if (got >> RAY_KEY_FACE_SHIFT != face) return false;
+  const uint32_t axis = face >> 1;
+  const float m = std::abs(d[axis]), last = float((1u << order) - 1);
+  auto cells = [&](float q, float lo0, float scale) {  // the range of cells q moved by up to `ulps` ulp falls in
     float lo = q, hi = q;
     for (int i = 0; i < ulps; ++i) lo = std::nextafter(lo, -INFINITY), hi = std::nextafter(hi, INFINITY);
-    auto cell = [&](float x) { return uint32_t(std::clamp(std::floor(x * half + half), 0.0f, last)); };
+    auto cell = [&](float x) { return uint32_t(std::clamp(std::floor((x - lo0) * scale), 0.0f, last)); };
     return glm::uvec2(cell(lo), cell(hi));
   };
-  const glm::uvec2 xs = cells(d[(axis + 1) % 3] / m), ys = cells(d[(axis + 2) % 3] / m);
+  const glm::uvec2 xs = cells(d[(axis + 1) % 3] / m, gr.x, gr.z), ys = cells(d[(axis + 2) % 3] / m, gr.y, gr.w);
   for (uint32_t x = xs.x; x <= xs.y; ++x)
     for (uint32_t y = ys.x; y <= ys.y; ++y)
       if (((face << RAY_KEY_FACE_SHIFT) | rays::hilbertIndex(x, y, order)) == got) return true;
@@ -690,9 +697,22 @@ TEST(LitRays, MatchTheCpuReferenceInEveryOrder) {
       EXPECT_SAME_ARRAY(got, want, rays::rayOrderName(order));
       continue;
     }
-    // A GPU may put a ray near a cell edge in the neighbouring cell (isRayKeyUpToDivision): the order is
-    // then the stable sort of the lit samples by the keys it computed, each the CPU's up to a division.
+    // A GPU may put a ray near a cell edge in the neighbouring cell (isRayKeyUpToDivision), and its faces'
+    // boxes may differ from the CPU's by the same divisions' rounding: the order is then the stable sort
+    // of the lit samples by the keys it computed, each the CPU's up to a division on the GPU's grid.
     const std::vector<uint32_t> keys = vk::download<uint32_t>(ctx, rays.keys(), want.size());
+    const std::vector<uint32_t> words = vk::download<uint32_t>(ctx, rays.bounds(), 24);
+    std::vector<uint32_t> lit;
+    for (uint32_t i = 0; i < f.host.size(); ++i)
+      if (f.host.isLit(i)) lit.push_back(i);
+    const std::array<glm::uvec4, 6> cpuBoxes = rays::referenceBoxes(f.host, lit, f.light);
+    std::array<glm::vec4, 6> grids;
+    for (uint32_t face = 0; face < 6; ++face) {
+      const glm::uvec4 box(words[4 * face], words[4 * face + 1], words[4 * face + 2], words[4 * face + 3]);
+      for (int c = 0; c < 4; ++c)
+        ASSERT_LE(std::abs(int64_t(box[c]) - int64_t(cpuBoxes[face][c])), 3) << "face " << face << " box word " << c;
+      grids[face] = rays::fittedFaceGrid(box, rays::kRayKeyHilbertOrder);
+    }
     std::vector<uint32_t> a = got, b = want;
     std::sort(a.begin(), a.end());
     std::sort(b.begin(), b.end());
@@ -700,8 +720,10 @@ TEST(LitRays, MatchTheCpuReferenceInEveryOrder) {
     size_t differ = 0;
     for (size_t i = 0; i < got.size(); ++i) {
       const glm::vec3 d = glm::vec3(f.host.position[got[i]]) - f.light;
-      ASSERT_TRUE(isRayKeyUpToDivision(d, keys[i])) << "sample " << got[i] << " at " << i;
-      differ += keys[i] != rays::rayKey(d);
+      const uint32_t face = rays::rayFace(d);
+      const glm::vec4 grid = face < 6 ? grids[face] : glm::vec4(0);
+      ASSERT_TRUE(isRayKeyUpToDivision(d, keys[i], grid)) << "sample " << got[i] << " at " << i;
+      differ += keys[i] != (face < 6 ? rays::faceRayKey(d, face, grid) : rays::kRayKeyDegenerate);
       if (i > 0) {
         ASSERT_TRUE(keys[i - 1] < keys[i] || (keys[i - 1] == keys[i] && got[i - 1] < got[i]))
             << "not a stable sort at " << i;
@@ -748,6 +770,92 @@ TEST(LitRays, SampleAtTheLightSortsLastAndEqualKeysKeepRowOrder) {
   EXPECT_EQ(at(10), at(8) + 1) << "equal keys keep row-major order";
   EXPECT_EQ(keys[at(1)] >> RAY_KEY_FACE_SHIFT, 0u) << "x == y goes to +x";
   EXPECT_EQ(keys[at(5)] >> RAY_KEY_FACE_SHIFT, 1u) << "|x| == |y| == |z| goes to -x";
+}
+
+TEST(RayKeys, OrderedBitsSortAsTheFloatsDo) {
+  const float inf = std::numeric_limits<float>::infinity(), tiny = std::numeric_limits<float>::denorm_min();
+  std::vector<float> v = {-inf, -CS_FLT_MAX, -1.0f, -tiny, -0.0f, 0.0f, tiny, 1e-30f, 1.0f, CS_FLT_MAX, inf};
+  std::mt19937 rng(3);
+  for (int i = 0; i < 10000; ++i) v.push_back(std::ldexp(std::uniform_real_distribution<float>(-1, 1)(rng), int(rng() % 200) - 100));
+  std::sort(v.begin(), v.end());
+  for (size_t i = 0; i < v.size(); ++i) {
+    EXPECT_EQ(rays::fromOrderedBits(rays::orderedBits(v[i])), v[i]);
+    EXPECT_NE(rays::orderedBits(v[i]), RAY_BOUNDS_EMPTY);
+    if (i > 0 && v[i - 1] < v[i]) EXPECT_LT(rays::orderedBits(v[i - 1]), rays::orderedBits(v[i])) << v[i - 1] << " < " << v[i];
+  }
+}
+
+TEST(RayKeys, AFittedGridIsTheFacesGridZoomedOntoItsBox) {
+  using glm::uvec2;
+  using glm::uvec4;
+  using glm::vec4;
+  const uint32_t order = rays::kRayKeyHilbertOrder, n = 1u << order;
+  auto box = [](float u0, float v0, float u1, float v1) {
+    return uvec4(rays::orderedBits(u0), rays::orderedBits(v0), rays::orderedBits(-u1), rays::orderedBits(-v1));
+  };
+  EXPECT_EQ(rays::fittedFaceGrid(uvec4(RAY_BOUNDS_EMPTY), order), rays::wholeFaceGrid(order)) << "no sample on the face";
+  EXPECT_EQ(rays::fittedFaceGrid(box(-0.9f, -0.1f, 0.2f, 0.3f), order), rays::wholeFaceGrid(order))
+      << "no half of the face holds it";
+  // u in [0.25, 0.5] lies in the face's half [0, 1]; v in [-0.5, 0.5] in the half-offset one: square cells.
+  const vec4 g = rays::fittedFaceGrid(box(0.25f, -0.5f, 0.5f, 0.5f), order);
+  EXPECT_EQ(g, vec4(0.0f, -0.5f, float(n), float(n)));
+  EXPECT_EQ(rays::gridCell({0.25f, -0.5f}, g, order), uvec2(n / 4, 0));
+  EXPECT_EQ(rays::gridCell({0.5f, 0.5f}, g, order), uvec2(n / 2, n - 1));
+  EXPECT_EQ(rays::gridCell({-1.0f, 1.0f}, g, order), uvec2(0, n - 1)) << "outside the square: its edge cells";
+  // A box 1e-3 wide: zoomed until its square is less than twice its size, so it spans a quarter of the
+  // cells or more.
+  const vec4 small = rays::fittedFaceGrid(box(0.3f, 0.1f, 0.301f, 0.1005f), order);
+  const uvec2 a = rays::gridCell({0.3f, 0.1f}, small, order), b = rays::gridCell({0.301f, 0.1005f}, small, order);
+  EXPECT_GE(b.x - a.x, n / 4) << "u spans " << a.x << " .. " << b.x;
+  EXPECT_LT(b.x, n);
+  EXPECT_EQ(small.z, small.w) << "square cells";
+  // One direction: the deepest zoom, a finite grid within a cell of it (the start is rounded in fp32).
+  const vec4 point = rays::fittedFaceGrid(box(0.3f, 0.1f, 0.3f, 0.1f), order);
+  EXPECT_EQ(point.z, float(n) / std::ldexp(1.0f, 1 - RAY_KEY_MAX_ZOOM));
+  EXPECT_NEAR(point.x, 0.3f, 2e-7f);
+  EXPECT_NEAR(point.y, 0.1f, 2e-7f);
+}
+
+// Rays within a sliver of a face (a zoomed view, a distant light): the fitted grid gives nearly every ray
+// a cell of its own, where the whole face's grid would put hundreds in one; the GPU's boxes and order
+// are the CPU reference's.
+TEST(LitRays, AFittedGridSeparatesRaysThatTheWholeFaceGridWouldLump) {
+  auto& ctx = test::context();
+  const glm::vec3 light(1.0f, -2.0f, 3.0f);
+  const uint32_t w = 96, h = 80;
+  std::vector<glm::vec4> pos, nrm;
+  for (uint32_t y = 0; y < h; ++y)
+    for (uint32_t x = 0; x < w; ++x) {  // a 1e-3 x 1e-3 patch of face -z, 50 units from the light
+      pos.push_back(glm::vec4(light + glm::vec3(0.2f + 1e-3f * float(x) / w, -0.1f + 1e-3f * float(y) / h, -1.0f) * 50.0f, 1.0f));
+      nrm.push_back(glm::vec4(0, 0, 1, 0.5f));
+    }
+  pos[7] = glm::vec4(light + glm::vec3(0, 3, 0), 1.0f);  // one ray on face +y, alone there
+  DeviceGBuffer g;
+  g.width = w, g.height = h;
+  g.position = vk::createBuffer(ctx, pos.size() * 16), g.normal = vk::createBuffer(ctx, nrm.size() * 16);
+  vk::upload(ctx, g.position, pos.data(), pos.size() * 16);
+  vk::upload(ctx, g.normal, nrm.data(), nrm.size() * 16);
+  GBuffer host{w, h, pos, nrm};
+  rays::LitRays rays(ctx, w, h);
+  vk::Commands cmd(ctx);
+  rays.record(cmd, g, light, rays::RayOrder::Hilbert);
+  cmd.submit();
+  const uint32_t count = rays.readCount();
+  ASSERT_EQ(count, w * h);
+  const std::vector<uint32_t> keys = vk::download<uint32_t>(ctx, rays.keys(), count);
+  const std::set<uint32_t> fitted(keys.begin(), keys.end());
+  std::set<uint32_t> whole;
+  for (const glm::vec4& p : pos) whole.insert(rays::rayKey(glm::vec3(p) - light));
+  std::printf("    %u rays: %zu distinct keys on fitted grids, %zu on the whole faces' grids\n", count, fitted.size(), whole.size());
+  EXPECT_GT(fitted.size(), size_t(0.9 * count));
+  EXPECT_LT(whole.size(), size_t(0.01 * count));
+  const std::vector<uint32_t> words = vk::download<uint32_t>(ctx, rays.bounds(), 24);
+  EXPECT_NE(words[4 * 2], RAY_BOUNDS_EMPTY) << "face +y has its one ray";
+  for (uint32_t face : {0u, 1u, 3u, 4u}) EXPECT_EQ(words[4 * face], RAY_BOUNDS_EMPTY) << "face " << face << " has none";
+  if (ctx.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU) {
+    EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), count),
+                      rays::referenceRayOrder(host, light, rays::RayOrder::Hilbert), "fitted grids");
+  }
 }
 
 TEST(LitRays, StepsWithAHostCountMatchTheFusedRecording) {
