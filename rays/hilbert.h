@@ -1,26 +1,29 @@
 // The ray key of 002 §3.5 and the screen order of its unsorted variant, as plain functions that glslang
 // and C++ both compile: the kernels use them, and so do the tests as their CPU reference.
 //
-// Ray key (23 bits, ray = light -> sample, direction d = sample - light), sorted in three radix passes:
-//   bits 20..22  face = 2 * axis + (d[axis] < 0): the major axis of d (x, y, z = 0, 1, 2) and its sign.
+// Ray key (27 bits, ray = light -> sample, direction d = sample - light), sorted in three radix passes of
+// nine bits:
+//   bits 24..26  face = 2 * axis + (d[axis] < 0): the major axis of d (x, y, z = 0, 1, 2) and its sign.
 //                Ties (|d.x| == |d.y| >= |d.z|, ...) go to the lowest axis, so boundary directions have
 //                exactly one face.
-//   bits  0..19  Hilbert index of the cell that the face coordinates (d[axis+1], d[axis+2]) / |d[axis]|
-//                (both in [-1, 1]) fall in, on a 2^10 x 2^10 grid over the face's *fitted box*: the box of
-//                the face coordinates of RAY_BOUNDS_SAMPLES lit samples spread evenly over the frame's
-//                (ray_bounds.comp), or the whole face when none of them is on it. Samples outside the box go
-//                to its edge cells. Fitted, the grid follows the frame: a zoomed view or a distant light,
-//                whose rays span a sliver of a face, still gets its 2^20 cells over them, where a fixed grid
-//                would give it a few; and 20 bits instead of 28 save a radix pass of four. Measured against a
-//                fixed 2^14 grid (28 bits, docs/ARCHITECTURE.md, "Ray keys"): pairs tested within 2 % on
-//                every view and scene of frame_bench.
+//   bits  0..23  Hilbert index of the cell that the face coordinates (d[axis+1], d[axis+2]) / |d[axis]|
+//                (both in [-1, 1]) fall in, on a 2^12 x 2^12 grid over the face's *fitted square*
+//                (fittedFaceGrid): the whole face zoomed in by halves while a square half the size, on
+//                the face's own grid or half a square off it, still holds the box of the face
+//                coordinates of RAY_BOUNDS_SAMPLES lit samples spread evenly over the frame's
+//                (ray_bounds.comp). The whole face when none of them is on it; samples outside the box
+//                go to the square's edge cells. A zoomed view or a distant light, whose rays span a
+//                sliver of a face, still gets cells as fine as its rays. Measured against the 2^14
+//                whole-face grid of 31 bits it replaced (docs/ARCHITECTURE.md, "rays/"): pairs tested
+//                within -1.7 .. +1.3 % on every view and scene tried, with a radix pass of four saved.
 // Degenerate rays (zero length: a sample at the light; or a non-finite direction) get
 // RAY_KEY_DEGENERATE, which no real direction produces (face field 7), so they sort after all others.
 // Rays sharing a cell keep their compaction order (row-major pixels; the sort is stable).
 //
-// GPU and CPU agree exactly on the face, the box and the integer Hilbert index; the cell coordinates
-// come from float divisions, which Vulkan allows to be 2.5 ulp off, so a direction within ~1e-7 of a
-// cell boundary may land in the neighbouring cell on a GPU. Lavapipe's division is exact. The key only
+// GPU and CPU agree exactly on the face and on the integer Hilbert index of a cell; the face coordinates
+// come from float divisions, which Vulkan allows to be 2.5 ulp off, so on a GPU a box may differ by a few
+// ulp and a direction within ~1e-7 of a cell boundary may land in the neighbouring cell. Lavapipe's
+// division is exact. The key only
 // orders the rays: any order gives the same shadow, the tree is built from the rays themselves.
 #ifndef CONESHADOW_RAYS_HILBERT_H
 #define CONESHADOW_RAYS_HILBERT_H
