@@ -8,7 +8,9 @@
 // dispatch of zero workgroups (its indirect arguments) or returns at once.
 // bindings: 0 = positions (vec4 per pixel, the G-buffer), 1 = samples (uint pixel index per sorted ray),
 //           2 = nodes (ConeNode, the whole tree; this depth written, the one below read),
-//           3 = shape words (SHAPE_*; read with fromShape only)
+//           3 = shape words (SHAPE_*; read with fromShape only), 4 = rays (uvec4 per sorted ray, written
+//           by the depth above the rays: the sample's world position as float bits and its pixel index,
+//           what the leaves read, one texel a ray, instead of the pixel index and then the G-buffer)
 #include "conetree/cone_math.h"
 
 layout(local_size_x = CONE_BUILD_THREADS) in;
@@ -16,6 +18,7 @@ layout(std430, binding = 0) readonly buffer Positions { vec4 positions[]; };
 layout(std430, binding = 1) readonly buffer Samples { uint samples[]; };
 layout(std430, binding = 2) buffer Nodes { ConeNode nodes[]; };
 layout(std430, binding = 3) readonly buffer Shape { uint shape[]; };
+layout(std430, binding = 4) writeonly buffer Rays { uvec4 rays[]; };
 layout(push_constant) uniform Push { BuildPush p; };
 // What the dispatch builds, as specialisation constants (ConeTree picks the pipeline): on lavapipe, code a
 // kernel holds costs every invocation even where a uniform branch skips it (the far frame's code took a
@@ -27,7 +30,9 @@ uint count, nodeOffset, childCount, childOffset;
 
 ConeNode child(uint c) {
   if (SPEC_LEAVES != 0u) {
-    vec3 position = positions[samples[c]].xyz;
+    uint pixel = samples[c];
+    vec3 position = positions[pixel].xyz;
+    rays[c] = uvec4(floatBitsToUint(position), pixel);
     if (SPEC_FAR != 0u) {  // far frame: the ray in frame coordinates, its cone widened
       vec4 ray = leafRay(toConeFrame(position, p.frame), p.frame.lightFrame.xyz);
       return leafRayUsable(ray, p.minLength) ? rayConeWidened(ray, p.beta, p.sigma) : emptyCone();

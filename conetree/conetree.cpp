@@ -31,7 +31,7 @@ ConeTree::ConeTree(vk::Context& ctx)
       shapeWords_(vk::createBuffer(ctx, SHAPE_WORDS * 4, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT)) {
   for (uint32_t far = 0; far < 2; ++far)
     for (uint32_t leaves = 0; leaves < 2; ++leaves)
-      build_[far][leaves] = vk::createKernel(ctx, "cone tree build", spv_build_level_comp, 4, sizeof(BuildPush),
+      build_[far][leaves] = vk::createKernel(ctx, "cone tree build", spv_build_level_comp, 5, sizeof(BuildPush),
                                              {{0, far}, {1, leaves}});
 }
 
@@ -105,6 +105,14 @@ void ConeTree::ensureNodes(uint32_t count) {
     nodes_.reset();  // the old one is not needed: free before allocating the larger one
     nodes_ = vk::createBuffer(ctx_, bytes);
   }
+  const uint64_t rayBytes = uint64_t(count) * 16;
+  CS_CHECK(rayBytes <= ctx_.maxStorageBufferRange(),
+           "cone tree over " << count << " rays (" << rayBytes << " bytes of rays) exceeds one storage binding ("
+                             << ctx_.maxStorageBufferRange() << " bytes)");
+  if (rays_.size < rayBytes) {
+    rays_.reset();
+    rays_ = vk::createBuffer(ctx_, rayBytes);
+  }
 }
 
 BuildPush ConeTree::basePush(glm::vec3 light, float minLength, const FrameChoice& fc) const {
@@ -131,7 +139,7 @@ void ConeTree::record(vk::Commands& cmd, const vk::BufferRange& positions, const
     p.childOffset = d + 1 < shape_.depth ? shape_.offsets[d + 1] : 0;
     p.fromLeaves = d + 1 == shape_.depth ? 1u : 0u;
     vk::Grid g = vk::gridFor(p.count, CONE_BUILD_THREADS, ctx_.maxWorkgroups());
-    cmd.dispatch(buildKernel(p, p.fromLeaves != 0), {positions, samples, nodes_, shapeWords_}, p, g.x, g.y);
+    cmd.dispatch(buildKernel(p, p.fromLeaves != 0), {positions, samples, nodes_, shapeWords_, rays_}, p, g.x, g.y);
     cmd.barrier();
   }
 }
@@ -151,7 +159,7 @@ void ConeTree::recordDevice(vk::Commands& cmd, const vk::BufferRange& positions,
     BuildPush p = basePush(light, minLength, fc);
     p.height = h;
     p.fromShape = 1;
-    cmd.dispatchIndirect(buildKernel(p, h == 1), {positions, samples, nodes_, shapeWords_}, &p, sizeof(p), shapeWords_,
+    cmd.dispatchIndirect(buildKernel(p, h == 1), {positions, samples, nodes_, shapeWords_, rays_}, &p, sizeof(p), shapeWords_,
                          (SHAPE_BUILD_ARGS + 4 * h) * 4);
     cmd.barrier();
   }

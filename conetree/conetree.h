@@ -77,10 +77,13 @@ class ConeTree {
 
   const TreeShape& shape() const { return shape_; }
   const vk::Buffer& nodes() const { return nodes_; }
-  uint64_t bytesAllocated() const { return nodes_.size + shapeWords_.size; }
+  // Per sorted ray of the last build: uvec4(float bits of the sample's position, its pixel index), written
+  // as the depth above the rays reads them, so the leaves fetch one RGBA32UI texel a ray.
+  const vk::Buffer& rays() const { return rays_; }
+  uint64_t bytesAllocated() const { return nodes_.size + rays_.size + shapeWords_.size; }
 
  private:
-  void ensureNodes(uint32_t count);
+  void ensureNodes(uint32_t count);  // and the rays' buffer
   BuildPush basePush(glm::vec3 light, float minLength, const FrameChoice& fc) const;
 
   vk::Context& ctx_;
@@ -88,7 +91,7 @@ class ConeTree {
   vk::Kernel build_[2][2];
   vk::Kernel shapeKernel_, spread_;
   const vk::Kernel& buildKernel(const BuildPush& p, bool fromLeaves) const;
-  vk::Buffer nodes_, shapeWords_;
+  vk::Buffer nodes_, rays_, shapeWords_;
   TreeShape shape_;
   uint32_t maxDepth_ = 0;
 };

@@ -257,6 +257,15 @@ TEST(ConeTree, DeviceBuildFromTheGpuCountEqualsTheHostBuild) {
     const std::vector<ConeNode> a = vk::download<ConeNode>(ctx, hostTree.nodes(), s.nodes());
     const std::vector<ConeNode> b = vk::download<ConeNode>(ctx, deviceTree.nodes(), s.nodes());
     EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(ConeNode)), 0) << "n=" << n;
+    // Both builds leave each sorted ray as the leaves read it: its sample's position bits, its pixel.
+    for (const cone::ConeTree* tree : {&hostTree, &deviceTree}) {
+      const std::vector<glm::uvec4> rays = vk::download<glm::uvec4>(ctx, tree->rays(), n);
+      for (uint32_t i = 0; i < n; ++i) {
+        const glm::vec4 p = pos[order[i]];
+        ASSERT_EQ(rays[i], glm::uvec4(glm::floatBitsToUint(p.x), glm::floatBitsToUint(p.y), glm::floatBitsToUint(p.z), order[i]))
+            << (tree == &hostTree ? "host" : "device") << "-count build, n=" << n << ", ray " << i;
+      }
+    }
   }
 }
 

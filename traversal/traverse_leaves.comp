@@ -8,8 +8,9 @@
 // Counts nothing per test (shared or global atomics per invocation cost ~15 % on lavapipe): the host
 // counts 4 tests per pair, and the pairs of the last node, past the last ray, count the rays they lack in
 // STAT_MISSING.
-// bindings: 0 = triangles (uniform texel buffer, RGBA32F, 3 texels a triangle), 1 = arena (uvec2 pairs), 2 = samples (uint pixel index per sorted
-//           ray), 3 = positions (uniform texel buffer, RGBA32F, one texel a pixel), 4 = visibility (uint per pixel), 5 = stats (the device
+// bindings: 0 = triangles (uniform texel buffer, RGBA32F, 3 texels a triangle), 1 = arena (uvec2 pairs),
+//           2 = rays (uniform texel buffer, RGBA32UI, one texel a sorted ray: the sample's position as float
+//           bits and its pixel index, ConeTree::rays), 3 = visibility (uint per pixel), 4 = stats (the device
 //           path: the state words, the pair count at p.countWord)
 #include "traversal/precise_test.h"
 #include "traversal/traverse.glsl"
@@ -17,10 +18,9 @@
 layout(local_size_x = TRAVERSE_THREADS) in;
 layout(binding = 0) uniform samplerBuffer tris;  // RGBA32F texels, three a triangle (traverse_test.comp)
 layout(std430, binding = 1) readonly buffer Arena { uvec2 pairs[]; };
-layout(std430, binding = 2) readonly buffer Samples { uint samples[]; };
-layout(binding = 3) uniform samplerBuffer positions;  // RGBA32F texels, one a pixel
-layout(std430, binding = 4) buffer Visibility { uint visibility[]; };
-layout(std430, binding = 5) buffer Stats { uint stats[]; };
+layout(binding = 2) uniform usamplerBuffer rays;  // RGBA32UI texels, one a sorted ray
+layout(std430, binding = 3) buffer Visibility { uint visibility[]; };
+layout(std430, binding = 4) buffer Stats { uint stats[]; };
 layout(push_constant) uniform Push { TraversePush p; };
 
 void main() {
@@ -36,8 +36,9 @@ void main() {
   vec3 P1 = texelFetch(tris, int(3u * pair.x + 1u)).xyz;
   vec3 P2 = texelFetch(tris, int(3u * pair.x + 2u)).xyz;
   for (uint leaf = first; leaf < end; leaf++) {
-    uint sampleIndex = samples[leaf];
-    vec3 samplePos = texelFetch(positions, int(sampleIndex)).xyz;
+    uvec4 r = texelFetch(rays, int(leaf));
+    uint sampleIndex = r.w;
+    vec3 samplePos = uintBitsToFloat(r.xyz);
     vec4 ray = leafRay(samplePos, light);
     if (leafRayUsable(ray, p.minLength) && leafHit(samplePos, light, ray, p.eps, P0, P1, P2) &&
         visibility[sampleIndex] != 0u)
