@@ -191,7 +191,7 @@ Traversal::Traversal(vk::Context& ctx, uint64_t memoryBytes)
 Traversal::Traversal(vk::Context& ctx, const ArenaPlan& plan) : ctx_(ctx), plan_(plan) {
   CS_CHECK(plan_.pairCapacity >= kMinPairs && plan_.chunkCapacity >= 1, "traversal arena plan too small");
   batchTriangles_ = plan_.chunkCapacity;
-  leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 5, sizeof(TraversePush), {}, 0x5u);
+  leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 6, sizeof(TraversePush), {}, 0x25u);
   advance_ = vk::createKernel(ctx, "traverse advance", spv_traverse_advance_comp, 2, sizeof(AdvancePush));
   arena_ = vk::createBuffer(ctx, plan_.pairCapacity * kPairBytes);
   chunk_ = vk::createBuffer(ctx, uint64_t(plan_.chunkCapacity) * kPairBytes);
@@ -339,7 +339,8 @@ void Traversal::leaves(Frame& f, uint32_t d) {
   cmd.barrier();
   cmd.mark("start");
   vk::Grid g = vk::gridFor(pairs, TRAVERSE_THREADS, ctx_.maxWorkgroups());
-  cmd.dispatch(leaves_, {vk::texels(*f.in->triangles, kTexelFormat), arena_, vk::texels(f.in->tree->rays(), kRayFormat), *f.in->visibility, stats_}, p,
+  cmd.dispatch(leaves_, {vk::texels(*f.in->triangles, kTexelFormat), arena_, vk::texels(f.in->tree->rays(), kRayFormat), *f.in->visibility, stats_,
+                         vk::texels(stats_, kWordFormat)}, p,
                g.x, g.y);
   cmd.barrier();
   cmd.mark("leaves");
@@ -547,7 +548,8 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
       p.first = 0;
       p.countWord = STATE_LEAF_ARGS + 4 * c + 3;
       p.missingWord = STATE_LEAF_MISSING;
-      cmd.dispatchIndirect(leaves_, {vk::texels(*in.triangles, kTexelFormat), *buffers[(c - 1) % 2], vk::texels(in.tree->rays(), kRayFormat), *in.visibility, state_},
+      cmd.dispatchIndirect(leaves_, {vk::texels(*in.triangles, kTexelFormat), *buffers[(c - 1) % 2], vk::texels(in.tree->rays(), kRayFormat), *in.visibility, state_,
+                                     vk::texels(state_, kWordFormat)},
                            &p, sizeof(p), state_, (STATE_LEAF_ARGS + 4 * c) * 4);
     }
     cmd.barrier();

@@ -11,7 +11,8 @@
 // bindings: 0 = triangles (uniform texel buffer, RGBA32F, 3 texels a triangle), 1 = arena (uvec2 pairs),
 //           2 = rays (uniform texel buffer, RGBA32UI, one texel a sorted ray: the sample's position as float
 //           bits and its pixel index, ConeTree::rays), 3 = visibility (uint per pixel), 4 = stats (the device
-//           path: the state words, the pair count at p.countWord)
+//           path: the state words, the pair count at p.countWord), 5 = the same words as a uniform texel
+//           buffer (RGBA32UI): the counts every invocation reads, fetched instead of loaded from storage
 #include "traversal/precise_test.h"
 #include "traversal/traverse.glsl"
 
@@ -21,13 +22,20 @@ layout(std430, binding = 1) readonly buffer Arena { uvec2 pairs[]; };
 layout(binding = 2) uniform usamplerBuffer rays;  // RGBA32UI texels, one a sorted ray
 layout(std430, binding = 3) buffer Visibility { uint visibility[]; };
 layout(std430, binding = 4) buffer Stats { uint stats[]; };
+layout(binding = 5) uniform usamplerBuffer statTexels;  // binding 4's words, four a texel
 layout(push_constant) uniform Push { TraversePush p; };
+
+uint statWord(uint w) {
+  uvec4 t = texelFetch(statTexels, int(w >> 2u));
+  uint k = w & 3u;
+  return k == 0u ? t.x : (k == 1u ? t.y : (k == 2u ? t.z : t.w));
+}
 
 void main() {
   uint i = flatIndex();
-  if (i >= (p.countWord != 0u ? stats[p.countWord] : p.count)) return;
+  if (i >= (p.countWord != 0u ? statWord(p.countWord) : p.count)) return;
   uvec2 pair = pairs[p.first + i];
-  uint leafCount = p.deviceParams != 0u ? stats[STATE_LEAF_COUNT] : p.childCount;
+  uint leafCount = p.deviceParams != 0u ? statWord(STATE_LEAF_COUNT) : p.childCount;
   uint first = 4u * pair.y;
   uint end = min(first + 4u, leafCount);
   if (end < first + 4u) atomicAdd(stats[p.missingWord], first + 4u - max(end, first));  // past the last ray
