@@ -15,7 +15,7 @@
 //                go to the square's edge cells. A zoomed view or a distant light, whose rays span a
 //                sliver of a face, still gets cells as fine as its rays. Measured against the 2^14
 //                whole-face grid of 31 bits it replaced (docs/ARCHITECTURE.md, "rays/"): pairs tested
-//                within -1.7 .. +1.3 % on every view and scene tried, with a radix pass of four saved.
+//                within -3.2 .. +1.8 % on every view and scene tried, with a radix pass of four saved.
 // Degenerate rays (zero length: a sample at the light; or a non-finite direction) get
 // RAY_KEY_DEGENERATE, which no real direction produces (face field 7), so they sort after all others.
 // Rays sharing a cell keep their compaction order (row-major pixels; the sort is stable).
