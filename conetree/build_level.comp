@@ -6,7 +6,7 @@
 // With p.fromShape the depth is p.height levels above the leaves of the tree the shape buffer describes
 // (tree_shape.comp): its count and offsets come from there, and a height the tree does not reach is a
 // dispatch of zero workgroups (its indirect arguments) or returns at once.
-// bindings: 0 = positions (vec4 per pixel, the G-buffer), 1 = samples (uint pixel index per sorted ray),
+// bindings: 0 = positions (the G-buffer as a uniform texel buffer, RGBA32F: a texel per pixel), 1 = samples (uint pixel index per sorted ray),
 //           2 = nodes (ConeNode, the whole tree; this depth written, the one below read),
 //           3 = shape words (SHAPE_*; read with fromShape only), 4 = rays (uvec4 per sorted ray, written
 //           by the depth above the rays: the sample's world position as float bits and its pixel index,
@@ -14,7 +14,7 @@
 #include "conetree/cone_math.h"
 
 layout(local_size_x = CONE_BUILD_THREADS) in;
-layout(std430, binding = 0) readonly buffer Positions { vec4 positions[]; };
+layout(binding = 0) uniform samplerBuffer positions;  // texel fetches: the cheap gather
 layout(std430, binding = 1) readonly buffer Samples { uint samples[]; };
 layout(std430, binding = 2) buffer Nodes { ConeNode nodes[]; };
 layout(std430, binding = 3) readonly buffer Shape { uint shape[]; };
@@ -31,7 +31,7 @@ uint count, nodeOffset, childCount, childOffset;
 ConeNode child(uint c) {
   if (SPEC_LEAVES != 0u) {
     uint pixel = samples[c];
-    vec3 position = positions[pixel].xyz;
+    vec3 position = texelFetch(positions, int(pixel)).xyz;
     rays[c] = uvec4(floatBitsToUint(position), pixel);
     if (SPEC_FAR != 0u) {  // far frame: the ray in frame coordinates, its cone widened
       vec4 ray = leafRay(toConeFrame(position, p.frame), p.frame.lightFrame.xyz);

@@ -32,7 +32,7 @@ ConeTree::ConeTree(vk::Context& ctx)
   for (uint32_t far = 0; far < 2; ++far)
     for (uint32_t leaves = 0; leaves < 2; ++leaves)
       build_[far][leaves] = vk::createKernel(ctx, "cone tree build", spv_build_level_comp, 5, sizeof(BuildPush),
-                                             {{0, far}, {1, leaves}});
+                                             {{0, far}, {1, leaves}}, 0x1u);
 }
 
 const vk::Kernel& ConeTree::buildKernel(const BuildPush& p, bool fromLeaves) const {
@@ -125,7 +125,7 @@ BuildPush ConeTree::basePush(glm::vec3 light, float minLength, const FrameChoice
   return p;
 }
 
-void ConeTree::record(vk::Commands& cmd, const vk::BufferRange& positions, const vk::BufferRange& samples,
+void ConeTree::record(vk::Commands& cmd, const vk::Buffer& positions, const vk::BufferRange& samples,
                       uint32_t count, glm::vec3 light, float minLength, const FrameChoice* frame) {
   const FrameChoice fc = frame ? *frame : worldFrame(light);
   shape_ = treeShape(count);
@@ -139,12 +139,12 @@ void ConeTree::record(vk::Commands& cmd, const vk::BufferRange& positions, const
     p.childOffset = d + 1 < shape_.depth ? shape_.offsets[d + 1] : 0;
     p.fromLeaves = d + 1 == shape_.depth ? 1u : 0u;
     vk::Grid g = vk::gridFor(p.count, CONE_BUILD_THREADS, ctx_.maxWorkgroups());
-    cmd.dispatch(buildKernel(p, p.fromLeaves != 0), {positions, samples, nodes_, shapeWords_, rays_}, p, g.x, g.y);
+    cmd.dispatch(buildKernel(p, p.fromLeaves != 0), {vk::texels(positions, VK_FORMAT_R32G32B32A32_SFLOAT), samples, nodes_, shapeWords_, rays_}, p, g.x, g.y);
     cmd.barrier();
   }
 }
 
-void ConeTree::recordDevice(vk::Commands& cmd, const vk::BufferRange& positions, const vk::BufferRange& samples,
+void ConeTree::recordDevice(vk::Commands& cmd, const vk::Buffer& positions, const vk::BufferRange& samples,
                             const vk::Buffer& countWords, uint32_t countIndex, uint32_t maxCount, glm::vec3 light,
                             float minLength, const FrameChoice* frame, bool keepWhenZero) {
   CS_CHECK(maxCount >= 1 && maxCount <= kMaxLeaves, "cone tree bound of " << maxCount << " rays (1 .. " << kMaxLeaves << ")");
@@ -159,7 +159,7 @@ void ConeTree::recordDevice(vk::Commands& cmd, const vk::BufferRange& positions,
     BuildPush p = basePush(light, minLength, fc);
     p.height = h;
     p.fromShape = 1;
-    cmd.dispatchIndirect(buildKernel(p, h == 1), {positions, samples, nodes_, shapeWords_, rays_}, &p, sizeof(p), shapeWords_,
+    cmd.dispatchIndirect(buildKernel(p, h == 1), {vk::texels(positions, VK_FORMAT_R32G32B32A32_SFLOAT), samples, nodes_, shapeWords_, rays_}, &p, sizeof(p), shapeWords_,
                          (SHAPE_BUILD_ARGS + 4 * h) * 4);
     cmd.barrier();
   }

@@ -51,7 +51,7 @@ class ConeTree {
   // positions are in `positions` (vec4 per pixel): one dispatch per depth, bottom-up, a barrier after each.
   // Rays not longer than minLength (2 eps: an empty hit interval) or not finite are in no cone.
   // Grows the node buffer when needed; count must be >= 1 and <= kMaxLeaves.
-  void record(vk::Commands& cmd, const vk::BufferRange& positions, const vk::BufferRange& samples, uint32_t count,
+  void record(vk::Commands& cmd, const vk::Buffer& positions, const vk::BufferRange& samples, uint32_t count,
               glm::vec3 light, float minLength, const FrameChoice* frame = nullptr);
 
   // The same build with the ray count on the GPU (word `countIndex` of `countWords`, clamped to
@@ -61,7 +61,7 @@ class ConeTree {
   // shape() is not known on the host afterwards: setShape() sets it when the count has been read back.
   // With keepWhenZero, a device count of 0 builds nothing and leaves the shape and nodes of the build
   // recorded before (a rebuild the GPU decided against).
-  void recordDevice(vk::Commands& cmd, const vk::BufferRange& positions, const vk::BufferRange& samples,
+  void recordDevice(vk::Commands& cmd, const vk::Buffer& positions, const vk::BufferRange& samples,
                     const vk::Buffer& countWords, uint32_t countIndex, uint32_t maxCount, glm::vec3 light,
                     float minLength, const FrameChoice* frame = nullptr, bool keepWhenZero = false);
   // After a device build: writes words firstWord + 2 d (uint64, even firstWord) of `words`, for each

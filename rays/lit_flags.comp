@@ -3,13 +3,13 @@
 // The lit samples of the G-buffer (geometry present and direct-light term > 0, as GBuffer::isLit) as
 // compaction flags over an enumeration of the pixels: row-major, or the tiled Morton screen order of
 // the unsorted variant, which also records the pixel each position stands for.
-// bindings: 0 = position (vec4[] per pixel), 1 = normal (vec4[] per pixel), 2 = flags (uint[] per
+// bindings: 0 = position, 1 = normal (uniform texel buffers, RGBA32F: a texel per pixel), 2 = flags (uint[] per
 //           domain position), 3 = pixelOf (uint[] per domain position; Morton order only)
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
 layout(local_size_x = PIXEL_THREADS) in;
-layout(std430, binding = 0) readonly buffer Position { vec4 position[]; };
-layout(std430, binding = 1) readonly buffer Normal { vec4 normal[]; };
+layout(binding = 0) uniform samplerBuffer position;  // texel fetches: the cheap gather (docs/ARCHITECTURE.md)
+layout(binding = 1) uniform samplerBuffer normal;
 layout(std430, binding = 2) writeonly buffer Flags { uint flags[]; };
 layout(std430, binding = 3) writeonly buffer PixelOf { uint pixelOf[]; };
 layout(push_constant) uniform Push { LitPush pc; };
@@ -28,5 +28,5 @@ void main() {
     pixel = inside ? p.y * pc.width + p.x : 0u;
     pixelOf[i] = pixel;
   }
-  flags[i] = inside && litSample(position[pixel], normal[pixel]) ? 1u : 0u;
+  flags[i] = inside && litSample(texelFetch(position, int(pixel)), texelFetch(normal, int(pixel))) ? 1u : 0u;
 }

@@ -3,12 +3,12 @@
 // The Hilbert ray key (rays/hilbert.h) of every compacted sample: ray = light -> position[sample], in the
 // world on its face's fitted grid (faceRayKey on ray_grids.comp's grid) or in a rotated frame
 // (frameRayKey, KeysPush::framed).
-// bindings: 0 = position (vec4[] per pixel), 1 = samples (uint[] pixel indices), 2 = keys (uint[]),
+// bindings: 0 = position (uniform texel buffer, RGBA32F: a texel per pixel), 1 = samples (uint[] pixel indices), 2 = keys (uint[]),
 //           3 = countWords (device count), 4 = the faces' grids (vec4 per face, world keys)
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
 layout(local_size_x = PIXEL_THREADS) in;
-layout(std430, binding = 0) readonly buffer Position { vec4 position[]; };
+layout(binding = 0) uniform samplerBuffer position;
 layout(std430, binding = 1) readonly buffer Samples { uint samples[]; };
 layout(std430, binding = 2) writeonly buffer Keys { uint keys[]; };
 layout(std430, binding = 3) readonly buffer CountWords { uint countWords[]; };
@@ -22,7 +22,7 @@ layout(constant_id = 0) const uint SPEC_FRAMED = 0u;
 void main() {
   uint i = flatWorkgroup() * PIXEL_THREADS + gl_LocalInvocationIndex;
   if (i >= countOf(pc.count, pc.countIndex, pc.flags)) return;
-  vec3 x = position[samples[i]].xyz;
+  vec3 x = texelFetch(position, int(samples[i])).xyz;
   if (SPEC_FRAMED != 0u) {  // R (x - origin) - lightFrame: the ray in the rotated frame
     vec3 d = x - pc.origin.xyz;
     vec3 f = vec3(dot(pc.rowX.xyz, d), dot(pc.rowY.xyz, d), dot(pc.rowZ.xyz, d));

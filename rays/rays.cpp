@@ -13,6 +13,9 @@
 
 namespace cs::rays {
 
+// The G-buffer read as texels (vk::texels): position and normal are one vec4 a pixel.
+constexpr VkFormat kPixelTexels = VK_FORMAT_R32G32B32A32_SFLOAT;
+
 static_assert(RAY_BOUNDS_THREADS * RAY_BOUNDS_ITEMS * RAY_BOUNDS_GROUPS == RAY_BOUNDS_SAMPLES,
               "ray_bounds.comp's grid covers the subset once");
 static_assert(RAY_BOUNDS_WORDS >= 24, "four words for each of six faces");
@@ -54,12 +57,12 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
       compact_(ctx, uint32_t(maxDomain_)),
       sort_(ctx, maxPixels_),
       groups_(ctx) {
-  flags_ = vk::createKernel(ctx, "lit_flags", spv_lit_flags_comp, 4, sizeof(LitPush), {{0, 0u}});
-  mortonFlags_ = vk::createKernel(ctx, "lit_flags (Morton)", spv_lit_flags_comp, 4, sizeof(LitPush), {{0, 1u}});
+  flags_ = vk::createKernel(ctx, "lit_flags", spv_lit_flags_comp, 4, sizeof(LitPush), {{0, 0u}}, 0x3u);
+  mortonFlags_ = vk::createKernel(ctx, "lit_flags (Morton)", spv_lit_flags_comp, 4, sizeof(LitPush), {{0, 1u}}, 0x3u);
   rayBounds_ = vk::createKernel(ctx, "ray_bounds", spv_ray_bounds_comp, 4, sizeof(KeysPush));
   rayGrids_ = vk::createKernel(ctx, "ray_grids", spv_ray_grids_comp, 2, sizeof(KeysPush));
-  rayKeys_ = vk::createKernel(ctx, "ray_keys", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 0u}});
-  frameRayKeys_ = vk::createKernel(ctx, "ray_keys (frame)", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 1u}});
+  rayKeys_ = vk::createKernel(ctx, "ray_keys", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 0u}}, 0x1u);
+  frameRayKeys_ = vk::createKernel(ctx, "ray_keys (frame)", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 1u}}, 0x1u);
   flagBuffer_ = vk::createBuffer(ctx, maxDomain_ * 4);
   pixelOf_ = vk::createBuffer(ctx, maxDomain_ * 4);
   samples_ = vk::createBuffer(ctx, uint64_t(maxPixels_) * 4);
@@ -83,7 +86,7 @@ void LitRays::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, RayOrd
   const bool morton = order == RayOrder::ScreenMorton;
   LitPush push{g.width, g.height, morton ? 1u : 0u, d.tilesX, uint32_t(d.size), 0, 0, 0};
   vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(d.size, PIXEL_THREADS));
-  cmd.dispatch(morton ? mortonFlags_ : flags_, {g.position, g.normal, flagBuffer_, pixelOf_}, push, grid.x, grid.y);
+  cmd.dispatch(morton ? mortonFlags_ : flags_, {vk::texels(g.position, kPixelTexels), vk::texels(g.normal, kPixelTexels), flagBuffer_, pixelOf_}, push, grid.x, grid.y);
   cmd.barrier();
   // Row-major positions are pixel indices already; Morton positions carry theirs in pixelOf_.
   compact_.record(cmd, flagBuffer_, uint32_t(d.size), samples_, sort::GpuWord(count_, 0),
@@ -122,10 +125,10 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
   if (count.onDevice()) {  // as many workgroups as the device count needs (none for a count of 0)
     groups_.record(cmd, count, PIXEL_THREADS, keyArgs_, 0);
     cmd.barrier();
-    cmd.dispatchIndirect(keys, {g.position, samples_, keys_, countBinding, grids_}, &push, sizeof(push), keyArgs_);
+    cmd.dispatchIndirect(keys, {vk::texels(g.position, kPixelTexels), samples_, keys_, countBinding, grids_}, &push, sizeof(push), keyArgs_);
   } else {
     vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(count.max, PIXEL_THREADS));
-    cmd.dispatch(keys, {g.position, samples_, keys_, countBinding, grids_}, push, grid.x, grid.y);
+    cmd.dispatch(keys, {vk::texels(g.position, kPixelTexels), samples_, keys_, countBinding, grids_}, push, grid.x, grid.y);
   }
   cmd.barrier();
 }
