@@ -14,16 +14,20 @@ layout(constant_id = 1) const uint SORT_ITEMS = SORT_ITEMS_CPU;
 
 uint digitOf(uint key) { return (key >> pc.shift) & pc.digitMask; }
 
-// The key binding holds either keys alone (uint[]) or, with PAIRS_IN, interleaved (key, value) pairs
-// (uvec2[], two to a uvec4): the sort's own scratch between passes, so a pass stores one uvec2 per key
-// where separate arrays take two scattered stores (sort.h). Pair scratch is padded to whole uvec4s.
+// The keys come from the key binding (uint[]), or with PAIRS_IN as interleaved (key, value) pairs
+// (uvec2[], two to a RGBA32UI texel) from binding PAIR_TEXELS, a uniform texel buffer over the sort's own
+// scratch between passes: a pass stores one uvec2 per key where separate arrays take two scattered
+// stores (sort.h), and reads them as texels, the cheap gather on lavapipe (docs/ARCHITECTURE.md, "Memory
+// access"). Pair scratch is padded to whole uvec4s, and its view starts at the buffer's start.
 layout(constant_id = 4) const bool PAIRS_IN = false;
+layout(binding = PAIR_TEXELS) uniform usamplerBuffer pairTexels;
+uvec4 loadPairs(uint v) { return texelFetch(pairTexels, int(v)); }  // pairs 2v and 2v + 1
 
 // Keys 4v .. 4v+3 (those below n; the rest are never used by callers). Component loads at the tail, so
 // nothing past key n - 1 is read (pairs: the padding is read and ignored).
 uvec4 loadKeys(uint v, uint n) {
   if (PAIRS_IN) {
-    uvec4 a = keys4[2u * v], b = keys4[2u * v + 1u];
+    uvec4 a = loadPairs(2u * v), b = loadPairs(2u * v + 1u);
     return uvec4(a.x, a.z, b.x, b.z);
   }
   if (4u * v + 3u < n) return keys4[v];

@@ -6,13 +6,15 @@
 // (sort::IndirectGroups: only the tiles the count fills), and tile 0 also zeroes the entries of the
 // tiles [used, tiles) that were not launched.
 // bindings: 0 = keys (uint[], read as uvec4), 1 = hist (uint[], (digitMask + 1) * tiles),
-//           2 = countWords (device count)
+//           2 = countWords (device count), 3 = pairs (PAIRS_IN: read instead of binding 0, as a uniform
+//           texel buffer, RGBA32UI)
 #include "sort/sort_layout.h"
 layout(std430, binding = 0) readonly buffer Keys { uvec4 keys4[]; };
 layout(std430, binding = 1) writeonly buffer Hist { uint hist[]; };
 layout(std430, binding = 2) readonly buffer CountWords { uint countWords[]; };
 layout(push_constant) uniform Push { RadixPush pc; };
 #include "sort/common.glsl"
+#define PAIR_TEXELS 3
 #include "sort/radix.glsl"
 
 shared uint bins[RADIX_BINS];

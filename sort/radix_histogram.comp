@@ -5,13 +5,15 @@
 // adds its non-zero bins to the workspace's totals (sort_layout.h, LOOKBACK_DIGITS). An invocation's keys
 // are consecutive, and keys made in screen order share their high digits with their neighbours: a
 // digit is added once per run of equal digits, not once per key.
-// bindings: 0 = keys (uint[], read as uvec4), 1 = workspace (uint[], zeroed), 2 = countWords (device count)
+// bindings: 0 = keys (uint[], read as uvec4), 1 = workspace (uint[], zeroed), 2 = countWords (device count),
+//           3 = a uniform texel buffer radix.glsl declares (pairs; never read here)
 #include "sort/sort_layout.h"
 layout(std430, binding = 0) readonly buffer Keys { uvec4 keys4[]; };
 layout(std430, binding = 1) buffer Workspace { uint work[]; };
 layout(std430, binding = 2) readonly buffer CountWords { uint countWords[]; };
 layout(push_constant) uniform Push { RadixPush pc; };
 #include "sort/common.glsl"
+#define PAIR_TEXELS 3
 #include "sort/radix.glsl"
 
 shared uint bins[LOOKBACK_MAX_PASSES * RADIX_BINS];

@@ -16,11 +16,11 @@
 //    pass, no table scan. It waits on earlier tiles only, which already run (or ran) on the device, and
 //    only for SPINS reads: a tile still unpublished by then is counted from its keys here, so the
 //    result never depends on scheduling (sort::sortSchemeFor says where waiting is expected to be short).
-// Layouts (sort.h): the input is separate keys and values, or (PAIRS_IN) interleaved pairs in binding 0;
+// Layouts (sort.h): the input is separate keys and values, or (PAIRS_IN) interleaved pairs in binding 7;
 // the output separate keys and values, or (PAIRS_OUT) interleaved pairs in binding 6, one uvec2 store a key.
 // bindings: 0 = keysIn (or pairsIn), 1 = valuesIn (uint[], read as uvec4), 2 = keysOut, 3 = valuesOut
 //           (uint[]), 4 = hist (scanned) or the look-back workspace, 5 = countWords (device count),
-//           6 = pairsOut (uvec2[])
+//           6 = pairsOut (uvec2[]), 7 = pairsIn (PAIRS_IN: the pairs as a uniform texel buffer, RGBA32UI)
 #include "sort/sort_layout.h"
 layout(std430, binding = 0) readonly buffer KeysIn { uvec4 keys4[]; };
 layout(std430, binding = 1) readonly buffer ValuesIn { uvec4 values4[]; };
@@ -31,6 +31,7 @@ layout(std430, binding = 5) readonly buffer CountWords { uint countWords[]; };
 layout(std430, binding = 6) writeonly buffer PairsOut { uvec2 pairsOut[]; };
 layout(push_constant) uniform Push { RadixPush pc; };
 #include "sort/common.glsl"
+#define PAIR_TEXELS 7
 #include "sort/radix.glsl"
 layout(constant_id = 2) const bool LOOKBACK = false;
 layout(constant_id = 3) const uint SPINS = LOOKBACK_SPINS;
@@ -192,7 +193,7 @@ void main() {
   for (uint k = 0u; k < items; k += 4u) {
     uvec4 key, value;
     if (PAIRS_IN) {
-      uvec4 a = keys4[(first + k) / 2u], b = keys4[(first + k) / 2u + 1u];
+      uvec4 a = loadPairs((first + k) / 2u), b = loadPairs((first + k) / 2u + 1u);
       key = uvec4(a.x, a.z, b.x, b.z);
       value = uvec4(a.y, a.w, b.y, b.w);
     } else {

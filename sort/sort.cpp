@@ -284,7 +284,9 @@ RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape, SortS
   // Pair scratch: whole uvec4s (kernels read pairs four at a time) and, for a single pass, room for the
   // keys then the values at an offset any device's storage alignment (at most 256 bytes) accepts.
   const VkDeviceSize padded = alignUp(std::max<VkDeviceSize>(capacity, 1), 64);
-  pairs_ = pairScratch != 0 && padded * 8 <= ctx.properties.limits.maxStorageBufferRange;
+  // (and within one uniform texel buffer: the kernels read pairs as RGBA32UI texels, two a texel).
+  pairs_ = pairScratch != 0 && padded * 8 <= ctx.properties.limits.maxStorageBufferRange &&
+           padded / 2 <= ctx.properties.limits.maxTexelBufferElements;
   scratchA_ = vk::createBuffer(ctx, pairs_ ? padded * 8 : VkDeviceSize(capacity) * 4);
   scratchB_ = vk::createBuffer(ctx, pairs_ ? padded * 8 : VkDeviceSize(capacity) * 4);
   hist_ = vk::createBuffer(ctx, histWords * 4);
@@ -296,16 +298,16 @@ RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape, SortS
     const std::initializer_list<vk::SpecConstant> spec = {{0, shape.threads}, {1, shape.items}, {2, lookBack ? 1u : 0u},
                                                           {3, spins}, {4, in}, {5, 0u}};
     if (lookBack)
-      count_[in] = vk::createKernel(ctx, "radix_histogram", spv_radix_histogram_comp, 3, sizeof(RadixPush), spec);
+      count_[in] = vk::createKernel(ctx, "radix_histogram", spv_radix_histogram_comp, 4, sizeof(RadixPush), spec, 1u << 3);
     else
-      count_[in] = vk::createKernel(ctx, "radix_count", spv_radix_count_comp, 3, sizeof(RadixPush), spec);
+      count_[in] = vk::createKernel(ctx, "radix_count", spv_radix_count_comp, 4, sizeof(RadixPush), spec, 1u << 3);
   }
   for (uint32_t in = 0; in < 2; ++in)
     for (uint32_t out = 0; out < 2; ++out) {
       if (!pairs_ && (in || out)) continue;
       const std::initializer_list<vk::SpecConstant> spec = {{0, shape.threads}, {1, shape.items}, {2, lookBack ? 1u : 0u},
                                                             {3, spins}, {4, in}, {5, out}};
-      scatter_[in][out] = vk::createKernel(ctx, "radix_scatter", spv_radix_scatter_comp, 7, sizeof(RadixPush), spec);
+      scatter_[in][out] = vk::createKernel(ctx, "radix_scatter", spv_radix_scatter_comp, 8, sizeof(RadixPush), spec, 1u << 7);
     }
 }
 
@@ -324,19 +326,26 @@ void RadixSort::record(vk::Commands& cmd, const vk::BufferRange& keys, const vk:
   const bool hasValues = values.buffer != VK_NULL_HANDLE;
   const VkDeviceSize bytes = VkDeviceSize(count.max) * 4;
   // Where a pass reads or writes: separate arrays, or interleaved pairs (`pairs`, in `keys`).
+  // A side of pairs is read through `texels` (the whole scratch buffer as RGBA32UI texels); a kernel
+  // reading separate arrays gets a one-texel view there, never read.
   struct Side {
     vk::BufferRange keys, values;
     bool pairs = false;
+    vk::BufferRange texels;
   };
-  const Side user{keys, hasValues ? values : vk::BufferRange(dummy_)};
+  const vk::BufferRange noTexels = vk::texels(dummy_, VK_FORMAT_R32G32B32A32_UINT);
+  const Side user{keys, hasValues ? values : vk::BufferRange(dummy_), false, noTexels};
   const bool interleave = pairs_ && hasValues && passes >= 2;
   // Separate scratch: keys alone in A, keys and values in A and B, or (pair scratch, one pass) both in A.
   const VkDeviceSize valuesAt = pairs_ ? scratchA_.size / 2 : 0;
   const Side alt{range(scratchA_, 0, bytes),
-                 !hasValues ? vk::BufferRange(dummy_) : pairs_ ? range(scratchA_, valuesAt, bytes) : range(scratchB_, 0, bytes)};
+                 !hasValues ? vk::BufferRange(dummy_) : pairs_ ? range(scratchA_, valuesAt, bytes) : range(scratchB_, 0, bytes),
+                 false, noTexels};
   const VkDeviceSize pairBytes = alignUp(count.max, 4) * 8;  // whole uvec4s
-  const Side pairSide[2] = {{range(scratchA_, 0, pairBytes), vk::BufferRange(dummy_), true},
-                            {range(scratchB_, 0, pairBytes), vk::BufferRange(dummy_), true}};
+  const Side pairSide[2] = {{range(scratchA_, 0, pairBytes), vk::BufferRange(dummy_), true,
+                             interleave ? vk::texels(scratchA_, VK_FORMAT_R32G32B32A32_UINT) : noTexels},
+                            {range(scratchB_, 0, pairBytes), vk::BufferRange(dummy_), true,
+                             interleave ? vk::texels(scratchB_, VK_FORMAT_R32G32B32A32_UINT) : noTexels}};
   // Pass p reads sides[p] and writes sides[p + 1]; the last lands in the caller's arrays.
   std::vector<Side> sides;
   if (interleave) {
@@ -375,7 +384,7 @@ void RadixSort::record(vk::Commands& cmd, const vk::BufferRange& keys, const vk:
     const VkDeviceSize words = LOOKBACK_STATUS + VkDeviceSize(passes) * RADIX_BINS * tiles;
     cmd.fill(hist_, 0, 0, words * 4);
     cmd.barrier();
-    overTiles(count_[0], {sides[0].keys, range(hist_, 0, words * 4), countBinding},
+    overTiles(count_[0], {sides[0].keys, range(hist_, 0, words * 4), countBinding, sides[0].texels},
               RadixPush{count.max, count.word.index, flags, 0, 0, tiles, 0, keyBits});
   }
   for (uint32_t p = 0; p < passes; ++p) {
@@ -389,14 +398,14 @@ void RadixSort::record(vk::Commands& cmd, const vk::BufferRange& keys, const vk:
     if (!lookBack) {
       const uint32_t entries = (1u << bits) * tiles;
       table = range(hist_, 0, VkDeviceSize(entries) * 4);
-      overTiles(count_[src.pairs], {src.keys, table, countBinding}, push);
+      overTiles(count_[src.pairs], {src.pairs ? vk::BufferRange(dummy_) : src.keys, table, countBinding, src.texels}, push);
       scan_->record(cmd, table, table, entries);
     }
     // Scatter: stable rank inside the tile, written from the tile's start of each digit.
     const vk::BufferRange none(dummy_);
     overTiles(scatter_[src.pairs][dst.pairs],
-              {src.keys, src.values, dst.pairs ? none : dst.keys, dst.pairs ? none : dst.values, table, countBinding,
-               dst.pairs ? dst.keys : none},
+              {src.pairs ? none : src.keys, src.values, dst.pairs ? none : dst.keys, dst.pairs ? none : dst.values, table,
+               countBinding, dst.pairs ? dst.keys : none, src.texels},
               push);
   }
 }
