@@ -18,14 +18,19 @@ namespace {
 // The test kernel reads triangles and nodes as uniform texel buffers of 16-byte texels (traverse_test.comp).
 constexpr VkFormat kTexelFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
 constexpr VkFormat kWordFormat = VK_FORMAT_R32G32B32A32_UINT;  // the state words as texels (traverse_test.comp)
+constexpr VkFormat kPairFormat = VK_FORMAT_R32G32B32A32_UINT;  // (triangle, node) pairs, two a texel
 constexpr VkFormat kRayFormat = VK_FORMAT_R32G32B32A32_UINT;   // ConeTree::rays(), one texel a ray (traverse_leaves.comp)
 constexpr uint64_t kPairBytes = 8;          // uvec2
 constexpr uint64_t kStatsBytes = STAT_WORDS * 4;
 }  // namespace
 
+// A buffer of `pairs` uvec2 pairs, rounded up to whole 16-byte texels: the kernels read pairs as RGBA32UI
+// texels, two a texel, and a view holds whole texels only.
+uint64_t pairBufferBytes(uint64_t pairs) { return (pairs * kPairBytes + 15) / 16 * 16; }
+
 uint64_t chunkScratchBytes(uint32_t chunkCapacity) {
   // the chunk copy (uvec2 per input; the device path's second pair buffer), the counters and the state words
-  return kPairBytes * std::max<uint64_t>(chunkCapacity, 1) + kStatsBytes + STATE_WORDS * 4;
+  return pairBufferBytes(std::max<uint64_t>(chunkCapacity, 1)) + kStatsBytes + STATE_WORDS * 4;
 }
 
 uint64_t reserveBelow(uint32_t treeDepth, uint32_t d) { return d + 1 >= treeDepth ? 0 : 4 * uint64_t(treeDepth - 1 - d); }
@@ -35,11 +40,11 @@ uint64_t minimumPairs(uint32_t treeDepth) { return reserveBelow(treeDepth, 0) + 
 ArenaPlan planArena(uint64_t memoryBytes, uint64_t maxBinding) {
   ArenaPlan p;
   // Arena 4/5, chunks of a quarter of the arena's pairs (a full chunk expands into at most the whole arena).
-  uint64_t pairs = std::min<uint64_t>(memoryBytes / 10, maxBinding / kPairBytes);
+  uint64_t pairs = std::min<uint64_t>(memoryBytes / 10, maxBinding / 16 * 2);  // whole texels within the binding
   for (;;) {
     uint64_t chunk = std::max<uint64_t>(1, std::min<uint64_t>(pairs / 4, maxBinding / 4));
     chunk = std::min<uint64_t>(chunk, uint64_t(1) << 30);
-    uint64_t bytes = pairs * kPairBytes + chunkScratchBytes(uint32_t(chunk));
+    uint64_t bytes = pairBufferBytes(pairs) + chunkScratchBytes(uint32_t(chunk));
     if (bytes <= memoryBytes && pairs >= kMinPairs) {
       p.pairCapacity = pairs;
       p.chunkCapacity = uint32_t(chunk);
@@ -48,7 +53,7 @@ ArenaPlan planArena(uint64_t memoryBytes, uint64_t maxBinding) {
     }
     CS_CHECK(pairs > kMinPairs, "traversal memory of " << memoryBytes << " bytes is too small: it must hold at least "
                                                        << kMinPairs << " pairs and one chunk's scratch ("
-                                                       << kMinPairs * kPairBytes + chunkScratchBytes(1) << " bytes)");
+                                                       << pairBufferBytes(kMinPairs) + chunkScratchBytes(1) << " bytes)");
     pairs = std::max<uint64_t>(kMinPairs, pairs - std::max<uint64_t>(1, pairs / 16));
   }
 }
@@ -183,7 +188,8 @@ struct Traversal::Frame {
 };
 
 Traversal::Traversal(vk::Context& ctx, uint64_t memoryBytes)
-    : Traversal(ctx, planArena(memoryBytes, ctx.maxStorageBufferRange())) {
+    : Traversal(ctx, planArena(memoryBytes, std::min<uint64_t>(ctx.maxStorageBufferRange(),
+                                                              uint64_t(16) * ctx.properties.limits.maxTexelBufferElements))) {
   CS_CHECK(bytesAllocated() <= memoryBytes, "traversal buffers take " << bytesAllocated() << " bytes, over the bound of "
                                                                       << memoryBytes);
 }
@@ -191,10 +197,10 @@ Traversal::Traversal(vk::Context& ctx, uint64_t memoryBytes)
 Traversal::Traversal(vk::Context& ctx, const ArenaPlan& plan) : ctx_(ctx), plan_(plan) {
   CS_CHECK(plan_.pairCapacity >= kMinPairs && plan_.chunkCapacity >= 1, "traversal arena plan too small");
   batchTriangles_ = plan_.chunkCapacity;
-  leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 6, sizeof(TraversePush), {}, 0x25u);
+  leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 6, sizeof(TraversePush), {}, 0x27u);
   advance_ = vk::createKernel(ctx, "traverse advance", spv_traverse_advance_comp, 2, sizeof(AdvancePush));
-  arena_ = vk::createBuffer(ctx, plan_.pairCapacity * kPairBytes);
-  chunk_ = vk::createBuffer(ctx, uint64_t(plan_.chunkCapacity) * kPairBytes);
+  arena_ = vk::createBuffer(ctx, pairBufferBytes(plan_.pairCapacity));
+  chunk_ = vk::createBuffer(ctx, pairBufferBytes(plan_.chunkCapacity));
   stats_ = vk::createBuffer(ctx, kStatsBytes, vk::Memory::HostVisible);
   state_ = vk::createBuffer(ctx, STATE_WORDS * 4, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
 }
@@ -217,7 +223,7 @@ const vk::Kernel& Traversal::testKernel(const TraversePush& p, bool clusters, bo
         spv_traverse_test_comp, 11, sizeof(TraversePush),
         {{0, sphere && !clusters ? TRAVERSE_TEST_SPHERE : TRAVERSE_TEST_PRECISE}, {1, early ? 1u : 0u},
          {2, culling ? 1u : 0u}, {3, clusters ? 1u : 0u}, {4, whole ? 1u : 0u}},
-        0x403u));
+        0x407u));
   return *k;
 }
 
@@ -278,11 +284,11 @@ bool Traversal::expandChunk(Frame& f, uint32_t child, bool fromTriangles, uint64
   cmd.mark("start");
   vk::Grid g = vk::gridFor(count, TRAVERSE_THREADS, ctx_.maxWorkgroups());
   if (early)
-    cmd.dispatch(testKernel(p, false), {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), chunk_, arena_,
+    cmd.dispatch(testKernel(p, false), {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), vk::texels(chunk_, kPairFormat), arena_,
                          stats_, f.in->samples, f.in->positions, *f.in->visibility, flags_, stats_,
                          vk::texels(stats_, kWordFormat)}, p, g.x, g.y);
   else  // bindings 5-9 unused: any valid buffer
-    cmd.dispatch(testKernel(p, false), {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), chunk_, arena_,
+    cmd.dispatch(testKernel(p, false), {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), vk::texels(chunk_, kPairFormat), arena_,
                          stats_, stats_, stats_, stats_, stats_, stats_, vk::texels(stats_, kWordFormat)}, p, g.x, g.y);
   cmd.barrier();
   cmd.mark("traversal");
@@ -339,7 +345,7 @@ void Traversal::leaves(Frame& f, uint32_t d) {
   cmd.barrier();
   cmd.mark("start");
   vk::Grid g = vk::gridFor(pairs, TRAVERSE_THREADS, ctx_.maxWorkgroups());
-  cmd.dispatch(leaves_, {vk::texels(*f.in->triangles, kTexelFormat), arena_, vk::texels(f.in->tree->rays(), kRayFormat), *f.in->visibility, stats_,
+  cmd.dispatch(leaves_, {vk::texels(*f.in->triangles, kTexelFormat), vk::texels(arena_, kPairFormat), vk::texels(f.in->tree->rays(), kRayFormat), *f.in->visibility, stats_,
                          vk::texels(stats_, kWordFormat)}, p,
                g.x, g.y);
   cmd.barrier();
@@ -504,7 +510,7 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
       ps.test = TRAVERSE_TEST_SPHERE;
       ps.earlyAccept = 0u;
       cmd.dispatchIndirect(testKernel(ps, false, wholeExpansion),
-                           {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), src, dst, state_,
+                           {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), vk::texels(src, kPairFormat), dst, state_,
                             state_, state_, state_, state_, spheres, vk::texels(state_, kWordFormat)},
                            &ps, sizeof(ps), state_, STATE_SPHERE_ARGS * 4);
     }
@@ -513,12 +519,12 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
       const uint32_t args = clusterKernel ? STATE_CLUSTER_ARGS : STATE_TEST_ARGS;
       if (early)
         cmd.dispatchIndirect(testKernel(p, clusterKernel),
-                             {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), src, dst, state_,
+                             {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), vk::texels(src, kPairFormat), dst, state_,
                               in.samples, in.positions, *in.visibility, flags_, spheres, vk::texels(state_, kWordFormat)},
                              &p, sizeof(p), state_, args * 4);
       else
         cmd.dispatchIndirect(testKernel(p, clusterKernel),
-                             {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), src, dst, state_,
+                             {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), vk::texels(src, kPairFormat), dst, state_,
                               state_, state_, state_, state_, spheres, vk::texels(state_, kWordFormat)},
                              &p, sizeof(p), state_, args * 4);
     }
@@ -548,7 +554,7 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
       p.first = 0;
       p.countWord = STATE_LEAF_ARGS + 4 * c + 3;
       p.missingWord = STATE_LEAF_MISSING;
-      cmd.dispatchIndirect(leaves_, {vk::texels(*in.triangles, kTexelFormat), *buffers[(c - 1) % 2], vk::texels(in.tree->rays(), kRayFormat), *in.visibility, state_,
+      cmd.dispatchIndirect(leaves_, {vk::texels(*in.triangles, kTexelFormat), vk::texels(*buffers[(c - 1) % 2], kPairFormat), vk::texels(in.tree->rays(), kRayFormat), *in.visibility, state_,
                                      vk::texels(state_, kWordFormat)},
                            &p, sizeof(p), state_, (STATE_LEAF_ARGS + 4 * c) * 4);
     }

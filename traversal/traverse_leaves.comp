@@ -8,7 +8,7 @@
 // Counts nothing per test (shared or global atomics per invocation cost ~15 % on lavapipe): the host
 // counts 4 tests per pair, and the pairs of the last node, past the last ray, count the rays they lack in
 // STAT_MISSING.
-// bindings: 0 = triangles (uniform texel buffer, RGBA32F, 3 texels a triangle), 1 = arena (uvec2 pairs),
+// bindings: 0 = triangles (uniform texel buffer, RGBA32F, 3 texels a triangle), 1 = arena (uniform texel buffer, RGBA32UI: two uvec2 pairs a texel),
 //           2 = rays (uniform texel buffer, RGBA32UI, one texel a sorted ray: the sample's position as float
 //           bits and its pixel index, ConeTree::rays), 3 = visibility (uint per pixel), 4 = stats (the device
 //           path: the state words, the pair count at p.countWord), 5 = the same words as a uniform texel
@@ -18,7 +18,7 @@
 
 layout(local_size_x = TRAVERSE_THREADS) in;
 layout(binding = 0) uniform samplerBuffer tris;  // RGBA32F texels, three a triangle (traverse_test.comp)
-layout(std430, binding = 1) readonly buffer Arena { uvec2 pairs[]; };
+layout(binding = 1) uniform usamplerBuffer arena;  // RGBA32UI texels, two (triangle, node) pairs a texel
 layout(binding = 2) uniform usamplerBuffer rays;  // RGBA32UI texels, one a sorted ray
 layout(std430, binding = 3) buffer Visibility { uint visibility[]; };
 layout(std430, binding = 4) buffer Stats { uint stats[]; };
@@ -34,7 +34,9 @@ uint statWord(uint w) {
 void main() {
   uint i = flatIndex();
   if (i >= (p.countWord != 0u ? statWord(p.countWord) : p.count)) return;
-  uvec2 pair = pairs[p.first + i];
+  uint at = p.first + i;
+  uvec4 two = texelFetch(arena, int(at >> 1u));
+  uvec2 pair = (at & 1u) == 0u ? two.xy : two.zw;
   uint leafCount = p.deviceParams != 0u ? statWord(STATE_LEAF_COUNT) : p.childCount;
   uint first = 4u * pair.y;
   uint end = min(first + 4u, leafCount);

@@ -22,7 +22,7 @@
 // flagged is dropped: its samples are all shadowed already (its children's tests go to STAT_MISSING).
 // bindings: 0 = triangles (uniform texel buffer, RGBA32F: 3 texels per triangle, world space; in the
 //           far-light frame relative to the light), 1 = nodes (uniform texel buffer, RGBA32F: 2 texels per
-//           ConeNode), 2 = input pairs (uvec2), 3 = output pairs (uvec2, from slot p.outFirst),
+//           ConeNode), 2 = input pairs (uniform texel buffer, RGBA32UI: two uvec2 a texel), 3 = output pairs (uvec2, from slot p.outFirst),
 //           4 = stats (uint[STAT_WORDS]; the device path's state words), 5 = samples (uint pixel per sorted
 //           ray), 6 = positions (vec4 per pixel), 7 = visibility (uint per pixel), 8 = flags (uint per
 //           interior node); 5-8 used with early accept only, 9 = cluster spheres (SUPER_SPHERES vec4s a
@@ -50,7 +50,13 @@ layout(local_size_x = TRAVERSE_THREADS) in;
 // gather path on lavapipe and read through the texture cache on a GPU (TOOLCHAIN.md).
 layout(binding = 0) uniform samplerBuffer tris;
 layout(binding = 1) uniform samplerBuffer nodeTexels;
-layout(std430, binding = 2) readonly buffer Inputs { uvec2 pairs[]; };
+// The input pairs as RGBA32UI texels, two a texel: a texel fetch costs lavapipe next to nothing, a storage
+// load one load per lane.
+layout(binding = 2) uniform usamplerBuffer inputs;
+uvec2 inputPair(uint at) {
+  uvec4 two = texelFetch(inputs, int(at >> 1u));
+  return (at & 1u) == 0u ? two.xy : two.zw;
+}
 layout(std430, binding = 3) writeonly buffer Outputs { uvec2 outPairs[]; };
 layout(std430, binding = 4) buffer Stats { uint stats[]; };
 layout(std430, binding = 5) readonly buffer Samples { uint samples[]; };
@@ -112,14 +118,14 @@ void acceptChild(uint c, vec3 light) {
 uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild) {
   firstChild = 0u;
   if (SPEC_CLUSTERS == 0u && mode == STEP_EXPAND) {
-    uvec2 cp = pairs[i >> CLUSTER_SHIFT];
+    uvec2 cp = inputPair(i >> CLUSTER_SHIFT);
     pair = uvec2((cp.x << CLUSTER_SHIFT) + (i & (CLUSTER_SIZE - 1u)), cp.y);
     if (pair.x >= p.triangleEnd) {  // past the last cluster's triangles: no test
       atomicAdd(stats[STAT_MISSING], 4u);
       return 0u;
     }
   } else if (SPEC_CLUSTERS != 0u && mode == STEP_SPLIT) {
-    uvec2 sp = pairs[i >> 2u];  // (SUPER_CLUSTERS inputs a pair)
+    uvec2 sp = inputPair(i >> 2u);  // (SUPER_CLUSTERS inputs a pair)
     pair = uvec2(SUPER_CLUSTERS * sp.x + (i & (SUPER_CLUSTERS - 1u)), sp.y);
     if ((pair.x << CLUSTER_SHIFT) >= p.triangleEnd) {  // past the last super cluster's clusters: no test
       atomicAdd(stats[STAT_MISSING], 4u);
@@ -128,7 +134,7 @@ uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild) {
   } else {
     // pass 0: super clusters, clusters or triangles
     uint first = SPEC_CLUSTERS == 0u ? p.first : (mode == STEP_SUPER ? p.first >> SUPER_SHIFT : p.first >> CLUSTER_SHIFT);
-    pair = p.fromTriangles != 0u ? uvec2(first + i, 0u) : pairs[p.first + i];
+    pair = p.fromTriangles != 0u ? uvec2(first + i, 0u) : inputPair(p.first + i);
   }
   uvec2 r = p.fromTriangles != 0u ? uvec2(0u, 1u) : childRange(pair.y, childCount);
   firstChild = r.x;
@@ -202,7 +208,7 @@ uint reserve(uint n, uint total) {
 // their group kept, with the sphere test; the survivors appended as (triangle, child) pairs, a cluster
 // at a time. The tests not made of the step's four per triangle pair go to STAT_MISSING.
 void expandWhole(uint i, bool super) {
-  uvec2 cp = pairs[p.first + i];
+  uvec2 cp = inputPair(p.first + i);
   uvec2 r = childRange(cp.y, childCount);
   uint kids = r.y - r.x;
   ConeNode n0 = node(childOffset + r.x);
