@@ -64,7 +64,8 @@ void main() {
   ConeNode c2 = n > 2u ? child(r.x + 2u) : emptyCone();
   ConeNode c3 = n > 3u ? child(r.x + 3u) : emptyCone();
   // In the far frame the axis from the children's sum and the widening CONE_PAD times the frame's angular
-  // scale; in the world frame the approximate minimal merge and CONE_PAD.
-  nodes[nodeOffset + j] = SPEC_FAR != 0u ? coneParentFar(c0, c1, c2, c3, n, CONE_PAD * p.frame.centre.w)
-                                                   : coneParent(c0, c1, c2, c3, n, CONE_PAD);
+  // scale; in the world frame the approximate minimal merge and CONE_PAD (of rays, coneParentOfRays).
+  nodes[nodeOffset + j] = SPEC_FAR != 0u      ? coneParentFar(c0, c1, c2, c3, n, CONE_PAD * p.frame.centre.w)
+                          : SPEC_LEAVES != 0u ? coneParentOfRays(c0, c1, c2, c3, n, CONE_PAD)
+                                              : coneParent(c0, c1, c2, c3, n, CONE_PAD);
 }

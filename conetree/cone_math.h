@@ -186,6 +186,79 @@ CS_FN ConeNode coneParent(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, ui
   return coneParent(c0, c1, c2, c3, n, CONE_PAD);
 }
 
+// A cone through its axis and the (cos, sin) of its half-angle: the approximate merges of
+// coneParentOfRays, with + * / sqrt only.
+struct ConeCS {
+  vec3 axis;
+  vec2 cs;  // (cos, sin) of the half-angle; (1, 0) for a ray
+};
+
+// The smallest cone around rays a and b (unit; `hasA`/`hasB` false for no ray): the bisector.
+CS_FN ConeCS rayPairCone(vec3 a, bool hasA, vec3 b, bool hasB) {
+  ConeCS r;
+  r.axis = hasA ? a : b;
+  r.cs = vec2(1.0f, 0.0f);
+  if (!hasA || !hasB) return r;
+  vec3 m = a + b;
+  float l = length(m);
+  if (!(l > 1e-6f)) return r;  // opposite rays: any axis, coneEnclose makes it hold both
+  r.axis = CONE_DIV(m, l);
+  r.cs = vec2(dot(r.axis, a), length(cross(r.axis, a)));
+  return r;
+}
+
+// The axis of the smallest cone around cones p and q, as coneMergeApprox chooses it, from (cos, sin)
+// pairs: rotate p's axis towards q's by (theta + alpha_q - alpha_p) / 2 (the half-angle formulas), or keep
+// the axis of a cone that holds the other.
+CS_FN vec3 conePairAxis(ConeCS p, ConeCS q) {
+  float ct = dot(p.axis, q.axis);
+  vec3 perp = q.axis - ct * p.axis;
+  float st = length(perp);
+  if (!(st > 1e-12f)) return p.axis;
+  // x = theta + alpha_q - alpha_p, in (-pi/2, 3pi/2): both half-angles are at most pi/2 (bisectors).
+  vec2 tq = vec2(ct * q.cs.x - st * q.cs.y, st * q.cs.x + ct * q.cs.y);                          // theta + alpha_q
+  vec2 x = vec2(tq.x * p.cs.x + tq.y * p.cs.y, tq.y * p.cs.x - tq.x * p.cs.y);                     // - alpha_p
+  vec2 y = vec2(ct * p.cs.x - st * p.cs.y, st * p.cs.x + ct * p.cs.y);                             // theta + alpha_p
+  y = vec2(y.x * q.cs.x + y.y * q.cs.y, y.y * q.cs.x - y.x * q.cs.y);                              // - alpha_q
+  if (x.y <= 0.0f && x.x > 0.0f) return p.axis;  // x <= 0: q inside p
+  if (y.y <= 0.0f && y.x > 0.0f) return q.axis;  // p inside q
+  // beta = x / 2: (1 + cos x, sin x) points at x / 2 for x in (-pi, pi), the other way past pi; unlike
+  // sqrt((1 - cos x) / 2) it keeps its precision for the tiny angles of coherent rays.
+  vec2 h = vec2(x.x + length(x), x.y);  // |x| (1 + cos x, sin x): x is not normalised
+  if (x.y < 0.0f) h = -h;               // x in [pi, 3pi/2)
+  float hl = length(h);
+  h = hl > 0.0f ? CONE_DIV(h, hl) : vec2(0.0f, 1.0f);  // x = pi: a right angle
+  return h.x * p.axis + h.y * CONE_DIV(perp, st);
+}
+
+// The parent of up to four leaf rays (world frame; rayCone children, half-angle 0): the same pairwise
+// merges as coneParent -- two bisectors, then the smallest cone around those two -- through (cos, sin)
+// pairs instead of atan/cos/sin, which lavapipe evaluates as long polynomials in every lane: three
+// quarters of a tree's nodes are this level. The axis only steers how tight the cone is: coneEnclose
+// makes it hold every ray exactly, as for any parent.
+CS_FN ConeNode coneParentOfRays(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, uint n, float pad) {
+  bool h0 = !coneIsEmpty(c0), h1 = n > 1u && !coneIsEmpty(c1), h2 = n > 2u && !coneIsEmpty(c2),
+       h3 = n > 3u && !coneIsEmpty(c3);
+  if (!h0 && !h1 && !h2 && !h3) return emptyCone();
+  ConeCS left = rayPairCone(vec3(c0.axisCos), h0, vec3(c1.axisCos), h1);
+  ConeCS right = rayPairCone(vec3(c2.axisCos), h2, vec3(c3.axisCos), h3);
+  bool hasLeft = h0 || h1, hasRight = h2 || h3;
+  vec3 axis = !hasRight ? left.axis : (!hasLeft ? right.axis : conePairAxis(left, right));
+  float al = length(axis);
+  float lmin = CS_FLT_MAX, lmax = -1.0f;
+  for (uint i = 0u; i < 4u; i++) {
+    if (i >= n) break;
+    ConeNode c = i == 0u ? c0 : (i == 1u ? c1 : (i == 2u ? c2 : c3));
+    if (coneIsEmpty(c)) continue;
+    lmin = min(lmin, c.sinLen.y);
+    lmax = max(lmax, c.sinLen.z);
+  }
+  ConeNode merged;
+  merged.axisCos = vec4(al > 0.5f ? CONE_DIV(axis, al) : (hasLeft ? left.axis : right.axis), 1.0f);
+  merged.sinLen = vec4(0.0f, lmin, lmax, 0.0f);
+  return coneEnclose(merged, c0, c1, c2, c3, n, pad);
+}
+
 // A cone of the far-light frame as a disc on the plane z = 1 (its axis's point there, the tangent of its
 // half-angle): the approximate merges of coneParentFar work on these. w = 0: empty; w = -1: not a
 // disc (axis not in front, or not finite).
@@ -263,6 +336,7 @@ using glsl::coneIsEmpty;
 using glsl::coneMergeApprox;
 using glsl::coneParent;
 using glsl::coneParentFar;
+using glsl::coneParentOfRays;
 using glsl::coneReach;
 using glsl::emptyCone;
 using glsl::leafRay;

@@ -199,8 +199,9 @@ std::vector<ConeNode> buildTreeOnHost(const std::vector<glm::vec4>& positions, c
       uint32_t n = r.y - r.x;
       const ConeNode c0 = child(r.x), c1 = n > 1 ? child(r.x + 1) : emptyCone(),
                      c2 = n > 2 ? child(r.x + 2) : emptyCone(), c3 = n > 3 ? child(r.x + 3) : emptyCone();
-      nodes[s.offsets[d] + j] = fc.far ? coneParentFar(c0, c1, c2, c3, n, CONE_PAD * fc.frame.centre.w)
-                                       : coneParent(c0, c1, c2, c3, n, CONE_PAD);
+      nodes[s.offsets[d] + j] = fc.far       ? coneParentFar(c0, c1, c2, c3, n, CONE_PAD * fc.frame.centre.w)
+                                : fromLeaves ? coneParentOfRays(c0, c1, c2, c3, n, CONE_PAD)
+                                             : coneParent(c0, c1, c2, c3, n, CONE_PAD);
     }
   }
   return nodes;

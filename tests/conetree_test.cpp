@@ -136,6 +136,51 @@ TEST(ConeMath, ParentEnclosesEveryChildConeIncludingWideAndOpposite) {
   EXPECT_TRUE(cone::coneIsEmpty(cone::coneParent(e, e, e, e, 4)));
 }
 
+// The leaf level's parent (coneParentOfRays: the same merges as coneParent through (cos, sin) pairs):
+// it holds every ray, coherent or opposite, with empty children among them, and is as tight as
+// coneParent's to within its padding where the rays are coherent.
+TEST(ConeMath, ParentOfRaysHoldsEveryRayAndIsAsTightAsTheParent) {
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<double> u(-1, 1), u01(0, 1);
+  auto dir = [&] {
+    for (;;) {
+      glm::dvec3 p(u(rng), u(rng), u(rng));
+      if (glm::length(p) > 0.1 && glm::length(p) <= 1) return glm::normalize(p);
+    }
+  };
+  int compared = 0;
+  for (int iter = 0; iter < 20000; ++iter) {
+    ConeNode c[4];
+    const uint32_t n = 1 + iter % 4;
+    const glm::dvec3 base = dir();
+    const double spread = std::pow(10.0, -7 + 7.5 * u01(rng));  // 1e-7 .. ~3 rad
+    for (uint32_t i = 0; i < 4; ++i) {
+      glm::dvec3 a = glm::normalize(base + dir() * spread);
+      if (iter % 7 == 0 && i == 1) a = -glm::dvec3(glm::vec3(c[0].axisCos));  // exactly opposite
+      const float L = float(1 + 100 * u01(rng));
+      c[i] = cone::rayCone(glm::vec4(glm::vec3(a) * L, L));
+      if (iter % 11 == 0 && i == 2) c[i] = cone::emptyCone();
+    }
+    const ConeNode p = cone::coneParentOfRays(c[0], c[1], c[2], c[3], n, CONE_PAD);
+    const double pa = halfAngle(p);
+    for (uint32_t i = 0; i < n; ++i) {
+      if (cone::coneIsEmpty(c[i])) continue;
+      ASSERT_LE(std::min(angleBetween(glm::vec3(p.axisCos), glm::vec3(c[i].axisCos)), M_PI), pa)
+          << "iter " << iter << " ray " << i << " of " << n << " (spread " << spread << ")";
+      EXPECT_LE(p.sinLen.y, c[i].sinLen.y);
+      EXPECT_GE(p.sinLen.z, c[i].sinLen.z);
+    }
+    if (iter % 7 != 0 && spread < 0.1) {
+      const double reference = halfAngle(cone::coneParent(c[0], c[1], c[2], c[3], n, CONE_PAD));
+      EXPECT_LE(pa, reference * (1 + 1e-3) + 4 * CONE_PAD) << "iter " << iter << " (spread " << spread << ")";
+      compared++;
+    }
+  }
+  EXPECT_GT(compared, 5000);
+  ConeNode e = cone::emptyCone();
+  EXPECT_TRUE(cone::coneIsEmpty(cone::coneParentOfRays(e, e, e, e, 4, CONE_PAD)));
+}
+
 // Sample positions for a tree test: coherent patches (a wall seen from a camera), scattered points,
 // and degenerate samples at (or within 2 eps of) the light, with NaN among them.
 std::vector<glm::vec4> samplePositions(uint32_t n, glm::vec3 light, uint32_t seed) {

@@ -212,7 +212,7 @@ TEST_P(GpuArithmetic, ParentConesHoldEveryLeafRayTheLeafKernelComputes) {
       leaves[k] = gpuemu::rayCone(rays[k]);
     }
     gpuemu::Cone mid[4];
-    for (int m = 0; m < 4; ++m) mid[m] = gpuemu::coneParent(leaves + 4 * m, 4);
+    for (int m = 0; m < 4; ++m) mid[m] = gpuemu::coneParentOfRays(leaves + 4 * m, 4);  // as the build's leaf level
     const gpuemu::Cone root = gpuemu::coneParent(mid, 4);
     for (int k = 0; k < 16; ++k) {
       const dvec3 r(vec3(rays[k]));

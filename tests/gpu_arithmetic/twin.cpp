@@ -118,6 +118,11 @@ Cone coneParent(const Cone* c, uint32_t n, float pad) {
   for (uint32_t i = 0; i < 4; ++i) k[i] = i < n ? node(c[i]) : twin::emptyCone();
   return cone(twin::coneParent(k[0], k[1], k[2], k[3], n, pad));
 }
+Cone coneParentOfRays(const Cone* c, uint32_t n) {
+  twin::ConeNode k[4];
+  for (uint32_t i = 0; i < 4; ++i) k[i] = i < n ? node(c[i]) : twin::emptyCone();
+  return cone(twin::coneParentOfRays(k[0], k[1], k[2], k[3], n, CONE_PAD));
+}
 Cone coneParentFar(const Cone* c, uint32_t n, float pad) {
   twin::ConeNode k[4];
   for (uint32_t i = 0; i < 4; ++i) k[i] = i < n ? node(c[i]) : twin::emptyCone();

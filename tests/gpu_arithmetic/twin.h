@@ -54,5 +54,6 @@ glm::vec4 leafRay(glm::vec3 p, glm::vec3 light);
 Cone rayCone(glm::vec4 ray);
 Cone coneParent(const Cone* children, uint32_t n, float pad = 1.52587890625e-05f);
 Cone coneParentFar(const Cone* children, uint32_t n, float pad);  // the far frame's
+Cone coneParentOfRays(const Cone* rays, uint32_t n);                // the world frame's leaf level
 
 }  // namespace cs::gpuemu
