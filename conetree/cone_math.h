@@ -158,6 +158,20 @@ CS_FN ConeNode coneEnclose(ConeNode node, ConeNode c0, ConeNode c1, ConeNode c2,
   return node;
 }
 
+// (Lmin, Lmax) over the first n children, empty ones skipped (exact: min and max do not round); Lmax < 0
+// when every child is empty.
+CS_FN vec2 childLengths(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, uint n) {
+  float lmin = CS_FLT_MAX, lmax = -1.0f;
+  for (uint i = 0u; i < 4u; i++) {
+    if (i >= n) break;
+    ConeNode c = i == 0u ? c0 : (i == 1u ? c1 : (i == 2u ? c2 : c3));
+    if (coneIsEmpty(c)) continue;
+    lmin = min(lmin, c.sinLen.y);
+    lmax = max(lmax, c.sinLen.z);
+  }
+  return vec2(lmin, lmax);
+}
+
 // The parent of up to four children (n = 1..4; entries past n are ignored; empty children skipped),
 // widened by `pad` (coneEnclose).
 CS_FN ConeNode coneParent(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, uint n, float pad) {
@@ -168,17 +182,9 @@ CS_FN ConeNode coneParent(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode c3, ui
   if (n > 3u) right = coneMergeApprox(c2, c3);
   ConeNode merged = coneMergeApprox(left, right);
   if (coneIsEmpty(merged)) return emptyCone();
-  // Lmin/Lmax over the children (exact: min and max do not round).
-  float lmin = CS_FLT_MAX, lmax = -1.0f;
-  for (uint i = 0u; i < 4u; i++) {
-    if (i >= n) break;
-    ConeNode c = i == 0u ? c0 : (i == 1u ? c1 : (i == 2u ? c2 : c3));
-    if (coneIsEmpty(c)) continue;
-    lmin = min(lmin, c.sinLen.y);
-    lmax = max(lmax, c.sinLen.z);
-  }
-  merged.sinLen.y = lmin;
-  merged.sinLen.z = lmax;
+  vec2 lengths = childLengths(c0, c1, c2, c3, n);
+  merged.sinLen.y = lengths.x;
+  merged.sinLen.z = lengths.y;
   return coneEnclose(merged, c0, c1, c2, c3, n, pad);
 }
 
@@ -245,17 +251,10 @@ CS_FN ConeNode coneParentOfRays(ConeNode c0, ConeNode c1, ConeNode c2, ConeNode 
   bool hasLeft = h0 || h1, hasRight = h2 || h3;
   vec3 axis = !hasRight ? left.axis : (!hasLeft ? right.axis : conePairAxis(left, right));
   float al = length(axis);
-  float lmin = CS_FLT_MAX, lmax = -1.0f;
-  for (uint i = 0u; i < 4u; i++) {
-    if (i >= n) break;
-    ConeNode c = i == 0u ? c0 : (i == 1u ? c1 : (i == 2u ? c2 : c3));
-    if (coneIsEmpty(c)) continue;
-    lmin = min(lmin, c.sinLen.y);
-    lmax = max(lmax, c.sinLen.z);
-  }
+  vec2 lengths = childLengths(c0, c1, c2, c3, n);
   ConeNode merged;
   merged.axisCos = vec4(al > 0.5f ? CONE_DIV(axis, al) : (hasLeft ? left.axis : right.axis), 1.0f);
-  merged.sinLen = vec4(0.0f, lmin, lmax, 0.0f);
+  merged.sinLen = vec4(0.0f, lengths.x, lengths.y, 0.0f);
   return coneEnclose(merged, c0, c1, c2, c3, n, pad);
 }
 

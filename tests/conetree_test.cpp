@@ -92,15 +92,19 @@ ConeNode makeCone(glm::dvec3 axis, double alpha, float lmin, float lmax) {
   return c;
 }
 
+// A uniformly random unit vector.
+glm::dvec3 randomDirection(std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (;;) {
+    glm::dvec3 p(u(rng), u(rng), u(rng));
+    if (glm::length(p) > 0.1 && glm::length(p) <= 1) return glm::normalize(p);
+  }
+}
+
 TEST(ConeMath, ParentEnclosesEveryChildConeIncludingWideAndOpposite) {
   std::mt19937 rng(11);
-  std::uniform_real_distribution<double> u(-1, 1), u01(0, 1);
-  auto dir = [&] {
-    for (;;) {
-      glm::dvec3 p(u(rng), u(rng), u(rng));
-      if (glm::length(p) > 0.1 && glm::length(p) <= 1) return glm::normalize(p);
-    }
-  };
+  std::uniform_real_distribution<double> u01(0, 1);
+  auto dir = [&] { return randomDirection(rng); };
   const double angles[] = {0, 1e-7, 1e-4, 0.01, 0.5, M_PI / 2 - 1e-4, M_PI / 2, 2.0, M_PI - 1e-3, M_PI};
   int wholeSpheres = 0;
   for (int iter = 0; iter < 20000; ++iter) {
@@ -141,13 +145,8 @@ TEST(ConeMath, ParentEnclosesEveryChildConeIncludingWideAndOpposite) {
 // coneParent's to within its padding where the rays are coherent.
 TEST(ConeMath, ParentOfRaysHoldsEveryRayAndIsAsTightAsTheParent) {
   std::mt19937 rng(12);
-  std::uniform_real_distribution<double> u(-1, 1), u01(0, 1);
-  auto dir = [&] {
-    for (;;) {
-      glm::dvec3 p(u(rng), u(rng), u(rng));
-      if (glm::length(p) > 0.1 && glm::length(p) <= 1) return glm::normalize(p);
-    }
-  };
+  std::uniform_real_distribution<double> u01(0, 1);
+  auto dir = [&] { return randomDirection(rng); };
   int compared = 0;
   for (int iter = 0; iter < 20000; ++iter) {
     ConeNode c[4];
