@@ -63,7 +63,8 @@
 //
 // Memory budget. `memoryBytes` (ConeOptions::traversalMemoryBytes, --traversal-memory) bounds the arena
 // plus the chunk scratch: planArena() splits it (arena 2/3, chunk capacity = arena / 4), caps each array
-// at one storage binding (maxStorageBufferRange) and reports what it allocates. peakBytes in the stats is
+// at one storage binding (maxStorageBufferRange) and one texel buffer (the kernels read pairs as RGBA32UI
+// texels, two a texel; pair buffers are whole texels) and reports what it allocates. peakBytes in the stats is
 // the high-water mark of the arena slots in use plus the scratch of the largest chunk: always <= the bound.
 //
 // Early accept (002 §3.3; TraversalInput::earlyAccept, precise test only). The test kernel also checks
