@@ -570,7 +570,7 @@ class ConeMethod : public ShadowMethod {
                   "cone path", "give --memory-budget " + byteSizeLabel(fixed + (uint64_t(1) << 20)) +
                                    " or more (the traversal then runs chunked; more is faster), or fewer pixels");
     const uint64_t memory = std::min(options_.traversalMemoryBytes, budget - fixed);
-    const traversal::ArenaPlan plan = traversal::planArena(memory, ctx_.maxStorageBufferRange());
+    const traversal::ArenaPlan plan = traversal::planArena(memory, traversal::maxPairBufferBytes(ctx_));
     if (!traversal_ || traversal_->plan().pairCapacity != plan.pairCapacity ||
         traversal_->plan().chunkCapacity != plan.chunkCapacity) {
       traversal_.reset();

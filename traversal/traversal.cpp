@@ -187,9 +187,12 @@ struct Traversal::Frame {
   uint32_t words[STAT_WORDS] = {};  // the counters of the last submit
 };
 
+uint64_t maxPairBufferBytes(const vk::Context& ctx) {
+  return std::min<uint64_t>(ctx.maxStorageBufferRange(), uint64_t(16) * ctx.properties.limits.maxTexelBufferElements);
+}
+
 Traversal::Traversal(vk::Context& ctx, uint64_t memoryBytes)
-    : Traversal(ctx, planArena(memoryBytes, std::min<uint64_t>(ctx.maxStorageBufferRange(),
-                                                              uint64_t(16) * ctx.properties.limits.maxTexelBufferElements))) {
+    : Traversal(ctx, planArena(memoryBytes, maxPairBufferBytes(ctx))) {
   CS_CHECK(bytesAllocated() <= memoryBytes, "traversal buffers take " << bytesAllocated() << " bytes, over the bound of "
                                                                       << memoryBytes);
 }

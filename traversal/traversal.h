@@ -159,6 +159,9 @@ uint64_t chunkScratchBytes(uint32_t chunkCapacity);
 // Splits `memoryBytes` into the arena and the chunk scratch; each array stays within `maxBinding` bytes.
 // Throws a cs::Error when the budget cannot hold even a minimal arena (kMinPairs pairs + one chunk).
 ArenaPlan planArena(uint64_t memoryBytes, uint64_t maxBinding);
+// The bytes one pair buffer may take on this device: one storage binding and one texel buffer (the kernels
+// read pairs as RGBA32UI texels). Traversal plans its arena with it; so must anyone predicting that plan.
+uint64_t maxPairBufferBytes(const vk::Context& ctx);
 // Arena slots reserved beyond depth d's pairs for the deeper depths (4 per interior depth below d).
 uint64_t reserveBelow(uint32_t treeDepth, uint32_t d);
 // The smallest arena that can traverse a tree of this depth: one node's children per depth.
