@@ -3,8 +3,8 @@
 // The lit samples of the G-buffer (geometry present and direct-light term > 0, as GBuffer::isLit) as
 // compaction flags over an enumeration of the pixels: row-major, or the tiled Morton screen order of
 // the unsorted variant, which also records the pixel each position stands for.
-// bindings: 0 = position, 1 = normal (uniform texel buffers, RGBA32F: a texel per pixel), 2 = flags (uint[] per
-//           domain position), 3 = pixelOf (uint[] per domain position; Morton order only)
+// bindings: 0 = position, 1 = normal (uniform texel buffers, RGBA32F: a texel per pixel), 2 = flags
+//           (uint[] per domain position), 3 = pixelOf (uint[] per domain position; Morton order only)
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
 layout(local_size_x = PIXEL_THREADS) in;

@@ -3,8 +3,9 @@
 // The Hilbert ray key (rays/hilbert.h) of every compacted sample: ray = light -> position[sample], in the
 // world on its face's fitted grid (faceRayKey on ray_grids.comp's grid) or in a rotated frame
 // (frameRayKey, KeysPush::framed).
-// bindings: 0 = position (uniform texel buffer, RGBA32F: a texel per pixel), 1 = samples (uint[] pixel indices), 2 = keys (uint[]),
-//           3 = countWords (device count), 4 = the faces' grids (vec4 per face, world keys)
+// bindings: 0 = position (uniform texel buffer, RGBA32F: a texel per pixel), 1 = samples (uint[] pixel
+//           indices), 2 = keys (uint[]), 3 = countWords (device count), 4 = the faces' grids (vec4 per
+//           face, world keys)
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
 layout(local_size_x = PIXEL_THREADS) in;

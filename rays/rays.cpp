@@ -86,7 +86,9 @@ void LitRays::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, RayOrd
   const bool morton = order == RayOrder::ScreenMorton;
   LitPush push{g.width, g.height, morton ? 1u : 0u, d.tilesX, uint32_t(d.size), 0, 0, 0};
   vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(d.size, PIXEL_THREADS));
-  cmd.dispatch(morton ? mortonFlags_ : flags_, {vk::texels(g.position, kPixelTexels), vk::texels(g.normal, kPixelTexels), flagBuffer_, pixelOf_}, push, grid.x, grid.y);
+  cmd.dispatch(morton ? mortonFlags_ : flags_,
+               {vk::texels(g.position, kPixelTexels), vk::texels(g.normal, kPixelTexels), flagBuffer_, pixelOf_}, push,
+               grid.x, grid.y);
   cmd.barrier();
   // Row-major positions are pixel indices already; Morton positions carry theirs in pixelOf_.
   compact_.record(cmd, flagBuffer_, uint32_t(d.size), samples_, sort::GpuWord(count_, 0),
@@ -125,7 +127,8 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
   if (count.onDevice()) {  // as many workgroups as the device count needs (none for a count of 0)
     groups_.record(cmd, count, PIXEL_THREADS, keyArgs_, 0);
     cmd.barrier();
-    cmd.dispatchIndirect(keys, {vk::texels(g.position, kPixelTexels), samples_, keys_, countBinding, grids_}, &push, sizeof(push), keyArgs_);
+    cmd.dispatchIndirect(keys, {vk::texels(g.position, kPixelTexels), samples_, keys_, countBinding, grids_}, &push,
+                         sizeof(push), keyArgs_);
   } else {
     vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(count.max, PIXEL_THREADS));
     cmd.dispatch(keys, {vk::texels(g.position, kPixelTexels), samples_, keys_, countBinding, grids_}, push, grid.x, grid.y);
