@@ -448,6 +448,20 @@ TEST_P(RadixSortShapes, CarriesValuesAlikeThroughPairedOrSeparateScratch) {
 // The look-back never depends on how long another tile takes: a tile still unpublished after a few reads
 // is counted from its keys by the one waiting. With no read at all, every tile before is counted (the
 // walk never meets a published prefix); with one, any wait takes that path; the sort is the stable one.
+// Pair scratch is read as texels: a capacity whose pairs would pass the device's texel limit keeps
+// separate arrays, and sorts the same.
+TEST(RadixSortShapes, PairsPastTheTexelLimitFallBackToSeparateArrays) {
+  const uint32_t n = 5003;
+  test::TexelLimitForTesting limit(n / 4);  // two pairs a texel: n pairs do not fit
+  sort::RadixSort sorter(test::context(), n);
+  Pairs in = withPositions(randomWords(n, 41));
+  for (uint32_t bits : {9u, 27u}) {
+    Pairs want = stableSorted(in, bits), got = gpuSorted(sorter, in, bits);
+    EXPECT_SAME_ARRAY(got.keys, want.keys, bits << " key bits");
+    EXPECT_SAME_ARRAY(got.values, want.values, bits << " key bits");
+  }
+}
+
 TEST(RadixSortLookBack, CountingAnUnpublishedTileItselfGivesTheSameSort) {
   struct Restore {
     ~Restore() { sort::setLookBackSpinsForTesting(-1); }

@@ -184,6 +184,23 @@ TEST(Kernel, ABindingPastMaxStorageBufferRangeIsRefusedBeforeItIsRecorded) {
   }
 }
 
+TEST(Texels, ABufferPastTheDevicesTexelLimitIsAClearError) {
+  // The G-buffer, the sort's pair scratch and the traversal's pairs are read as texels: a buffer holding
+  // more 16-byte texels than maxTexelBufferElements is refused with the limit and what to do, not bound.
+  auto& ctx = test::context();
+  vk::Buffer fits = vk::createBuffer(ctx, 16 * 16), past = vk::createBuffer(ctx, 17 * 16);
+  test::TexelLimitForTesting limit(16);
+  EXPECT_NE(vk::texels(fits, VK_FORMAT_R32G32B32A32_UINT).view, VkBufferView(VK_NULL_HANDLE));
+  try {
+    vk::texels(past, VK_FORMAT_R32G32B32A32_UINT);
+    FAIL() << "a texel buffer past maxTexelBufferElements was made";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("17 16-byte texels"), std::string::npos) << what;
+    EXPECT_NE(what.find("maxTexelBufferElements of 16"), std::string::npos) << what;
+  }
+}
+
 TEST(Context, VulkanFailuresNameTheCallTheResultAndWhatToDo) {
   // What a device loss or an exhausted heap turns into wherever VK_CHECK sees it (every Vulkan call).
   auto message = [](VkResult r) {
