@@ -6,7 +6,9 @@
 #include <numeric>
 
 #include "rays/hilbert.h"
+#include "rays/lit_count.comp.h"
 #include "rays/lit_flags.comp.h"
+#include "rays/lit_scatter.comp.h"
 #include "rays/ray_bounds.comp.h"
 #include "rays/ray_grids.comp.h"
 #include "rays/ray_keys.comp.h"
@@ -59,10 +61,14 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
       groups_(ctx) {
   flags_ = vk::createKernel(ctx, "lit_flags", spv_lit_flags_comp, 4, sizeof(LitPush), {{0, 0u}}, 0x3u);
   mortonFlags_ = vk::createKernel(ctx, "lit_flags (Morton)", spv_lit_flags_comp, 4, sizeof(LitPush), {{0, 1u}}, 0x3u);
-  rayBounds_ = vk::createKernel(ctx, "ray_bounds", spv_ray_bounds_comp, 4, sizeof(KeysPush));
+  rayBounds_ = vk::createKernel(ctx, "ray_bounds", spv_ray_bounds_comp, 6, sizeof(KeysPush), {{0, 0u}});
   rayGrids_ = vk::createKernel(ctx, "ray_grids", spv_ray_grids_comp, 2, sizeof(KeysPush));
   rayKeys_ = vk::createKernel(ctx, "ray_keys", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 0u}}, 0x1u);
   frameRayKeys_ = vk::createKernel(ctx, "ray_keys (frame)", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 1u}}, 0x1u);
+  litCount_ = vk::createKernel(ctx, "lit_count", spv_lit_count_comp, 4, sizeof(KeysPush), {}, 0x3u);
+  litBounds_ = vk::createKernel(ctx, "ray_bounds (lit bits)", spv_ray_bounds_comp, 6, sizeof(KeysPush), {{0, 1u}});
+  litScatter_ = vk::createKernel(ctx, "lit_scatter", spv_lit_scatter_comp, 5, sizeof(KeysPush), {{0, 0u}}, 0x1u);
+  frameLitScatter_ = vk::createKernel(ctx, "lit_scatter (frame)", spv_lit_scatter_comp, 5, sizeof(KeysPush), {{0, 1u}}, 0x1u);
   flagBuffer_ = vk::createBuffer(ctx, maxDomain_ * 4);
   pixelOf_ = vk::createBuffer(ctx, maxDomain_ * 4);
   samples_ = vk::createBuffer(ctx, uint64_t(maxPixels_) * 4);
@@ -71,11 +77,12 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
   bounds_ = vk::createBuffer(ctx, RAY_BOUNDS_WORDS * 4);
   grids_ = vk::createBuffer(ctx, 8 * 16);
   keyArgs_ = vk::createBuffer(ctx, 16, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
+  keptBits_ = vk::createBuffer(ctx, uint64_t(sort::ceilDiv(maxPixels_, SCAN_BLOCK)) * SCAN_THREADS * 4);
 }
 
 uint64_t LitRays::bytesAllocated() const {
   return compact_.bytesAllocated() + sort_.bytesAllocated() + flagBuffer_.size + pixelOf_.size + samples_.size +
-         keys_.size + count_.size + bounds_.size + grids_.size + keyArgs_.size;
+         keys_.size + count_.size + bounds_.size + grids_.size + keyArgs_.size + keptBits_.size;
 }
 
 void LitRays::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, RayOrder order) {
@@ -93,6 +100,39 @@ void LitRays::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, RayOrd
   // Row-major positions are pixel indices already; Morton positions carry theirs in pixelOf_.
   compact_.record(cmd, flagBuffer_, uint32_t(d.size), samples_, sort::GpuWord(count_, 0),
                   morton ? vk::BufferRange(pixelOf_) : vk::BufferRange());
+  pairsPending_ = false;
+}
+
+void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& frame) {
+  const uint64_t pixels = uint64_t(g.width) * g.height;
+  CS_CHECK(pixels <= maxPixels_,
+           "G-buffer of " << g.width << "x" << g.height << " exceeds the " << maxPixels_ << " pixels LitRays was made for");
+  CS_CHECK(fusedKeys(), "compaction with keys: the sort takes no pairs on this device (LitRays::fusedKeys)");
+  KeysPush push = frame;
+  push.count = uint32_t(pixels);  // lit_count and lit_scatter: the pixels; ray_bounds: the lit count's bound
+  push.countIndex = 0;
+  push.flags = FLAG_COUNT_FROM_BUFFER;
+  const bool framed = frame.framed != 0u;
+  keyBits_ = framed ? kFrameKeyBits : kRayKeyBits;
+  const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(pixels, SCAN_BLOCK));
+  const vk::BufferRange position = vk::texels(g.position, kPixelTexels);
+  cmd.dispatch(litCount_, {position, vk::texels(g.normal, kPixelTexels), keptBits_, compact_.blockCounts()}, push,
+               grid.x, grid.y);
+  cmd.barrier();
+  compact_.recordBlockScan(cmd, uint32_t(pixels), sort::GpuWord(count_, 0));
+  if (!framed) {  // each face's box over recordKeys' subset, found from the bits, and its fitted grid
+    cmd.fill(bounds_, RAY_BOUNDS_EMPTY, 0, bounds_.size);
+    cmd.barrier();
+    cmd.dispatch(litBounds_, {g.position, samples_, bounds_, count_, keptBits_, compact_.blockOffsets()}, push,
+                 RAY_BOUNDS_GROUPS);
+    cmd.barrier();
+    cmd.dispatch(rayGrids_, {bounds_, grids_}, push, 1);
+    cmd.barrier();
+  }
+  cmd.dispatch(framed ? frameLitScatter_ : litScatter_,
+               {position, keptBits_, compact_.blockOffsets(), sort_.pairInput(), grids_}, push, grid.x, grid.y);
+  cmd.barrier();
+  pairsPending_ = true;
 }
 
 void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, sort::Count count) {
@@ -109,6 +149,7 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
   push.flags = count.onDevice() ? FLAG_COUNT_FROM_BUFFER : 0u;
   const bool framed = frame.framed != 0u;
   keyBits_ = framed ? kFrameKeyBits : kRayKeyBits;
+  pairsPending_ = false;
   vk::BufferRange countBinding = count.onDevice() ? vk::BufferRange() : vk::BufferRange(count_);
   if (count.onDevice()) {
     countBinding.buffer = count.word.buffer;
@@ -118,7 +159,7 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
   if (!framed) {  // each face's box over the subset, for its fitted grid
     cmd.fill(bounds_, RAY_BOUNDS_EMPTY, 0, bounds_.size);
     cmd.barrier();
-    cmd.dispatch(rayBounds_, {g.position, samples_, bounds_, countBinding}, push, RAY_BOUNDS_GROUPS);
+    cmd.dispatch(rayBounds_, {g.position, samples_, bounds_, countBinding, keptBits_, keptBits_}, push, RAY_BOUNDS_GROUPS);
     cmd.barrier();
     cmd.dispatch(rayGrids_, {bounds_, grids_}, push, 1);
     cmd.barrier();
@@ -137,10 +178,21 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
 }
 
 void LitRays::recordSort(vk::Commands& cmd, sort::Count count) {
-  sort_.record(cmd, keys_, samples_, count, keyBits_);
+  if (pairsPending_) sort_.recordFromPairs(cmd, keys_, samples_, count, keyBits_);
+  else sort_.record(cmd, keys_, samples_, count, keyBits_);
+  pairsPending_ = false;
 }
 
 void LitRays::record(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, RayOrder order) {
+  if (order == RayOrder::Hilbert && fusedKeys()) {
+    KeysPush push{};
+    push.light = glm::vec4(light, 1.0f);
+    recordCompactionWithKeys(cmd, g, push);
+    cmd.mark("lit compaction + ray keys");
+    recordSort(cmd, count());
+    cmd.mark("ray sort");
+    return;
+  }
   recordCompaction(cmd, g, order);
   cmd.mark("lit compaction");
   if (order != RayOrder::Hilbert) return;

@@ -52,8 +52,17 @@ class LitRays {
   void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, sort::Count count);  // -> keys()
   // The keys in a rotated frame (frameRayKey): `frame` holds KeysPush's rowX .. rect (framed = 1).
   void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& frame, sort::Count count);
-  // Sorts (keys(), samples()) by key: the key bits of the last recordKeys' kind (RAY_KEY_BITS or, in a
-  // rotated frame, FRAME_KEY_BITS).
+  // Compaction and keys in one (row-major order; the sorted path): lit_count.comp marks the lit pixels
+  // and counts them per block, the scan of the counts gives each block its start and the lit count, the
+  // faces' boxes and grids follow (world keys: the same subset as recordKeys', found from the marks), and
+  // lit_scatter.comp writes each lit sample's (key, pixel) pair straight into the sort's input -- no
+  // flags, sample indices or keys stored and read back in between. samples() and keys() hold the result
+  // once recordSort has run. Only where fusedKeys() (the sort takes pairs: sort::RadixSort::pairInputs);
+  // the same order as recordCompaction(ScreenRows) + recordKeys + recordSort, bit for bit.
+  bool fusedKeys() const { return sort_.pairInputs(); }
+  void recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& keys);
+  // Sorts (keys(), samples()) by key -- or, after recordCompactionWithKeys, its pairs into them: the key
+  // bits of the last recording's kind (RAY_KEY_BITS or, in a rotated frame, FRAME_KEY_BITS).
   void recordSort(vk::Commands& cmd, sort::Count count);
 
   const vk::Buffer& samples() const { return samples_; }
@@ -76,8 +85,12 @@ class LitRays {
   vk::Kernel flags_, mortonFlags_;             // row-major, Morton screen order (lit_flags.comp SPEC_MORTON)
   vk::Kernel rayBounds_, rayGrids_;            // the faces' fitted boxes and grids (ray_bounds, ray_grids.comp)
   vk::Kernel rayKeys_, frameRayKeys_;          // the world's keys, a rotated frame's (ray_keys.comp SPEC_FRAMED)
+  vk::Kernel litCount_, litBounds_;            // fused: lit_count.comp, ray_bounds.comp SPEC_FROM_BITS
+  vk::Kernel litScatter_, frameLitScatter_;    // fused: lit_scatter.comp, world or rotated-frame keys
   vk::Buffer flagBuffer_, pixelOf_, samples_, keys_, count_, bounds_, grids_, keyArgs_;
-  uint32_t keyBits_ = RAY_KEY_BITS;  // of the keys the last recordKeys recorded
+  vk::Buffer keptBits_;  // fused: lit_count.comp's bits, one uint per SCAN_ITEMS pixels
+  uint32_t keyBits_ = RAY_KEY_BITS;  // of the keys the last recordKeys (or recordCompactionWithKeys) recorded
+  bool pairsPending_ = false;        // the last recording left its pairs in the sort's input
 };
 
 // CPU reference of the faces' fitted boxes (ray_bounds.comp; fittedFaceGrid makes each a grid) for the lit

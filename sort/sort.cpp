@@ -231,6 +231,12 @@ void Compact::record(vk::Commands& cmd, const vk::BufferRange& flags, Count coun
   cmd.barrier();
 }
 
+void Compact::recordBlockScan(vk::Commands& cmd, Count count, GpuWord kept) {
+  CS_CHECK(count.max <= scan_.capacity_, "compaction of " << count.max << " elements, capacity " << scan_.capacity_);
+  scan_.recordLevel(cmd, scan_.sums(1), scan_.scanned(1), count, 1, kept, false);
+  cmd.barrier();
+}
+
 // ---- indirect dispatch arguments ----------------------------------------------------------------
 
 IndirectGroups::IndirectGroups(vk::Context& ctx)
@@ -294,7 +300,7 @@ RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape, SortS
   args_ = vk::createBuffer(ctx, 16, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
   const uint32_t spins = lookBackSpins >= 0 ? uint32_t(lookBackSpins) : LOOKBACK_SPINS;
   for (uint32_t in = 0; in < 2; ++in) {
-    if (lookBack && in == 1) break;  // the look-back histogram reads the caller's keys only
+    if (lookBack && in == 1 && !pairs_) break;  // the look-back histogram reads the first pass's input only
     const std::initializer_list<vk::SpecConstant> spec = {{0, shape.threads}, {1, shape.items}, {2, lookBack ? 1u : 0u},
                                                           {3, spins}, {4, in}, {5, 0u}};
     if (lookBack)
@@ -315,8 +321,26 @@ uint64_t RadixSort::bytesAllocated() const {
   return scratchA_.size + scratchB_.size + hist_.size + dummy_.size + args_.size + (scan_ ? scan_->bytesAllocated() : 0);
 }
 
+vk::BufferRange RadixSort::pairInput() const {
+  CS_CHECK(pairs_, "radix sort of " << capacity_ << " pairs: no pair scratch on this device (RadixSort::pairInputs)");
+  return range(scratchA_, 0, alignUp(std::max<VkDeviceSize>(capacity_, 1), 4) * 8);
+}
+
 void RadixSort::record(vk::Commands& cmd, const vk::BufferRange& keys, const vk::BufferRange& values, Count count,
                        uint32_t keyBits) {
+  recordPasses(cmd, keys, values, count, keyBits, false);
+}
+
+void RadixSort::recordFromPairs(vk::Commands& cmd, const vk::BufferRange& keys, const vk::BufferRange& values,
+                                Count count, uint32_t keyBits) {
+  CS_CHECK(pairs_, "radix sort from pairs: no pair scratch on this device (RadixSort::pairInputs)");
+  CS_CHECK(radixPasses(keyBits) >= 2 && values.buffer != VK_NULL_HANDLE,
+           "radix sort from pairs: " << keyBits << " key bits (two passes or more, with values)");
+  recordPasses(cmd, keys, values, count, keyBits, true);
+}
+
+void RadixSort::recordPasses(vk::Commands& cmd, const vk::BufferRange& keys, const vk::BufferRange& values,
+                             Count count, uint32_t keyBits, bool fromPairs) {
   CS_CHECK(count.max <= capacity_, "radix sort of " << count.max << " pairs, capacity " << capacity_);
   CS_CHECK(keyBits <= 32, "radix sort: " << keyBits << " key bits");
   checkRange(keys, "radix sort keys");
@@ -348,7 +372,10 @@ void RadixSort::record(vk::Commands& cmd, const vk::BufferRange& keys, const vk:
                              interleave ? vk::texels(scratchB_, VK_FORMAT_R32G32B32A32_UINT) : noTexels}};
   // Pass p reads sides[p] and writes sides[p + 1]; the last lands in the caller's arrays.
   std::vector<Side> sides;
-  if (interleave) {
+  if (fromPairs) {  // the producer's pairs in scratch A, then B, A, ... and the caller's arrays last
+    for (uint32_t p = 0; p < passes; ++p) sides.push_back(pairSide[p % 2]);
+    sides.push_back(user);
+  } else if (interleave) {
     sides.push_back(user);
     for (uint32_t p = 1; p < passes; ++p) sides.push_back(pairSide[(p - 1) % 2]);
     sides.push_back(user);
@@ -384,7 +411,9 @@ void RadixSort::record(vk::Commands& cmd, const vk::BufferRange& keys, const vk:
     const VkDeviceSize words = LOOKBACK_STATUS + VkDeviceSize(passes) * RADIX_BINS * tiles;
     cmd.fill(hist_, 0, 0, words * 4);
     cmd.barrier();
-    overTiles(count_[0], {sides[0].keys, range(hist_, 0, words * 4), countBinding, sides[0].texels},
+    overTiles(count_[sides[0].pairs],
+              {sides[0].pairs ? vk::BufferRange(dummy_) : sides[0].keys, range(hist_, 0, words * 4), countBinding,
+               sides[0].texels},
               RadixPush{count.max, count.word.index, flags, 0, 0, tiles, 0, keyBits});
   }
   for (uint32_t p = 0; p < passes; ++p) {

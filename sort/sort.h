@@ -172,6 +172,14 @@ class Compact {
   uint32_t capacity() const { return scan_.capacity(); }
   uint64_t bytesAllocated() const { return scan_.bytesAllocated(); }
 
+  // For callers whose own kernels count and scatter (a compaction fused with what it feeds, as the
+  // cone path's lit samples and their ray keys, rays.h): one uint per block of SCAN_BLOCK elements for
+  // their kept counts, and recordBlockScan, which turns them into the blocks' exclusive offsets and their
+  // total into `kept`. `count` is the element count the blocks cover (ceil(count / SCAN_BLOCK) blocks).
+  vk::BufferRange blockCounts() const { return scan_.sums(1); }
+  vk::BufferRange blockOffsets() const { return scan_.scanned(1); }
+  void recordBlockScan(vk::Commands& cmd, Count count, GpuWord kept);
+
  private:
   Scan scan_;
   vk::Kernel scatter_;
@@ -208,12 +216,24 @@ class RadixSort {
   // or more passes with values go: caller's arrays -> pairs -> ... -> pairs -> caller's arrays.
   void record(vk::Commands& cmd, const vk::BufferRange& keys, const vk::BufferRange& values, Count count,
               uint32_t keyBits = 32);
+  // The same sort for a producer that writes its (key, value) pairs, interleaved (uvec2), straight into
+  // the sort's own scratch (pairInput()) instead of two arrays: the first pass reads them there, so the
+  // pairs are stored once and never split. Results land in `keys` and `values` as with record(). Only
+  // where pairInputs() (the pair scratch fits one storage binding and one texel buffer) and for keys of
+  // two or more passes (keyBits > RADIX_BITS); a cs::Error otherwise.
+  void recordFromPairs(vk::Commands& cmd, const vk::BufferRange& keys, const vk::BufferRange& values, Count count,
+                       uint32_t keyBits);
+  bool pairInputs() const { return pairs_; }
+  vk::BufferRange pairInput() const;  // uvec2[capacity]: where recordFromPairs reads its pairs
   uint32_t capacity() const { return capacity_; }
   SortShape shape() const { return shape_; }
   SortScheme scheme() const { return scheme_; }
   uint64_t bytesAllocated() const;
 
  private:
+  void recordPasses(vk::Commands& cmd, const vk::BufferRange& keys, const vk::BufferRange& values, Count count,
+                    uint32_t keyBits, bool fromPairs);
+
   vk::Context& ctx_;
   uint32_t capacity_;
   SortShape shape_;

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <limits>
 #include <numeric>
 #include <optional>
@@ -445,6 +446,41 @@ TEST_P(RadixSortShapes, CarriesValuesAlikeThroughPairedOrSeparateScratch) {
   }
 }
 
+// A producer that writes its pairs straight into the sort's scratch (RadixSort::recordFromPairs, as the
+// cone path's fused compaction does) gets the stable sort, for two, three and four passes, a host count
+// or one read from the GPU below the capacity; only the pairs below the count are read.
+TEST_P(RadixSortShapes, SortsPairsWrittenIntoItsOwnScratch) {
+  auto& ctx = test::context();
+  const uint32_t capacity = 70001;
+  sort::RadixSort sorter = makeSorter(capacity);
+  ASSERT_TRUE(sorter.pairInputs());
+  for (uint32_t bits : {18u, 27u, 32u})
+    for (uint32_t n : {1u, 4097u, 70001u})
+      for (bool deviceCount : {false, true}) {
+        Pairs in = withPositions(randomWords(capacity, 7 * n + bits));
+        std::vector<uint32_t> interleaved;
+        for (uint32_t i = 0; i < capacity; ++i) interleaved.push_back(in.keys[i]), interleaved.push_back(in.values[i]);
+        vk::Buffer k = vk::createBuffer(ctx, capacity * 4), v = vk::createBuffer(ctx, capacity * 4);
+        vk::Buffer word = gpuArray(ctx, {0, n});
+        vk::Buffer produced = gpuArray(ctx, interleaved);  // as a producer's kernel would write them
+        const vk::BufferRange input = sorter.pairInput();
+        ASSERT_GE(input.range, produced.size);
+        vk::Commands cmd(ctx);
+        const VkBufferCopy region{0, input.offset, produced.size};
+        vkCmdCopyBuffer(cmd.handle(), produced.buffer, input.buffer, 1, &region);
+        cmd.barrier();
+        sorter.recordFromPairs(cmd, k, v, deviceCount ? sort::Count::device(GpuWord(word, 1), capacity) : sort::Count(n), bits);
+        cmd.submit();
+        in.keys.resize(n), in.values.resize(n);
+        const Pairs want = stableSorted(in, bits);
+        EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, k, n), want.keys, bits << " bits, count " << n << (deviceCount ? " (GPU)" : ""));
+        EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, v, n), want.values, bits << " bits, count " << n);
+      }
+  vk::Buffer k = vk::createBuffer(ctx, 64), v = vk::createBuffer(ctx, 64);
+  vk::Commands cmd(ctx);
+  EXPECT_THROW(sorter.recordFromPairs(cmd, k, v, 16, 9), Error) << "one pass has no pair scratch to start from";
+}
+
 // The look-back never depends on how long another tile takes: a tile still unpublished after a few reads
 // is counted from its keys by the one waiting. With no read at all, every tile before is counted (the
 // walk never meets a published prefix); with one, any wait takes that path; the sort is the stable one.
@@ -553,12 +589,22 @@ TEST(Hilbert, GpuAndCpuMatchAnIndependentReferenceOnEveryCellOfSmallGrids) {
     EXPECT_SAME_ARRAY(gpu, want, "GPU, order " << order);
     EXPECT_SAME_ARRAY(cpu, want, "CPU, order " << order);
   }
-  // The ray key's own order on a sample of cells.
+  // On the CPU, every cell up to the ray key's own order (2^12 x 2^12), and samples of the far frame's
+  // (2^15) and the largest (2^16).
+  for (uint32_t order = 9; order <= rays::kRayKeyHilbertOrder; ++order) {
+    const uint32_t side = 1u << order;
+    for (uint32_t y = 0; y < side; ++y)
+      for (uint32_t x = 0; x < side; ++x)
+        if (rays::hilbertIndex(x, y, order) != referenceHilbert(side, x, y))
+          FAIL() << "order " << order << ", cell " << x << "," << y;
+  }
   std::mt19937 rng(5);
-  const uint32_t order = rays::kRayKeyHilbertOrder, side = 1u << order;
-  for (int i = 0; i < 100000; ++i) {
-    uint32_t x = rng() % side, y = rng() % side;
-    ASSERT_EQ(rays::hilbertIndex(x, y, order), referenceHilbert(side, x, y)) << x << "," << y;
+  for (uint32_t order : {13u, 14u, 15u, 16u}) {
+    const uint32_t side = 1u << order;
+    for (int i = 0; i < 200000; ++i) {
+      uint32_t x = rng() % side, y = rng() % side;
+      ASSERT_EQ(rays::hilbertIndex(x, y, order), referenceHilbert(side, x, y)) << "order " << order << ", " << x << "," << y;
+    }
   }
 }
 
@@ -887,6 +933,80 @@ TEST(LitRays, StepsWithAHostCountMatchTheFusedRecording) {
                     rays::referenceRayOrder(f.host, f.light, rays::RayOrder::Hilbert), "host-count steps");
   std::vector<uint32_t> keys = vk::download<uint32_t>(ctx, rays.keys(), n);
   EXPECT_TRUE(std::is_sorted(keys.begin(), keys.end()));
+}
+
+// The fused compaction (LitRays::recordCompactionWithKeys: lit bits, block scan, the faces' boxes found
+// from the bits, keys written as the sort's pairs) gives the steps' order, keys and boxes bit for bit --
+// world keys and rotated-frame keys -- on G-buffers whose lit pixels are isolated among empty blocks, in
+// the last partial block only, dense, complete, or absent; and on a CPU device the CPU reference's.
+TEST(LitRays, FusedCompactionAndKeysMatchTheStepsOnSparseAndDenseFrames) {
+  auto& ctx = test::context();
+  const uint32_t w = 700, h = 523, pixels = w * h;  // 179 blocks of SCAN_BLOCK, the last one partial
+  const glm::vec3 light(0.3f, 1.5f, -2.0f);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f), r(0.5f, 40.0f);
+  std::vector<glm::vec4> pos(pixels);
+  for (uint32_t i = 0; i < pixels; ++i) {
+    // A smooth field of directions (neighbouring pixels close, as in a render) with noise on top.
+    const float a = 6.0f * float(i % w) / w, b = 3.0f * float(i / w) / h;
+    const glm::vec3 dir = glm::normalize(glm::vec3(std::cos(a), std::sin(b) + 0.1f * u(rng), std::sin(a) + 0.1f * u(rng)));
+    pos[i] = glm::vec4(light + dir * r(rng), 1.0f);
+  }
+  struct Pattern {
+    const char* name;
+    std::function<bool(uint32_t)> lit;
+  };
+  const Pattern patterns[] = {
+      {"isolated", [](uint32_t i) { return i % 9973 == 17; }},
+      {"last block only", [&](uint32_t i) { return i >= pixels - 300 && i % 3 != 0; }},
+      {"dense", [](uint32_t i) { return (i * 2654435761u) % 10 < 7; }},
+      {"all", [](uint32_t) { return true; }},
+      {"none", [](uint32_t) { return false; }},
+  };
+  rays::LitRays rays(ctx, w, h);
+  ASSERT_TRUE(rays.fusedKeys());
+  for (const Pattern& pattern : patterns)
+    for (bool framed : {false, true}) {
+      std::vector<glm::vec4> nrm(pixels);
+      for (uint32_t i = 0; i < pixels; ++i) nrm[i] = glm::vec4(0, 1, 0, pattern.lit(i) ? 0.5f : 0.0f);
+      DeviceGBuffer g;
+      g.width = w, g.height = h;
+      g.position = vk::createBuffer(ctx, uint64_t(pixels) * 16), g.normal = vk::createBuffer(ctx, uint64_t(pixels) * 16);
+      vk::upload(ctx, g.position, pos.data(), uint64_t(pixels) * 16);
+      vk::upload(ctx, g.normal, nrm.data(), uint64_t(pixels) * 16);
+      GBuffer host{w, h, pos, nrm};
+      rays::KeysPush push{};
+      push.light = glm::vec4(light, 1.0f);
+      if (framed) {  // a frame turned a quarter about y, keys over a rect of its z = 1 plane
+        push.framed = 1;
+        push.rowX = glm::vec4(0, 0, 1, 0), push.rowY = glm::vec4(0, 1, 0, 0), push.rowZ = glm::vec4(-1, 0, 0, 0);
+        push.origin = glm::vec4(light, 1.0f);
+        push.lightFrame = glm::vec4(0.0f);
+        push.rect = glm::vec4(-2.0f, -2.0f, 0.25f, 0.25f);
+      }
+      const std::string what = std::string(pattern.name) + (framed ? ", rotated frame" : ", world keys");
+      // Steps: compaction, keys, sort.
+      vk::Commands cmd(ctx);
+      rays.recordCompaction(cmd, g, rays::RayOrder::ScreenRows);
+      rays.recordKeys(cmd, g, push, rays.count());
+      rays.recordSort(cmd, rays.count());
+      cmd.submit();
+      const uint32_t n = rays.readCount();
+      ASSERT_EQ(n, host.litCount()) << what;
+      const std::vector<uint32_t> samples = vk::download<uint32_t>(ctx, rays.samples(), n);
+      const std::vector<uint32_t> keys = vk::download<uint32_t>(ctx, rays.keys(), n);
+      const std::vector<uint32_t> bounds = vk::download<uint32_t>(ctx, rays.bounds(), 24);
+      // Fused.
+      rays.recordCompactionWithKeys(cmd, g, push);
+      rays.recordSort(cmd, rays.count());
+      cmd.submit();
+      ASSERT_EQ(rays.readCount(), n) << what;
+      EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), n), samples, what << ": samples");
+      EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.keys(), n), keys, what << ": keys");
+      if (!framed) EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.bounds(), 24), bounds, what << ": the faces' boxes");
+      if (!framed && ctx.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU)
+        EXPECT_SAME_ARRAY(samples, rays::referenceRayOrder(host, light, rays::RayOrder::Hilbert), what << ": reference");
+    }
 }
 
 // Mean angle (radians) between the rays of consecutive samples.

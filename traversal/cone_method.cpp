@@ -304,8 +304,15 @@ class ConeMethod : public ShadowMethod {
         options_.sorted && !adaptive ? rays::RayOrder::Hilbert : rays::RayOrder::ScreenMorton;
     const uint32_t maxRays = std::max(pixels, 1u);
     cmd.fill(visibility_, kOne, 0, uint64_t(pixels) * 4);
-    rays_->recordCompaction(cmd, g, order);
-    boundary("compact");
+    // Sorted without measuring: compaction and keys fused (LitRays::recordCompactionWithKeys), one stage.
+    const bool fused = order == rays::RayOrder::Hilbert && rays_->fusedKeys();
+    if (fused) {
+      rays_->recordCompactionWithKeys(cmd, g, keysPush(frame.light));
+      boundary("compact + keys");
+    } else {
+      rays_->recordCompaction(cmd, g, order);
+      boundary("compact");
+    }
     sort::Count sortCount = rays_->count();
     if (adaptive) {
       tree_.recordDevice(cmd, g.position, rays_->samples(), rays_->countBuffer(), 0, maxRays, frame.light,
@@ -319,8 +326,10 @@ class ConeMethod : public ShadowMethod {
       sortCount = sort::Count::device(sort::GpuWord(orderWords_, ORDER_SORT_COUNT), maxRays);
     }
     if (options_.sorted) {
-      recordKeys(cmd, g, frame.light, sortCount);
-      boundary("keys");
+      if (!fused) {
+        rays_->recordKeys(cmd, g, keysPush(frame.light), sortCount);
+        boundary("keys");
+      }
       rays_->recordSort(cmd, sortCount);
       boundary("sort");
     }
@@ -429,7 +438,7 @@ class ConeMethod : public ShadowMethod {
       for (auto& [n, ms] : wall) stages.push_back({n, ms});
     } else if (ctx_.timestampsTrusted()) {
       stats["stage_timing"] = "one submission; stages from GPU timestamps";
-      for (const char* n : {"compact", "keys", "sort", "build", "traversal", "leaves"})
+      for (const char* n : {"compact", "compact + keys", "keys", "sort", "build", "traversal", "leaves"})
         if (timestamps.contains(n)) stages.push_back({n, timestamps[n].get<double>()});
       for (auto& [n, ms] : wall)
         if (n != "frame") stages.push_back({n, ms});
@@ -465,17 +474,18 @@ class ConeMethod : public ShadowMethod {
     stats["screen_tree_looseness"] = top > 0 ? deep / top : 0.0;  // > ORDER_LOOSE_RATIO: sorted
   }
 
-  // The ray keys of the frame's first `count` samples (in the far frame over the bounds' projection).
-  void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, sort::Count count) {
-    if (!frame_.far) return rays_->recordKeys(cmd, g, light, count);
+  // What the ray keys are made from: the light, and in the far frame its rotation and the bounds'
+  // projection.
+  rays::KeysPush keysPush(glm::vec3 light) const {
     rays::KeysPush k{};
     k.light = glm::vec4(light, 1.0f);
+    if (!frame_.far) return k;
     k.framed = 1u;
     k.rowX = frame_.frame.rowX, k.rowY = frame_.frame.rowY, k.rowZ = frame_.frame.rowZ;
     k.origin = frame_.frame.centre;
     k.lightFrame = frame_.frame.lightFrame;
     k.rect = frame_.keyRect;
-    rays_->recordKeys(cmd, g, k, count);
+    return k;
   }
 
   // Two-pass frames (002 §3.4): each stage its own submit, timed by the host's wall clock around it (waits
@@ -496,12 +506,15 @@ class ConeMethod : public ShadowMethod {
       for (auto& [n, ms] : timer_.intervals()) timestamps[n] = ms;
     };
     const rays::RayOrder order = options_.sorted ? rays::RayOrder::Hilbert : rays::RayOrder::ScreenMorton;
-    stage("compact", [&](vk::Commands& cmd) {
+    const bool fused = order == rays::RayOrder::Hilbert && rays_->fusedKeys();
+    stage(fused ? "compact + keys" : "compact", [&](vk::Commands& cmd) {
       cmd.fill(visibility_, kOne, 0, uint64_t(pixels) * 4);
-      rays_->recordCompaction(cmd, g, order);
+      if (fused) rays_->recordCompactionWithKeys(cmd, g, keysPush(frame.light));
+      else rays_->recordCompaction(cmd, g, order);
     });
     if (options_.sorted) {
-      stage("keys", [&](vk::Commands& cmd) { recordKeys(cmd, g, frame.light, rays_->count()); });
+      if (!fused)
+        stage("keys", [&](vk::Commands& cmd) { rays_->recordKeys(cmd, g, keysPush(frame.light), rays_->count()); });
       stage("sort", [&](vk::Commands& cmd) { rays_->recordSort(cmd, rays_->count()); });
     }
     const uint32_t lit = rays_->readCount();

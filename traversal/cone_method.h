@@ -101,10 +101,13 @@ struct ConeOptions {
 //   visibility  0/1 per pixel (1 where the sample is not lit); exactly 0.0f or 1.0f, never NaN.
 //   stages      "upload" on frames whose triangles changed, then: with one submission on a device whose
 //               timestamps are trusted (not a CPU device), "compact", "keys", "sort", "build",
-//               "traversal", "leaves" from timestamps; with one submission on lavapipe, one "frame" stage
-//               (the wall clock of the submission): a timestamp written after a barrier there can take the
-//               time of the dispatch *after* it (measured: a 30 ms leaf dispatch reported as 0.05 ms), so
-//               per-stage timestamps are misattributed; with profileStages or two-pass, the six stages
+//               "traversal", "leaves" from timestamps; with one submission on lavapipe, one "frame"
+//               stage (the wall clock of the submission): a timestamp written after a barrier there can
+//               take the time of the dispatch *after* it (measured: a 30 ms leaf dispatch reported as
+//               0.05 ms), so per-stage timestamps are misattributed; with profileStages or two-pass, the
+//               six stages -- five in a sorted frame that does not measure the ray order, whose
+//               compaction and keys are one stage, "compact + keys", where the device's sort takes pairs
+//               (rays::LitRays::recordCompactionWithKeys), and also with timestamps --
 //               (two-pass adds "update", the unfinished rays' compaction, and "rebuild", the second tree;
 //               a frame that measures the screen order adds "order", its tree and the choice, before
 //               "keys"), each the host's wall clock around its own submit(s), waits included.

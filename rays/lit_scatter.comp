@@ -1,0 +1,60 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// The fused compaction of the sorted cone path, step 3 (rays.h, LitRays::recordCompactionWithKeys): every
+// lit pixel, in row-major order, writes its ray key and its pixel index as one (key, pixel) pair to
+// pairs[offsets[block] + its rank among the block's lit pixels] -- the radix sort's own input
+// (sort::RadixSort::recordFromPairs), so no array of sample indices or of keys is stored and read back
+// in between. The lit bits come from lit_count.comp (kept), the block offsets from the scan of its counts,
+// the faces' grids from ray_grids.comp. The key is ray_keys.comp's: faceRayKey on the face's fitted grid,
+// or frameRayKey in a rotated frame (SPEC_FRAMED).
+// bindings: 0 = position (uniform texel buffer, RGBA32F: a texel per pixel), 1 = kept (uint[] per
+//           invocation), 2 = offsets (uint[] per block, exclusive), 3 = pairs (uvec2[]), 4 = the faces'
+//           grids (vec4 per face; world keys)
+#include "rays/rays_layout.h"
+#include "rays/hilbert.h"
+layout(local_size_x = SCAN_THREADS) in;
+layout(binding = 0) uniform samplerBuffer position;
+layout(std430, binding = 1) readonly buffer Kept { uint kept[]; };
+layout(std430, binding = 2) readonly buffer Offsets { uint offsets[]; };
+layout(std430, binding = 3) writeonly buffer Pairs { uvec2 pairs[]; };
+layout(std430, binding = 4) readonly buffer Grids { vec4 grids[]; };
+layout(push_constant) uniform Push { KeysPush pc; };
+// = pc.framed, as a specialisation constant: each pipeline holds one key's code (ray_keys.comp).
+layout(constant_id = 0) const uint SPEC_FRAMED = 0u;
+uint flatWorkgroup() { return gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x; }
+#define WG_SIZE SCAN_THREADS
+#define WG_RAKE SCAN_RAKE
+#include "sort/workgroup_scan.glsl"
+void main() {
+  uint n = pc.count;  // pixels
+  uint b = flatWorkgroup();
+  if (b * SCAN_BLOCK >= n) return;
+  uint t = gl_LocalInvocationIndex;
+  uint first = b * SCAN_BLOCK + t * SCAN_ITEMS;
+  uint bits = kept[b * SCAN_THREADS + t];
+  uint total;
+  uint at = offsets[b] + workgroupExclusiveSum(uint(bitCount(bits)), total);
+  // The six grids in registers, picked by selects: a storage load indexed by each sample's face costs
+  // every lane its own bounds-checked load on a SIMD CPU driver (~3 ms a frame at 1024^2 on lavapipe).
+  vec4 g0 = vec4(0.0f), g1 = g0, g2 = g0, g3 = g0, g4 = g0, g5 = g0;
+  if (SPEC_FRAMED == 0u && bits != 0u) {
+    g0 = grids[0], g1 = grids[1], g2 = grids[2], g3 = grids[3], g4 = grids[4], g5 = grids[5];
+  }
+  while (bits != 0u) {
+    uint pixel = first + uint(findLSB(bits));
+    bits &= bits - 1u;
+    vec3 x = texelFetch(position, int(pixel)).xyz;
+    uint key;
+    if (SPEC_FRAMED != 0u) {  // R (x - origin) - lightFrame: the ray in the rotated frame
+      vec3 d = x - pc.origin.xyz;
+      vec3 f = vec3(dot(pc.rowX.xyz, d), dot(pc.rowY.xyz, d), dot(pc.rowZ.xyz, d));
+      key = frameRayKey(f - pc.lightFrame.xyz, pc.rect);
+    } else {
+      vec3 d = x - pc.light.xyz;
+      uint face = rayFace(d);
+      vec4 grid = face == 0u ? g0 : face == 1u ? g1 : face == 2u ? g2 : face == 3u ? g3 : face == 4u ? g4 : g5;
+      key = face == 7u ? RAY_KEY_DEGENERATE : faceRayKey(d, face, grid);
+    }
+    pairs[at++] = uvec2(key, pixel);
+  }
+}
