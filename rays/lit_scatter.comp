@@ -25,6 +25,10 @@ uint flatWorkgroup() { return gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGro
 #define WG_SIZE SCAN_THREADS
 #define WG_RAKE SCAN_RAKE
 #include "sort/workgroup_scan.glsl"
+// The block's lit pixels, listed in order first, so that the keys are then made by every invocation
+// alike (the lit pixels of an invocation's own run vary from none to SCAN_ITEMS) and neighbouring
+// invocations fetch and store neighbouring samples.
+shared uint litPixels[SCAN_BLOCK];
 void main() {
   uint n = pc.count;  // pixels
   uint b = flatWorkgroup();
@@ -33,16 +37,22 @@ void main() {
   uint first = b * SCAN_BLOCK + t * SCAN_ITEMS;
   uint bits = kept[b * SCAN_THREADS + t];
   uint total;
-  uint at = offsets[b] + workgroupExclusiveSum(uint(bitCount(bits)), total);
+  uint j = workgroupExclusiveSum(uint(bitCount(bits)), total);
+  if (total == 0u) return;  // uniform
+  while (bits != 0u) {
+    litPixels[j++] = first + uint(findLSB(bits));
+    bits &= bits - 1u;
+  }
   // The six grids in registers, picked by selects: a storage load indexed by each sample's face costs
-  // every lane its own bounds-checked load on a SIMD CPU driver (~3 ms a frame at 1024^2 on lavapipe).
+  // every lane its own bounds-checked load on a SIMD CPU driver.
   vec4 g0 = vec4(0.0f), g1 = g0, g2 = g0, g3 = g0, g4 = g0, g5 = g0;
-  if (SPEC_FRAMED == 0u && bits != 0u) {
+  if (SPEC_FRAMED == 0u) {
     g0 = grids[0], g1 = grids[1], g2 = grids[2], g3 = grids[3], g4 = grids[4], g5 = grids[5];
   }
-  while (bits != 0u) {
-    uint pixel = first + uint(findLSB(bits));
-    bits &= bits - 1u;
+  uint at = offsets[b];
+  barrier();
+  for (uint i = t; i < total; i += SCAN_THREADS) {
+    uint pixel = litPixels[i];
     vec3 x = texelFetch(position, int(pixel)).xyz;
     uint key;
     if (SPEC_FRAMED != 0u) {  // R (x - origin) - lightFrame: the ray in the rotated frame
@@ -55,6 +65,6 @@ void main() {
       vec4 grid = face == 0u ? g0 : face == 1u ? g1 : face == 2u ? g2 : face == 3u ? g3 : face == 4u ? g4 : g5;
       key = face == 7u ? RAY_KEY_DEGENERATE : faceRayKey(d, face, grid);
     }
-    pairs[at++] = uvec2(key, pixel);
+    pairs[at + i] = uvec2(key, pixel);
   }
 }

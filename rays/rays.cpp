@@ -7,7 +7,7 @@
 
 #include "rays/hilbert.h"
 #include "rays/lit_count.comp.h"
-#include "rays/lit_flags.comp.h"
+#include "rays/lit_samples.comp.h"
 #include "rays/lit_scatter.comp.h"
 #include "rays/ray_bounds.comp.h"
 #include "rays/ray_grids.comp.h"
@@ -59,29 +59,28 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
       compact_(ctx, uint32_t(maxDomain_)),
       sort_(ctx, maxPixels_),
       groups_(ctx) {
-  flags_ = vk::createKernel(ctx, "lit_flags", spv_lit_flags_comp, 4, sizeof(LitPush), {{0, 0u}}, 0x3u);
-  mortonFlags_ = vk::createKernel(ctx, "lit_flags (Morton)", spv_lit_flags_comp, 4, sizeof(LitPush), {{0, 1u}}, 0x3u);
   rayBounds_ = vk::createKernel(ctx, "ray_bounds", spv_ray_bounds_comp, 6, sizeof(KeysPush), {{0, 0u}});
   rayGrids_ = vk::createKernel(ctx, "ray_grids", spv_ray_grids_comp, 2, sizeof(KeysPush));
   rayKeys_ = vk::createKernel(ctx, "ray_keys", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 0u}}, 0x1u);
   frameRayKeys_ = vk::createKernel(ctx, "ray_keys (frame)", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 1u}}, 0x1u);
-  litCount_ = vk::createKernel(ctx, "lit_count", spv_lit_count_comp, 4, sizeof(KeysPush), {}, 0x3u);
+  litCount_ = vk::createKernel(ctx, "lit_count", spv_lit_count_comp, 4, sizeof(LitPush), {{0, 0u}}, 0x3u);
+  mortonLitCount_ = vk::createKernel(ctx, "lit_count (Morton)", spv_lit_count_comp, 4, sizeof(LitPush), {{0, 1u}}, 0x3u);
+  litSamples_ = vk::createKernel(ctx, "lit_samples", spv_lit_samples_comp, 3, sizeof(LitPush), {{0, 0u}});
+  mortonLitSamples_ = vk::createKernel(ctx, "lit_samples (Morton)", spv_lit_samples_comp, 3, sizeof(LitPush), {{0, 1u}});
   litBounds_ = vk::createKernel(ctx, "ray_bounds (lit bits)", spv_ray_bounds_comp, 6, sizeof(KeysPush), {{0, 1u}});
   litScatter_ = vk::createKernel(ctx, "lit_scatter", spv_lit_scatter_comp, 5, sizeof(KeysPush), {{0, 0u}}, 0x1u);
   frameLitScatter_ = vk::createKernel(ctx, "lit_scatter (frame)", spv_lit_scatter_comp, 5, sizeof(KeysPush), {{0, 1u}}, 0x1u);
-  flagBuffer_ = vk::createBuffer(ctx, maxDomain_ * 4);
-  pixelOf_ = vk::createBuffer(ctx, maxDomain_ * 4);
   samples_ = vk::createBuffer(ctx, uint64_t(maxPixels_) * 4);
   keys_ = vk::createBuffer(ctx, uint64_t(maxPixels_) * 4);
   count_ = vk::createBuffer(ctx, 16);
   bounds_ = vk::createBuffer(ctx, RAY_BOUNDS_WORDS * 4);
   grids_ = vk::createBuffer(ctx, 8 * 16);
   keyArgs_ = vk::createBuffer(ctx, 16, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
-  keptBits_ = vk::createBuffer(ctx, uint64_t(sort::ceilDiv(maxPixels_, SCAN_BLOCK)) * SCAN_THREADS * 4);
+  keptBits_ = vk::createBuffer(ctx, uint64_t(sort::ceilDiv(maxDomain_, SCAN_BLOCK)) * SCAN_THREADS * 4);
 }
 
 uint64_t LitRays::bytesAllocated() const {
-  return compact_.bytesAllocated() + sort_.bytesAllocated() + flagBuffer_.size + pixelOf_.size + samples_.size +
+  return compact_.bytesAllocated() + sort_.bytesAllocated() + samples_.size +
          keys_.size + count_.size + bounds_.size + grids_.size + keyArgs_.size + keptBits_.size;
 }
 
@@ -91,16 +90,22 @@ void LitRays::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, RayOrd
   CS_CHECK(pixels <= maxPixels_ && d.size <= maxDomain_,
            "G-buffer of " << g.width << "x" << g.height << " exceeds the " << maxPixels_ << " pixels LitRays was made for");
   const bool morton = order == RayOrder::ScreenMorton;
-  LitPush push{g.width, g.height, morton ? 1u : 0u, d.tilesX, uint32_t(d.size), 0, 0, 0};
-  vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(d.size, PIXEL_THREADS));
-  cmd.dispatch(morton ? mortonFlags_ : flags_,
-               {vk::texels(g.position, kPixelTexels), vk::texels(g.normal, kPixelTexels), flagBuffer_, pixelOf_}, push,
-               grid.x, grid.y);
+  const LitPush push{g.width, g.height, morton ? 1u : 0u, d.tilesX, uint32_t(d.size), 0, 0, 0};
+  recordLitCount(cmd, g, push);
+  const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(d.size, SCAN_BLOCK));
+  cmd.dispatch(morton ? mortonLitSamples_ : litSamples_, {keptBits_, compact_.blockOffsets(), samples_}, push, grid.x,
+               grid.y);
   cmd.barrier();
-  // Row-major positions are pixel indices already; Morton positions carry theirs in pixelOf_.
-  compact_.record(cmd, flagBuffer_, uint32_t(d.size), samples_, sort::GpuWord(count_, 0),
-                  morton ? vk::BufferRange(pixelOf_) : vk::BufferRange());
   pairsPending_ = false;
+}
+
+void LitRays::recordLitCount(vk::Commands& cmd, const DeviceGBuffer& g, const LitPush& push) {
+  const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(push.domain, SCAN_BLOCK));
+  cmd.dispatch(push.order ? mortonLitCount_ : litCount_,
+               {vk::texels(g.position, kPixelTexels), vk::texels(g.normal, kPixelTexels), keptBits_, compact_.blockCounts()},
+               push, grid.x, grid.y);
+  cmd.barrier();
+  compact_.recordBlockScan(cmd, push.domain, sort::GpuWord(count_, 0));
 }
 
 void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& frame) {
@@ -109,17 +114,14 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
            "G-buffer of " << g.width << "x" << g.height << " exceeds the " << maxPixels_ << " pixels LitRays was made for");
   CS_CHECK(fusedKeys(), "compaction with keys: the sort takes no pairs on this device (LitRays::fusedKeys)");
   KeysPush push = frame;
-  push.count = uint32_t(pixels);  // lit_count and lit_scatter: the pixels; ray_bounds: the lit count's bound
+  push.count = uint32_t(pixels);  // lit_scatter: the pixels; ray_bounds: the pixels and the lit count's bound
   push.countIndex = 0;
   push.flags = FLAG_COUNT_FROM_BUFFER;
   const bool framed = frame.framed != 0u;
   keyBits_ = framed ? kFrameKeyBits : kRayKeyBits;
+  recordLitCount(cmd, g, LitPush{g.width, g.height, 0, 0, uint32_t(pixels), 0, 0, 0});
   const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(pixels, SCAN_BLOCK));
   const vk::BufferRange position = vk::texels(g.position, kPixelTexels);
-  cmd.dispatch(litCount_, {position, vk::texels(g.normal, kPixelTexels), keptBits_, compact_.blockCounts()}, push,
-               grid.x, grid.y);
-  cmd.barrier();
-  compact_.recordBlockScan(cmd, uint32_t(pixels), sort::GpuWord(count_, 0));
   if (!framed) {  // each face's box over recordKeys' subset, found from the bits, and its fitted grid
     cmd.fill(bounds_, RAY_BOUNDS_EMPTY, 0, bounds_.size);
     cmd.barrier();

@@ -43,7 +43,7 @@ class LitRays {
   // Scratch for G-buffers of up to width x height pixels in any order.
   LitRays(vk::Context& ctx, uint32_t width, uint32_t height);
 
-  // Everything, with no host round trip: lit flags -> compaction -> (Hilbert) ray keys -> stable radix sort
+  // Everything, with no host round trip: lit bits -> compaction -> (Hilbert) ray keys -> stable radix sort
   // of (key, pixel). Marks "lit compaction", then for Hilbert "ray keys" and "ray sort", on cmd's timer.
   void record(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, RayOrder order);
 
@@ -82,13 +82,16 @@ class LitRays {
   sort::Compact compact_;
   sort::RadixSort sort_;
   sort::IndirectGroups groups_;  // a device count: the keys launch only the workgroups it needs
-  vk::Kernel flags_, mortonFlags_;             // row-major, Morton screen order (lit_flags.comp SPEC_MORTON)
   vk::Kernel rayBounds_, rayGrids_;            // the faces' fitted boxes and grids (ray_bounds, ray_grids.comp)
   vk::Kernel rayKeys_, frameRayKeys_;          // the world's keys, a rotated frame's (ray_keys.comp SPEC_FRAMED)
-  vk::Kernel litCount_, litBounds_;            // fused: lit_count.comp, ray_bounds.comp SPEC_FROM_BITS
+  // Compaction: lit_count.comp and lit_samples.comp, row-major or Morton (SPEC_MORTON).
+  vk::Kernel litCount_, mortonLitCount_, litSamples_, mortonLitSamples_;
+  vk::Kernel litBounds_;                       // fused: ray_bounds.comp SPEC_FROM_BITS
   vk::Kernel litScatter_, frameLitScatter_;    // fused: lit_scatter.comp, world or rotated-frame keys
-  vk::Buffer flagBuffer_, pixelOf_, samples_, keys_, count_, bounds_, grids_, keyArgs_;
-  vk::Buffer keptBits_;  // fused: lit_count.comp's bits, one uint per SCAN_ITEMS pixels
+  vk::Buffer samples_, keys_, count_, bounds_, grids_, keyArgs_;
+  vk::Buffer keptBits_;  // lit_count.comp's bits, one uint per SCAN_ITEMS positions
+  // lit_count.comp over the push's enumeration, then the scan of its block counts (the lit count to count_).
+  void recordLitCount(vk::Commands& cmd, const DeviceGBuffer& g, const LitPush& push);
   uint32_t keyBits_ = RAY_KEY_BITS;  // of the keys the last recordKeys (or recordCompactionWithKeys) recorded
   bool pairsPending_ = false;        // the last recording left its pairs in the sort's input
 };

@@ -5,7 +5,7 @@
 
 #include "sort/sort_layout.h"  // FLAG_COUNT_FROM_BUFFER: the ray keys read the lit count from the GPU
 
-// Per-pixel kernels (lit flags, ray keys, test kernels).
+// Per-pixel kernels (ray keys, test kernels).
 #define PIXEL_THREADS 256
 // ray_bounds.comp: RAY_BOUNDS_GROUPS workgroups of RAY_BOUNDS_THREADS, each invocation RAY_BOUNDS_ITEMS
 // samples of the subset (their product is RAY_BOUNDS_SAMPLES, rays/hilbert.h).
@@ -23,7 +23,7 @@ namespace cs::rays {
 CS_GLSL_TYPES
 #endif
 
-// lit_flags.comp
+// lit_count.comp, lit_samples.comp
 struct LitPush {
   uint width, height;
   uint order;       // 0: row-major (domain index = pixel index), 1: tiled Morton (see MORTON_TILE_BITS); the
