@@ -217,13 +217,18 @@ CS_FN uint frameRayKey(vec3 d, vec4 rect) {
 
 // The pixel (x, y) at position i of the unsorted screen order over tiles of 2^MORTON_TILE_BITS pixels
 // a side, tilesX tiles per row. May lie outside the image when its size is not a multiple of the tile.
-CS_FN uvec2 screenOrderPixel(uint i, uint tilesX) {
+// In two parts, so that a kernel walking consecutive positions of one tile divides once: the tile's
+// first pixel (an integer division by tilesX, which a SIMD CPU driver does lane by lane) and the offset
+// of position i inside its tile (bit shuffles only).
+CS_FN uvec2 screenTileOrigin(uint i, uint tilesX) {
   uint tile = i >> (2u * uint(MORTON_TILE_BITS));
-  uint local = i & ((1u << (2u * uint(MORTON_TILE_BITS))) - 1u);
-  uint tx = tile % tilesX, ty = tile / tilesX;
-  return uvec2((tx << uint(MORTON_TILE_BITS)) + evenBits(local),
-               (ty << uint(MORTON_TILE_BITS)) + evenBits(local >> 1u));
+  return uvec2(tile % tilesX, tile / tilesX) << uint(MORTON_TILE_BITS);
 }
+CS_FN uvec2 screenOffsetInTile(uint i) {
+  uint local = i & ((1u << (2u * uint(MORTON_TILE_BITS))) - 1u);
+  return uvec2(evenBits(local), evenBits(local >> 1u));
+}
+CS_FN uvec2 screenOrderPixel(uint i, uint tilesX) { return screenTileOrigin(i, tilesX) + screenOffsetInTile(i); }
 
 #ifdef __cplusplus
 }  // namespace glsl
@@ -241,7 +246,9 @@ using glsl::fittedFaceGrid;
 using glsl::zoomOrigin;
 using glsl::boundsSample;
 using glsl::faceRayKey;
+using glsl::screenOffsetInTile;
 using glsl::screenOrderPixel;
+using glsl::screenTileOrigin;
 constexpr uint32_t kRayKeyDegenerate = RAY_KEY_DEGENERATE;
 constexpr uint32_t kRayKeyBits = RAY_KEY_BITS;
 constexpr uint32_t kRayKeyHilbertOrder = RAY_KEY_HILBERT_ORDER;

@@ -30,11 +30,13 @@ void main() {
   uint t = gl_LocalInvocationIndex;
   uint first = b * SCAN_BLOCK + t * SCAN_ITEMS;
   uint bits = 0u;
+  // Morton: the invocation's positions share a tile (SCAN_ITEMS divides a tile's), so one division.
+  uvec2 origin = SPEC_MORTON != 0u ? screenTileOrigin(first, pc.tilesX) : uvec2(0u);
   for (uint k = 0u; k < SCAN_ITEMS; ++k) {
     uint pixel = min(first + k, n - 1u);
     bool inside = first + k < n;
     if (SPEC_MORTON != 0u) {
-      uvec2 p = screenOrderPixel(first + k, pc.tilesX);
+      uvec2 p = origin + screenOffsetInTile(first + k);
       inside = inside && p.x < pc.width && p.y < pc.height;
       pixel = inside ? p.y * pc.width + p.x : 0u;
     }

@@ -26,12 +26,14 @@ void main() {
   uint bits = kept[b * SCAN_THREADS + t];
   uint total;
   uint at = offsets[b] + workgroupExclusiveSum(uint(bitCount(bits)), total);
+  // Morton: the invocation's positions share a tile (SCAN_ITEMS divides a tile's), so one division.
+  uvec2 origin = SPEC_MORTON != 0u && bits != 0u ? screenTileOrigin(first, pc.tilesX) : uvec2(0u);
   while (bits != 0u) {
     uint i = first + uint(findLSB(bits));
     bits &= bits - 1u;
     uint pixel = i;
     if (SPEC_MORTON != 0u) {
-      uvec2 p = screenOrderPixel(i, pc.tilesX);
+      uvec2 p = origin + screenOffsetInTile(i);
       pixel = p.y * pc.width + p.x;
     }
     samples[at++] = pixel;

@@ -17,6 +17,9 @@
 // (Z) order inside a tile. Four consecutive samples are a 2x2 block, 16 a 4x4 block, ... up to the
 // 64x64 tile; tiles follow each other along rows.
 #define MORTON_TILE_BITS 6
+#if ((1 << (2 * MORTON_TILE_BITS)) % SCAN_ITEMS) != 0
+#error "lit_count.comp and lit_samples.comp take one Morton tile per invocation's run of SCAN_ITEMS positions"
+#endif
 
 #ifdef __cplusplus
 namespace cs::rays {
