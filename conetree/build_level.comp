@@ -6,7 +6,7 @@
 // With p.fromShape the depth is p.height levels above the leaves of the tree the shape buffer describes
 // (tree_shape.comp): its count and offsets come from there, and a height the tree does not reach is a
 // dispatch of zero workgroups (its indirect arguments) or returns at once.
-// bindings: 0 = positions (the G-buffer as a uniform texel buffer, RGBA32F: a texel per pixel), 1 = samples (uint pixel index per sorted ray),
+// bindings: 0 = positions (the G-buffer as a uniform texel buffer, RGBA32F: a texel per pixel), 1 = samples (uint pixel index per sorted ray; offset a multiple of 16 bytes),
 //           2 = nodes (ConeNode, the whole tree; this depth written, the one below read),
 //           3 = shape words (SHAPE_*; read with fromShape only), 4 = rays (uvec4 per sorted ray, written
 //           by the depth above the rays: the sample's world position as float bits and its pixel index,
@@ -15,7 +15,7 @@
 
 layout(local_size_x = CONE_BUILD_THREADS) in;
 layout(binding = 0) uniform samplerBuffer positions;  // texel fetches: the cheap gather
-layout(std430, binding = 1) readonly buffer Samples { uint samples[]; };
+layout(std430, binding = 1) readonly buffer Samples { uvec4 samples4[]; };  // read four at a time
 layout(std430, binding = 2) buffer Nodes { ConeNode nodes[]; };
 layout(std430, binding = 3) readonly buffer Shape { uint shape[]; };
 layout(std430, binding = 4) writeonly buffer Rays { uvec4 rays[]; };
@@ -28,9 +28,8 @@ layout(constant_id = 1) const uint SPEC_LEAVES = 0u;  // 1: the children are the
 
 uint count, nodeOffset, childCount, childOffset;
 
-ConeNode child(uint c) {
+ConeNode child(uint c, uint pixel) {
   if (SPEC_LEAVES != 0u) {
-    uint pixel = samples[c];
     vec3 position = texelFetch(positions, int(pixel)).xyz;
     rays[c] = uvec4(floatBitsToUint(position), pixel);
     if (SPEC_FAR != 0u) {  // far frame: the ray in frame coordinates, its cone widened
@@ -59,10 +58,20 @@ void main() {
   if (j >= count) return;
   uvec2 r = childRange(j, childCount);
   uint n = r.y - r.x;
-  ConeNode c0 = child(r.x);
-  ConeNode c1 = n > 1u ? child(r.x + 1u) : emptyCone();
-  ConeNode c2 = n > 2u ? child(r.x + 2u) : emptyCone();
-  ConeNode c3 = n > 3u ? child(r.x + 3u) : emptyCone();
+  // The leaves' four pixel indices in one vector load (a lavapipe lane pays per access, not per byte);
+  // the last node's, when it has fewer children, one by one, so nothing past the rays is read.
+  uvec4 pixels = uvec4(0u);
+  if (SPEC_LEAVES != 0u) {
+    if (n == 4u) {
+      pixels = samples4[j];
+    } else {
+      for (uint k = 0u; k < n; ++k) pixels[k] = samples4[j][k];
+    }
+  }
+  ConeNode c0 = child(r.x, pixels.x);
+  ConeNode c1 = n > 1u ? child(r.x + 1u, pixels.y) : emptyCone();
+  ConeNode c2 = n > 2u ? child(r.x + 2u, pixels.z) : emptyCone();
+  ConeNode c3 = n > 3u ? child(r.x + 3u, pixels.w) : emptyCone();
   // In the far frame the axis from the children's sum and the widening CONE_PAD times the frame's angular
   // scale; in the world frame the approximate minimal merge and CONE_PAD (of rays, coneParentOfRays).
   nodes[nodeOffset + j] = SPEC_FAR != 0u      ? coneParentFar(c0, c1, c2, c3, n, CONE_PAD * p.frame.centre.w)

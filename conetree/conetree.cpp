@@ -127,6 +127,7 @@ BuildPush ConeTree::basePush(glm::vec3 light, float minLength, const FrameChoice
 
 void ConeTree::record(vk::Commands& cmd, const vk::Buffer& positions, const vk::BufferRange& samples,
                       uint32_t count, glm::vec3 light, float minLength, const FrameChoice* frame) {
+  CS_CHECK(samples.offset % 16 == 0, "cone tree: the samples start at byte " << samples.offset << ", not a multiple of 16");
   const FrameChoice fc = frame ? *frame : worldFrame(light);
   shape_ = treeShape(count);
   maxDepth_ = shape_.depth;
@@ -148,6 +149,7 @@ void ConeTree::recordDevice(vk::Commands& cmd, const vk::Buffer& positions, cons
                             const vk::Buffer& countWords, uint32_t countIndex, uint32_t maxCount, glm::vec3 light,
                             float minLength, const FrameChoice* frame, bool keepWhenZero) {
   CS_CHECK(maxCount >= 1 && maxCount <= kMaxLeaves, "cone tree bound of " << maxCount << " rays (1 .. " << kMaxLeaves << ")");
+  CS_CHECK(samples.offset % 16 == 0, "cone tree: the samples start at byte " << samples.offset << ", not a multiple of 16");
   const FrameChoice fc = frame ? *frame : worldFrame(light);
   ensureNodes(maxCount);
   maxDepth_ = treeDepth(maxCount);

@@ -50,7 +50,8 @@ class ConeTree {
   // Records the build over the first `count` entries of `samples` (pixel indices in ray order) whose
   // positions are in `positions` (vec4 per pixel): one dispatch per depth, bottom-up, a barrier after each.
   // Rays not longer than minLength (2 eps: an empty hit interval) or not finite are in no cone.
-  // Grows the node buffer when needed; count must be >= 1 and <= kMaxLeaves.
+  // Grows the node buffer when needed; count must be >= 1 and <= kMaxLeaves. `samples` starts on a
+  // 16-byte boundary (the leaves' level reads four pixel indices at a time).
   void record(vk::Commands& cmd, const vk::Buffer& positions, const vk::BufferRange& samples, uint32_t count,
               glm::vec3 light, float minLength, const FrameChoice* frame = nullptr);
 
