@@ -4,17 +4,19 @@
 // which positions of the enumeration (row-major pixels, or the tiled Morton screen order of the unsorted
 // variant, SPEC_MORTON) are lit samples (geometry present and direct-light term > 0, litSample), one bit
 // each, and how many each block of SCAN_BLOCK positions holds. Invocation t of block b owns the
-// SCAN_ITEMS consecutive positions from b * SCAN_BLOCK + t * SCAN_ITEMS; bit k of kept[b * SCAN_THREADS +
-// t] says whether the k-th of them is lit. The scatter (lit_samples.comp, or lit_scatter.comp with the
-// keys) reads one word instead of the G-buffer again, and ray_bounds.comp finds its subset by them.
+// SCAN_ITEMS consecutive positions from b * SCAN_BLOCK + t * SCAN_ITEMS; kept[b * SCAN_THREADS + t] holds
+// its bits (bit k: the k-th of them is lit) and the lit positions of the block before its own. The
+// scatter (lit_samples.comp, or lit_scatter.comp with the keys) reads that one uvec2 instead of the
+// G-buffer and a scan of its own (a barrier costs a CPU driver a switch per subgroup), and
+// ray_bounds.comp finds its subset by the bits.
 // bindings: 0 = position, 1 = normal (uniform texel buffers, RGBA32F: a texel per pixel), 2 = kept
-//           (uint[] per invocation), 3 = counts (uint[] per block)
+//           (uvec2[] per invocation: bits, rank in the block), 3 = counts (uint[] per block)
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
 layout(local_size_x = SCAN_THREADS) in;
 layout(binding = 0) uniform samplerBuffer position;
 layout(binding = 1) uniform samplerBuffer normal;
-layout(std430, binding = 2) writeonly buffer Kept { uint kept[]; };
+layout(std430, binding = 2) writeonly buffer Kept { uvec2 kept[]; };
 layout(std430, binding = 3) writeonly buffer Counts { uint counts[]; };
 layout(push_constant) uniform Push { LitPush pc; };
 // = pc.order != 0, as a specialisation constant: the row-major pipeline holds no Morton code.
@@ -43,8 +45,7 @@ void main() {
     bool lit = inside && litSample(texelFetch(position, int(pixel)), texelFetch(normal, int(pixel)));
     bits |= lit ? 1u << k : 0u;
   }
-  kept[b * SCAN_THREADS + t] = bits;
   uint total;
-  workgroupExclusiveSum(uint(bitCount(bits)), total);
+  kept[b * SCAN_THREADS + t] = uvec2(bits, workgroupExclusiveSum(uint(bitCount(bits)), total));
   if (t == 0u) counts[b] = total;
 }

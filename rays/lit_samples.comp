@@ -3,29 +3,26 @@
 // Compaction of the lit samples, step 3 (rays.h, LitRays::recordCompaction): every lit position of the
 // enumeration, in its order, writes the pixel index it stands for (row-major: the position itself;
 // SPEC_MORTON: its pixel in the tiled Morton screen order) to samples[offsets[block] + its rank among the
-// block's lit positions]. The lit bits come from lit_count.comp (kept), the block offsets from the scan
-// of its counts. The sorted path's own scatter, with the keys, is lit_scatter.comp.
-// bindings: 0 = kept (uint[] per invocation), 1 = offsets (uint[] per block, exclusive), 2 = samples (uint[])
+// block's lit positions]. The lit bits and ranks come from lit_count.comp (kept), the block offsets from
+// the scan of its counts: no barrier here. The sorted path's own scatter, with the keys, is lit_scatter.comp.
+// bindings: 0 = kept (uvec2[] per invocation: bits, rank in the block), 1 = offsets (uint[] per block,
+//           exclusive), 2 = samples (uint[])
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
 layout(local_size_x = SCAN_THREADS) in;
-layout(std430, binding = 0) readonly buffer Kept { uint kept[]; };
+layout(std430, binding = 0) readonly buffer Kept { uvec2 kept[]; };
 layout(std430, binding = 1) readonly buffer Offsets { uint offsets[]; };
 layout(std430, binding = 2) writeonly buffer Samples { uint samples[]; };
 layout(push_constant) uniform Push { LitPush pc; };
 layout(constant_id = 0) const uint SPEC_MORTON = 0u;
 uint flatWorkgroup() { return gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x; }
-#define WG_SIZE SCAN_THREADS
-#define WG_RAKE SCAN_RAKE
-#include "sort/workgroup_scan.glsl"
 void main() {
   uint b = flatWorkgroup();
   if (b * SCAN_BLOCK >= pc.domain) return;
   uint t = gl_LocalInvocationIndex;
   uint first = b * SCAN_BLOCK + t * SCAN_ITEMS;
-  uint bits = kept[b * SCAN_THREADS + t];
-  uint total;
-  uint at = offsets[b] + workgroupExclusiveSum(uint(bitCount(bits)), total);
+  uvec2 mine = kept[b * SCAN_THREADS + t];
+  uint bits = mine.x, at = offsets[b] + mine.y;
   // Morton: the invocation's positions share a tile (SCAN_ITEMS divides a tile's), so one division.
   uvec2 origin = SPEC_MORTON != 0u && bits != 0u ? screenTileOrigin(first, pc.tilesX) : uvec2(0u);
   while (bits != 0u) {

@@ -4,17 +4,17 @@
 // lit pixel, in row-major order, writes its ray key and its pixel index as one (key, pixel) pair to
 // pairs[offsets[block] + its rank among the block's lit pixels] -- the radix sort's own input
 // (sort::RadixSort::recordFromPairs), so no array of sample indices or of keys is stored and read back
-// in between. The lit bits come from lit_count.comp (kept), the block offsets from the scan of its counts,
-// the faces' grids from ray_grids.comp. The key is ray_keys.comp's: faceRayKey on the face's fitted grid,
-// or frameRayKey in a rotated frame (SPEC_FRAMED).
-// bindings: 0 = position (uniform texel buffer, RGBA32F: a texel per pixel), 1 = kept (uint[] per
-//           invocation), 2 = offsets (uint[] per block, exclusive), 3 = pairs (uvec2[]), 4 = the faces'
-//           grids (vec4 per face; world keys)
+// in between. The lit bits and ranks come from lit_count.comp (kept), the block offsets from the scan of
+// its counts, the faces' grids from ray_grids.comp: no scan and no barrier here. The key is
+// ray_keys.comp's: faceRayKey on the face's fitted grid, or frameRayKey in a rotated frame (SPEC_FRAMED).
+// bindings: 0 = position (uniform texel buffer, RGBA32F: a texel per pixel), 1 = kept (uvec2[] per
+//           invocation: bits, rank in the block), 2 = offsets (uint[] per block, exclusive), 3 = pairs
+//           (uvec2[]), 4 = the faces' grids (vec4 per face; world keys)
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
 layout(local_size_x = SCAN_THREADS) in;
 layout(binding = 0) uniform samplerBuffer position;
-layout(std430, binding = 1) readonly buffer Kept { uint kept[]; };
+layout(std430, binding = 1) readonly buffer Kept { uvec2 kept[]; };
 layout(std430, binding = 2) readonly buffer Offsets { uint offsets[]; };
 layout(std430, binding = 3) writeonly buffer Pairs { uvec2 pairs[]; };
 layout(std430, binding = 4) readonly buffer Grids { vec4 grids[]; };
@@ -22,37 +22,23 @@ layout(push_constant) uniform Push { KeysPush pc; };
 // = pc.framed, as a specialisation constant: each pipeline holds one key's code (ray_keys.comp).
 layout(constant_id = 0) const uint SPEC_FRAMED = 0u;
 uint flatWorkgroup() { return gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x; }
-#define WG_SIZE SCAN_THREADS
-#define WG_RAKE SCAN_RAKE
-#include "sort/workgroup_scan.glsl"
-// The block's lit pixels, listed in order first, so that the keys are then made by every invocation
-// alike (the lit pixels of an invocation's own run vary from none to SCAN_ITEMS) and neighbouring
-// invocations fetch and store neighbouring samples.
-shared uint litPixels[SCAN_BLOCK];
 void main() {
   uint n = pc.count;  // pixels
   uint b = flatWorkgroup();
   if (b * SCAN_BLOCK >= n) return;
   uint t = gl_LocalInvocationIndex;
   uint first = b * SCAN_BLOCK + t * SCAN_ITEMS;
-  uint bits = kept[b * SCAN_THREADS + t];
-  uint total;
-  uint j = workgroupExclusiveSum(uint(bitCount(bits)), total);
-  if (total == 0u) return;  // uniform
-  while (bits != 0u) {
-    litPixels[j++] = first + uint(findLSB(bits));
-    bits &= bits - 1u;
-  }
+  uvec2 mine = kept[b * SCAN_THREADS + t];  // lit_count's bits and rank: no scan, no barrier here
+  uint bits = mine.x, at = offsets[b] + mine.y;
   // The six grids in registers, picked by selects: a storage load indexed by each sample's face costs
   // every lane its own bounds-checked load on a SIMD CPU driver.
   vec4 g0 = vec4(0.0f), g1 = g0, g2 = g0, g3 = g0, g4 = g0, g5 = g0;
-  if (SPEC_FRAMED == 0u) {
+  if (SPEC_FRAMED == 0u && bits != 0u) {
     g0 = grids[0], g1 = grids[1], g2 = grids[2], g3 = grids[3], g4 = grids[4], g5 = grids[5];
   }
-  uint at = offsets[b];
-  barrier();
-  for (uint i = t; i < total; i += SCAN_THREADS) {
-    uint pixel = litPixels[i];
+  while (bits != 0u) {
+    uint pixel = first + uint(findLSB(bits));
+    bits &= bits - 1u;
     vec3 x = texelFetch(position, int(pixel)).xyz;
     uint key;
     if (SPEC_FRAMED != 0u) {  // R (x - origin) - lightFrame: the ray in the rotated frame
@@ -65,6 +51,6 @@ void main() {
       vec4 grid = face == 0u ? g0 : face == 1u ? g1 : face == 2u ? g2 : face == 3u ? g3 : face == 4u ? g4 : g5;
       key = face == 7u ? RAY_KEY_DEGENERATE : faceRayKey(d, face, grid);
     }
-    pairs[at + i] = uvec2(key, pixel);
+    pairs[at++] = uvec2(key, pixel);
   }
 }

@@ -10,7 +10,7 @@
 // blocks and their words forward (an invocation's subset indices are consecutive and increasing).
 // bindings: 0 = position (vec4[] per pixel), 1 = samples (uint[] pixel indices), 2 = bounds
 //           (RAY_BOUNDS_WORDS uint, all ones before the dispatch), 3 = countWords (device count),
-//           4 = kept (uint[], SCAN_ITEMS bits an invocation of lit_count.comp), 5 = offsets (uint[] per
+//           4 = kept (uvec2[]: SCAN_ITEMS bits an invocation of lit_count.comp, and its rank), 5 = offsets (uint[] per
 //           block of SCAN_BLOCK pixels, exclusive; pc.count is then the pixel count)
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
@@ -19,7 +19,7 @@ layout(std430, binding = 0) readonly buffer Position { vec4 position[]; };
 layout(std430, binding = 1) readonly buffer Samples { uint samples[]; };
 layout(std430, binding = 2) buffer Bounds { uint bounds[]; };
 layout(std430, binding = 3) readonly buffer CountWords { uint countWords[]; };
-layout(std430, binding = 4) readonly buffer Kept { uint kept[]; };
+layout(std430, binding = 4) readonly buffer Kept { uvec2 kept[]; };
 layout(std430, binding = 5) readonly buffer Offsets { uint offsets[]; };
 layout(constant_id = 0) const uint SPEC_FROM_BITS = 0u;
 layout(push_constant) uniform Push { KeysPush pc; };
@@ -45,10 +45,10 @@ uint litPixel(uint k, uint n) {
     walkBlock = lo, walkWord = 0u, walkRank = offsets[lo];
     walkStarted = true;
   }
-  uint bits = kept[walkBlock * SCAN_THREADS + walkWord];
+  uint bits = kept[walkBlock * SCAN_THREADS + walkWord].x;
   while (k >= walkRank + uint(bitCount(bits)) && walkWord + 1u < SCAN_THREADS) {
     walkRank += uint(bitCount(bits));
-    bits = kept[walkBlock * SCAN_THREADS + ++walkWord];
+    bits = kept[walkBlock * SCAN_THREADS + ++walkWord].x;
   }
   for (uint r = k - walkRank; r > 0u; --r) bits &= bits - 1u;  // drop the lit pixels before it
   return walkBlock * SCAN_BLOCK + walkWord * SCAN_ITEMS + uint(findLSB(bits));

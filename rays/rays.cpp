@@ -76,7 +76,7 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
   bounds_ = vk::createBuffer(ctx, RAY_BOUNDS_WORDS * 4);
   grids_ = vk::createBuffer(ctx, 8 * 16);
   keyArgs_ = vk::createBuffer(ctx, 16, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
-  keptBits_ = vk::createBuffer(ctx, uint64_t(sort::ceilDiv(maxDomain_, SCAN_BLOCK)) * SCAN_THREADS * 4);
+  keptBits_ = vk::createBuffer(ctx, uint64_t(sort::ceilDiv(maxDomain_, SCAN_BLOCK)) * SCAN_THREADS * 8);
 }
 
 uint64_t LitRays::bytesAllocated() const {

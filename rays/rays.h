@@ -89,7 +89,7 @@ class LitRays {
   vk::Kernel litBounds_;                       // fused: ray_bounds.comp SPEC_FROM_BITS
   vk::Kernel litScatter_, frameLitScatter_;    // fused: lit_scatter.comp, world or rotated-frame keys
   vk::Buffer samples_, keys_, count_, bounds_, grids_, keyArgs_;
-  vk::Buffer keptBits_;  // lit_count.comp's bits, one uint per SCAN_ITEMS positions
+  vk::Buffer keptBits_;  // lit_count.comp's bits and ranks, one uvec2 per SCAN_ITEMS positions
   // lit_count.comp over the push's enumeration, then the scan of its block counts (the lit count to count_).
   void recordLitCount(vk::Commands& cmd, const DeviceGBuffer& g, const LitPush& push);
   uint32_t keyBits_ = RAY_KEY_BITS;  // of the keys the last recordKeys (or recordCompactionWithKeys) recorded
