@@ -161,6 +161,7 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
   if (!framed) {  // each face's box over the subset, for its fitted grid
     cmd.fill(bounds_, RAY_BOUNDS_EMPTY, 0, bounds_.size);
     cmd.barrier();
+    // (bindings 4 and 5, the lit bits and block starts, are read only with SPEC_FROM_BITS)
     cmd.dispatch(rayBounds_, {g.position, samples_, bounds_, countBinding, keptBits_, keptBits_}, push, RAY_BOUNDS_GROUPS);
     cmd.barrier();
     cmd.dispatch(rayGrids_, {bounds_, grids_}, push, 1);

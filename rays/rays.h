@@ -44,7 +44,8 @@ class LitRays {
   LitRays(vk::Context& ctx, uint32_t width, uint32_t height);
 
   // Everything, with no host round trip: lit bits -> compaction -> (Hilbert) ray keys -> stable radix sort
-  // of (key, pixel). Marks "lit compaction", then for Hilbert "ray keys" and "ray sort", on cmd's timer.
+  // of (key, pixel). Marks "lit compaction", then for Hilbert "ray keys" and "ray sort", on cmd's timer;
+  // Hilbert where fusedKeys(): "lit compaction + ray keys" (recordCompactionWithKeys), then "ray sort".
   void record(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, RayOrder order);
 
   // The steps, for callers that want to time them or read the count in between.
