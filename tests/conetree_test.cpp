@@ -198,6 +198,21 @@ std::vector<glm::vec4> samplePositions(uint32_t n, glm::vec3 light, uint32_t see
   return p;
 }
 
+// The leaves' level reads four pixel indices at a time: samples that do not start on a 16-byte
+// boundary are a clear error, not a misread tree.
+TEST(ConeTree, SamplesOffTheSixteenByteBoundaryAreAClearError) {
+  auto& ctx = test::context();
+  cone::ConeTree tree(ctx);
+  vk::Buffer positions = vk::createBuffer(ctx, 64 * 16), samples = vk::createBuffer(ctx, 64 * 4);
+  vk::Commands cmd(ctx);
+  try {
+    tree.record(cmd, positions, vk::BufferRange(samples, 4, 32 * 4), 8, glm::vec3(0.0f), 1e-4f);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("multiple of 16"), std::string::npos) << e.what();
+  }
+}
+
 TEST(ConeTree, EveryLeafRayInsideEveryAncestorOnTheGpu) {
   auto& ctx = test::context();
   const glm::vec3 light(0.3f, -0.2f, 0.1f);

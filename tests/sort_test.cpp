@@ -1009,6 +1009,33 @@ TEST(LitRays, FusedCompactionAndKeysMatchTheStepsOnSparseAndDenseFrames) {
     }
 }
 
+// Where the sort keeps no pair scratch (pairs past one binding or texel buffer), the fused path is off:
+// LitRays records the steps and gives the same order, and asking for the fused path is a clear error.
+TEST(LitRays, WithoutPairScratchTheStepsRunAndTheFusedPathIsAClearError) {
+  auto& ctx = test::context();
+  Frame f = renderBuiltin("room", 160, 120);
+  struct Restore {
+    ~Restore() { sort::setPairScratchForTesting(-1); }
+  } restore;
+  sort::setPairScratchForTesting(0);
+  rays::LitRays rays(ctx, f.width, f.height);
+  EXPECT_FALSE(rays.fusedKeys());
+  vk::Commands cmd(ctx);
+  rays.record(cmd, f.device, f.light, rays::RayOrder::Hilbert);
+  cmd.submit();
+  const uint32_t n = rays.readCount();
+  EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), n),
+                    rays::referenceRayOrder(f.host, f.light, rays::RayOrder::Hilbert), "steps without pair scratch");
+  rays::KeysPush push{};
+  push.light = glm::vec4(f.light, 1.0f);
+  try {
+    rays.recordCompactionWithKeys(cmd, f.device, push);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("fusedKeys"), std::string::npos) << e.what();
+  }
+}
+
 // Mean angle (radians) between the rays of consecutive samples.
 double meanNeighbourAngle(const GBuffer& g, glm::vec3 light, const std::vector<uint32_t>& samples) {
   double sum = 0;
