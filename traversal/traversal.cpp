@@ -217,15 +217,17 @@ const vk::Kernel& Traversal::testKernel(const TraversePush& p, bool clusters, bo
   // The cluster kernel runs the sphere test alone whatever the switches: one pipeline for every frame.
   const bool sphere = whole || p.test == TRAVERSE_TEST_SPHERE, early = !clusters && !whole && p.earlyAccept,
              culling = !clusters && p.frontFaceCulling;
+  const bool scaled = p.coneScale != 1.0f;  // SPEC_SCALED: the kernel holds the scale 1 as a constant otherwise
   const uint32_t key =
-      clusters ? 8u : whole ? 9u + (culling ? 1u : 0u) : (sphere ? 1u : 0u) | (early ? 2u : 0u) | (culling ? 4u : 0u);
+      (clusters ? 8u : whole ? 9u + (culling ? 1u : 0u) : (sphere ? 1u : 0u) | (early ? 2u : 0u) | (culling ? 4u : 0u)) +
+      (scaled ? 11u : 0u);
   std::unique_ptr<vk::Kernel>& k = tests_[key];
   if (!k)
     k = std::make_unique<vk::Kernel>(vk::createKernel(
         ctx_, clusters ? "traverse test (clusters)" : whole ? "traverse test (whole clusters)" : "traverse test",
         spv_traverse_test_comp, 11, sizeof(TraversePush),
         {{0, sphere && !clusters ? TRAVERSE_TEST_SPHERE : TRAVERSE_TEST_PRECISE}, {1, early ? 1u : 0u},
-         {2, culling ? 1u : 0u}, {3, clusters ? 1u : 0u}, {4, whole ? 1u : 0u}},
+         {2, culling ? 1u : 0u}, {3, clusters ? 1u : 0u}, {4, whole ? 1u : 0u}, {5, scaled ? 1u : 0u}},
         0x407u));
   return *k;
 }

@@ -328,7 +328,8 @@ class Traversal {
   void ensureFlags(uint64_t nodes);
 
   const vk::Kernel& testKernel(const TraversePush& p, bool clusters, bool whole = false);
-  std::unique_ptr<vk::Kernel> tests_[11];  // the test kernels per switches, the cluster kernel, the whole-cluster ones
+  std::unique_ptr<vk::Kernel> tests_[22];  // the test kernels per switches, the cluster kernel, the whole-cluster ones;
+                                           // each with the scale a constant 1 and from the push constants
   vk::Kernel leaves_, advance_;
   vk::Buffer arena_, chunk_, stats_, flags_, state_;
   uint32_t batchTriangles_ = 1;  // triangles per batch of the device path (learnBatch)

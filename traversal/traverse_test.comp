@@ -83,6 +83,12 @@ layout(constant_id = 3) const uint SPEC_CLUSTERS = 0u;
 // accept): expandWhole and nothing else. Its own pipeline, because on lavapipe the lanes of a kernel pay
 // for its code whether a uniform branch enters it or not.
 layout(constant_id = 4) const uint SPEC_WHOLE = 0u;
+// 1: the frame's angular scale p.coneScale is below 1 (the far-light frame's, traversal.h); 0: it is 1,
+// and the kernel holds the constant instead. The tests then compute bit for bit what they would from
+// p.coneScale = 1, without the far frame's arithmetic, which lavapipe would run on every lane anyway
+// (it runs both sides of every branch, docs/ARCHITECTURE.md, "Memory access").
+layout(constant_id = 5) const uint SPEC_SCALED = 0u;
+float coneScale() { return SPEC_SCALED != 0u ? p.coneScale : 1.0f; }
 
 uint statWord(uint w) {
   uvec4 t = texelFetch(statWords, int(w >> 2u));
@@ -144,7 +150,7 @@ uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild) {
   if (SPEC_CLUSTERS != 0u) {
     vec4 sphere = clusterSpheres[mode == STEP_SUPER ? SUPER_SPHERES * pair.x : clusterSphereAt(pair.x)];
     for (uint c = r.x; c < r.y; c++)
-      if (sphereConeTriangle(node(childOffset + c), sphere, p.eps, p.coneScale)) mask |= 1u << (c - r.x);
+      if (sphereConeTriangle(node(childOffset + c), sphere, p.eps, coneScale())) mask |= 1u << (c - r.x);
     return mask;
   }
   vec3 light = p.light.xyz;
@@ -158,7 +164,7 @@ uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild) {
     v1 -= light;
     v2 -= light;
   }
-  float scale = p.coneScale;
+  float scale = coneScale();
   if (SPEC_EARLY_ACCEPT != 0u && p.fromTriangles == 0u && flags[inputOffset + pair.y] != 0u) {
     // the node was accepted (by another triangle): every sample under it is shadowed already
     atomicAdd(stats[STAT_DROPPED], 1u);
@@ -180,8 +186,11 @@ uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild) {
       if (sphereConeTriangle(node(childOffset + c), sphere, p.eps, scale)) near |= 1u << (c - r.x);
     if (near != 0u) {
       PreciseTriangle t = preciseTriangle(v0, v1, v2, scale);  // once for the (up to) four children
-      for (uint c = r.x; c < r.y; c++) {
-        if ((near & (1u << (c - r.x))) == 0u) continue;
+      // Over the set bits of `near` only: lavapipe runs a loop as many times as its busiest lane needs
+      // (an `if` it runs whole, for every lane), so this is the test's cost where a triangle is near few
+      // of the four children.
+      for (uint todo = near; todo != 0u; todo &= todo - 1u) {
+        uint c = r.x + uint(findLSB(todo));
         ConeNode n = node(childOffset + c);
         if (!preciseConeTriangle(n, t, p.eps)) continue;
         if (SPEC_EARLY_ACCEPT != 0u && preciseConeCovered(n, t, p.eps)) acceptChild(c, light);
@@ -215,7 +224,7 @@ void expandWhole(uint i, bool super) {
   ConeNode n1 = node(childOffset + min(r.x + 1u, r.y - 1u));
   ConeNode n2 = node(childOffset + min(r.x + 2u, r.y - 1u));
   ConeNode n3 = node(childOffset + min(r.x + 3u, r.y - 1u));
-  float scale = p.coneScale;
+  float scale = coneScale();
   uint outer = (1u << kids) - 1u;  // the children still in play
   uint made = 0u;                  // tests made
   if (super) {
@@ -326,9 +335,8 @@ void main() {
   if (total == 0u) return;
   uint room = p.outLimit - p.outFirst;
   uint slot = reserve(n, total);
-  for (uint k = 0u; k < 4u; k++)
-    if ((mask & (1u << k)) != 0u) {
-      if (slot < room) outPairs[p.outFirst + slot] = uvec2(pair.x, firstChild + k);
-      slot++;
-    }
+  for (uint todo = mask; todo != 0u; todo &= todo - 1u) {
+    if (slot < room) outPairs[p.outFirst + slot] = uvec2(pair.x, firstChild + uint(findLSB(todo)));
+    slot++;
+  }
 }
