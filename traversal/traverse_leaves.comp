@@ -45,13 +45,19 @@ void main() {
   vec3 P0 = texelFetch(tris, int(3u * pair.x)).xyz;
   vec3 P1 = texelFetch(tris, int(3u * pair.x + 1u)).xyz;
   vec3 P2 = texelFetch(tris, int(3u * pair.x + 2u)).xyz;
+  // The tests first, the hits as bits (bit k: ray first + k), then the writes for the hits alone: lavapipe
+  // makes a storage access lane by lane in a loop that runs for every lane, active or not, and an `if`
+  // does not skip it (it runs both sides of every branch), so a load and an atomic per ray cost the
+  // kernel eight such loops a pair; a loop over the hits runs as often as the lane with the most hits
+  // needs, and once when none has any.
+  uint hits = 0u;
   for (uint leaf = first; leaf < end; leaf++) {
-    uvec4 r = texelFetch(rays, int(leaf));
-    uint sampleIndex = r.w;
-    vec3 samplePos = uintBitsToFloat(r.xyz);
+    vec3 samplePos = uintBitsToFloat(texelFetch(rays, int(leaf)).xyz);
     vec4 ray = leafRay(samplePos, light);
-    if (leafRayUsable(ray, p.minLength) && leafHit(samplePos, light, ray, p.eps, P0, P1, P2) &&
-        visibility[sampleIndex] != 0u)
-      atomicAnd(visibility[sampleIndex], 0u);
+    if (leafRayUsable(ray, p.minLength) && leafHit(samplePos, light, ray, p.eps, P0, P1, P2)) hits |= 1u << (leaf - first);
+  }
+  for (uint todo = hits; todo != 0u; todo &= todo - 1u) {
+    uint sampleIndex = texelFetch(rays, int(first + uint(findLSB(todo)))).w;
+    if (visibility[sampleIndex] != 0u) atomicAnd(visibility[sampleIndex], 0u);
   }
 }
