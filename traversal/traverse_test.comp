@@ -120,21 +120,23 @@ void acceptChild(uint c, vec3 light) {
 }
 
 // The input's surviving children as a 4-bit mask (bit k: child r.x + k), its pair in `pair` and its first
-// child in `firstChild`. Counts the tests it skips (STAT_MISSING) and the early-accept events.
-uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild) {
+// child in `firstChild`. Adds the tests it skips to `missing` (for STAT_MISSING: one atomic an invocation,
+// whatever the path, since lavapipe makes every storage access in a loop over the lanes that runs whether
+// a branch is taken or not) and counts the early-accept events.
+uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild, inout uint missing) {
   firstChild = 0u;
   if (SPEC_CLUSTERS == 0u && mode == STEP_EXPAND) {
     uvec2 cp = inputPair(i >> CLUSTER_SHIFT);
     pair = uvec2((cp.x << CLUSTER_SHIFT) + (i & (CLUSTER_SIZE - 1u)), cp.y);
     if (pair.x >= p.triangleEnd) {  // past the last cluster's triangles: no test
-      atomicAdd(stats[STAT_MISSING], 4u);
+      missing += 4u;
       return 0u;
     }
   } else if (SPEC_CLUSTERS != 0u && mode == STEP_SPLIT) {
     uvec2 sp = inputPair(i >> 2u);  // (SUPER_CLUSTERS inputs a pair)
     pair = uvec2(SUPER_CLUSTERS * sp.x + (i & (SUPER_CLUSTERS - 1u)), sp.y);
     if ((pair.x << CLUSTER_SHIFT) >= p.triangleEnd) {  // past the last super cluster's clusters: no test
-      atomicAdd(stats[STAT_MISSING], 4u);
+      missing += 4u;
       return 0u;
     }
   } else {
@@ -145,7 +147,7 @@ uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild) {
   uvec2 r = p.fromTriangles != 0u ? uvec2(0u, 1u) : childRange(pair.y, childCount);
   firstChild = r.x;
   uint expected = p.fromTriangles != 0u ? 1u : 4u;
-  if (r.y - r.x < expected) atomicAdd(stats[STAT_MISSING], expected - (r.y - r.x));  // the last node only
+  missing += expected - (r.y - r.x);  // the last node only
   uint mask = 0u;
   if (SPEC_CLUSTERS != 0u) {
     vec4 sphere = clusterSpheres[mode == STEP_SUPER ? SUPER_SPHERES * pair.x : clusterSphereAt(pair.x)];
@@ -168,7 +170,7 @@ uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild) {
   if (SPEC_EARLY_ACCEPT != 0u && p.fromTriangles == 0u && flags[inputOffset + pair.y] != 0u) {
     // the node was accepted (by another triangle): every sample under it is shadowed already
     atomicAdd(stats[STAT_DROPPED], 1u);
-    atomicAdd(stats[STAT_MISSING], r.y - r.x);
+    missing += r.y - r.x;
   } else if (SPEC_FRONT_FACE_CULLING != 0u && (p.fromTriangles != 0u || mode == STEP_EXPAND) && facesLight(v0, v1, v2)) {
     // 002 §3.6: a triangle facing the light casts no shadow in a closed mesh; dropped at the root.
   } else if (SPEC_TEST == TRAVERSE_TEST_SPHERE) {
@@ -326,7 +328,9 @@ void main() {
   if (clusterStep != (SPEC_CLUSTERS != 0u)) return;  // the other kernel's step (given no workgroups)
   uvec2 pair;
   uint firstChild;
-  uint mask = testInput(i, mode, pair, firstChild);
+  uint missing = 0u;
+  uint mask = testInput(i, mode, pair, firstChild, missing);
+  if (missing != 0u) atomicAdd(stats[STAT_MISSING], missing);
 
   // The append: one atomic per subgroup (the invocations still active here), each invocation's pairs at
   // its exclusive prefix within the subgroup's reservation.
