@@ -36,3 +36,13 @@ uvec4 loadKeys(uint v, uint n) {
     if (4u * v + c < n) r[c] = keys4[v][c];
   return r;
 }
+
+// The ranking counters (radix_count.comp, radix_scatter.comp): one 16-bit counter per (digit, invocation),
+// two digits a word (digit d in the low half of word d % RADIX_WORDS, d + RADIX_WORDS in the high half),
+// laid out word by word, the invocations' columns side by side, one spare word per 32 so a rake of
+// consecutive words is free of bank conflicts. A tile holds fewer than 65536 keys: the halves never carry.
+const uint kWords = RADIX_WORDS * SORT_THREADS;
+uint slot(uint word, uint t) {
+  uint i = word * SORT_THREADS + t;
+  return i + (i >> 5u);
+}

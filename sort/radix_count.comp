@@ -17,24 +17,37 @@ layout(push_constant) uniform Push { RadixPush pc; };
 #define PAIR_TEXELS 3
 #include "sort/radix.glsl"
 
-shared uint bins[RADIX_BINS];
+// Counting as the scatter ranks (radix_scatter.comp): one 16-bit counter per (digit, invocation), two
+// digits a word, each invocation adding to its own column with a plain load and store. A shared atomic
+// costs lavapipe more than the two (sort_bench, 1 M pairs), and the columns' sum below is half a read a key.
+shared uint counters[kWords + kWords / 32u];  // radix.glsl, slot()
 
 void main() {
   uint tile = flatWorkgroup();
   if (tile >= pc.tiles) return;
   uint n = countOf(pc.count, pc.countIndex, pc.flags);
   uint t = gl_LocalInvocationIndex;
-  for (uint d = t; d < RADIX_BINS; d += SORT_THREADS) bins[d] = 0u;
+  for (uint i = t; i < kWords + kWords / 32u; i += SORT_THREADS) counters[i] = 0u;
   barrier();
   uint first = tile * SORT_TILE + t * SORT_ITEMS;
   uint items = first < n ? min(SORT_ITEMS, n - first) : 0u;
   for (uint k = 0u; k < items; k += 4u) {
     uvec4 key = loadKeys((first + k) / 4u, n);
-    for (uint c = 0u; c < 4u; ++c)
-      if (k + c < items) atomicAdd(bins[digitOf(key[c])], 1u);
+    for (uint c = 0u; c < 4u; ++c) {
+      if (k + c >= items) break;
+      uint d = digitOf(key[c]);
+      counters[slot(d % RADIX_WORDS, t)] += d < RADIX_WORDS ? 1u : 0x10000u;
+    }
   }
   barrier();
-  for (uint d = t; d <= pc.digitMask; d += SORT_THREADS) hist[d * pc.tiles + tile] = bins[d];
+  // Word w holds digits w (low halves) and w + RADIX_WORDS (high halves): a tile holds fewer than 65536
+  // keys, so neither half carries.
+  for (uint w = t; w < RADIX_WORDS; w += SORT_THREADS) {
+    uint sum = 0u;
+    for (uint u = 0u; u < SORT_THREADS; ++u) sum += counters[slot(w, u)];
+    if (w <= pc.digitMask) hist[w * pc.tiles + tile] = sum & 0xFFFFu;
+    if (w + RADIX_WORDS <= pc.digitMask) hist[(w + RADIX_WORDS) * pc.tiles + tile] = sum >> 16u;
+  }
   if (tile == 0u) {
     uint used = max(ceilDiv(n, SORT_TILE), 1u);
     uint rest = pc.tiles - min(used, pc.tiles);

@@ -40,15 +40,10 @@ layout(constant_id = 5) const bool PAIRS_OUT = false;
 #define WG_RAKE SORT_RAKE
 #include "sort/workgroup_scan.glsl"
 
-const uint kWords = RADIX_WORDS * SORT_THREADS;
-shared uint counters[kWords + kWords / 32u];  // padded: one spare word per 32 keeps raking conflict-free
+shared uint counters[kWords + kWords / 32u];  // radix.glsl, slot()
 shared uint adjust[RADIX_BINS];               // global position of the tile's first key of each digit, minus its tile rank
 shared uint lookbackTile;                     // look-back: the tile this workgroup took
 
-uint slot(uint word, uint t) {
-  uint i = word * SORT_THREADS + t;
-  return i + (i >> 5u);
-}
 uint unpackRank(uint packed, uint d, uint lowTotal) {
   return d < RADIX_WORDS ? (packed & 0xFFFFu) : (packed >> 16u) + lowTotal;
 }
