@@ -42,6 +42,11 @@ uvec4 loadKeys(uint v, uint n) {
 // laid out word by word, the invocations' columns side by side, one spare word per 32 so a rake of
 // consecutive words is free of bank conflicts. A tile holds fewer than 65536 keys: the halves never carry.
 const uint kWords = RADIX_WORDS * SORT_THREADS;
+// Reduce-then-scan: the count pass leaves each tile's counters scanned (the tile-local ranks, unpadded, in
+// (word, invocation) order) in the ranks buffer, kRankWords a tile: kWords, then the tile's count of keys
+// with a low-half digit (unpackRank's lowTotal) and three words of padding. The scatter loads them instead
+// of counting the tile's keys again and scanning.
+const uint kRankWords = kWords + 4u;
 uint slot(uint word, uint t) {
   uint i = word * SORT_THREADS + t;
   return i + (i >> 5u);

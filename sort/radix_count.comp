@@ -5,17 +5,23 @@
 // output position. Tiles past the device count write zeros; with a device count the dispatch is indirect
 // (sort::IndirectGroups: only the tiles the count fills), and tile 0 also zeroes the entries of the
 // tiles [used, tiles) that were not launched.
+// It also leaves the tile's ranking counters scanned in binding 4 (radix.glsl, kRankWords), which the
+// scatter then loads instead of counting the tile's keys a second time.
 // bindings: 0 = keys (uint[], read as uvec4), 1 = hist (uint[], (digitMask + 1) * tiles),
 //           2 = countWords (device count), 3 = pairs (PAIRS_IN: read instead of binding 0, as a uniform
-//           texel buffer, RGBA32UI)
+//           texel buffer, RGBA32UI), 4 = ranks (uint[kRankWords * tiles], written as uvec4)
 #include "sort/sort_layout.h"
 layout(std430, binding = 0) readonly buffer Keys { uvec4 keys4[]; };
 layout(std430, binding = 1) writeonly buffer Hist { uint hist[]; };
 layout(std430, binding = 2) readonly buffer CountWords { uint countWords[]; };
+layout(std430, binding = 4) writeonly buffer Ranks { uvec4 ranks4[]; };
 layout(push_constant) uniform Push { RadixPush pc; };
 #include "sort/common.glsl"
 #define PAIR_TEXELS 3
 #include "sort/radix.glsl"
+#define WG_SIZE SORT_THREADS
+#define WG_RAKE SORT_RAKE
+#include "sort/workgroup_scan.glsl"
 
 // Counting as the scatter ranks (radix_scatter.comp): one 16-bit counter per (digit, invocation), two
 // digits a word, each invocation adding to its own column with a plain load and store. A shared atomic
@@ -48,6 +54,27 @@ void main() {
     if (w <= pc.digitMask) hist[w * pc.tiles + tile] = sum & 0xFFFFu;
     if (w + RADIX_WORDS <= pc.digitMask) hist[(w + RADIX_WORDS) * pc.tiles + tile] = sum >> 16u;
   }
+  // The ranks: an exclusive scan over all words in (word, invocation) order, invocation t raking words
+  // t*W .. t*W+W-1 of that order (W = RADIX_WORDS) and storing its scanned words four at a time.
+  uint sum = 0u;
+  for (uint w = 0u; w < RADIX_WORDS; ++w) {
+    uint i = t * RADIX_WORDS + w;
+    sum += counters[i + (i >> 5u)];
+  }
+  uint total;
+  uint running = workgroupExclusiveSum(sum, total);  // (its barriers also end the column sums' reads)
+  uint at = tile * kRankWords;
+  for (uint w = 0u; w < RADIX_WORDS; w += 4u) {
+    uint i = t * RADIX_WORDS + w, j = i + (i >> 5u);  // four words in a row: i is a multiple of 4
+    uvec4 r;
+    r.x = running;
+    r.y = r.x + counters[j];
+    r.z = r.y + counters[j + 1u];
+    r.w = r.z + counters[j + 2u];
+    running = r.w + counters[j + 3u];
+    ranks4[(at + i) / 4u] = r;
+  }
+  if (t == 0u) ranks4[(at + kWords) / 4u] = uvec4(total & 0xFFFFu, 0u, 0u, 0u);
   if (tile == 0u) {
     uint used = max(ceilDiv(n, SORT_TILE), 1u);
     uint rest = pc.tiles - min(used, pc.tiles);

@@ -20,7 +20,8 @@
 // the output separate keys and values, or (PAIRS_OUT) interleaved pairs in binding 6, one uvec2 store a key.
 // bindings: 0 = keysIn (or pairsIn), 1 = valuesIn (uint[], read as uvec4), 2 = keysOut, 3 = valuesOut
 //           (uint[]), 4 = hist (scanned) or the look-back workspace, 5 = countWords (device count),
-//           6 = pairsOut (uvec2[]), 7 = pairsIn (PAIRS_IN: the pairs as a uniform texel buffer, RGBA32UI)
+//           6 = pairsOut (uvec2[]), 7 = pairsIn (PAIRS_IN: the pairs as a uniform texel buffer, RGBA32UI),
+//           8 = ranks (reduce-then-scan: the tile's scanned counters from radix_count.comp, radix.glsl)
 #include "sort/sort_layout.h"
 layout(std430, binding = 0) readonly buffer KeysIn { uvec4 keys4[]; };
 layout(std430, binding = 1) readonly buffer ValuesIn { uvec4 values4[]; };
@@ -29,6 +30,7 @@ layout(std430, binding = 3) writeonly buffer ValuesOut { uint valuesOut[]; };
 layout(std430, binding = 4) buffer Hist { uint hist[]; };
 layout(std430, binding = 5) readonly buffer CountWords { uint countWords[]; };
 layout(std430, binding = 6) writeonly buffer PairsOut { uvec2 pairsOut[]; };
+layout(std430, binding = 8) readonly buffer Ranks { uvec4 ranks4[]; };
 layout(push_constant) uniform Push { RadixPush pc; };
 #include "sort/common.glsl"
 #define PAIR_TEXELS 7
@@ -147,35 +149,51 @@ void main() {
   uint first = base + t * SORT_ITEMS;
   uint items = first < n ? min(SORT_ITEMS, n - first) : 0u;
 
-  for (uint i = t; i < kWords + kWords / 32u; i += SORT_THREADS) counters[i] = 0u;
-  barrier();
-  for (uint k = 0u; k < items; k += 4u) {
-    uvec4 key = loadKeys((first + k) / 4u, n);
-    for (uint c = 0u; c < 4u; ++c) {
-      if (k + c >= items) break;
-      uint d = digitOf(key[c]);
-      counters[slot(d % RADIX_WORDS, t)] += increment(d);
+  uint lowTotal;  // keys with a digit in the low halves come first
+  if (LOOKBACK) {
+    for (uint i = t; i < kWords + kWords / 32u; i += SORT_THREADS) counters[i] = 0u;
+    barrier();
+    for (uint k = 0u; k < items; k += 4u) {
+      uvec4 key = loadKeys((first + k) / 4u, n);
+      for (uint c = 0u; c < 4u; ++c) {
+        if (k + c >= items) break;
+        uint d = digitOf(key[c]);
+        counters[slot(d % RADIX_WORDS, t)] += increment(d);
+      }
     }
-  }
-  barrier();
+    barrier();
 
-  // Exclusive scan over all words in (word, invocation) order; invocation t rakes words t*W .. t*W+W-1
-  // of that order (W = RADIX_WORDS). Halves never carry: a tile holds fewer than 65536 keys.
-  uint sum = 0u;
-  for (uint w = 0u; w < RADIX_WORDS; ++w) {
-    uint i = t * RADIX_WORDS + w;
-    sum += counters[i + (i >> 5u)];
+    // Exclusive scan over all words in (word, invocation) order; invocation t rakes words t*W .. t*W+W-1
+    // of that order (W = RADIX_WORDS). Halves never carry: a tile holds fewer than 65536 keys.
+    uint sum = 0u;
+    for (uint w = 0u; w < RADIX_WORDS; ++w) {
+      uint i = t * RADIX_WORDS + w;
+      sum += counters[i + (i >> 5u)];
+    }
+    uint total;
+    uint running = workgroupExclusiveSum(sum, total);
+    lowTotal = total & 0xFFFFu;
+    for (uint w = 0u; w < RADIX_WORDS; ++w) {
+      uint i = t * RADIX_WORDS + w;
+      uint x = counters[i + (i >> 5u)];
+      counters[i + (i >> 5u)] = running;
+      running += x;
+    }
+    barrier();
+  } else {
+    // Reduce-then-scan: the count pass scanned this tile's counters already (radix_count.comp).
+    uint at = tile * kRankWords;
+    for (uint w = 0u; w < RADIX_WORDS; w += 4u) {
+      uint i = t * RADIX_WORDS + w, j = i + (i >> 5u);  // four words in a row: i is a multiple of 4
+      uvec4 r = ranks4[(at + i) / 4u];
+      counters[j] = r.x;
+      counters[j + 1u] = r.y;
+      counters[j + 2u] = r.z;
+      counters[j + 3u] = r.w;
+    }
+    lowTotal = ranks4[(at + kWords) / 4u].x;
+    barrier();
   }
-  uint total;
-  uint running = workgroupExclusiveSum(sum, total);
-  uint lowTotal = total & 0xFFFFu;  // keys with a digit in the low halves come first
-  for (uint w = 0u; w < RADIX_WORDS; ++w) {
-    uint i = t * RADIX_WORDS + w;
-    uint x = counters[i + (i >> 5u)];
-    counters[i + (i >> 5u)] = running;
-    running += x;
-  }
-  barrier();
   if (LOOKBACK) {
     lookBack(tile, min(SORT_TILE, n - base), lowTotal);
   } else {

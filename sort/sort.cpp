@@ -296,6 +296,10 @@ RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape, SortS
   scratchA_ = vk::createBuffer(ctx, pairs_ ? padded * 8 : VkDeviceSize(capacity) * 4);
   scratchB_ = vk::createBuffer(ctx, pairs_ ? padded * 8 : VkDeviceSize(capacity) * 4);
   hist_ = vk::createBuffer(ctx, histWords * 4);
+  // Reduce-then-scan: each tile's scanned ranking counters, from the count pass to the scatter.
+  const uint64_t rankWords = uint64_t(RADIX_WORDS * shape.threads + 4) * std::max(sortTiles(capacity, shape), 1u);
+  if (!lookBack) checkBinding(ctx, rankWords, 4, "radix sort ranks");
+  ranks_ = lookBack ? dummyBuffer(ctx) : vk::createBuffer(ctx, rankWords * 4);
   dummy_ = dummyBuffer(ctx);
   args_ = vk::createBuffer(ctx, 16, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
   const uint32_t spins = lookBackSpins >= 0 ? uint32_t(lookBackSpins) : LOOKBACK_SPINS;
@@ -306,19 +310,20 @@ RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape, SortS
     if (lookBack)
       count_[in] = vk::createKernel(ctx, "radix_histogram", spv_radix_histogram_comp, 4, sizeof(RadixPush), spec, 1u << 3);
     else
-      count_[in] = vk::createKernel(ctx, "radix_count", spv_radix_count_comp, 4, sizeof(RadixPush), spec, 1u << 3);
+      count_[in] = vk::createKernel(ctx, "radix_count", spv_radix_count_comp, 5, sizeof(RadixPush), spec, 1u << 3);
   }
   for (uint32_t in = 0; in < 2; ++in)
     for (uint32_t out = 0; out < 2; ++out) {
       if (!pairs_ && (in || out)) continue;
       const std::initializer_list<vk::SpecConstant> spec = {{0, shape.threads}, {1, shape.items}, {2, lookBack ? 1u : 0u},
                                                             {3, spins}, {4, in}, {5, out}};
-      scatter_[in][out] = vk::createKernel(ctx, "radix_scatter", spv_radix_scatter_comp, 8, sizeof(RadixPush), spec, 1u << 7);
+      scatter_[in][out] = vk::createKernel(ctx, "radix_scatter", spv_radix_scatter_comp, 9, sizeof(RadixPush), spec, 1u << 7);
     }
 }
 
 uint64_t RadixSort::bytesAllocated() const {
-  return scratchA_.size + scratchB_.size + hist_.size + dummy_.size + args_.size + (scan_ ? scan_->bytesAllocated() : 0);
+  return scratchA_.size + scratchB_.size + hist_.size + ranks_.size + dummy_.size + args_.size +
+         (scan_ ? scan_->bytesAllocated() : 0);
 }
 
 vk::BufferRange RadixSort::pairInput() const {
@@ -427,14 +432,15 @@ void RadixSort::recordPasses(vk::Commands& cmd, const vk::BufferRange& keys, con
     if (!lookBack) {
       const uint32_t entries = (1u << bits) * tiles;
       table = range(hist_, 0, VkDeviceSize(entries) * 4);
-      overTiles(count_[src.pairs], {src.pairs ? vk::BufferRange(dummy_) : src.keys, table, countBinding, src.texels}, push);
+      overTiles(count_[src.pairs], {src.pairs ? vk::BufferRange(dummy_) : src.keys, table, countBinding, src.texels, ranks_},
+                push);
       scan_->record(cmd, table, table, entries);
     }
     // Scatter: stable rank inside the tile, written from the tile's start of each digit.
     const vk::BufferRange none(dummy_);
     overTiles(scatter_[src.pairs][dst.pairs],
               {src.pairs ? none : src.keys, src.values, dst.pairs ? none : dst.keys, dst.pairs ? none : dst.values, table,
-               countBinding, dst.pairs ? dst.keys : none, src.texels},
+               countBinding, dst.pairs ? dst.keys : none, src.texels, ranks_},
               push);
   }
 }

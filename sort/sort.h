@@ -27,10 +27,11 @@
 // the block sums, so n elements cost two reads and one write plus ~n/2048 extra; the array and two levels
 // of sums cover any 32-bit count. Compaction: the same reduce (counting nonzero flags), a scan of the
 // block counts, and a scatter that re-derives each element's rank inside its block. Radix sort: per pass
-// (RADIX_BITS = 9, so ceil(keyBits / 9) passes), each tile (8192 keys on lavapipe, SortShape) builds its digit
-// histogram, one scan of the digit-major histogram table gives every (digit, tile) its output offset, and
-// a scatter ranks keys stably inside the tile with per-invocation 16-bit counters in shared memory
-// (radix_scatter.comp); or, by look-back (SortScheme), one histogram of every pass's digits up front and
+// (RADIX_BITS = 9, so ceil(keyBits / 9) passes), each tile (8192 keys on lavapipe, SortShape) counts its
+// keys in per-invocation 16-bit counters in shared memory, writes its digit histogram and leaves the
+// counters scanned (its keys' stable ranks inside the tile, radix_count.comp), one scan of the
+// digit-major histogram table gives every (digit, tile) its output offset, and a scatter places each key
+// from the two (radix_scatter.comp); or, by look-back (SortScheme), one histogram of every pass's digits up front and
 // no count or scan per pass. Passes ping-pong between the caller's arrays and the object's; an odd pass
 // count starts with a copy so the result always lands in the caller's arrays.
 #pragma once
@@ -248,6 +249,7 @@ class RadixSort {
   // scatter_[pairs in][pairs out].
   vk::Kernel count_[2], scatter_[2][2];
   vk::Buffer scratchA_, scratchB_, hist_, dummy_, args_;  // hist_: the table, or the look-back workspace
+  vk::Buffer ranks_;  // reduce-then-scan: each tile's scanned counters, count pass to scatter (radix.glsl)
 };
 
 }  // namespace cs::sort
