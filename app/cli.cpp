@@ -262,6 +262,9 @@ Options parseArgs(int argc, char** argv) {
                       "writes dynamic.md, results.json, results.csv")
       ->type_name("N")
       ->check(CLI::Range(1u, 100000u));
+  compare->add_flag("--interleave", o.interleave,
+                    "time the view's methods round-robin, a frame of each in turn after all their warm-ups, so a slow "
+                    "spell of a shared machine falls on every method alike (every setting's method is held at once)");
   compare->add_flag("--moving-camera", o.movingCamera, "with --animate: the camera orbits its target");
   compare->add_flag("--scaling", o.scaling,
                     "scaling runs instead: one view at 256², 512², 1024², 2048², then the scene as 1, 4, 16, ... "
@@ -348,6 +351,9 @@ Options parseArgs(int argc, char** argv) {
     if (compare->count("--out") == 0) o.out = "compare";
   }
   if (o.movingCamera && !o.animateFrames) throw UsageError("--moving-camera needs --animate N");
+  if (o.interleave && (o.animateFrames || o.scaling || !raw.lightDistances.empty()))
+    throw UsageError("--interleave times a view's methods side by side; --animate, --scaling and --light-distances run "
+                     "their own sweeps: drop one of them");
   if (o.animateFrames && o.scaling) throw UsageError("--animate and --scaling are separate runs; give one of them");
   if (!o.lightDistances.empty() && (o.animateFrames || o.scaling))
     throw UsageError("--light-distances is a run of its own; give it without --animate and --scaling");

@@ -40,6 +40,7 @@ struct Options {
   // compare's separate runs
   uint32_t animateFrames = 0;        // --animate N (0 = static)
   bool movingCamera = false;         // --moving-camera
+  bool interleave = false;           // compare --interleave: the methods' frames round-robin
   bool scaling = false;              // --scaling
   uint64_t scalingMaxTriangles = 0;  // --scaling-max-triangles N (0 = the sweep's default)
   std::vector<uint32_t> scalingSizes;  // --scaling-sizes N1,N2 (hidden): the resolution sweep's sizes

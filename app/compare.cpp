@@ -609,14 +609,36 @@ int runCompare(const Options& o) {
       closeup.order.push_back(label);
     };
     show(referenceName, reference);
-    for (const CompareSetting& s : settings) {
-      Judged j = judge(*s.method, s.settings, *ctx, *frame, o.frames, progress(s.label));
-      eta.step();
+    std::vector<Judged> judged;
+    if (o.interleave) {
+      // Every setting's method made first, then their frames round-robin (judgeInterleaved).
+      std::vector<std::unique_ptr<ShadowMethod>> owned;
+      std::vector<const MethodInfo*> infos;
+      std::vector<ShadowMethod*> methods;
+      for (const CompareSetting& s : settings) {
+        infos.push_back(s.method);
+        owned.push_back(s.method->reference ? nullptr
+                                            : s.method->make(s.method->usesDevice ? ctx.get() : nullptr, s.settings));
+        methods.push_back(owned.back().get());
+      }
+      judged = judgeInterleaved(infos, methods, *frame, o.frames,
+                                [&](size_t k) { return progress(settings[k].label); });
+      for (size_t k = 0; k < settings.size(); ++k) eta.step();
+    } else {
+      for (const CompareSetting& s : settings) {
+        judged.push_back(judge(*s.method, s.settings, *ctx, *frame, o.frames, progress(s.label)));
+        eta.step();
+      }
+    }
+    for (size_t k = 0; k < settings.size(); ++k) {
+      const CompareSetting& s = settings[k];
+      Judged& j = judged[k];
       if (!s.method->reference) show(s.label, j.runs.output.visibility);
       Row row;
       row.setting = s.label;
       row.stem = stem;
       row.result = resultRow(*s.method, s.label, *frame, j, s.defaults);
+      row.result.stats["timing"] = o.interleave ? "interleaved" : "sequential";
       row.result.provenance = provenance;
       row.msMin = j.runs.minMs;
       row.msMax = j.runs.maxMs;

@@ -1,7 +1,9 @@
 // One frame of every registered method per scene, view and size, measured by the tool itself: for each
 // size and scene it runs `coneshadow compare` in this process (the frame harness: one raster, one
 // Embree reference and one ambiguity band per view; every method's sweep on the same samples; one
-// warm-up, medians of --frames) into OUT/<scene>_<size>/, then prints, from those results.json files,
+// warm-up, medians of --frames; the view's methods a frame each in turn, `compare --interleave`, so the
+// ratios below are of times taken side by side) into OUT/<scene>_<size>/, then prints, from those
+// results.json files,
 //   1. per size, every method setting's median ms and misclassified % outside the band (the README's
 //      table: `coneshadow results-table`);
 //   2. the cone path's time over Embree's build + rays, the 2048² cube map's and rmsm@16M's from the same
@@ -75,7 +77,8 @@ int main(int argc, char** argv) {
         std::vector<std::string> cmd = {"coneshadow", "compare"};
         cmd.insert(cmd.end(), args.begin(), args.end());
         for (const std::string& s : {std::string("--width"), size, std::string("--height"), size, std::string("--frames"),
-                                     std::to_string(frames), std::string("--out"), dir, std::string("--quiet")})
+                                     std::to_string(frames), std::string("--interleave"), std::string("--out"), dir,
+                                     std::string("--quiet")})
           cmd.push_back(s);
         if (!device.empty()) cmd.insert(cmd.end(), {"--device", device});
         cmd.insert(cmd.end(), extra.begin(), extra.end());

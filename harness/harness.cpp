@@ -28,43 +28,60 @@ MethodOutput runCounted(ShadowMethod& method, const FrameInput& input) {
   return out;
 }
 
-TimedRuns timeRuns(ShadowMethod& method, const FrameInput& input, uint32_t frames, const FrameProgress& progress,
-                   double singleFrameAboveMs, const FrameInspector& inspect, bool lastFrame) {
-  TimedRuns t;
-  if (progress) progress(0, frames);
-  const MethodOutput first = runCounted(method, input);
-  if (inspect) inspect(0, first);
-  if (frames == 0 || first.totalMs > singleFrameAboveMs) {
-    t.output = first;
-    t.totals = {first.totalMs};
-    frames = 0;
+RunRecorder::RunRecorder(uint32_t frames, double singleFrameAboveMs, bool lastFrame)
+    : frames_(frames), singleFrameAboveMs_(singleFrameAboveMs), lastFrame_(lastFrame) {}
+
+void RunRecorder::warmUp(const MethodOutput& first) {
+  first_ = first.visibility;
+  if (frames_ == 0 || first.totalMs > singleFrameAboveMs_) {
+    t_.output = first;
+    t_.totals = {first.totalMs};
+    frames_ = 0;
   }
-  // Every timed frame's output is kept for its timings and counters, but only the first timed frame's
-  // mask: N frames at a large resolution would otherwise hold N masks. The masks are compared as they
-  // come; a method whose masks differ is reported non-deterministic (and shows its first timed mask).
-  std::vector<MethodOutput> outs;
-  std::vector<float> mask;
-  for (uint32_t i = 0; i < frames; ++i) {
-    if (progress) progress(i + 1, frames);
-    MethodOutput out = runCounted(method, input);
-    if (inspect) inspect(i + 1, out);
-    t.totals.push_back(out.totalMs);
-    if (out.visibility != first.visibility) t.deterministic = false;
-    if (i == 0 || lastFrame) mask = std::move(out.visibility);
-    out.visibility = {};
-    outs.push_back(std::move(out));
-  }
+}
+
+// Every timed frame's output is kept for its timings and counters, but only the first timed frame's
+// mask: N frames at a large resolution would otherwise hold N masks. The masks are compared as they
+// come; a method whose masks differ is reported non-deterministic (and shows its first timed mask).
+void RunRecorder::add(MethodOutput out) {
+  t_.totals.push_back(out.totalMs);
+  if (out.visibility != first_) t_.deterministic = false;
+  if (outs_.empty() || lastFrame_) mask_ = std::move(out.visibility);
+  out.visibility = {};
+  outs_.push_back(std::move(out));
+}
+
+TimedRuns RunRecorder::finish() {
+  TimedRuns t = std::move(t_);
   t.medianMs = median(t.totals);
   t.minMs = *std::min_element(t.totals.begin(), t.totals.end());
   t.maxMs = *std::max_element(t.totals.begin(), t.totals.end());
-  if (!outs.empty()) {
-    size_t best = lastFrame ? outs.size() - 1 : 0;
-    for (size_t i = 0; i < outs.size() && !lastFrame; ++i)
-      if (std::abs(outs[i].totalMs - t.medianMs) < std::abs(outs[best].totalMs - t.medianMs)) best = i;
-    t.output = std::move(outs[best]);
-    t.output.visibility = std::move(mask);
+  if (!outs_.empty()) {
+    size_t best = lastFrame_ ? outs_.size() - 1 : 0;
+    for (size_t i = 0; i < outs_.size() && !lastFrame_; ++i)
+      if (std::abs(outs_[i].totalMs - t.medianMs) < std::abs(outs_[best].totalMs - t.medianMs)) best = i;
+    t.output = std::move(outs_[best]);
+    t.output.visibility = std::move(mask_);
   }
+  outs_.clear();
+  first_.clear();
   return t;
+}
+
+TimedRuns timeRuns(ShadowMethod& method, const FrameInput& input, uint32_t frames, const FrameProgress& progress,
+                   double singleFrameAboveMs, const FrameInspector& inspect, bool lastFrame) {
+  RunRecorder r(frames, singleFrameAboveMs, lastFrame);
+  if (progress) progress(0, frames);
+  const MethodOutput first = runCounted(method, input);
+  if (inspect) inspect(0, first);
+  r.warmUp(first);
+  for (uint32_t i = 0; i < r.timedFrames(); ++i) {
+    if (progress) progress(i + 1, frames);
+    MethodOutput out = runCounted(method, input);
+    if (inspect) inspect(i + 1, out);
+    r.add(std::move(out));
+  }
+  return r.finish();
 }
 
 FrameInput frameInputOf(const Scene& scene, const GBuffer& gbuffer, const DeviceGBuffer& device, vk::Context& ctx,
@@ -136,6 +153,43 @@ Judged judge(const MethodInfo& info, const Settings& settings, vk::Context& ctx,
   if (info.reference) return judge(info, nullptr, frame, frames, progress, singleFrameAboveMs);
   std::unique_ptr<ShadowMethod> method = info.make(info.usesDevice ? &ctx : nullptr, settings);
   return judge(info, method.get(), frame, frames, progress, singleFrameAboveMs);
+}
+
+std::vector<Judged> judgeInterleaved(const std::vector<const MethodInfo*>& infos,
+                                     const std::vector<ShadowMethod*>& methods, const PreparedFrame& frame,
+                                     uint32_t frames, const std::function<FrameProgress(size_t)>& progress) {
+  CS_CHECK(infos.size() == methods.size(), "judgeInterleaved: " << infos.size() << " methods' entries for "
+                                                                << methods.size() << " method objects");
+  const size_t n = infos.size();
+  std::vector<Judged> judged(n);
+  std::vector<RunRecorder> recorders;
+  std::vector<FrameProgress> progresses(n);
+  std::vector<ShadowMethod*> run(n);
+  for (size_t k = 0; k < n; ++k) {
+    recorders.emplace_back(frames, kAlwaysTimeEveryFrame, infos[k]->progressive);
+    if (progress) progresses[k] = progress(k);
+    // The reference reruns the frame's own (its mask is the frame's reference: Embree is deterministic).
+    run[k] = infos[k]->reference ? static_cast<ShadowMethod*>(frame.embree.get()) : methods[k];
+    CS_CHECK(run[k], "judgeInterleaved: no method object for " << infos[k]->name);
+  }
+  // One run of method k, its progress shown and its error recorded frame by frame as judge() does.
+  auto once = [&](size_t k, uint32_t f) {
+    if (progresses[k]) progresses[k](f, frames);
+    MethodOutput out = runCounted(*run[k], frame.input);
+    if (!infos[k]->reference)
+      judged[k].perFrame.push_back({out.totalMs, compareVisibility(frame.gbuffer, out.visibility,
+                                                                   frame.reference.output.visibility, frame.band)});
+    return out;
+  };
+  for (size_t k = 0; k < n; ++k) recorders[k].warmUp(once(k, 0));
+  for (uint32_t f = 1; f <= frames; ++f)
+    for (size_t k = 0; k < n; ++k) recorders[k].add(once(k, f));
+  for (size_t k = 0; k < n; ++k) {
+    judged[k].runs = recorders[k].finish();
+    judged[k].error = compareVisibility(frame.gbuffer, judged[k].runs.output.visibility,
+                                        frame.reference.output.visibility, frame.band);
+  }
+  return judged;
 }
 
 std::string methodDevice(const MethodInfo& info, const std::string& vulkanDevice) {

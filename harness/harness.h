@@ -53,6 +53,25 @@ TimedRuns timeRuns(ShadowMethod& method, const FrameInput& input, uint32_t frame
                    double singleFrameAboveMs = kAlwaysTimeEveryFrame, const FrameInspector& inspect = {},
                    bool lastFrame = false);
 
+// One method's runs as timeRuns records them (timeRuns is this, in a loop), for callers that interleave
+// several methods' frames: the warm-up's output, then each timed frame's, then the summary.
+class RunRecorder {
+ public:
+  RunRecorder(uint32_t frames, double singleFrameAboveMs, bool lastFrame);
+  void warmUp(const MethodOutput& first);
+  uint32_t timedFrames() const { return frames_; }  // 0 after a warm-up above singleFrameAboveMs
+  void add(MethodOutput out);
+  TimedRuns finish();
+
+ private:
+  uint32_t frames_;
+  double singleFrameAboveMs_;
+  bool lastFrame_;
+  TimedRuns t_;
+  std::vector<float> first_, mask_;  // the warm-up's mask; the mask kept
+  std::vector<MethodOutput> outs_;   // the timed frames' outputs, masks dropped
+};
+
 struct FrameSpec {
   Camera camera;
   std::string view;  // the camera's name ("auto" for an automatic one)
@@ -126,5 +145,16 @@ FrameResult resultRow(const MethodInfo& info, const std::string& setting, const 
 
 // Where a method runs, as rows name it: the Vulkan device, or "cpu (<name>)".
 std::string methodDevice(const MethodInfo& info, const std::string& vulkanDevice);
+// judge() for several methods on one frame, their timed frames round-robin: every method's warm-up in
+// turn, then frame 1 of each, then frame 2, ...: a slow spell of a shared machine falls on all of them
+// alike, so the ratios of their medians hold where one method's frames after another's drift apart
+// (docs/ARCHITECTURE.md, "Timing side by side"). A reference entry (info.reference; its method object may be null)
+// reruns the frame's reference for its times; its mask is the frame's. Every method is alive at once:
+// their memory adds up. progress(k): method k's progress, or empty.
+std::vector<Judged> judgeInterleaved(const std::vector<const MethodInfo*>& infos,
+                                     const std::vector<ShadowMethod*>& methods, const PreparedFrame& frame,
+                                     uint32_t frames, const std::function<FrameProgress(size_t)>& progress = {});
+
+
 
 }  // namespace cs

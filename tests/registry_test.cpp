@@ -158,6 +158,20 @@ TEST(Registry, AMethodRegisteredByATestRunsInRenderCompareAnimateAndScaling) {
   EXPECT_NE(md.find("| alllit@0.75 |"), std::string::npos) << md;
   EXPECT_NE(md.find("samples filled"), std::string::npos) << "the work column is the method's own";
   EXPECT_TRUE(fs::exists(c / "wall_alllit@1_shaded.png"));
+  EXPECT_EQ(rows[1]["stats"]["timing"], "sequential");
+  // --interleave: the same rows, the frames round-robin.
+  ASSERT_EQ(run("compare --interleave --methods embree,alllit --views wall --width 24 --height 16 --frames 2 --quiet --out " +
+                c.string()),
+            0);
+  const nlohmann::json interleaved = readJson(c / "results.json");
+  ASSERT_EQ(interleaved.size(), 3u);
+  for (size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(interleaved[k]["stats"]["setting"], rows[k]["stats"]["setting"]);
+    EXPECT_EQ(interleaved[k]["stats"]["timing"], "interleaved");
+    EXPECT_EQ(interleaved[k]["stats"]["frames"], 2);
+    EXPECT_EQ(interleaved[k]["error"], rows[k]["error"]);
+  }
+  EXPECT_EQ(run("compare --interleave --animate 2 --methods alllit --quiet --out " + c.string()), 2);
   fs::remove_all(c);
 
   // compare --animate: one row per frame; the rebuild column from the stage kinds.
@@ -189,6 +203,60 @@ TEST(Registry, AMethodRegisteredByATestRunsInRenderCompareAnimateAndScaling) {
 
 namespace cs {
 namespace {
+
+// A method that logs its runs into a shared list (its name, each run) and otherwise fills like AllLit.
+class Logged : public AllLit {
+ public:
+  Logged(float level, std::string tag, std::vector<std::string>& log) : AllLit(level), tag_(std::move(tag)), log_(log) {}
+  MethodOutput run(const FrameInput& frame) override {
+    log_.push_back(tag_);
+    return AllLit::run(frame);
+  }
+
+ private:
+  std::string tag_;
+  std::vector<std::string>& log_;
+};
+
+// compare --interleave (judgeInterleaved): every method's warm-up, then frame k of each in turn; each
+// method judged as judge() judges it alone (mask, error, frames), the reference rerun for its times.
+TEST(Registry, InterleavedJudgingRunsTheMethodsRoundRobinAndJudgesEachAsAlone) {
+  registerBuiltinMethods();
+  auto& ctx = test::context();
+  Scene scene = builtinScene();
+  Raster raster(ctx, scene);
+  FrameSpec spec;
+  spec.camera = *scene.findCamera("room");
+  spec.view = "room";
+  spec.light = scene.lights.front().position;
+  spec.width = 40;
+  spec.height = 32;
+  spec.frames = 1;
+  std::unique_ptr<PreparedFrame> frame = prepareFrame(ctx, raster, scene, spec);
+  std::vector<std::string> log;
+  Logged a(1.0f, "a", log), b(0.75f, "b", log);
+  const MethodInfo info = allLitInfo();
+  const MethodInfo& reference = referenceMethod();
+  const std::vector<Judged> j = judgeInterleaved({&info, &reference, &info}, {&a, nullptr, &b}, *frame, 3);
+  EXPECT_EQ(log, (std::vector<std::string>{"a", "b", "a", "b", "a", "b", "a", "b"}));
+  ASSERT_EQ(j.size(), 3u);
+  std::vector<std::string> alone;
+  Logged a2(1.0f, "a", alone), b2(0.75f, "b", alone);
+  const Judged ja = judge(info, &a2, *frame, 3), jb = judge(info, &b2, *frame, 3);
+  for (auto [got, want] : {std::pair{&j[0], &ja}, std::pair{&j[2], &jb}}) {
+    EXPECT_EQ(got->runs.output.visibility, want->runs.output.visibility);
+    EXPECT_EQ(got->runs.totals.size(), 3u);
+    EXPECT_TRUE(got->runs.deterministic);
+    EXPECT_EQ(got->error.misclassifiedFraction, want->error.misclassifiedFraction);
+    EXPECT_EQ(got->error.misclassifiedOutsideBand, want->error.misclassifiedOutsideBand);
+    EXPECT_EQ(got->perFrame.size(), 4u);  // the warm-up and three frames
+  }
+  EXPECT_GT(j[0].error.misclassifiedOutsideBand, 0u) << "the room has shadow, which an all-lit method gets wrong";
+  EXPECT_EQ(j[1].runs.output.visibility, frame->reference.output.visibility);
+  EXPECT_EQ(j[1].runs.totals.size(), 3u);
+  EXPECT_EQ(j[1].error.misclassifiedFraction, 0.0);
+  EXPECT_THROW(judgeInterleaved({&info}, {nullptr}, *frame, 1), Error) << "a method entry with no object";
+}
 
 // What every registered method owes, checked on every one of them without naming any: one visibility in
 // [0, 1] per pixel and 1 where the sample is not lit, stages with kinds and a work summary, the same mask
