@@ -7,18 +7,29 @@
 // (tree_shape.comp): its count and offsets come from there, and a height the tree does not reach is a
 // dispatch of zero workgroups (its indirect arguments) or returns at once.
 // bindings: 0 = positions (the G-buffer as a uniform texel buffer, RGBA32F: a texel per pixel), 1 = samples (uint pixel index per sorted ray; offset a multiple of 16 bytes),
-//           2 = nodes (ConeNode, the whole tree; this depth written, the one below read),
-//           3 = shape words (SHAPE_*; read with fromShape only), 4 = rays (uvec4 per sorted ray, written
+//           2 = nodes (ConeNode, the whole tree; this depth written), 3 = shape words (uniform texel
+//           buffer, RGBA32UI: SHAPE_*, four a texel; read with fromShape only), 4 = rays (uvec4 per sorted ray, written
 //           by the depth above the rays: the sample's world position as float bits and its pixel index,
-//           what the leaves read, one texel a ray, instead of the pixel index and then the G-buffer)
+//           what the leaves read, one texel a ray, instead of the pixel index and then the G-buffer),
+//           5 = nodes again (uniform texel buffer, RGBA32F: two texels a ConeNode; the depth below read)
 #include "conetree/cone_math.h"
 
 layout(local_size_x = CONE_BUILD_THREADS) in;
 layout(binding = 0) uniform samplerBuffer positions;  // texel fetches: the cheap gather
 layout(std430, binding = 1) readonly buffer Samples { uvec4 samples4[]; };  // read four at a time
-layout(std430, binding = 2) buffer Nodes { ConeNode nodes[]; };
-layout(std430, binding = 3) readonly buffer Shape { uint shape[]; };
+layout(std430, binding = 2) writeonly buffer Nodes { ConeNode nodes[]; };
+// The shape words every invocation reads (binding 3), and binding 2's nodes again for the children an
+// upper depth reads (binding 5), as uniform texel buffers (RGBA32UI; RGBA32F, two texels a node): a
+// storage load is a loop over the lanes on lavapipe, a texel fetch a gather (docs/ARCHITECTURE.md,
+// "Memory access"; the build 13.7-14.5 -> 12.1-12.5 ms on the ceiling and the museum at 1024²).
+layout(binding = 3) uniform usamplerBuffer shapeTexels;
 layout(std430, binding = 4) writeonly buffer Rays { uvec4 rays[]; };
+layout(binding = 5) uniform samplerBuffer nodeTexels;
+uint shapeWord(uint w) {
+  uvec4 t = texelFetch(shapeTexels, int(w >> 2u));
+  uint k = w & 3u;
+  return k == 0u ? t.x : (k == 1u ? t.y : (k == 2u ? t.z : t.w));
+}
 layout(push_constant) uniform Push { BuildPush p; };
 // What the dispatch builds, as specialisation constants (ConeTree picks the pipeline): on lavapipe, code a
 // kernel holds costs every invocation even where a uniform branch skips it (the far frame's code took a
@@ -39,19 +50,22 @@ ConeNode child(uint c, uint pixel) {
     vec4 ray = leafRay(position, p.frame.lightFrame.xyz);
     return leafRayUsable(ray, p.minLength) ? rayCone(ray) : emptyCone();
   }
-  return nodes[childOffset + c];
+  ConeNode n;
+  n.axisCos = texelFetch(nodeTexels, int(2u * (childOffset + c)));
+  n.sinLen = texelFetch(nodeTexels, int(2u * (childOffset + c) + 1u));
+  return n;
 }
 
 void main() {
   uint j = CS_FLAT_INDEX(CONE_BUILD_THREADS);
   if (p.fromShape != 0u) {
-    uint depth = shape[SHAPE_DEPTH];
+    uint depth = shapeWord(SHAPE_DEPTH);
     if (p.height == 0u || p.height > depth) return;
     uint d = depth - p.height;
-    count = shape[SHAPE_COUNTS + d];
-    nodeOffset = shape[SHAPE_OFFSETS + d];
-    childCount = shape[SHAPE_COUNTS + d + 1u];
-    childOffset = p.height > 1u ? shape[SHAPE_OFFSETS + d + 1u] : 0u;
+    count = shapeWord(SHAPE_COUNTS + d);
+    nodeOffset = shapeWord(SHAPE_OFFSETS + d);
+    childCount = shapeWord(SHAPE_COUNTS + d + 1u);
+    childOffset = p.height > 1u ? shapeWord(SHAPE_OFFSETS + d + 1u) : 0u;
   } else {
     count = p.count, nodeOffset = p.nodeOffset, childCount = p.childCount, childOffset = p.childOffset;
   }

@@ -31,8 +31,8 @@ ConeTree::ConeTree(vk::Context& ctx)
       shapeWords_(vk::createBuffer(ctx, SHAPE_WORDS * 4, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT)) {
   for (uint32_t far = 0; far < 2; ++far)
     for (uint32_t leaves = 0; leaves < 2; ++leaves)
-      build_[far][leaves] = vk::createKernel(ctx, "cone tree build", spv_build_level_comp, 5, sizeof(BuildPush),
-                                             {{0, far}, {1, leaves}}, 0x1u);
+      build_[far][leaves] = vk::createKernel(ctx, "cone tree build", spv_build_level_comp, 6, sizeof(BuildPush),
+                                             {{0, far}, {1, leaves}}, 0x29u);
 }
 
 const vk::Kernel& ConeTree::buildKernel(const BuildPush& p, bool fromLeaves) const {
@@ -140,7 +140,10 @@ void ConeTree::record(vk::Commands& cmd, const vk::Buffer& positions, const vk::
     p.childOffset = d + 1 < shape_.depth ? shape_.offsets[d + 1] : 0;
     p.fromLeaves = d + 1 == shape_.depth ? 1u : 0u;
     vk::Grid g = vk::gridFor(p.count, CONE_BUILD_THREADS, ctx_.maxWorkgroups());
-    cmd.dispatch(buildKernel(p, p.fromLeaves != 0), {vk::texels(positions, VK_FORMAT_R32G32B32A32_SFLOAT), samples, nodes_, shapeWords_, rays_}, p, g.x, g.y);
+    cmd.dispatch(buildKernel(p, p.fromLeaves != 0),
+                 {vk::texels(positions, VK_FORMAT_R32G32B32A32_SFLOAT), samples, nodes_,
+                  vk::texels(shapeWords_, VK_FORMAT_R32G32B32A32_UINT), rays_, vk::texels(nodes_, VK_FORMAT_R32G32B32A32_SFLOAT)},
+                 p, g.x, g.y);
     cmd.barrier();
   }
 }
@@ -161,8 +164,11 @@ void ConeTree::recordDevice(vk::Commands& cmd, const vk::Buffer& positions, cons
     BuildPush p = basePush(light, minLength, fc);
     p.height = h;
     p.fromShape = 1;
-    cmd.dispatchIndirect(buildKernel(p, h == 1), {vk::texels(positions, VK_FORMAT_R32G32B32A32_SFLOAT), samples, nodes_, shapeWords_, rays_}, &p, sizeof(p), shapeWords_,
-                         (SHAPE_BUILD_ARGS + 4 * h) * 4);
+    cmd.dispatchIndirect(buildKernel(p, h == 1),
+                         {vk::texels(positions, VK_FORMAT_R32G32B32A32_SFLOAT), samples, nodes_,
+                          vk::texels(shapeWords_, VK_FORMAT_R32G32B32A32_UINT), rays_,
+                          vk::texels(nodes_, VK_FORMAT_R32G32B32A32_SFLOAT)},
+                         &p, sizeof(p), shapeWords_, (SHAPE_BUILD_ARGS + 4 * h) * 4);
     cmd.barrier();
   }
 }
