@@ -264,7 +264,8 @@ Options parseArgs(int argc, char** argv) {
       ->check(CLI::Range(1u, 100000u));
   compare->add_flag("--interleave", o.interleave,
                     "time the view's methods round-robin, a frame of each in turn after all their warm-ups, so a slow "
-                    "spell of a shared machine falls on every method alike (every setting's method is held at once)");
+                    "spell of a shared machine falls on every method alike (every setting's method, and two masks of each, "
+                    "are held at once)");
   compare->add_flag("--moving-camera", o.movingCamera, "with --animate: the camera orbits its target");
   compare->add_flag("--scaling", o.scaling,
                     "scaling runs instead: one view at 256², 512², 1024², 2048², then the scene as 1, 4, 16, ... "

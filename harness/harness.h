@@ -149,8 +149,8 @@ std::string methodDevice(const MethodInfo& info, const std::string& vulkanDevice
 // turn, then frame 1 of each, then frame 2, ...: a slow spell of a shared machine falls on all of them
 // alike, so the ratios of their medians hold where one method's frames after another's drift apart
 // (docs/ARCHITECTURE.md, "Timing side by side"). A reference entry (info.reference; its method object may be null)
-// reruns the frame's reference for its times; its mask is the frame's. Every method is alive at once:
-// their memory adds up. progress(k): method k's progress, or empty.
+// reruns the frame's reference for its times; its mask is the frame's. Every method is alive at once,
+// with two masks each (RunRecorder's): their memory adds up. progress(k): method k's progress, or empty.
 std::vector<Judged> judgeInterleaved(const std::vector<const MethodInfo*>& infos,
                                      const std::vector<ShadowMethod*>& methods, const PreparedFrame& frame,
                                      uint32_t frames, const std::function<FrameProgress(size_t)>& progress = {});
