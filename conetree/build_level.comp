@@ -25,11 +25,7 @@ layout(std430, binding = 2) writeonly buffer Nodes { ConeNode nodes[]; };
 layout(binding = 3) uniform usamplerBuffer shapeTexels;
 layout(std430, binding = 4) writeonly buffer Rays { uvec4 rays[]; };
 layout(binding = 5) uniform samplerBuffer nodeTexels;
-uint shapeWord(uint w) {
-  uvec4 t = texelFetch(shapeTexels, int(w >> 2u));
-  uint k = w & 3u;
-  return k == 0u ? t.x : (k == 1u ? t.y : (k == 2u ? t.z : t.w));
-}
+uint shapeWord(uint w) { return texelWord(shapeTexels, w); }
 layout(push_constant) uniform Push { BuildPush p; };
 // What the dispatch builds, as specialisation constants (ConeTree picks the pipeline): on lavapipe, code a
 // kernel holds costs every invocation even where a uniform branch skips it (the far frame's code took a

@@ -62,6 +62,14 @@ CS_GLSL_TYPES
 #define CS_GLSL_MATH
 #define CS_FLAT_INDEX(threads) \
   ((gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * (threads) + gl_LocalInvocationIndex)
+// GLSL only: word w of a uint array bound as a uniform texel buffer of RGBA32UI texels (four words a
+// texel) -- how kernels read the few words every invocation needs (a tree's shape, the traversal's
+// state): a texel fetch is a gather on lavapipe, a storage load a loop over the lanes.
+uint texelWord(usamplerBuffer words, uint w) {
+  uvec4 t = texelFetch(words, int(w >> 2u));
+  uint k = w & 3u;
+  return k == 0u ? t.x : (k == 1u ? t.y : (k == 2u ? t.z : t.w));
+}
 #endif
 
 CS_FN bool litSample(vec4 position, vec4 normal) { return position.w > 0.5f && normal.w > 0.0f; }

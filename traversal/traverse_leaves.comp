@@ -25,11 +25,7 @@ layout(std430, binding = 4) buffer Stats { uint stats[]; };
 layout(binding = 5) uniform usamplerBuffer statTexels;  // binding 4's words, four a texel
 layout(push_constant) uniform Push { TraversePush p; };
 
-uint statWord(uint w) {
-  uvec4 t = texelFetch(statTexels, int(w >> 2u));
-  uint k = w & 3u;
-  return k == 0u ? t.x : (k == 1u ? t.y : (k == 2u ? t.z : t.w));
-}
+uint statWord(uint w) { return texelWord(statTexels, w); }
 
 void main() {
   uint i = flatIndex();

@@ -90,11 +90,7 @@ layout(constant_id = 4) const uint SPEC_WHOLE = 0u;
 layout(constant_id = 5) const uint SPEC_SCALED = 0u;
 float coneScale() { return SPEC_SCALED != 0u ? p.coneScale : 1.0f; }
 
-uint statWord(uint w) {
-  uvec4 t = texelFetch(statWords, int(w >> 2u));
-  uint k = w & 3u;
-  return k == 0u ? t.x : (k == 1u ? t.y : (k == 2u ? t.z : t.w));
-}
+uint statWord(uint w) { return texelWord(statWords, w); }
 
 ConeNode node(uint n) {
   ConeNode c;
