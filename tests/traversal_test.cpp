@@ -38,6 +38,13 @@ using test::kKinds;
 using test::Pair;
 using test::PairGenerator;
 
+// The depths a frame's traversal tested: the tree's, less one where the leaves took sixteen rays a pair
+// (traversal.h, LeafRays) -- the depth the cluster and expansion rules count "above the leaves" from.
+uint32_t testedDepths(const MethodOutput& out) {
+  const uint32_t tree = out.stats["tree_depth"].get<uint32_t>();
+  return traversal::leafStepOf(tree, out.stats["leaf_rays"].get<uint32_t>() == 16 ? 2u : 1u);
+}
+
 TEST(PreciseConeTriangle, NeverRejectsAPairThatABruteForceSearchFindsIntersecting) {
   // CONE_PROPERTY_PAIRS / CONE_PROPERTY_SEED run a longer sweep (e.g. 300000 pairs) by hand.
   const char* pairsEnv = std::getenv("CONE_PROPERTY_PAIRS");
@@ -420,19 +427,29 @@ Scene busyScene() {
   return s;
 }
 
-TEST(ConeMethod, MaskIsBitIdenticalAtAnyTraversalMemoryAndPeakStaysUnderTheBound) {
-  auto& ctx = test::context();
+// busyScene() at 96 x 80, seen from above, lit from above the cards.
+struct BusyFrame {
   Scene scene = busyScene();
-  Camera cam;
-  cam.eye = {5, 6, 7};
-  cam.target = {0, 0.5f, 0};
-  cam.yfov = 0.9f;
-  const vec3 light(0.5f, 4.0f, 1.0f);
-  Raster raster(ctx, scene);
+  Raster raster{test::context(), scene};
   DeviceGBuffer dev;
   GBuffer host;
-  raster.render(cam, light, 96, 80, dev, &host);
-  FrameInput frame = frameInputOf(scene, host, dev, ctx, light, EpsilonPolicy::forScene(scene).eps);
+  FrameInput frame;
+  BusyFrame() {
+    Camera cam;
+    cam.eye = {5, 6, 7};
+    cam.target = {0, 0.5f, 0};
+    cam.yfov = 0.9f;
+    const vec3 light(0.5f, 4.0f, 1.0f);
+    raster.render(cam, light, 96, 80, dev, &host);
+    frame = frameInputOf(scene, host, dev, test::context(), light, EpsilonPolicy::forScene(scene).eps);
+  }
+};
+
+TEST(ConeMethod, MaskIsBitIdenticalAtAnyTraversalMemoryAndPeakStaysUnderTheBound) {
+  auto& ctx = test::context();
+  BusyFrame busy;
+  const GBuffer& host = busy.host;
+  const FrameInput& frame = busy.frame;
 
   // The default bound, 1000x smaller, a few KiB, and the very least an arena can be: one node's children
   // per depth (traversal::minimumPairs) with chunks of a single pair.
@@ -469,7 +486,10 @@ TEST(ConeMethod, MaskIsBitIdenticalAtAnyTraversalMemoryAndPeakStaysUnderTheBound
     // frame's traversal is redone chunked -- the two smallest arenas must take that way.
     const bool chunked = out.stats["traversal_path"].get<std::string>().rfind("chunked", 0) == 0;
     if (bytes <= 9000) { EXPECT_TRUE(chunked) << bytes << " bytes: " << out.stats["traversal_path"]; }
-    if (chunked) { EXPECT_GT(t["submits"].get<uint64_t>(), 20u) << "a small arena must split the work (" << bytes << " bytes)"; }
+    // More than two submits a tested depth (a whole depth a chunk would take one each, and the leaves one).
+    if (chunked) {
+      EXPECT_GT(t["submits"].get<uint64_t>(), 2 * t["passes"].size() + 2) << "a small arena must split the work (" << bytes << " bytes)";
+    }
     if (chunked && bytes > 9000 && o.arena.pairCapacity == 0) {
       // The batches shrink after an overflow: a few frames later the same arena fits in one submission.
       MethodOutput later;
@@ -486,6 +506,70 @@ TEST(ConeMethod, MaskIsBitIdenticalAtAnyTraversalMemoryAndPeakStaysUnderTheBound
         << "mask differs at " << bytes << " bytes";
     EXPECT_EQ(out.stats["pairs_tested"].get<uint64_t>(), firstTested) << "the same pairs, only in another order";
   }
+}
+
+// Four or sixteen rays a leaf pair (traversal.h, LeafRays): the same mask on the one-submission path and
+// on the chunked one at the least arena; the sixteen-ray traversal is the four-ray one without its last
+// step -- the same tests down to depth D - 2, whose survivors are the leaf pairs -- on either path.
+TEST(ConeMethod, LeafPairsOfFourOrSixteenRaysGiveTheSameMaskAndSkipTheLastStep) {
+  auto& ctx = test::context();
+  BusyFrame busy;
+  const GBuffer& host = busy.host;
+  const FrameInput& frame = busy.frame;
+  const uint32_t depth = cone::treeDepth(uint32_t(host.litCount()));
+  ASSERT_GE(depth, 3u);
+
+  auto run = [&](traversal::LeafRays rays, bool least) {
+    ConeOptions o;
+    o.clusters = false;  // the chunked path has none: the very same pairs on both paths
+    o.leafRays = rays;
+    if (least) {
+      o.arena = {traversal::minimumPairs(depth), 1, traversal::minimumPairs(depth) * 8 + traversal::chunkScratchBytes(1)};
+      o.traversalMemoryBytes = o.arena.bytes;
+    }
+    auto method = makeConeMethod(ctx, o);
+    runCounted(*method, frame);
+    return runCounted(*method, frame);
+  };
+  const MethodOutput four = run(traversal::LeafRays::Four, false);
+  const MethodOutput sixteen = run(traversal::LeafRays::Sixteen, false);
+  ASSERT_EQ(four.stats["traversal_path"], "one submission");
+  ASSERT_EQ(sixteen.stats["traversal_path"], "one submission");
+  EXPECT_GT(std::count(four.visibility.begin(), four.visibility.end(), 0.0f), 100);
+  EXPECT_EQ(sixteen.visibility, four.visibility);
+  EXPECT_EQ(four.stats["leaf_rays"], 4u);
+  EXPECT_EQ(sixteen.stats["leaf_rays"], 16u);
+
+  const nlohmann::json &a = four.stats["traversal"], &b = sixteen.stats["traversal"];
+  ASSERT_EQ(a["passes"].size(), depth);
+  ASSERT_EQ(b["passes"].size(), depth - 1);
+  for (uint32_t d = 0; d + 1 < depth; ++d) EXPECT_EQ(b["passes"][d], a["passes"][d]) << "depth " << d;
+  EXPECT_EQ(b["leaf_pairs"], a["passes"][depth - 1]["inputs"]) << "the last step's inputs go to the leaves";
+  EXPECT_EQ(b["pairs_tested"].get<uint64_t>() + a["passes"][depth - 1]["pairs_tested"].get<uint64_t>(),
+            a["pairs_tested"].get<uint64_t>());
+  // Every ray under a leaf pair's node tested, but past the last ray.
+  const uint64_t lit = host.litCount();
+  EXPECT_LE(b["leaf_tests"].get<uint64_t>(), 16 * b["leaf_pairs"].get<uint64_t>());
+  EXPECT_GT(b["leaf_tests"].get<uint64_t>() + 16, 16 * b["leaf_pairs"].get<uint64_t>() - 16 * (lit % 16 != 0));
+  EXPECT_GT(b["leaf_tests"].get<uint64_t>(), a["leaf_tests"].get<uint64_t>());
+
+  // The chunked path at the least arena: the same mask and counts.
+  for (const MethodOutput* want : {&four, &sixteen}) {
+    const bool is16 = want == &sixteen;
+    const MethodOutput got = run(is16 ? traversal::LeafRays::Sixteen : traversal::LeafRays::Four, true);
+    const std::string what = is16 ? "sixteen" : "four";
+    ASSERT_EQ(got.stats["traversal_path"].get<std::string>().rfind("chunked", 0), 0u) << what;
+    EXPECT_EQ(got.visibility, four.visibility) << what;
+    EXPECT_EQ(got.stats["leaf_rays"], want->stats["leaf_rays"]) << what;
+    EXPECT_EQ(got.stats["pairs_tested"], want->stats["pairs_tested"]) << what;
+    EXPECT_EQ(got.stats["leaf_tests"], want->stats["leaf_tests"]) << what;
+    EXPECT_EQ(got.stats["traversal"]["leaf_pairs"], want->stats["traversal"]["leaf_pairs"]) << what;
+  }
+
+  // Auto: sixteen on a CPU device, four on a GPU.
+  const MethodOutput automatic = run(traversal::LeafRays::Auto, false);
+  EXPECT_EQ(automatic.stats["leaf_rays"], ctx.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? 16u : 4u);
+  EXPECT_EQ(automatic.visibility, four.visibility);
 }
 
 // The cone frame as one GPU program: after a warm-up frame, every variant but the two-pass ones costs the
@@ -645,7 +729,9 @@ TEST(ConeMethod, ClustersGoDownTheTreeUntilTheNodesAreAsFineAsThem) {
 
   const nlohmann::json& passes = out.stats["traversal"]["passes"];
   const uint32_t depth = out.stats["tree_depth"].get<uint32_t>();
-  ASSERT_GE(depth, 4u);
+  const uint32_t tested = testedDepths(out);
+  ASSERT_GE(tested, 4u);
+  ASSERT_EQ(passes.size(), tested);
   // The depths tested as clusters: a prefix from the root, as deep as the rule says (the root kept every
   // cluster: the field lies wholly within the light's reach).
   uint32_t clusterDepths = 0;
@@ -653,7 +739,7 @@ TEST(ConeMethod, ClustersGoDownTheTreeUntilTheNodesAreAsFineAsThem) {
   const uint64_t clusters = (scene.triangleCount() + CLUSTER_SIZE - 1) / CLUSTER_SIZE;
   const uint32_t lit = out.stats["lit_samples"].get<uint32_t>();
   uint32_t expectDepth = 1;  // the first depth with more than 1/K as many nodes as root clusters
-  while (expectDepth + 1 < depth &&
+  while (expectDepth + 1 < tested &&
          uint64_t(cone::levelCount(lit, depth, expectDepth)) * EXPAND_NODES_PER_CLUSTER <= clusters)
     ++expectDepth;
   EXPECT_GE(clusterDepths, 3u);
@@ -742,7 +828,7 @@ TEST(ConeMethod, ALastDepthExpansionTakesTheSphereTestWithTheSameMask) {
   EXPECT_EQ(sphere.stats["last_expansion_test"], "sphere");
   EXPECT_EQ(precise.stats["last_expansion_test"], "precise");
   const nlohmann::json& passes = sphere.stats["traversal"]["passes"];
-  const uint32_t depth = sphere.stats["tree_depth"].get<uint32_t>();
+  const uint32_t depth = testedDepths(sphere);
   ASSERT_GE(depth, 4u);
   ASSERT_EQ(passes.size(), depth);
   // Clusters down to the depth above the leaves' parents: the expansion is the last step.
@@ -818,8 +904,9 @@ TEST(ConeMethod, TheLastExpansionPerClusterOrPerTriangleGivesTheSamePairsAndMask
   EXPECT_EQ(automatic.stats["last_expansion_lanes"],
             ctx.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? "cluster" : "triangle");
   ASSERT_GT(cluster.stats["traversal"]["expanded_clusters"].get<uint64_t>(), 0u);
-  const uint32_t depth = cluster.stats["tree_depth"].get<uint32_t>();
+  const uint32_t depth = testedDepths(cluster);
   ASSERT_GE(depth, 4u);
+  ASSERT_EQ(cluster.stats["traversal"]["passes"].size(), depth);
   EXPECT_EQ(cluster.stats["traversal"]["passes"][depth - 1]["cluster_tests"], 0u) << "the last step expands";
   // Super clusters down to the depth above the leaves' parents either way; a lane per triangle pair
   // splits them there into clusters (the split's tests are cluster tests), a lane per super cluster

@@ -95,9 +95,11 @@ TEST(VariantNames, MapToTheirOptionsAndTheSwitchesCombine) {
   };
   EXPECT_NO_THROW(cone.check(settingsOf({{"two-pass", "on"}, {"variant", "PreciseSorted"}})));
   EXPECT_NO_THROW(cone.check(settingsOf({{"variant", "preciseseatp"}, {"test", "PRECISE"}})));
+  EXPECT_NO_THROW(cone.check(settingsOf({{"leaf-rays", "16"}, {"variant", "PreciseSorted"}})));
   for (std::vector<std::pair<std::string, std::string>> bad :
        std::vector<std::vector<std::pair<std::string, std::string>>>{{{"variant", "Bogus"}},
                                                                      {{"front-face-culling", "maybe"}},
+                                                                     {{"leaf-rays", "8"}},
                                                                      {{"two-pass", "perhaps"}},
                                                                      {{"test", "cube"}},
                                                                      {{"test", "sphere"}, {"early-accept", "on"}},

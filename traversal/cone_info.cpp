@@ -55,6 +55,12 @@ ConeOptions coneOptions(const Settings& s) {
                               : lanes == "triangle" ? traversal::ExpansionLanes::PerTriangle
                                                     : traversal::ExpansionLanes::Auto;
   }
+  if (s.has("leaf-rays")) {
+    const std::string rays = s.choice("leaf-rays", {"auto", "4", "16"}, "auto");
+    cone.leafRays = rays == "4"    ? traversal::LeafRays::Four
+                    : rays == "16" ? traversal::LeafRays::Sixteen
+                                   : traversal::LeafRays::Auto;
+  }
   if (s.has("test"))
     cone.test = s.choice("test", {"precise", "sphere"}, "precise") == "sphere" ? ConeTest::Sphere : ConeTest::Precise;
   cone.blockerSolidAngle = float(s.number("blocker-solid-angle", 0.0, 12.5664, cone.blockerSolidAngle));
@@ -108,6 +114,11 @@ MethodInfo coneMethodInfo() {
        "auto (default) takes cluster on a CPU device (lavapipe), triangle on a GPU (the same mask; a cluster "
        "lane tests its cluster first, so fewer pairs)",
        {"auto", "cluster", "triangle"}},
+      {"leaf-rays", "N",
+       "rays a leaf pair covers: 4 (paper 002's leaves: the pairs of the deepest interior depth) or 16 (the "
+       "traversal stops a depth earlier, its most numerous step, and the leaves test sixteen rays a pair); "
+       "auto (default) takes 16 on a CPU device (lavapipe), 4 on a GPU (the same mask)",
+       {"auto", "4", "16"}},
       {"profile-stages", "on|off",
        "one submission per stage (compact, keys, sort, build, traversal, leaves) to time each by wall clock, "
        "instead of the frame's single submission (the same mask)",

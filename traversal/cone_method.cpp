@@ -55,6 +55,7 @@ traversal::TraversalStats combine(const traversal::TraversalStats& a, const trav
   c.expandedClusters += b.expandedClusters;
   c.leafPairs += b.leafPairs;
   c.leafTests += b.leafTests;
+  c.leafRays = std::max(c.leafRays, b.leafRays);
   c.submits += b.submits;
   c.earlyAccepted += b.earlyAccepted;
   c.droppedPairs += b.droppedPairs;
@@ -213,6 +214,7 @@ class ConeMethod : public ShadowMethod {
     in.earlyAccept = options_.earlyAccept;
     in.sphereLastExpansion = options_.sphereLastExpansion;
     in.lastExpansionLanes = options_.lastExpansionLanes;
+    in.leafRays = options_.leafRays;
     in.superClusters = options_.superClusters;
     return in;
   }
@@ -231,6 +233,7 @@ class ConeMethod : public ShadowMethod {
     stats["pairs_tested"] = ts.pairsTested();
     stats["pairs_survived"] = ts.pairsSurvived();
     stats["leaf_tests"] = ts.leafTests;
+    stats["leaf_rays"] = ts.leafRays;
     stats["early_accepted_nodes"] = ts.earlyAccepted;
     stats["traversal_peak_bytes"] = ts.peakBytes;
     if (traversal_) {

@@ -82,6 +82,9 @@ struct ConeOptions {
   // Those expansions' lanes (traversal.h ExpansionLanes; --last-expansion-lanes): auto (a lane per cluster
   // pair on a CPU device, per triangle pair on a GPU), cluster or triangle. The same mask.
   traversal::ExpansionLanes lastExpansionLanes = traversal::ExpansionLanes::Auto;
+  // Rays a leaf pair covers (traversal.h LeafRays; --leaf-rays): auto (sixteen on a CPU device, four on a
+  // GPU), 4 (paper 002's leaves) or 16. The same mask.
+  traversal::LeafRays leafRays = traversal::LeafRays::Auto;
   // --memory-budget: a cap on everything the cone path holds for a frame, device buffers and host working
   // set together (0: none). The traversal's arena is what the other buffers leave, at most
   // traversalMemoryBytes (a smaller arena is slower, never different); a budget that cannot hold the

@@ -22,6 +22,8 @@ constexpr VkFormat kPairFormat = VK_FORMAT_R32G32B32A32_UINT;  // (triangle, nod
 constexpr VkFormat kRayFormat = VK_FORMAT_R32G32B32A32_UINT;   // ConeTree::rays(), one texel a ray (traverse_leaves.comp)
 constexpr uint64_t kPairBytes = 8;          // uvec2
 constexpr uint64_t kStatsBytes = STAT_WORDS * 4;
+// Levels of the tree the leaves take (leafStepOf): 1 for four rays a leaf pair, 2 for sixteen.
+uint32_t leafLevels(LeafRays rays) { return rays == LeafRays::Sixteen ? 2u : 1u; }
 }  // namespace
 
 // A buffer of `pairs` uvec2 pairs, rounded up to whole 16-byte texels: the kernels read pairs as RGBA32UI
@@ -162,6 +164,7 @@ nlohmann::json TraversalStats::toJson() const {
           {"expanded_clusters", expandedClusters},
           {"leaf_pairs", leafPairs},
           {"leaf_tests", leafTests},
+          {"leaf_rays", leafRays},
           {"submits", submits},
           {"early_accepted_nodes", earlyAccepted},
           {"early_dropped_pairs", droppedPairs},
@@ -180,7 +183,9 @@ struct Traversal::Frame {
   const TraversalInput* in = nullptr;
   vk::Timer* timer = nullptr;
   const cone::TreeShape* shape = nullptr;
-  uint32_t depth = 0;
+  uint32_t treeDepth = 0;   // the tree's depth D
+  uint32_t depth = 0;       // the depth whose pairs go to the leaves, plus one (leafStepOf)
+  uint32_t leafShift = 2;   // a leaf pair's rays: [node << leafShift, (node + 1) << leafShift)
   std::vector<uint64_t> base, end;  // arena range of each depth's pairs
   std::vector<double> ratio;        // survivors per input of the last chunk out of each depth
   TraversalStats stats;
@@ -275,7 +280,7 @@ bool Traversal::expandChunk(Frame& f, uint32_t child, bool fromTriangles, uint64
   const bool early = f.in->earlyAccept && f.in->test == TRAVERSE_TEST_PRECISE;
   p.earlyAccept = early ? 1u : 0u;
   p.leafCount = f.shape->leaves;
-  p.leafShift = 2u * (f.depth - child);
+  p.leafShift = 2u * (f.treeDepth - child);
   p.inputOffset = fromTriangles ? 0u : f.shape->offsets[child - 1];
   p.frameVertices = f.in->frameTriangles ? 1u : 0u;
   p.coneScale = f.in->frameTriangles ? f.in->coneScale : 1.0f;
@@ -342,6 +347,7 @@ void Traversal::leaves(Frame& f, uint32_t d) {
   p.first = uint32_t(f.base[d]);
   p.count = uint32_t(pairs);
   p.childCount = f.shape->leaves;
+  p.leafShift = f.leafShift;
   p.eps = f.in->eps;
   p.minLength = 2.0f * f.in->eps;
   if (f.timer) f.timer->restart();
@@ -357,7 +363,7 @@ void Traversal::leaves(Frame& f, uint32_t d) {
   cmd.mark("leaves");
   submit(f, cmd, f.stats.leavesMs);
   f.stats.leafPairs += pairs;
-  f.stats.leafTests += 4 * pairs - f.words[STAT_MISSING];
+  f.stats.leafTests += (pairs << f.leafShift) - f.words[STAT_MISSING];
 }
 
 // Finishes every pair of depth d, [base[d], end[d]), then leaves it empty. Chunks are taken from the
@@ -397,9 +403,13 @@ TraversalStats Traversal::run(const TraversalInput& in, vk::Timer* timer) {
   f.in = &in;
   f.timer = timer;
   f.shape = &in.tree->shape();
-  f.depth = f.shape->depth;
+  f.treeDepth = f.shape->depth;
+  leafRays_ = resolveLeafRays(in.leafRays);
+  f.depth = leafStepOf(f.treeDepth, leafLevels(leafRays_));
+  f.leafShift = 2u * (f.treeDepth - f.depth + 1u);
+  f.stats.leafRays = 1u << f.leafShift;
   CS_CHECK(plan_.pairCapacity >= minimumPairs(f.depth),
-           "traversal memory too small for this view: a tree of depth " << f.depth << " needs at least "
+           "traversal memory too small for this view: a tree of depth " << f.treeDepth << " needs at least "
                << minimumPairs(f.depth) << " pairs (" << minimumPairs(f.depth) * kPairBytes
                << " bytes of arena), the bound gives " << plan_.pairCapacity);
   f.base.assign(f.depth, 0);
@@ -480,6 +490,7 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
                             ? (cpu ? ExpansionLanes::PerCluster : ExpansionLanes::PerTriangle)
                             : in.lastExpansionLanes;
   const bool wholeExpansion = lastExpansionLanes_ == ExpansionLanes::PerCluster;
+  leafRays_ = resolveLeafRays(in.leafRays);
   const vk::Buffer& shape = in.tree->shapeBuffer();
   const vk::Buffer* buffers[2] = {&arena_, &chunk_};  // step c writes buffers[c % 2]
 
@@ -500,7 +511,7 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
 
   auto advance = [&](uint32_t step, uint32_t triangles) {
     AdvancePush a{step, triangles, capacity, ctx_.maxWorkgroups(), supers ? 2u : clusters ? 1u : 0u, in.triangleCount,
-                  sphereExpansion ? 1u : 0u, wholeExpansion ? 1u : 0u};
+                  sphereExpansion ? 1u : 0u, wholeExpansion ? 1u : 0u, leafLevels(leafRays_)};
     cmd.dispatch(advance_, {shape, state_}, a, 1);
     cmd.barrier();
   };
@@ -596,6 +607,20 @@ void Traversal::learnBatch(const uint32_t* w, const TraversalStats& frame, uint6
   }
 }
 
+const char* leafRaysName(LeafRays rays) {
+  switch (rays) {
+    case LeafRays::Auto: return "auto";
+    case LeafRays::Four: return "4";
+    case LeafRays::Sixteen: return "16";
+  }
+  return "?";
+}
+
+LeafRays Traversal::resolveLeafRays(LeafRays wanted) const {
+  if (wanted != LeafRays::Auto) return wanted;
+  return ctx_.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? LeafRays::Sixteen : LeafRays::Four;
+}
+
 const char* expansionLanesName(ExpansionLanes lanes) {
   switch (lanes) {
     case ExpansionLanes::Auto: return "auto";
@@ -616,7 +641,9 @@ TraversalStats Traversal::statsFromState(const uint32_t* words, uint32_t depth, 
   const uint32_t* w = view.data();
   auto u64 = [&](uint32_t at) { return uint64_t(w[at]) | (uint64_t(w[at + 1]) << 32); };
   TraversalStats s;
-  for (uint32_t d = 0; d < std::min<uint32_t>(depth, STATE_MAX_STEPS); ++d) {
+  // The depths tested: those above the pairs the leaves take (a tree of depth `depth`).
+  const uint32_t leafStep = leafStepOf(depth, leafLevels(leafRays_));
+  for (uint32_t d = 0; d < std::min<uint32_t>(leafStep, STATE_MAX_STEPS); ++d) {
     const uint32_t at = STATE_ACC + STATE_ACC_WORDS * d;
     PassStats ps;
     ps.inputs = u64(at);
@@ -628,7 +655,8 @@ TraversalStats Traversal::statsFromState(const uint32_t* words, uint32_t depth, 
   }
   s.expandedClusters = uint64_t(words[STATE_EXPANDED]) | (uint64_t(words[STATE_EXPANDED + 1]) << 32);
   s.leafPairs = u64(STATE_LEAF_PAIRS);
-  s.leafTests = 4 * s.leafPairs - w[STATE_LEAF_MISSING];
+  s.leafRays = 1u << (2u * (depth - leafStep + 1u));
+  s.leafTests = s.leafPairs * s.leafRays - w[STATE_LEAF_MISSING];
   s.earlyAccepted = u64(STATE_ACCEPTED);
   s.droppedPairs = u64(STATE_DROPPED);
   s.peakPairs = w[STATE_PEAK_PAIRS];

@@ -209,8 +209,9 @@ struct PassStats {
 struct TraversalStats {
   std::vector<PassStats> passes;  // passes[d]: the tests against the nodes of depth d (0 = root)
   uint64_t expandedClusters = 0;  // (cluster, node) pairs expanded into their triangles' pairs
-  uint64_t leafPairs = 0;         // pairs of depth D-1 sent to the leaves
-  uint64_t leafTests = 0;         // (pair, ray) combinations at the leaves: 4 per pair but under a last node
+  uint64_t leafPairs = 0;         // pairs sent to the leaves (of depth D-1, or D-2 with sixteen rays a pair)
+  uint64_t leafTests = 0;         // (pair, ray) combinations at the leaves: 4 (16) per pair but under a last node
+  uint32_t leafRays = 4;          // rays a leaf pair covers (LeafRays; 4 in a tree of depth 1 whatever was asked)
   uint64_t submits = 0;
   uint64_t earlyAccepted = 0;     // early accept: distinct nodes found covered (and shadowed at once)
   uint64_t droppedPairs = 0;      // early accept: pairs dropped because their node had been accepted
@@ -234,6 +235,20 @@ struct TraversalStats {
 // fewer pairs.
 enum class ExpansionLanes { Auto, PerCluster, PerTriangle };
 const char* expansionLanesName(ExpansionLanes lanes);
+
+// How many rays a leaf pair covers: Four, paper 002's leaves -- the pairs of the deepest interior depth,
+// D - 1, each tested against its node's four rays -- or Sixteen: the traversal stops a depth earlier and
+// the pairs of depth D - 2 go to the leaves, each against the sixteen rays under its node (a tree of depth
+// 1 keeps four). The same mask either way: a pair the last test would have rejected holds no ray the leaf
+// test hits (precise_test.h: the test's margins cover the leaf test's rounding), so its extra leaf tests
+// find nothing. What it trades: the last depth's tests, the most numerous of the traversal, with their
+// appends, against more leaf tests (measured on lavapipe at 1024², three interleaved runs: the traversal
+// halves on the room, the fur, 2CylinderEngine and the museum while the leaves stay level; a third level,
+// 64 rays a pair, moved the time from the traversal into the leaves and saved nothing more).
+// Auto: Sixteen on a CPU device (lavapipe), whose lanes pay for every step's bookkeeping; Four on a GPU,
+// where it has not been measured against Sixteen yet.
+enum class LeafRays { Auto, Four, Sixteen };
+const char* leafRaysName(LeafRays rays);
 
 // What one traversal reads. Buffers stay owned by the caller.
 struct TraversalInput {
@@ -261,6 +276,7 @@ struct TraversalInput {
   // mask either way.
   bool sphereLastExpansion = true;
   ExpansionLanes lastExpansionLanes = ExpansionLanes::Auto;  // that expansion's lanes (see ExpansionLanes)
+  LeafRays leafRays = LeafRays::Auto;     // rays a leaf pair covers (see LeafRays)
   // With clusters: batches start as super clusters, which split into their clusters further down
   // ("Clusters"). The same mask.
   bool superClusters = true;
@@ -301,6 +317,9 @@ class Traversal {
   // What the last record() gave the sphere-test kernel's last-depth expansion: PerCluster or PerTriangle
   // (ExpansionLanes::Auto resolved for this device).
   ExpansionLanes lastExpansionLanes() const { return lastExpansionLanes_; }
+  // The last frame's rays a leaf pair (Four or Sixteen: Auto resolved for the device; a tree of depth 1
+  // takes four whatever this says).
+  LeafRays leafRays() const { return leafRays_; }
   const vk::Buffer& stateBuffer() const { return state_; }
   // The counters of the device path from the state words read back (STATE_WORDS of them), for a tree
   // of `depth` (the shape's SHAPE_DEPTH).
@@ -338,6 +357,8 @@ class Traversal {
   bool supersFit_ = true;        // false once a one-super-cluster batch overflowed: clusters only from then on
   bool usedSupers_ = false;      // the last record() started its batches as super clusters
   ExpansionLanes lastExpansionLanes_ = ExpansionLanes::PerTriangle;
+  LeafRays leafRays_ = LeafRays::Four;
+  LeafRays resolveLeafRays(LeafRays wanted) const;
 };
 
 }  // namespace cs::traversal

@@ -137,7 +137,8 @@ struct TraversePush {
   uint frontFaceCulling; // test, pass 0: 1 drops the triangles that face the light (002 §3.6, cone_method.h)
   uint earlyAccept;   // test: 1 shadows the leaves of a covered child at once (002 §3.3) and marks it
   uint leafCount;     // test, early accept: the tree's leaves (sorted rays)
-  uint leafShift;     // test, early accept: 2 (D - d) for the child depth d: leaves under a child = 4^(D-d)
+  uint leafShift;     // test, early accept: 2 (D - d) for the child depth d: leaves under a child = 4^(D-d);
+                      // leaves (host path): a pair's rays are [node << leafShift, (node + 1) << leafShift)
   uint inputOffset;   // test, early accept: node-array offset of the input pairs' depth (their flags)
   uint frameVertices; // test: 1 = binding 0 holds the vertices relative to the light in the far-light frame
                       // (frame_triangles.comp), used as they are; 0 = world positions, the light subtracted
@@ -148,6 +149,14 @@ struct TraversePush {
   uint triangleEnd;   // device path: the triangle buffer's triangle count (an expansion's last cluster ends there)
   uint pad0, pad1, pad2;
 };
+
+// The step whose pairs go to the leaves instead of a test (traversal.h, LeafRays): with one level of
+// leaves (four rays a leaf pair) the tree's depth D, the pairs of depth D - 1; with two (sixteen rays a
+// pair) D - 1, the pairs of depth D - 2, where the tree has two levels to give (D >= 2). A leaf pair's rays
+// are then [node << 2 (D - step + 1), (node + 1) << 2 (D - step + 1)).
+CS_FN uint leafStepOf(uint treeDepth, uint leafLevels) {
+  return leafLevels > 1u && treeDepth >= leafLevels ? treeDepth - (leafLevels - 1u) : treeDepth;
+}
 
 // traverse_advance.comp: between two steps of the device path (one invocation).
 struct AdvancePush {
@@ -161,6 +170,8 @@ struct AdvancePush {
   uint frameTriangles;  // the triangles of the whole record() the batch is one of (the expansion rule's scale)
   uint sphereExpansion;  // 1: an expansion step's triangle pairs go to the sphere-test kernel (STATE_SPHERE_ARGS)
   uint wholeExpansion;   // with sphereExpansion: 1 = that step is STEP_EXPAND_WHOLE (a lane per cluster pair)
+  uint leafLevels;       // 1: the pairs of depth D - 1 go to the leaves (four rays each); 2: those of depth
+                         // D - 2 (sixteen rays each) where the tree is that deep (traversal.h, LeafRays)
 };
 
 // frame_triangles.comp: the triangles' vertices relative to the light in the far-light frame.
@@ -174,7 +185,7 @@ struct FrameTrianglesPush {
 
 #ifdef __cplusplus
 static_assert(sizeof(FrameTrianglesPush) == 96, "FrameTrianglesPush layout");
-static_assert(sizeof(AdvancePush) == 32, "AdvancePush layout");
+static_assert(sizeof(AdvancePush) == 36, "AdvancePush layout");
 static_assert(STATE_ACC + STATE_ACC_WORDS * STATE_MAX_STEPS <= STATE_LEAF_PAIRS && STATE_TEST_ARGS % 4 == 0 &&
                   STATE_LEAF_ARGS % 4 == 0 && STATE_LEAF_ARGS + 4 * (STATE_MAX_STEPS + 1) <= STATE_WORDS,
               "state words");

@@ -3,7 +3,8 @@
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 // The device path's bookkeeping between two steps (one invocation; traversal.h, "One submission"). Step c
 // expands the pairs of depth c - 1 into depth c (step 0: the batch's triangles into the root); at c = D,
-// the tree's depth, the pairs go to the leaves instead. Before step c this kernel
+// the depth whose pairs the leaves take plus one (the tree's depth, or one less with sixteen rays a leaf
+// pair: traversal.h, LeafRays), the pairs go to the leaves instead. Before step c this kernel
 //  - adds what step c - 1 did to its depth's totals (inputs, tests, survivors, steps run, early accept),
 //  - flags an overflow when step c - 1's survivors passed the capacity (what the step wrote is never read, and
 //    every later step of the frame is a dispatch of zero workgroups: the host redoes it chunked),
@@ -41,7 +42,8 @@ void main() {
     for (uint k = 0u; k + 1u < STATE_COMMITTED_WORDS; k++) state[STATE_COMMITTED + 1u + k] = state[STATE_ACC + k];
     return;
   }
-  uint depth = shape[SHAPE_DEPTH];
+  uint treeDepth = shape[SHAPE_DEPTH];
+  uint depth = leafStepOf(treeDepth, p.leafLevels);  // (the tree's depth with four rays a leaf pair)
   uint c = p.step;
   uint n = 0u;
   uint mode = STEP_TRIANGLES;
@@ -149,6 +151,7 @@ void main() {
   if (n > 0u && c == depth) {
     writeArgs(STATE_LEAF_ARGS + 4u * c, n, n, TRAVERSE_THREADS);
     add64(STATE_LEAF_PAIRS, n);
+    state[STATE_LEAF_SHIFT] = 2u * (treeDepth - depth + 1u);  // a pair's rays: [node << shift, (node + 1) << shift)
   } else if (n > 0u && c < depth) {
     state[STATE_COUNT] = count;
     // The step's test: the cluster kernel for cluster pairs, the triangle kernel otherwise, or the
@@ -160,7 +163,7 @@ void main() {
     state[STATE_CHILD_OFFSET] = shape[SHAPE_OFFSETS + c];
     state[STATE_CHILD_COUNT] = shape[SHAPE_COUNTS + c];
     state[STATE_INPUT_OFFSET] = c == 0u ? 0u : shape[SHAPE_OFFSETS + c - 1u];
-    state[STATE_LEAF_SHIFT] = 2u * (depth - c);
+    state[STATE_LEAF_SHIFT] = 2u * (treeDepth - c);  // the rays under a node of depth c (early accept)
   }
   state[STATE_LEAF_COUNT] = shape[SHAPE_LEAVES];
   state[STAT_MISSING] = 0u;

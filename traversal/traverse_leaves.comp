@@ -1,13 +1,15 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 // The leaves (002 §3.1 steps 3-4): for each (triangle, node) pair of the deepest interior level, the exact
-// ray/triangle test against each of the node's (up to) four rays; a hit shadows the sample. One invocation
-// per pair: the triangle is read once for its four rays, and lavapipe's cost per invocation (more than a
-// ray test's arithmetic) is paid once, not four times. Visibility holds the bits of a float (1.0 lit); a
-// hit ANDs it with 0 -- idempotent, so the result does not depend on order, chunking or races.
+// ray/triangle test against each of the node's (up to) four rays; a hit shadows the sample -- or, with
+// sixteen rays a leaf pair (traversal.h, LeafRays), for each pair of the depth above it, against the (up
+// to) sixteen rays under the node. One invocation per pair: the triangle is read once for its rays, and
+// lavapipe's cost per invocation (more than a ray test's arithmetic) is paid once, not once a ray.
+// Visibility holds the bits of a float (1.0 lit); a hit ANDs it with 0 -- idempotent, so the result does
+// not depend on order, chunking or races.
 // Counts nothing per test (shared or global atomics per invocation cost ~15 % on lavapipe): the host
-// counts 4 tests per pair, and the pairs of the last node, past the last ray, count the rays they lack in
-// STAT_MISSING.
+// counts 4 (or 16) tests per pair, and the pairs of the last node, past the last ray, count the rays they
+// lack in STAT_MISSING.
 // bindings: 0 = triangles (uniform texel buffer, RGBA32F, 3 texels a triangle), 1 = arena (uniform texel buffer, RGBA32UI: two uvec2 pairs a texel),
 //           2 = rays (uniform texel buffer, RGBA32UI, one texel a sorted ray: the sample's position as float
 //           bits and its pixel index, ConeTree::rays), 3 = visibility (uint per pixel), 4 = stats (the device
@@ -34,14 +36,16 @@ void main() {
   uvec4 two = texelFetch(arena, int(at >> 1u));
   uvec2 pair = (at & 1u) == 0u ? two.xy : two.zw;
   uint leafCount = p.deviceParams != 0u ? statWord(STATE_LEAF_COUNT) : p.childCount;
-  uint first = 4u * pair.y;
-  uint end = min(first + 4u, leafCount);
-  if (end < first + 4u) atomicAdd(stats[p.missingWord], first + 4u - max(end, first));  // past the last ray
+  uint shift = p.deviceParams != 0u ? statWord(STATE_LEAF_SHIFT) : p.leafShift;  // 2 or 4: four or sixteen rays
+  uint span = 1u << shift;
+  uint first = pair.y << shift;
+  uint end = min(first + span, leafCount);
+  if (end < first + span) atomicAdd(stats[p.missingWord], first + span - max(end, first));  // past the last ray
   vec3 light = p.light.xyz;
   vec3 P0 = texelFetch(tris, int(3u * pair.x)).xyz;
   vec3 P1 = texelFetch(tris, int(3u * pair.x + 1u)).xyz;
   vec3 P2 = texelFetch(tris, int(3u * pair.x + 2u)).xyz;
-  // The tests first, the hits as bits (bit k: ray first + k), then the writes for the hits alone: lavapipe
+  // The tests first, the hits as bits (bit k: ray first + k; at most 16), then the writes for the hits alone: lavapipe
   // makes a storage access lane by lane in a loop that runs for every lane, active or not, and an `if`
   // does not skip it (it runs both sides of every branch), so a load and an atomic per ray cost the
   // kernel eight such loops a pair; a loop over the hits runs as often as the lane with the most hits
