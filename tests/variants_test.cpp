@@ -115,7 +115,8 @@ TEST(VariantNames, MapToTheirOptionsAndTheSwitchesCombine) {
     }
   }
   EXPECT_NO_THROW(cone.check(settingsOf({{"variant", "PreciseEATP"}, {"ray-order", "screen"}})));
-  // The ray order: chosen per frame by default; a Table 1 variant named alone sorts as the paper does.
+  // The ray order: chosen per frame by default; a Table 1 variant named alone sorts as the paper does,
+  // and its leaves take four rays a pair as the paper's do (unless --leaf-rays says otherwise).
   Scene scene = builtinScene();
   Raster raster(test::context(), scene);
   const glm::vec3 light = scene.lights.at(0).position;
@@ -131,12 +132,19 @@ TEST(VariantNames, MapToTheirOptionsAndTheSwitchesCombine) {
            {{{"ray-order", "screen"}}, false, true},
            {{{"variant", "PreciseSorted"}}, true, false},
            {{{"variant", "PreciseSorted"}, {"ray-order", "auto"}}, true, true},
-           {{{"variant", "Precise"}}, false, false}}) {
+           {{{"variant", "Precise"}}, false, false},
+           {{{"variant", "PreciseSorted"}, {"leaf-rays", "16"}}, true, false}}) {
     std::unique_ptr<ShadowMethod> m = cone.make(&test::context(), settingsOf(settings));
     const MethodOutput out = runCounted(*m, tinyFrame());
     const std::string what = settings.empty() ? "defaults" : settings.front().second;
     EXPECT_EQ(out.stats["sorted"], sorted) << what;
     EXPECT_EQ(out.stats.contains("ray_order_choice"), sorted && adaptive) << what;
+    auto named = [&](const char* key) {
+      return std::any_of(settings.begin(), settings.end(), [&](const auto& kv) { return kv.first == key; });
+    };
+    const bool cpu = test::context().properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
+    const uint32_t leafRays = named("leaf-rays") ? 16u : named("variant") ? 4u : cpu ? 16u : 4u;
+    EXPECT_EQ(out.stats["leaf_rays"], leafRays) << what;
     // The stats name the sort this device gets (sort::sortSchemeFor, sortShapeFor).
     const sort::SortShape shape = sort::sortShapeFor(test::context());
     EXPECT_EQ(out.stats.value("ray_sort", ""), std::string(sort::sortSchemeName(sort::sortSchemeFor(test::context()))) +

@@ -125,6 +125,7 @@ struct ConeOptions {
 //               two_pass (when on: blockers, rays finished in pass one, update rebuilt or skipped and why,
 //               each pass's traversal stats; the top-level counts are the two passes' sums),
 //               early_accepted_nodes, lit_samples, triangles, tree_depth, tree_nodes, pairs_tested, pairs_survived, leaf_tests,
+//               leaf_rays (4 or 16: rays a leaf pair covered),
 //               traversal (per pass: inputs, pairs tested, survivors, chunks; leaf pairs/tests/hits;
 //               submits; peak_bytes), traversal_memory_bytes, pair_capacity, chunk_capacity, epsilon.
 //               host_peak_bytes (the upload's host working set); under a budget memory_budget_bytes and

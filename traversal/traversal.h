@@ -12,8 +12,9 @@
 // the step's survivor count, and each invocation writes its pairs at its prefix within the reservation
 // (no per-input masks, no scan, no second pass over the inputs; the order of the pairs across subgroups
 // is the order the reservations were taken, and nothing depends on it). The pairs of
-// depth D-1 (parents of leaves) go to traverse_leaves.comp: one invocation per pair, reading the triangle
-// once for the (up to) four rays under the node; it rebuilds each ray from the light and the sample's
+// depth D-1 (parents of leaves) go to traverse_leaves.comp -- or those of D-2, with sixteen rays a leaf
+// pair (LeafRays below) -- one invocation per pair, reading the triangle once for the (up to) four or
+// sixteen rays under the node; it rebuilds each ray from the light and the sample's
 // position (conetree/cone_math.h) and runs the watertight ray/triangle test with hits counted at distances in (eps, L - eps) from the light
 // (the reference's interval, measured from the other end). A hit ANDs the sample's visibility word with
 // 0: idempotent, so the mask does not depend on order, races or how the work was split.
