@@ -607,15 +607,6 @@ void Traversal::learnBatch(const uint32_t* w, const TraversalStats& frame, uint6
   }
 }
 
-const char* leafRaysName(LeafRays rays) {
-  switch (rays) {
-    case LeafRays::Auto: return "auto";
-    case LeafRays::Four: return "4";
-    case LeafRays::Sixteen: return "16";
-  }
-  return "?";
-}
-
 LeafRays Traversal::resolveLeafRays(LeafRays wanted) const {
   if (wanted != LeafRays::Auto) return wanted;
   return ctx_.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? LeafRays::Sixteen : LeafRays::Four;

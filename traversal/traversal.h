@@ -243,13 +243,13 @@ const char* expansionLanesName(ExpansionLanes lanes);
 // 1 keeps four). The same mask either way: a pair the last test would have rejected holds no ray the leaf
 // test hits (precise_test.h: the test's margins cover the leaf test's rounding), so its extra leaf tests
 // find nothing. What it trades: the last depth's tests, the most numerous of the traversal, with their
-// appends, against more leaf tests (measured on lavapipe at 1024², three interleaved runs: the traversal
-// halves on the room, the fur, 2CylinderEngine and the museum while the leaves stay level; a third level,
-// 64 rays a pair, moved the time from the traversal into the leaves and saved nothing more).
+// appends, against more leaf tests (measured on lavapipe at 1024², two interleaved runs: the traversal
+// halves on the room, the fur and 2CylinderEngine, and loses a third on the museum, while the leaves stay
+// about level; a third level, 64 rays a pair, moved the time from the traversal into the leaves and saved
+// nothing more; docs/ARCHITECTURE.md).
 // Auto: Sixteen on a CPU device (lavapipe), whose lanes pay for every step's bookkeeping; Four on a GPU,
 // where it has not been measured against Sixteen yet.
 enum class LeafRays { Auto, Four, Sixteen };
-const char* leafRaysName(LeafRays rays);
 
 // What one traversal reads. Buffers stay owned by the caller.
 struct TraversalInput {
