@@ -485,9 +485,7 @@ TEST(ConeHardCases, FarLightMaskIsBitIdenticalAtEveryArenaSize) {
     const uint32_t depth = cone::treeDepth(uint32_t(f.host.litCount()));
     ConeOptions small = base, least = base;
     small.traversalMemoryBytes = 9000;
-    least.arena = {traversal::minimumPairs(depth), 1,
-                   traversal::minimumPairs(depth) * 8 + traversal::chunkScratchBytes(1)};
-    least.traversalMemoryBytes = least.arena.bytes;
+    test::useLeastArena(least, depth);
     for (const ConeOptions& o : {small, least}) {
       test::ConeRun r = test::runExactCone(f, o, std::string("far light 1e3 ") + variant + " " +
                                                      std::to_string(o.traversalMemoryBytes) + " B");

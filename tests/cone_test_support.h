@@ -30,6 +30,13 @@ inline Camera lookAt(glm::vec3 eye, glm::vec3 target, float yfov = 0.9f) {
   return c;
 }
 
+// The least arena a traversal of a tree of `depth` runs in (traversal::minimumPairs pairs, one node's
+// children per depth, in chunks of a single pair), set on `o` as its arena and its memory bound.
+inline void useLeastArena(ConeOptions& o, uint32_t depth) {
+  o.arena = {traversal::minimumPairs(depth), 1, traversal::minimumPairs(depth) * 8 + traversal::chunkScratchBytes(1)};
+  o.traversalMemoryBytes = o.arena.bytes;
+}
+
 // Appends the quad o, o + du, o + du + dv, o + dv (two triangles, normal du x dv) to a hand-built scene.
 inline void addQuad(Scene& s, glm::vec3 o, glm::vec3 du, glm::vec3 dv) {
   const uint32_t b = uint32_t(s.positions.size());

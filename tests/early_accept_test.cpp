@@ -203,9 +203,7 @@ TEST(EarlyAccept, BitIdenticalAtATinyTraversalMemory) {
   ConeOptions small = sea();
   small.traversalMemoryBytes = 9000;
   ConeOptions least = sea();
-  least.arena = {traversal::minimumPairs(depth), 1,
-                 traversal::minimumPairs(depth) * 8 + traversal::chunkScratchBytes(1)};
-  least.traversalMemoryBytes = least.arena.bytes;
+  test::useLeastArena(least, depth);
   for (const ConeOptions& o : {small, least}) {
     Result r = runExact(f, o, "large wall PreciseSEA " + std::to_string(o.traversalMemoryBytes) + " B");
     EXPECT_TRUE(sameBits(plain.mask, r.mask)) << o.traversalMemoryBytes << " bytes: mask differs";

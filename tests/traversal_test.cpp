@@ -23,6 +23,7 @@
 #include "traversal/sphere_test.h"
 #include "traversal/traversal.h"
 #include "tests/cone_property_support.h"
+#include "tests/cone_test_support.h"
 #include "conetree/cone_layout.h"
 
 namespace cs {
@@ -459,8 +460,7 @@ TEST(ConeMethod, MaskIsBitIdenticalAtAnyTraversalMemoryAndPeakStaysUnderTheBound
   configs[0].traversalMemoryBytes = traversal::kDefaultMemoryBytes;
   configs[1].traversalMemoryBytes = traversal::kDefaultMemoryBytes / 1000;
   configs[2].traversalMemoryBytes = 9000;
-  configs[3].arena = {traversal::minimumPairs(depth), 1, traversal::minimumPairs(depth) * 8 + traversal::chunkScratchBytes(1)};
-  configs[3].traversalMemoryBytes = configs[3].arena.bytes;
+  test::useLeastArena(configs[3], depth);
   std::vector<float> first;
   uint64_t firstTested = 0;
   for (const ConeOptions& o : configs) {
@@ -523,10 +523,7 @@ TEST(ConeMethod, LeafPairsOfFourOrSixteenRaysGiveTheSameMaskAndSkipTheLastStep) 
     ConeOptions o;
     o.clusters = false;  // the chunked path has none: the very same pairs on both paths
     o.leafRays = rays;
-    if (least) {
-      o.arena = {traversal::minimumPairs(depth), 1, traversal::minimumPairs(depth) * 8 + traversal::chunkScratchBytes(1)};
-      o.traversalMemoryBytes = o.arena.bytes;
-    }
+    if (least) test::useLeastArena(o, depth);
     auto method = makeConeMethod(ctx, o);
     runCounted(*method, frame);
     return runCounted(*method, frame);

@@ -104,8 +104,7 @@ TEST(TwoPass, BitIdenticalAtATinyTraversalMemoryAndAcrossRuns) {
   ConeOptions small = variant("PreciseSEATP");
   small.traversalMemoryBytes = 9000;
   ConeOptions least = variant("PreciseSEATP");
-  least.arena = {traversal::minimumPairs(depth), 1, traversal::minimumPairs(depth) * 8 + traversal::chunkScratchBytes(1)};
-  least.traversalMemoryBytes = least.arena.bytes;
+  test::useLeastArena(least, depth);
   for (const ConeOptions& o : {small, least}) {
     ConeRun r = runExactCone(f, o, "cloud PreciseSEATP " + std::to_string(o.traversalMemoryBytes) + " B");
     EXPECT_TRUE(sameBits(plain.mask, r.mask)) << o.traversalMemoryBytes << " bytes: mask differs";
