@@ -44,6 +44,9 @@ struct Harness {
   EmbreeReference embree{device};
   std::vector<std::string> variants;
   std::vector<std::unique_ptr<ShadowMethod>> cones;
+  // The default with the two ends' leaf test (traversal.h LeafTest) wherever the default tests from the
+  // light: exact too; its mask may differ from the default's within the band only.
+  std::unique_ptr<ShadowMethod> twoEnds;
 
   static Harness& get() {
     static vk::Context& ctx = test::context();  // constructed first, so destroyed after the harness
@@ -59,6 +62,9 @@ struct Harness {
         h.variants.push_back(v);
         h.cones.push_back(makeConeMethod(test::context(), o));
       }
+      ConeOptions o;
+      o.leafTestFromLight = false;
+      h.twoEnds = makeConeMethod(test::context(), o);
     }
     return h;
   }
@@ -89,6 +95,24 @@ struct Harness {
                                                 << e.falseLightOutsideBand << " false light outside the band";
       EXPECT_TRUE(test::sameBits(other.visibility, mine.visibility)) << label << ": mask differs from " << variants[0];
       pairs += ", " + variants[v] + " " + std::to_string(other.stats["pairs_tested"].get<uint64_t>());
+    }
+    if (mine.stats["leaf_test"] == "from_light") {
+      MethodOutput other = twoEnds->run(frame);
+      const std::string label = what + " [two-ends leaf test]";
+      EXPECT_EQ(other.stats["leaf_test"], "two_ends") << label;
+      ErrorStats e = compareVisibility(host, other.visibility, ref.visibility, band);
+      EXPECT_EQ(e.misclassifiedOutsideBand, 0u) << label << ": " << e.falseShadowOutsideBand << " false shadow, "
+                                                << e.falseLightOutsideBand << " false light outside the band";
+      size_t differ = 0, differOutsideBand = 0;
+      for (size_t i = 0; i < host.size(); ++i) {
+        if (other.visibility[i] == mine.visibility[i]) continue;
+        differ++;
+        differOutsideBand += host.isLit(i) && !band[i];
+      }
+      EXPECT_EQ(differOutsideBand, 0u) << label << ": the two leaf tests differ outside the band";
+      pairs += "; the leaf tests differ on " + std::to_string(differ) + " samples, all in the band";
+    } else {
+      EXPECT_EQ(mine.stats["leaf_test"], "two_ends") << what;
     }
     std::printf("    pairs tested: %s\n", pairs.c_str());
     return r;

@@ -99,6 +99,11 @@ TEST(EarlyAcceptCovered, NeverAcceptsAConeWithARayThatMissesTheTriangleInItsInte
       ASSERT_TRUE(cone::leafHit(probe.w, vec3(0), probe.ray, float(eps), v[0], v[1], v[2]))
           << "pair " << i << " (kind " << kind << ") accepted but the ray at theta " << th << " of alpha " << alpha
           << ", length " << L << " (Lmin " << lmin << ", Lmax " << lmax << ", eps " << eps << ") misses";
+      // The other leaf test (traversal.h LeafTest) too: early accept shadows what either would.
+      ASSERT_TRUE(cone::leafHitFromLight(probe.w, vec3(0), probe.ray, float(eps), v[0], v[1], v[2]))
+          << "pair " << i << " (kind " << kind << ") accepted but the ray at theta " << th << " of alpha " << alpha
+          << ", length " << L << " (Lmin " << lmin << ", Lmax " << lmax << ", eps " << eps
+          << ") misses the test from the light";
       // And in double: the plane crossing lies within (eps, L - eps).
       dvec3 e1 = dvec3(v[1]) - dvec3(v[0]), e2 = dvec3(v[2]) - dvec3(v[0]), pv = glm::cross(r, e2);
       double det = glm::dot(e1, pv);

@@ -321,9 +321,13 @@ TEST(PreciseConeTriangle, GpuKernelIsConservativeToo) {
       ASSERT_TRUE(r[i] & 1u) << "GPU rejected intersecting pair " << i;
     }
     agree += bool(r[i] & 1u) == cpuKeep;
-    if (leafFound[i]) {
+    if (leafFound[i]) {  // found by either leaf test (BruteForce::leaf): the GPU's two against the CPU's
       leafChecked++;
-      leafAgree += (r[i] & 2u) != 0;
+      const vec3 v0(verts[3 * i]), v1(verts[3 * i + 1]), v2(verts[3 * i + 2]);
+      const float le = verts[3 * i + 1].w;
+      leafAgree += bool(r[i] & 2u) == cone::leafHit(vec3(rays[i]), vec3(0), rays[i], le, v0, v1, v2) &&
+                   bool(r[i] & 4u) == cone::leafHitFromLight(vec3(rays[i]), vec3(0), rays[i], le, v0, v1, v2) &&
+                   (r[i] & 6u) != 0;
     }
   }
   EXPECT_GE(agree, n - n / 100) << "GPU and CPU twins should agree on almost every pair";
@@ -349,16 +353,22 @@ TEST(LeafRayHitsTriangle, CountsHitsOnlyStrictlyBetweenEpsAndLMinusEps) {
   EXPECT_FALSE(cone::leafRayHitsTriangle(vec4(0, 0, 0, 0), eps, a, b, c));
 }
 
-TEST(LeafRayHitsTriangle, IsWatertightAcrossSharedEdgesAndVertices) {
-  // A fan of triangles around a vertex on the z = 3 plane, and rays aimed exactly at the shared edges
-  // and at the shared vertex from a light off-axis: every ray hits at least one triangle of the fan.
-  const vec3 centre(0.3f, -0.2f, 3.0f);
-  const int k = 7;
+// The rim of a fan of k triangles around `centre`, a little off the z = centre.z plane.
+std::vector<vec3> fanRim(vec3 centre, int k) {
   std::vector<vec3> rim;
   for (int i = 0; i < k; ++i) {
     float t = 2.0f * float(M_PI) * float(i) / float(k);
     rim.push_back(centre + vec3(std::cos(t), std::sin(t), 0.1f * std::sin(3.0f * t)));
   }
+  return rim;
+}
+
+TEST(LeafRayHitsTriangle, IsWatertightAcrossSharedEdgesAndVertices) {
+  // A fan of triangles around a vertex on the z = 3 plane, and rays aimed exactly at the shared edges
+  // and at the shared vertex from a light off-axis: every ray hits at least one triangle of the fan.
+  const vec3 centre(0.3f, -0.2f, 3.0f);
+  const int k = 7;
+  const std::vector<vec3> rim = fanRim(centre, k);
   const vec3 light(0.11f, 0.07f, -0.5f);
   int rays = 0;
   for (int i = 0; i < k; ++i) {
@@ -373,6 +383,145 @@ TEST(LeafRayHitsTriangle, IsWatertightAcrossSharedEdgesAndVertices) {
     }
   }
   EXPECT_EQ(rays, 5 * k);
+}
+
+TEST(LeafHitFromLight, CountsHitsOnlyStrictlyBetweenEpsAndLMinusEps) {
+  // The same cases as leafRayHitsTriangle's above, from world coordinates with the light at (1, 2, 3).
+  const vec3 o(1, 2, 3);
+  const vec3 a = o + vec3(-1, -1, 5), b = o + vec3(1, -1, 5), c = o + vec3(0, 1, 5);
+  const float eps = 0.01f;
+  auto hit = [&](vec3 p, vec3 P0, vec3 P1, vec3 P2) {
+    return cone::leafHitFromLight(p, o, cone::leafRay(p, o), eps, P0, P1, P2);
+  };
+  EXPECT_TRUE(hit(o + vec3(0, 0, 10), a, b, c));      // the triangle halfway
+  EXPECT_TRUE(hit(o + vec3(0, 0, 5.02f), a, b, c));   // 0.02 beyond it: inside (eps, L - eps)
+  EXPECT_FALSE(hit(o + vec3(0, 0, 5.005f), a, b, c)); // within eps of it: the sample's own surface
+  EXPECT_FALSE(hit(o + vec3(0, 0, 4.9f), a, b, c));   // beyond the sample
+  EXPECT_FALSE(hit(o + vec3(0, 0, 5), a, b, c));      // on it
+  EXPECT_FALSE(hit(o + vec3(0, 0, -10), a, b, c));    // behind the light
+  EXPECT_FALSE(hit(o + vec3(3, 0, 10), a, b, c));     // beside it
+  EXPECT_TRUE(hit(o + vec3(0, 0, 10), a, c, b));      // either winding
+  // Near the light: a triangle 0.005 < eps from it does not count.
+  EXPECT_FALSE(hit(o + vec3(0, 0, 10), o + vec3(-1, -1, 0.005f), o + vec3(1, -1, 0.005f), o + vec3(0, 1, 0.005f)));
+  // A ray in the triangle's plane, a light in it, a degenerate triangle, a sample at the light: never.
+  EXPECT_FALSE(hit(o + vec3(10, 0, 0), o + vec3(-1, -1, 0), o + vec3(5, -1, 0), o + vec3(0, 1, 0)));
+  EXPECT_FALSE(hit(o + vec3(1, 0.5f, 10), o + vec3(-1, -1, 0), o + vec3(5, -1, 0), o + vec3(0, 1, 0)));
+  EXPECT_FALSE(hit(o + vec3(0, 0, 10), a, a, c));
+  EXPECT_FALSE(hit(o, a, b, c));
+}
+
+TEST(LeafHitFromLight, IsWatertightAcrossSharedEdgesAndVertices) {
+  // leafRayHitsTriangle's fan above, and a fan of two windings (a mesh whose neighbours disagree).
+  const vec3 centre(0.3f, -0.2f, 3.0f);
+  const int k = 7;
+  const std::vector<vec3> rim = fanRim(centre, k);
+  for (const vec3 light : {vec3(0.11f, 0.07f, -0.5f), vec3(-2.3f, 1.7f, 0.4f), vec3(0.29f, -0.21f, 9.0f)}) {
+    for (bool mixed : {false, true}) {
+      int rays = 0;
+      for (int i = 0; i < k; ++i) {
+        for (float f : {0.0f, 0.125f, 0.37f, 0.5f, 0.999f}) {
+          vec3 target = centre + f * (rim[i] - centre);  // on the shared edge (centre, rim[i]); f = 0: the vertex
+          const vec3 p = light + 2.0f * (target - light);
+          vec4 ray = cone::leafRay(p, light);
+          bool any = false;
+          for (int j = 0; j < k; ++j) {
+            const vec3 q = rim[j], r = rim[(j + 1) % k];
+            any = any || (mixed && j % 2 ? cone::leafHitFromLight(p, light, ray, 1e-4f, centre, r, q)
+                                         : cone::leafHitFromLight(p, light, ray, 1e-4f, centre, q, r));
+          }
+          EXPECT_TRUE(any) << "edge " << i << " at " << f << (mixed ? ", mixed windings" : "");
+          rays++;
+        }
+      }
+      EXPECT_EQ(rays, 5 * k);
+    }
+  }
+}
+
+// The two leaf tests answer alike wherever the answer is not decided by rounding: random triangles and
+// samples in a unit box, lights in it and up to a few diagonals out (the world frame's), and every
+// (sample, triangle) whose exact ray (in double) meets the triangle's plane more than a margin from its
+// edges, with both ends of (eps, L - eps) more than that margin from the plane, gets the exact answer
+// from both.
+// Receivers too: a sample on a triangle (fp32 barycentric point) is never shadowed by it, the light
+// grazing its plane included.
+TEST(LeafHitFromLight, AgreesWithTheTwoEndsTestAndTheExactAnswerAwayFromEdgesAndEnds) {
+  std::mt19937 rng(20261205);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  auto point = [&](float spread) { return vec3(u(rng), u(rng), u(rng)) * 2.0f * spread - vec3(spread - 0.5f); };
+  const float eps = 1e-4f;
+  const double margin = 1e-4;  // of the unit box's size
+  int decided = 0, hits = 0, receivers = 0;
+  for (int i = 0; i < 40000; ++i) {
+    const vec3 light = point(i % 3 == 0 ? 2.0f : 0.5f);
+    vec3 p = point(0.5f);
+    // The triangle: anywhere, or around a point of the segment from the light to the sample (hits).
+    const float size = std::exp(std::log(1e-3f) + u(rng) * std::log(1e3f));
+    const vec3 centre = i % 2 ? light + u(rng) * (p - light) : point(0.5f);
+    vec3 P[3];
+    for (vec3& x : P) x = centre + size * (vec3(u(rng), u(rng), u(rng)) - 0.5f);
+    const bool receiver = i % 4 == 0;  // the sample on the triangle's plane, within rounding
+    if (receiver) p = P[0] + u(rng) * (P[1] - P[0]) + u(rng) * 0.5f * (P[2] - P[0]);
+    const vec4 ray = cone::leafRay(p, light);
+    if (!cone::leafRayUsable(ray, 2.0f * eps)) continue;
+    const bool fromLight = cone::leafHitFromLight(p, light, ray, eps, P[0], P[1], P[2]);
+    const bool twoEnds = cone::leafHit(p, light, ray, eps, P[0], P[1], P[2]);
+    // The exact ray light + t (p - light), t in (0, 1), against the triangle, in double.
+    const dvec3 L0(light), d = dvec3(p) - dvec3(light), e1 = dvec3(P[1]) - dvec3(P[0]), e2 = dvec3(P[2]) - dvec3(P[0]);
+    const dvec3 n = glm::cross(e1, e2);
+    const double len = glm::length(d), det = -glm::dot(d, n);
+    if (!(std::abs(det) > 1e-9 * len * glm::length(n))) continue;  // (nearly) in the plane: undecided
+    const dvec3 s = L0 - dvec3(P[0]);
+    const double t = glm::dot(s, n) / det, b1 = -glm::dot(d, glm::cross(s, e2)) / det,
+                 b2 = -glm::dot(d, glm::cross(e1, s)) / det;
+    const dvec3 x = L0 + t * d;
+    // Distance of the crossing from the triangle's edges (negative inside), and from the interval's ends.
+    auto edgeDistance = [&](dvec3 a, dvec3 b) {
+      const dvec3 e = b - a, m = glm::normalize(glm::cross(n, e));  // inward normal of edge (a, b) in the plane
+      return -glm::dot(x - a, m);
+    };
+    const dvec3 A(P[0]), B(P[1]), C(P[2]);
+    const double outside = std::max({edgeDistance(A, B), edgeDistance(B, C), edgeDistance(C, A)});
+    const double tau = t * len;
+    const bool exactHit = b1 >= 0 && b2 >= 0 && b1 + b2 <= 1 && tau > eps && tau < len - eps;
+    if (receiver && t > 0 && len - tau < 0.5 * eps) {
+      // The plane crossed within half eps of the sample: its own surface, never a shadow, at any angle.
+      receivers++;
+      EXPECT_FALSE(fromLight) << "case " << i << ": a receiver shadowed by its own triangle, " << len - tau
+                              << " from the crossing";
+      EXPECT_FALSE(twoEnds) << "case " << i;
+      continue;
+    }
+    // The interval's ends as distances from the plane (the band's nudges are along the normal too).
+    const double sinAngle = std::abs(det) / (len * glm::length(n));
+    const double slack = std::min({std::abs(outside), std::abs(tau - eps) * sinAngle, std::abs(len - eps - tau) * sinAngle});
+    if (!(slack > margin) || !std::isfinite(slack)) continue;
+    decided++;
+    hits += exactHit;
+    ASSERT_EQ(fromLight, exactHit) << "case " << i << ": tau " << tau << " of " << len << ", outside by " << outside;
+    ASSERT_EQ(twoEnds, exactHit) << "case " << i;
+  }
+  std::printf("  %d decided, %d of them hits; %d receivers\n", decided, hits, receivers);
+  EXPECT_GT(decided, 15000);
+  EXPECT_GT(hits, 2000);
+  EXPECT_GT(receivers, 5000);
+}
+
+// The choice (traversal.h leafTestFor): from the light where it is exact, the two ends' elsewhere.
+TEST(LeafHitFromLight, RunsWhereTheLightIsAmongTheGeometry) {
+  const vec3 lo(-1, 0, -2), hi(3, 2, 1);
+  auto pick = [&](vec3 light, vec3 l = vec3(-1, 0, -2), vec3 h = vec3(3, 2, 1)) {
+    return traversal::leafTestFor(cone::chooseFrame(light, l, h).far, l, h, light);
+  };
+  EXPECT_EQ(pick(vec3(1, 1, 0)), traversal::LeafTest::FromLight);    // inside
+  EXPECT_EQ(pick(vec3(10, 10, 10)), traversal::LeafTest::FromLight); // ~3 half-diagonals out
+  EXPECT_EQ(pick(vec3(1e3f, 0, 0)), traversal::LeafTest::TwoEnds);   // the far frame's
+  EXPECT_EQ(pick(vec3(1, 1, 0), lo * 1e-5f, hi * 1e-5f), traversal::LeafTest::TwoEnds);  // a tiny scene
+  EXPECT_EQ(pick(vec3(1e12f + 1e11f, 0, 0), vec3(1e12f, 0, 0), vec3(1e12f + 3e11f, 1e11f, 1e11f)),
+            traversal::LeafTest::TwoEnds);                           // coordinates past 2^40
+  EXPECT_EQ(pick(vec3(1, 1, 0), vec3(1), vec3(0)), traversal::LeafTest::TwoEnds);  // no bounds
+  EXPECT_STREQ(traversal::leafTestName(traversal::LeafTest::FromLight), "from_light");
+  EXPECT_STREQ(traversal::leafTestName(traversal::LeafTest::TwoEnds), "two_ends");
 }
 
 TEST(TraversalArena, PlanStaysWithinTheBudgetAndTheBinding) {
@@ -926,7 +1075,8 @@ TEST(ConeMethod, TheLastExpansionPerClusterOrPerTriangleGivesTheSamePairsAndMask
 
 // The whole traversal is conservative end to end: the mask equals the leaf test run on every (triangle,
 // lit sample) pair by brute force on the CPU (the same source), for any ray order, down to frames of a
-// single ray (a tree of depth 1). On lavapipe the GPU's arithmetic is the CPU's, so equality is exact;
+// single ray (a tree of depth 1), with either leaf test (traversal.h LeafTest: the one the method picks for
+// the light, and the two ends' it is told to run). On lavapipe the GPU's arithmetic is the CPU's, so equality is exact;
 // a GPU may round a division or square root differently and flip a ray grazing an edge.
 TEST(ConeMethod, MaskEqualsTheLeafTestOnEveryPairSortedOrNot) {
   auto& ctx = test::context();
@@ -954,34 +1104,47 @@ TEST(ConeMethod, MaskEqualsTheLeafTestOnEveryPairSortedOrNot) {
     GBuffer host;
     raster.render(c.cam, c.light, c.w, c.h, dev, &host);
     const float eps = EpsilonPolicy::forScene(c.scene).eps;
-    // Brute force: every lit sample against every triangle.
-    std::vector<float> brute(host.size(), 1.0f);
-    for (size_t i = 0; i < host.size(); ++i) {
-      if (!host.isLit(i)) continue;
-      vec4 ray = cone::leafRay(vec3(host.position[i]), c.light);
-      if (!cone::leafRayUsable(ray, 2.0f * eps)) continue;
-      for (size_t t = 0; t + 2 < c.scene.indices.size() && brute[i] != 0.0f; t += 3) {
-        vec3 P0 = c.scene.positions[c.scene.indices[t]];
-        vec3 P1 = c.scene.positions[c.scene.indices[t + 1]];
-        vec3 P2 = c.scene.positions[c.scene.indices[t + 2]];
-        if (cone::leafHit(vec3(host.position[i]), c.light, ray, eps, P0, P1, P2)) brute[i] = 0.0f;
+    vec3 lo(INFINITY), hi(-INFINITY);
+    for (uint32_t i : c.scene.indices) lo = glm::min(lo, c.scene.positions[i]), hi = glm::max(hi, c.scene.positions[i]);
+    // The test the method picks for this light (leafTestFor), and the two ends' test it can be told to run.
+    const traversal::LeafTest picked = traversal::leafTestFor(cone::chooseFrame(c.light, lo, hi).far, lo, hi, c.light);
+    for (bool fromLight : {true, false}) {
+      const traversal::LeafTest test = fromLight ? picked : traversal::LeafTest::TwoEnds;
+      // Brute force: every lit sample against every triangle.
+      std::vector<float> brute(host.size(), 1.0f);
+      for (size_t i = 0; i < host.size(); ++i) {
+        if (!host.isLit(i)) continue;
+        const vec3 p(host.position[i]);
+        vec4 ray = cone::leafRay(p, c.light);
+        if (!cone::leafRayUsable(ray, 2.0f * eps)) continue;
+        for (size_t t = 0; t + 2 < c.scene.indices.size() && brute[i] != 0.0f; t += 3) {
+          vec3 P0 = c.scene.positions[c.scene.indices[t]];
+          vec3 P1 = c.scene.positions[c.scene.indices[t + 1]];
+          vec3 P2 = c.scene.positions[c.scene.indices[t + 2]];
+          const bool hit = test == traversal::LeafTest::FromLight ? cone::leafHitFromLight(p, c.light, ray, eps, P0, P1, P2)
+                                                                   : cone::leafHit(p, c.light, ray, eps, P0, P1, P2);
+          if (hit) brute[i] = 0.0f;
+        }
       }
-    }
-    FrameInput frame;
-    frame.scene = &c.scene;
-    frame.gbuffer = &host;
-    frame.device = &dev;
-    frame.vk = &ctx;
-    frame.light = c.light;
-    frame.epsilon = eps;
-    for (bool sorted : {true, false}) {
-      ConeOptions o;
-      o.sorted = sorted;
-      MethodOutput out = makeConeMethod(ctx, o)->run(frame);
-      size_t differ = 0;
-      for (size_t i = 0; i < host.size(); ++i) differ += out.visibility[i] != brute[i];
-      size_t allowed = exactDevice ? 0 : host.size() / 1000;
-      EXPECT_LE(differ, allowed) << c.scene.name << " " << c.w << "x" << c.h << (sorted ? " sorted" : " screen order");
+      FrameInput frame;
+      frame.scene = &c.scene;
+      frame.gbuffer = &host;
+      frame.device = &dev;
+      frame.vk = &ctx;
+      frame.light = c.light;
+      frame.epsilon = eps;
+      for (bool sorted : {true, false}) {
+        ConeOptions o;
+        o.sorted = sorted;
+        o.leafTestFromLight = fromLight;
+        MethodOutput out = makeConeMethod(ctx, o)->run(frame);
+        EXPECT_EQ(out.stats["leaf_test"], traversal::leafTestName(test));
+        size_t differ = 0;
+        for (size_t i = 0; i < host.size(); ++i) differ += out.visibility[i] != brute[i];
+        size_t allowed = exactDevice ? 0 : host.size() / 1000;
+        EXPECT_LE(differ, allowed) << c.scene.name << " " << c.w << "x" << c.h << (sorted ? " sorted" : " screen order")
+                                   << " " << traversal::leafTestName(test);
+      }
     }
   }
 }

@@ -96,10 +96,13 @@ TEST(VariantNames, MapToTheirOptionsAndTheSwitchesCombine) {
   EXPECT_NO_THROW(cone.check(settingsOf({{"two-pass", "on"}, {"variant", "PreciseSorted"}})));
   EXPECT_NO_THROW(cone.check(settingsOf({{"variant", "preciseseatp"}, {"test", "PRECISE"}})));
   EXPECT_NO_THROW(cone.check(settingsOf({{"leaf-rays", "16"}, {"variant", "PreciseSorted"}})));
+  EXPECT_NO_THROW(cone.check(settingsOf({{"leaf-test", "two-ends"}})));
+  EXPECT_NO_THROW(cone.check(settingsOf({{"leaf-test", "Auto"}})));
   for (std::vector<std::pair<std::string, std::string>> bad :
        std::vector<std::vector<std::pair<std::string, std::string>>>{{{"variant", "Bogus"}},
                                                                      {{"front-face-culling", "maybe"}},
                                                                      {{"leaf-rays", "8"}},
+                                                                     {{"leaf-test", "from-light"}},
                                                                      {{"two-pass", "perhaps"}},
                                                                      {{"test", "cube"}},
                                                                      {{"test", "sphere"}, {"early-accept", "on"}},

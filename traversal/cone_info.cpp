@@ -62,6 +62,7 @@ ConeOptions coneOptions(const Settings& s) {
                     : rays == "16" ? traversal::LeafRays::Sixteen
                                    : traversal::LeafRays::Auto;
   }
+  if (s.has("leaf-test")) cone.leafTestFromLight = s.choice("leaf-test", {"auto", "two-ends"}, "auto") == "auto";
   if (s.has("test"))
     cone.test = s.choice("test", {"precise", "sphere"}, "precise") == "sphere" ? ConeTest::Sphere : ConeTest::Precise;
   cone.blockerSolidAngle = float(s.number("blocker-solid-angle", 0.0, 12.5664, cone.blockerSolidAngle));
@@ -121,6 +122,12 @@ MethodInfo coneMethodInfo() {
        "auto (default) takes 16 on a CPU device (lavapipe), 4 on a GPU; a --variant named without it takes 4, as "
        "the paper does (the same mask)",
        {"auto", "4", "16"}},
+      {"leaf-test", "T",
+       "the leaves' ray/triangle test: auto (default) tests from the light where that is exact (a light within 8 "
+       "half-diagonals of the scene), the triangle's edge planes through the light made once for a leaf pair's "
+       "rays; two-ends measures every ray from the end the triangle is nearer, right at any distance (exact "
+       "outside the ambiguity band either way)",
+       {"auto", "two-ends"}},
       {"profile-stages", "on|off",
        "one submission per stage (compact, keys, sort, build, traversal, leaves) to time each by wall clock, "
        "instead of the frame's single submission (the same mask)",

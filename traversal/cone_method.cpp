@@ -56,6 +56,7 @@ traversal::TraversalStats combine(const traversal::TraversalStats& a, const trav
   c.leafPairs += b.leafPairs;
   c.leafTests += b.leafTests;
   c.leafRays = std::max(c.leafRays, b.leafRays);
+  c.leafTest = b.leafTest;  // both passes run the frame's test
   c.submits += b.submits;
   c.earlyAccepted += b.earlyAccepted;
   c.droppedPairs += b.droppedPairs;
@@ -215,6 +216,8 @@ class ConeMethod : public ShadowMethod {
     in.sphereLastExpansion = options_.sphereLastExpansion;
     in.lastExpansionLanes = options_.lastExpansionLanes;
     in.leafRays = options_.leafRays;
+    in.leafTest = options_.leafTestFromLight ? traversal::leafTestFor(frame_.far, boundsLo_, boundsHi_, light)
+                                             : traversal::LeafTest::TwoEnds;
     in.superClusters = options_.superClusters;
     return in;
   }
@@ -234,6 +237,7 @@ class ConeMethod : public ShadowMethod {
     stats["pairs_survived"] = ts.pairsSurvived();
     stats["leaf_tests"] = ts.leafTests;
     stats["leaf_rays"] = ts.leafRays;
+    stats["leaf_test"] = traversal::leafTestName(ts.leafTest);
     stats["early_accepted_nodes"] = ts.earlyAccepted;
     stats["traversal_peak_bytes"] = ts.peakBytes;
     if (traversal_) {

@@ -85,6 +85,10 @@ struct ConeOptions {
   // Rays a leaf pair covers (traversal.h LeafRays; --leaf-rays): auto (sixteen on a CPU device, four on a
   // GPU), 4 (paper 002's leaves) or 16. The same mask.
   traversal::LeafRays leafRays = traversal::LeafRays::Auto;
+  // The leaves' test (traversal.h LeafTest; --leaf-test): true (auto), the test from the light wherever it
+  // is exact (traversal::leafTestFor: a light among the geometry), else the two ends'; false, the two ends'
+  // always. Exact outside the ambiguity band either way; within it the masks may differ.
+  bool leafTestFromLight = true;
   // --memory-budget: a cap on everything the cone path holds for a frame, device buffers and host working
   // set together (0: none). The traversal's arena is what the other buffers leave, at most
   // traversalMemoryBytes (a smaller arena is slower, never different); a budget that cannot hold the

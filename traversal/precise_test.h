@@ -336,9 +336,121 @@ CS_FN bool leafHit(vec3 p, vec3 light, vec4 ray, float eps, vec3 P0, vec3 P1, ve
   return leafRayHitsTriangle(r, eps, fromSample ? b0 : a0, fromSample ? b1 : a1, fromSample ? b2 : a2);
 }
 
+// The leaf test from the light (traversal.h, LeafTest::FromLight): the same question as leafHit, asked
+// so that all it needs of the triangle is computed once for the sixteen (or four) rays of a leaf pair,
+// which share their origin, the light. Used where the light is among the geometry (the world frame: a
+// light within 8 half-diagonals of the scene, coordinates in [2^-12, 2^40] -- traversal.h leafTestFor);
+// a far light takes leafHit, whose nearer end keeps the hit distance's rounding an ulp of the
+// triangle's distance to that end.
+//  - Inside: the edge functions of the rays from the light are triple products, U = w.n0 for the plane
+//    through the light and the edge P1 -> P2 (w = sample - light; V, W for the edges P2 -> P0, P0 -> P1):
+//    the signs of the sheared 2-D edge functions of leafRayHitsTriangle, up to the shear's positive
+//    factor. The normal (P1 - light) x (P2 - light) is made as (A - light) x (B - A), A the edge's
+//    lexicographically smaller end, negated when the edge runs from B to A: its components round to an ulp
+//    of |A - light| |B - A| (not of |A - light| |B - light|, which a small triangle far from the light
+//    would make noise), and a neighbour across the edge makes exactly the negated normal from the same
+//    operands. Summed in one order and never fused (CS_PRECISE), a ray through a shared edge or vertex
+//    then hits at least one of the triangles (0 counts as inside), as in the watertight test.
+//  - Where: the ray's line meets the triangle's plane (normal N = (P1 - P0) x (P2 - P0), in world
+//    coordinates) once; it crosses it between the light and the sample when dl = N.(light - P0) and
+//    ds = N.(sample - P0) have opposite signs, at tau = L dl / (dl - ds) from the light. tau in
+//    (eps, L - eps) is |dl| L > eps (|dl| + |ds|) and |ds| L > eps (|dl| + |ds|): no division. ds rounds to
+//    an ulp of the sample's distance from P0, not of its distance from the light, so a receiver (the
+//    sample on the triangle, ds ~ 0) does not shadow itself.
+//  - Within rounding, a miss: dl or ds within its bound on its rounding (the light or the sample on the
+//    plane, a degenerate triangle), or the ray so nearly parallel to the plane that |N.w| = |dl - ds| is
+//    within twice the edge functions' rounding (their signs are noise there) -- leafRayHitsTriangle's det
+//    bound.
+// Hits are where leafHit's are, up to each test's rounding at the edges and the ends of the interval,
+// far below the ambiguity band's nudges (tests/traversal_test.cpp, LeafHitFromLight).
+struct LeafTriangle {
+  vec3 n0, n1, n2;  // the edge planes' normals through the light (P1 -> P2, P2 -> P0, P0 -> P1)
+  vec3 N;           // (P1 - P0) x (P2 - P0), the plane's normal in world coordinates
+  vec3 P0;          // the plane's anchor
+  float dl;         // N.(light - P0): the light's side of the plane
+  float errL;       // the bound on dl's rounding
+  float errN;       // the bound on each of N's components' rounding
+  float errEdge;    // over the ray's length L: twice the bound on the edge functions' summed rounding
+};
+
+// A strict total order on points (x, then y, then z): both triangles of an edge pick the same end.
+CS_FN bool lexLess(vec3 a, vec3 b) { return a.x < b.x || (a.x == b.x && (a.y < b.y || (a.y == b.y && a.z < b.z))); }
+
+// The normal (Pa - light) x (Pb - light) of the plane through the light and the edge Pa -> Pb, made from
+// the edge's smaller end (see above); va, vb = Pa - light, Pb - light. w: its rounding bound's share,
+// max|A - light| max|B - A| (the bound is 8 ulp of that per component).
+CS_FN vec4 edgeNormalFromLight(vec3 Pa, vec3 Pb, vec3 va, vec3 vb) {
+  bool forward = lexLess(Pa, Pb);
+  CS_PRECISE vec3 e = Pb - Pa;
+  vec3 base = forward ? va : vb;
+  vec3 dir = forward ? e : -e;  // fl(Pa - Pb) = -fl(Pb - Pa) exactly
+  CS_PRECISE vec3 n = cross(base, dir);
+  float share = maxAbs3(base, base, base) * maxAbs3(dir, dir, dir);
+  return vec4(forward ? n : -n, share);
+}
+
+CS_FN LeafTriangle leafTriangle(vec3 P0, vec3 P1, vec3 P2, vec3 light) {
+  LeafTriangle t;
+  CS_PRECISE vec3 v0 = P0 - light;
+  CS_PRECISE vec3 v1 = P1 - light;
+  CS_PRECISE vec3 v2 = P2 - light;
+  vec4 n0 = edgeNormalFromLight(P1, P2, v1, v2);
+  vec4 n1 = edgeNormalFromLight(P2, P0, v2, v0);
+  vec4 n2 = edgeNormalFromLight(P0, P1, v0, v1);
+  t.n0 = vec3(n0);
+  t.n1 = vec3(n1);
+  t.n2 = vec3(n2);
+  // An edge function w.n: n's components off by 8 ulp of its share, the products and sums by an ulp
+  // each of |w_k n_k| <= 2 share: <= 16 ulp of |w|_1 share <= 16 ulp sqrt(3) L share. Twice the three's sum.
+  t.errEdge = 2.0f * 1.7320508f * CONE_ULP16 * (n0.w + n1.w + n2.w);
+  CS_PRECISE vec3 e1 = P1 - P0;
+  CS_PRECISE vec3 e2 = P2 - P0;
+  CS_PRECISE vec3 N = cross(e1, e2);
+  t.N = N;
+  t.P0 = P0;
+  // An edge's components are rounded to an ulp of themselves (a difference of two fp32 values), the
+  // cross product's two products and their difference to an ulp each: <= 8 ulp of the largest product.
+  float me = maxAbs3(e1, e2, e2);
+  t.errN = CONE_ULP8 * me * me;
+  CS_PRECISE vec3 dL = light - P0;
+  CS_PRECISE float dl = dot(N, dL);
+  t.dl = dl;
+  vec3 a = abs(dL);
+  t.errL = CONE_ULP8 * dot(abs(N), a) + t.errN * (a.x + a.y + a.z);
+  return t;
+}
+
+// ray = leafRay(p, light) for a sample p (as leafHit takes it); t = leafTriangle(P0, P1, P2, light).
+CS_FN bool leafHitFromLight(LeafTriangle t, vec3 p, vec4 ray, float eps) {
+  vec3 w = vec3(ray);
+  // Summed in one order, unfused: -n gives exactly -U.
+  CS_PRECISE float U = w.x * t.n0.x + w.y * t.n0.y + w.z * t.n0.z;
+  CS_PRECISE float V = w.x * t.n1.x + w.y * t.n1.y + w.z * t.n1.z;
+  CS_PRECISE float W = w.x * t.n2.x + w.y * t.n2.y + w.z * t.n2.z;
+  bool inside = !((U < 0.0f || V < 0.0f || W < 0.0f) && (U > 0.0f || V > 0.0f || W > 0.0f));
+  CS_PRECISE vec3 d = p - t.P0;
+  CS_PRECISE float ds = dot(t.N, d);
+  vec3 a = abs(d);
+  float errS = CONE_ULP8 * dot(abs(t.N), a) + t.errN * (a.x + a.y + a.z);
+  float adl = abs(t.dl);
+  float ads = abs(ds);
+  float sum = adl + ads;  // |dl - ds| = |N.w| where the signs differ
+  return inside && (t.dl > 0.0f) != (ds > 0.0f) && adl > t.errL && ads > errS && sum > t.errEdge * ray.w &&
+         adl * ray.w > eps * sum && ads * ray.w > eps * sum;
+}
+
+// The same from world coordinates, one call a ray (the host's brute force and property tests).
+CS_FN bool leafHitFromLight(vec3 p, vec3 light, vec4 ray, float eps, vec3 P0, vec3 P1, vec3 P2) {
+  return leafHitFromLight(leafTriangle(P0, P1, P2, light), p, ray, eps);
+}
+
 #ifdef __cplusplus
 }  // namespace glsl
 using glsl::leafHit;
+using glsl::leafHitFromLight;
+using glsl::lexLess;
+using glsl::leafTriangle;
+using glsl::LeafTriangle;
 using glsl::leafRayHitsTriangle;
 using glsl::preciseConeCovered;
 using glsl::preciseConeTriangle;

@@ -165,6 +165,7 @@ nlohmann::json TraversalStats::toJson() const {
           {"leaf_pairs", leafPairs},
           {"leaf_tests", leafTests},
           {"leaf_rays", leafRays},
+          {"leaf_test", leafTestName(leafTest)},
           {"submits", submits},
           {"early_accepted_nodes", earlyAccepted},
           {"early_dropped_pairs", droppedPairs},
@@ -205,7 +206,9 @@ Traversal::Traversal(vk::Context& ctx, uint64_t memoryBytes)
 Traversal::Traversal(vk::Context& ctx, const ArenaPlan& plan) : ctx_(ctx), plan_(plan) {
   CS_CHECK(plan_.pairCapacity >= kMinPairs && plan_.chunkCapacity >= 1, "traversal arena plan too small");
   batchTriangles_ = plan_.chunkCapacity;
-  leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 6, sizeof(TraversePush), {}, 0x27u);
+  leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 6, sizeof(TraversePush), {{0, 0u}}, 0x27u);
+  leavesFromLight_ = vk::createKernel(ctx, "traverse leaves (from the light)", spv_traverse_leaves_comp, 6,
+                                      sizeof(TraversePush), {{0, 1u}}, 0x27u);
   advance_ = vk::createKernel(ctx, "traverse advance", spv_traverse_advance_comp, 2, sizeof(AdvancePush));
   arena_ = vk::createBuffer(ctx, pairBufferBytes(plan_.pairCapacity));
   chunk_ = vk::createBuffer(ctx, pairBufferBytes(plan_.chunkCapacity));
@@ -356,7 +359,7 @@ void Traversal::leaves(Frame& f, uint32_t d) {
   cmd.barrier();
   cmd.mark("start");
   vk::Grid g = vk::gridFor(pairs, TRAVERSE_THREADS, ctx_.maxWorkgroups());
-  cmd.dispatch(leaves_, {vk::texels(*f.in->triangles, kTexelFormat), vk::texels(arena_, kPairFormat), vk::texels(f.in->tree->rays(), kRayFormat), *f.in->visibility, stats_,
+  cmd.dispatch(leafKernel(f.in->leafTest), {vk::texels(*f.in->triangles, kTexelFormat), vk::texels(arena_, kPairFormat), vk::texels(f.in->tree->rays(), kRayFormat), *f.in->visibility, stats_,
                          vk::texels(stats_, kWordFormat)}, p,
                g.x, g.y);
   cmd.barrier();
@@ -405,9 +408,11 @@ TraversalStats Traversal::run(const TraversalInput& in, vk::Timer* timer) {
   f.shape = &in.tree->shape();
   f.treeDepth = f.shape->depth;
   leafRays_ = resolveLeafRays(in.leafRays);
+  leafTest_ = in.leafTest;
   f.depth = leafStepOf(f.treeDepth, leafLevels(leafRays_));
   f.leafShift = 2u * (f.treeDepth - f.depth + 1u);
   f.stats.leafRays = 1u << f.leafShift;
+  f.stats.leafTest = in.leafTest;
   CS_CHECK(plan_.pairCapacity >= minimumPairs(f.depth),
            "traversal memory too small for this view: a tree of depth " << f.treeDepth << " needs at least "
                << minimumPairs(f.depth) << " pairs (" << minimumPairs(f.depth) * kPairBytes
@@ -491,6 +496,7 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
                             : in.lastExpansionLanes;
   const bool wholeExpansion = lastExpansionLanes_ == ExpansionLanes::PerCluster;
   leafRays_ = resolveLeafRays(in.leafRays);
+  leafTest_ = in.leafTest;
   const vk::Buffer& shape = in.tree->shapeBuffer();
   const vk::Buffer* buffers[2] = {&arena_, &chunk_};  // step c writes buffers[c % 2]
 
@@ -570,7 +576,7 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
       p.first = 0;
       p.countWord = STATE_LEAF_ARGS + 4 * c + 3;
       p.missingWord = STATE_LEAF_MISSING;
-      cmd.dispatchIndirect(leaves_, {vk::texels(*in.triangles, kTexelFormat), vk::texels(*buffers[(c - 1) % 2], kPairFormat), vk::texels(in.tree->rays(), kRayFormat), *in.visibility, state_,
+      cmd.dispatchIndirect(leafKernel(in.leafTest), {vk::texels(*in.triangles, kTexelFormat), vk::texels(*buffers[(c - 1) % 2], kPairFormat), vk::texels(in.tree->rays(), kRayFormat), *in.visibility, state_,
                                      vk::texels(state_, kWordFormat)},
                            &p, sizeof(p), state_, (STATE_LEAF_ARGS + 4 * c) * 4);
     }
@@ -612,6 +618,16 @@ LeafRays Traversal::resolveLeafRays(LeafRays wanted) const {
   return ctx_.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? LeafRays::Sixteen : LeafRays::Four;
 }
 
+const char* leafTestName(LeafTest test) { return test == LeafTest::FromLight ? "from_light" : "two_ends"; }
+
+LeafTest leafTestFor(bool farFrame, glm::vec3 lo, glm::vec3 hi, glm::vec3 light) {
+  if (farFrame || !(lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z)) return LeafTest::TwoEnds;
+  const float halfDiagonal = 0.5f * glm::length(hi - lo);
+  const glm::vec3 m = glm::max(glm::max(glm::abs(lo), glm::abs(hi)), glm::abs(light));
+  const bool inRange = halfDiagonal >= std::ldexp(1.0f, -12) && std::max(m.x, std::max(m.y, m.z)) <= std::ldexp(1.0f, 40);
+  return inRange ? LeafTest::FromLight : LeafTest::TwoEnds;
+}
+
 const char* expansionLanesName(ExpansionLanes lanes) {
   switch (lanes) {
     case ExpansionLanes::Auto: return "auto";
@@ -648,6 +664,7 @@ TraversalStats Traversal::statsFromState(const uint32_t* words, uint32_t depth, 
   s.leafPairs = u64(STATE_LEAF_PAIRS);
   s.leafRays = 1u << (2u * (depth - leafStep + 1u));
   s.leafTests = s.leafPairs * s.leafRays - w[STATE_LEAF_MISSING];
+  s.leafTest = leafTest_;
   s.earlyAccepted = u64(STATE_ACCEPTED);
   s.droppedPairs = u64(STATE_DROPPED);
   s.peakPairs = w[STATE_PEAK_PAIRS];

@@ -198,6 +198,23 @@ glm::vec4 clusterSphere(glm::dvec3 rel, double radius, double operands);
 // pieces under one sphere).
 uint64_t hilbertIndex3(uint32_t x, uint32_t y, uint32_t z, int bits);
 
+// Which leaf test the leaves run (precise_test.h): TwoEnds, leafHit -- each ray measured from the end of
+// it the triangle is nearer, right at any light distance -- or FromLight, leafHitFromLight: the
+// triangle's share of the test (its edge normals through the light, its plane) computed once for the
+// pair's rays, which share the light as their origin, and three dot products a ray. FromLight is for a
+// light among the geometry: its edge functions round to an ulp of the triangle's distance from the light,
+// which a light 10^3 diagonals away makes wider than the band. leafTestFor() says when it may run.
+// Both are exact outside the ambiguity band and watertight, but they round differently at the edges and
+// the ends of the interval, so the masks may differ within the band; every variant and every arena size
+// of one frame runs the same test and gives the same mask.
+enum class LeafTest { TwoEnds, FromLight };
+const char* leafTestName(LeafTest test);
+// FromLight where it is exact: the world frame (a light within kFarFrameRatio half-diagonals of the
+// centre of the triangles' bounds [lo, hi], so rays are at most ~4.5 diagonals long) and coordinates
+// whose cubes neither overflow nor go subnormal in the test's products (half-diagonal >= 2^-12, every
+// coordinate of the bounds and the light <= 2^40). TwoEnds otherwise.
+LeafTest leafTestFor(bool farFrame, glm::vec3 lo, glm::vec3 hi, glm::vec3 light);
+
 // ---- per-frame statistics -----------------------------------------------------------------------------
 struct PassStats {
   uint64_t inputs = 0;    // pairs (or triangles, pass 0) fed to the pass
@@ -213,6 +230,7 @@ struct TraversalStats {
   uint64_t leafPairs = 0;         // pairs sent to the leaves (of depth D-1, or D-2 with sixteen rays a pair)
   uint64_t leafTests = 0;         // (pair, ray) combinations at the leaves: 4 (16) per pair but under a last node
   uint32_t leafRays = 4;          // rays a leaf pair covers (LeafRays; 4 in a tree of depth 1 whatever was asked)
+  LeafTest leafTest = LeafTest::TwoEnds;  // the leaves' test
   uint64_t submits = 0;
   uint64_t earlyAccepted = 0;     // early accept: distinct nodes found covered (and shadowed at once)
   uint64_t droppedPairs = 0;      // early accept: pairs dropped because their node had been accepted
@@ -278,6 +296,7 @@ struct TraversalInput {
   bool sphereLastExpansion = true;
   ExpansionLanes lastExpansionLanes = ExpansionLanes::Auto;  // that expansion's lanes (see ExpansionLanes)
   LeafRays leafRays = LeafRays::Auto;     // rays a leaf pair covers (see LeafRays)
+  LeafTest leafTest = LeafTest::TwoEnds;  // the leaves' test (see LeafTest; leafTestFor says when FromLight is exact)
   // With clusters: batches start as super clusters, which split into their clusters further down
   // ("Clusters"). The same mask.
   bool superClusters = true;
@@ -350,7 +369,8 @@ class Traversal {
   const vk::Kernel& testKernel(const TraversePush& p, bool clusters, bool whole = false);
   std::unique_ptr<vk::Kernel> tests_[22];  // the test kernels per switches, the cluster kernel, the whole-cluster ones;
                                            // each with the scale a constant 1 and from the push constants
-  vk::Kernel leaves_, advance_;
+  vk::Kernel leaves_, leavesFromLight_, advance_;
+  const vk::Kernel& leafKernel(LeafTest test) const { return test == LeafTest::FromLight ? leavesFromLight_ : leaves_; }
   vk::Buffer arena_, chunk_, stats_, flags_, state_;
   uint32_t batchTriangles_ = 1;  // triangles per batch of the device path (learnBatch)
   bool clustersFit_ = true;      // false once a one-cluster batch overflowed: triangles only from then on
@@ -359,6 +379,7 @@ class Traversal {
   bool usedSupers_ = false;      // the last record() started its batches as super clusters
   ExpansionLanes lastExpansionLanes_ = ExpansionLanes::PerTriangle;
   LeafRays leafRays_ = LeafRays::Four;
+  LeafTest leafTest_ = LeafTest::TwoEnds;  // the last frame's (statsFromState)
   LeafRays resolveLeafRays(LeafRays wanted) const;
 };
 

@@ -18,6 +18,10 @@
 #include "traversal/precise_test.h"
 #include "traversal/traverse.glsl"
 
+// 1: leafHitFromLight, the triangle's share computed once for the pair's rays (traversal.h, LeafTest);
+// 0: leafHit, a ray at a time from the triangle's nearer end.
+layout(constant_id = 0) const uint SPEC_FROM_LIGHT = 0u;
+
 layout(local_size_x = TRAVERSE_THREADS) in;
 layout(binding = 0) uniform samplerBuffer tris;  // RGBA32F texels, three a triangle (traverse_test.comp)
 layout(binding = 1) uniform usamplerBuffer arena;  // RGBA32UI texels, two (triangle, node) pairs a texel
@@ -51,10 +55,19 @@ void main() {
   // kernel eight such loops a pair; a loop over the hits runs as often as the lane with the most hits
   // needs, and once when none has any.
   uint hits = 0u;
-  for (uint leaf = first; leaf < end; leaf++) {
-    vec3 samplePos = uintBitsToFloat(texelFetch(rays, int(leaf)).xyz);
-    vec4 ray = leafRay(samplePos, light);
-    if (leafRayUsable(ray, p.minLength) && leafHit(samplePos, light, ray, p.eps, P0, P1, P2)) hits |= 1u << (leaf - first);
+  if (SPEC_FROM_LIGHT != 0u) {
+    LeafTriangle t = leafTriangle(P0, P1, P2, light);
+    for (uint leaf = first; leaf < end; leaf++) {
+      vec3 samplePos = uintBitsToFloat(texelFetch(rays, int(leaf)).xyz);
+      vec4 ray = leafRay(samplePos, light);
+      if (leafRayUsable(ray, p.minLength) && leafHitFromLight(t, samplePos, ray, p.eps)) hits |= 1u << (leaf - first);
+    }
+  } else {
+    for (uint leaf = first; leaf < end; leaf++) {
+      vec3 samplePos = uintBitsToFloat(texelFetch(rays, int(leaf)).xyz);
+      vec4 ray = leafRay(samplePos, light);
+      if (leafRayUsable(ray, p.minLength) && leafHit(samplePos, light, ray, p.eps, P0, P1, P2)) hits |= 1u << (leaf - first);
+    }
   }
   for (uint todo = hits; todo != 0u; todo &= todo - 1u) {
     uint sampleIndex = texelFetch(rays, int(first + uint(findLSB(todo)))).w;

@@ -73,11 +73,12 @@ int pairsToRun(int byDefault) {
   return env ? std::atoi(env) : byDefault;
 }
 
-// The brute-force search with the emulated leaf test (what the GPU's leaf kernel would report).
+// The brute-force search with the emulated leaf tests (what the GPU's leaf kernels would report).
 BruteForce emulatedSearch() {
   BruteForce brute;
-  brute.leaf = [](vec3 w, vec4 ray, float eps, const vec3* v) {
-    return gpuemu::leafHit(w, vec3(0), ray, eps, v[0], v[1], v[2]);
+  brute.leaf = [](vec3 w, vec4 ray, float eps, const vec3* v) {  // either leaf test (traversal.h LeafTest)
+    return gpuemu::leafHit(w, vec3(0), ray, eps, v[0], v[1], v[2]) ||
+           gpuemu::leafHitFromLight(w, vec3(0), ray, eps, v[0], v[1], v[2]);
   };
   return brute;
 }
@@ -180,6 +181,9 @@ TEST_P(GpuArithmetic, EarlyAcceptNeverAcceptsAConeWithARayTheLeafTestMisses) {
       ASSERT_TRUE(gpuemu::leafHit(probe.w, vec3(0), probe.ray, float(eps), v[0], v[1], v[2]))
           << GetParam().name << ": pair " << i << " (kind " << kind << ") accepted but the ray at theta " << th
           << " of alpha " << alpha << ", length " << L << " misses";
+      ASSERT_TRUE(gpuemu::leafHitFromLight(probe.w, vec3(0), probe.ray, float(eps), v[0], v[1], v[2]))
+          << GetParam().name << ": pair " << i << " (kind " << kind << ") accepted but the ray at theta " << th
+          << " of alpha " << alpha << ", length " << L << " misses the test from the light";
     }
   }
   std::printf("  %s: %d of %d cones accepted, every ray hit\n", GetParam().name, accepted, n);

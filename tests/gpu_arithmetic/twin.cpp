@@ -111,6 +111,9 @@ bool sphereConeTriangle(const Cone& c, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2,
 bool leafHit(glm::vec3 p, glm::vec3 light, glm::vec4 ray, float eps, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2) {
   return twin::leafHit(p, light, ray, eps, v0, v1, v2);
 }
+bool leafHitFromLight(glm::vec3 p, glm::vec3 light, glm::vec4 ray, float eps, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2) {
+  return twin::leafHitFromLight(p, light, ray, eps, v0, v1, v2);
+}
 glm::vec4 leafRay(glm::vec3 p, glm::vec3 light) { return twin::leafRay(p, light); }
 Cone rayCone(glm::vec4 ray) { return cone(twin::rayCone(ray)); }
 Cone coneParent(const Cone* c, uint32_t n, float pad) {

@@ -50,6 +50,7 @@ bool preciseConeTriangle(const Cone& cone, glm::vec3 v0, glm::vec3 v1, glm::vec3
 bool preciseConeCovered(const Cone& cone, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2, float eps);
 bool sphereConeTriangle(const Cone& cone, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2, float eps, float scale = 1.0f);
 bool leafHit(glm::vec3 p, glm::vec3 light, glm::vec4 ray, float eps, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2);
+bool leafHitFromLight(glm::vec3 p, glm::vec3 light, glm::vec4 ray, float eps, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2);
 glm::vec4 leafRay(glm::vec3 p, glm::vec3 light);
 Cone rayCone(glm::vec4 ray);
 Cone coneParent(const Cone* children, uint32_t n, float pad = 1.52587890625e-05f);
