@@ -370,6 +370,7 @@ struct LeafTriangle {
   float dl;         // N.(light - P0): the light's side of the plane
   float errL;       // the bound on dl's rounding
   float errN;       // the bound on each of N's components' rounding
+  float errS;       // over |sample - P0|_1: the bound on ds's rounding
   float errEdge;    // over the ray's length L: twice the bound on the edge functions' summed rounding
 };
 
@@ -417,6 +418,8 @@ CS_FN LeafTriangle leafTriangle(vec3 P0, vec3 P1, vec3 P2, vec3 light) {
   t.dl = dl;
   vec3 a = abs(dL);
   t.errL = CONE_ULP8 * dot(abs(N), a) + t.errN * (a.x + a.y + a.z);
+  // ds = N.d rounds by <= 8 ulp of sum |N_k d_k| plus N's own error over |d|_1: <= errS |d|_1.
+  t.errS = CONE_ULP8 * maxAbs3(N, N, N) + t.errN;
   return t;
 }
 
@@ -431,7 +434,7 @@ CS_FN bool leafHitFromLight(LeafTriangle t, vec3 p, vec4 ray, float eps) {
   CS_PRECISE vec3 d = p - t.P0;
   CS_PRECISE float ds = dot(t.N, d);
   vec3 a = abs(d);
-  float errS = CONE_ULP8 * dot(abs(t.N), a) + t.errN * (a.x + a.y + a.z);
+  float errS = t.errS * (a.x + a.y + a.z);
   float adl = abs(t.dl);
   float ads = abs(ds);
   float sum = adl + ads;  // |dl - ds| = |N.w| where the signs differ
