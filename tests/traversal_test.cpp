@@ -39,11 +39,12 @@ using test::kKinds;
 using test::Pair;
 using test::PairGenerator;
 
-// The depths a frame's traversal tested: the tree's, less one where the leaves took sixteen rays a pair
-// (traversal.h, LeafRays) -- the depth the cluster and expansion rules count "above the leaves" from.
+// The depths a frame's traversal tested: the tree's, less one or two where the leaves took sixteen or 64
+// rays a pair (traversal.h, LeafRays) -- the depth the cluster and expansion rules count "above the
+// leaves" from.
 uint32_t testedDepths(const MethodOutput& out) {
-  const uint32_t tree = out.stats["tree_depth"].get<uint32_t>();
-  return traversal::leafStepOf(tree, out.stats["leaf_rays"].get<uint32_t>() == 16 ? 2u : 1u);
+  const uint32_t tree = out.stats["tree_depth"].get<uint32_t>(), rays = out.stats["leaf_rays"].get<uint32_t>();
+  return traversal::leafStepOf(tree, rays == 64 ? 3u : rays == 16 ? 2u : 1u);
 }
 
 TEST(PreciseConeTriangle, NeverRejectsAPairThatABruteForceSearchFindsIntersecting) {
@@ -657,16 +658,17 @@ TEST(ConeMethod, MaskIsBitIdenticalAtAnyTraversalMemoryAndPeakStaysUnderTheBound
   }
 }
 
-// Four or sixteen rays a leaf pair (traversal.h, LeafRays): the same mask on the one-submission path and
-// on the chunked one at the least arena; the sixteen-ray traversal is the four-ray one without its last
-// step -- the same tests down to depth D - 2, whose survivors are the leaf pairs -- on either path.
-TEST(ConeMethod, LeafPairsOfFourOrSixteenRaysGiveTheSameMaskAndSkipTheLastStep) {
+// Four, sixteen or 64 rays a leaf pair (traversal.h, LeafRays): the same mask on the one-submission path
+// and on the chunked one at the least arena; the 16-ray traversal is the four-ray one without its last
+// step, the 64-ray one without its last two -- the same tests down to the leaf step, whose inputs are the
+// leaf pairs -- on either path.
+TEST(ConeMethod, LeafPairsOfFourSixteenOrSixtyFourRaysGiveTheSameMaskAndSkipTheLastSteps) {
   auto& ctx = test::context();
   BusyFrame busy;
   const GBuffer& host = busy.host;
   const FrameInput& frame = busy.frame;
   const uint32_t depth = cone::treeDepth(uint32_t(host.litCount()));
-  ASSERT_GE(depth, 3u);
+  ASSERT_GE(depth, 4u);
 
   auto run = [&](traversal::LeafRays rays, bool least) {
     ConeOptions o;
@@ -678,44 +680,61 @@ TEST(ConeMethod, LeafPairsOfFourOrSixteenRaysGiveTheSameMaskAndSkipTheLastStep) 
     return runCounted(*method, frame);
   };
   const MethodOutput four = run(traversal::LeafRays::Four, false);
-  const MethodOutput sixteen = run(traversal::LeafRays::Sixteen, false);
   ASSERT_EQ(four.stats["traversal_path"], "one submission");
-  ASSERT_EQ(sixteen.stats["traversal_path"], "one submission");
   EXPECT_GT(std::count(four.visibility.begin(), four.visibility.end(), 0.0f), 100);
-  EXPECT_EQ(sixteen.visibility, four.visibility);
   EXPECT_EQ(four.stats["leaf_rays"], 4u);
-  EXPECT_EQ(sixteen.stats["leaf_rays"], 16u);
-
-  const nlohmann::json &a = four.stats["traversal"], &b = sixteen.stats["traversal"];
+  const nlohmann::json& a = four.stats["traversal"];
   ASSERT_EQ(a["passes"].size(), depth);
-  ASSERT_EQ(b["passes"].size(), depth - 1);
-  for (uint32_t d = 0; d + 1 < depth; ++d) EXPECT_EQ(b["passes"][d], a["passes"][d]) << "depth " << d;
-  EXPECT_EQ(b["leaf_pairs"], a["passes"][depth - 1]["inputs"]) << "the last step's inputs go to the leaves";
-  EXPECT_EQ(b["pairs_tested"].get<uint64_t>() + a["passes"][depth - 1]["pairs_tested"].get<uint64_t>(),
-            a["pairs_tested"].get<uint64_t>());
-  // Every ray under a leaf pair's node tested, but past the last ray.
   const uint64_t lit = host.litCount();
-  EXPECT_LE(b["leaf_tests"].get<uint64_t>(), 16 * b["leaf_pairs"].get<uint64_t>());
-  EXPECT_GT(b["leaf_tests"].get<uint64_t>() + 16, 16 * b["leaf_pairs"].get<uint64_t>() - 16 * (lit % 16 != 0));
-  EXPECT_GT(b["leaf_tests"].get<uint64_t>(), a["leaf_tests"].get<uint64_t>());
-
-  // The chunked path at the least arena: the same mask and counts.
-  for (const MethodOutput* want : {&four, &sixteen}) {
-    const bool is16 = want == &sixteen;
-    const MethodOutput got = run(is16 ? traversal::LeafRays::Sixteen : traversal::LeafRays::Four, true);
-    const std::string what = is16 ? "sixteen" : "four";
+  for (const auto& [rays, levels] : {std::pair{traversal::LeafRays::Sixteen, 2u}, std::pair{traversal::LeafRays::SixtyFour, 3u}}) {
+    const uint64_t span = uint64_t(1) << (2 * levels);
+    const std::string what = std::to_string(span) + " rays";
+    const MethodOutput many = run(rays, false);
+    ASSERT_EQ(many.stats["traversal_path"], "one submission") << what;
+    EXPECT_EQ(many.visibility, four.visibility) << what;
+    EXPECT_EQ(many.stats["leaf_rays"], span) << what;
+    const nlohmann::json& b = many.stats["traversal"];
+    const uint32_t tested = depth - (levels - 1);
+    ASSERT_EQ(b["passes"].size(), tested) << what;
+    for (uint32_t d = 0; d < tested; ++d) EXPECT_EQ(b["passes"][d], a["passes"][d]) << what << ", depth " << d;
+    EXPECT_EQ(b["leaf_pairs"], a["passes"][tested]["inputs"]) << what << ": the first skipped step's inputs go to the leaves";
+    uint64_t skipped = 0;
+    for (uint32_t d = tested; d < depth; ++d) skipped += a["passes"][d]["pairs_tested"].get<uint64_t>();
+    EXPECT_EQ(b["pairs_tested"].get<uint64_t>() + skipped, a["pairs_tested"].get<uint64_t>()) << what;
+    // Every ray under a leaf pair's node tested, but past the last ray: the pairs of the last node each
+    // lack the same span - lit % span rays.
+    const uint64_t full = span * b["leaf_pairs"].get<uint64_t>(), tests = b["leaf_tests"].get<uint64_t>();
+    ASSERT_LE(tests, full) << what;
+    if (lit % span == 0) EXPECT_EQ(tests, full) << what;
+    else EXPECT_EQ((full - tests) % (span - lit % span), 0u) << what;
+    EXPECT_GT(b["leaf_tests"].get<uint64_t>(), a["leaf_tests"].get<uint64_t>()) << what;
+    // The chunked path at the least arena: the same mask and counts.
+    const MethodOutput got = run(rays, true);
     ASSERT_EQ(got.stats["traversal_path"].get<std::string>().rfind("chunked", 0), 0u) << what;
     EXPECT_EQ(got.visibility, four.visibility) << what;
-    EXPECT_EQ(got.stats["leaf_rays"], want->stats["leaf_rays"]) << what;
-    EXPECT_EQ(got.stats["pairs_tested"], want->stats["pairs_tested"]) << what;
-    EXPECT_EQ(got.stats["leaf_tests"], want->stats["leaf_tests"]) << what;
-    EXPECT_EQ(got.stats["traversal"]["leaf_pairs"], want->stats["traversal"]["leaf_pairs"]) << what;
+    EXPECT_EQ(got.stats["leaf_rays"], many.stats["leaf_rays"]) << what;
+    EXPECT_EQ(got.stats["pairs_tested"], many.stats["pairs_tested"]) << what;
+    EXPECT_EQ(got.stats["leaf_tests"], many.stats["leaf_tests"]) << what;
+    EXPECT_EQ(got.stats["traversal"]["leaf_pairs"], many.stats["traversal"]["leaf_pairs"]) << what;
   }
 
-  // Auto: sixteen on a CPU device, four on a GPU.
+  // Auto: 64 on a CPU device, four on a GPU.
   const MethodOutput automatic = run(traversal::LeafRays::Auto, false);
-  EXPECT_EQ(automatic.stats["leaf_rays"], ctx.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? 16u : 4u);
+  EXPECT_EQ(automatic.stats["leaf_rays"], ctx.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? 64u : 4u);
   EXPECT_EQ(automatic.visibility, four.visibility);
+}
+
+// A tree shallower than the leaf levels asked gives what it has: 64 rays a pair over a tree of depth 2
+// takes sixteen, of depth 1 four (leafStepOf).
+TEST(LeafStep, ATreeGivesTheLevelsItHas) {
+  EXPECT_EQ(traversal::leafStepOf(1, 1), 1u);
+  EXPECT_EQ(traversal::leafStepOf(1, 3), 1u);
+  EXPECT_EQ(traversal::leafStepOf(2, 3), 1u);
+  EXPECT_EQ(traversal::leafStepOf(2, 2), 1u);
+  EXPECT_EQ(traversal::leafStepOf(3, 3), 1u);
+  EXPECT_EQ(traversal::leafStepOf(7, 3), 5u);
+  EXPECT_EQ(traversal::leafStepOf(7, 2), 6u);
+  EXPECT_EQ(traversal::leafStepOf(7, 1), 7u);
 }
 
 // The cone frame as one GPU program: after a warm-up frame, every variant but the two-pass ones costs the
@@ -934,7 +953,11 @@ TEST(ConeMethod, SpheresWrittenOnSeveralThreadsKeepTheMask) {
   auto& ctx = test::context();
   Scene scene = heightFieldScene(1200000);
   Raster raster(ctx, scene);
-  auto method = makeConeMethod(ctx, ConeOptions{});  // one method: the second light rewrites its spheres
+  // Sixteen rays a leaf pair: at 64 x 64 a tree deep enough above the leaves for clusters (with 64 the
+  // traversal stops above the depth clusters start at).
+  ConeOptions sixteen;
+  sixteen.leafRays = traversal::LeafRays::Sixteen;
+  auto method = makeConeMethod(ctx, sixteen);  // one method: the second light rewrites its spheres
   for (const vec3 light : {vec3(0.9f, 0.4f, 0.3f), vec3(-0.7f, 0.3f, -0.5f)}) {  // low: long shadows
     DeviceGBuffer dev;
     GBuffer host;
@@ -965,6 +988,7 @@ TEST(ConeMethod, ALastDepthExpansionTakesTheSphereTestWithTheSameMask) {
     o.sphereLastExpansion = sphere;
     // A lane per triangle pair, as the precise kernel's: the same tests (the other lanes' own test follows)
     o.lastExpansionLanes = traversal::ExpansionLanes::PerTriangle;
+    o.leafRays = traversal::LeafRays::Sixteen;  // four tested depths at 48 x 48 (64 rays a pair leave three)
     auto m = makeConeMethod(ctx, o);
     runCounted(*m, frame);
     return runCounted(*m, frame);
@@ -1038,6 +1062,7 @@ TEST(ConeMethod, TheLastExpansionPerClusterOrPerTriangleGivesTheSamePairsAndMask
   auto run = [&](traversal::ExpansionLanes lanes) {
     ConeOptions o;
     o.lastExpansionLanes = lanes;
+    o.leafRays = traversal::LeafRays::Sixteen;  // four tested depths (64 rays a pair leave three)
     auto m = makeConeMethod(ctx, o);
     runCounted(*m, frame);
     return runCounted(*m, frame);

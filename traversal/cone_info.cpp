@@ -57,9 +57,10 @@ ConeOptions coneOptions(const Settings& s) {
   }
   if (s.has("variant")) cone.leafRays = traversal::LeafRays::Four;  // paper 002's leaves, unless named below
   if (s.has("leaf-rays")) {
-    const std::string rays = s.choice("leaf-rays", {"auto", "4", "16"}, "auto");
+    const std::string rays = s.choice("leaf-rays", {"auto", "4", "16", "64"}, "auto");
     cone.leafRays = rays == "4"    ? traversal::LeafRays::Four
                     : rays == "16" ? traversal::LeafRays::Sixteen
+                    : rays == "64" ? traversal::LeafRays::SixtyFour
                                    : traversal::LeafRays::Auto;
   }
   if (s.has("leaf-test")) cone.leafTestFromLight = s.choice("leaf-test", {"auto", "two-ends"}, "auto") == "auto";
@@ -117,11 +118,11 @@ MethodInfo coneMethodInfo() {
        "lane tests its cluster first, so fewer pairs)",
        {"auto", "cluster", "triangle"}},
       {"leaf-rays", "N",
-       "rays a leaf pair covers: 4 (paper 002's leaves: the pairs of the deepest interior depth) or 16 (the "
-       "traversal stops a depth earlier, its most numerous step, and the leaves test sixteen rays a pair); "
-       "auto (default) takes 16 on a CPU device (lavapipe), 4 on a GPU; a --variant named without it takes 4, as "
-       "the paper does (the same mask)",
-       {"auto", "4", "16"}},
+       "rays a leaf pair covers: 4 (paper 002's leaves: the pairs of the deepest interior depth), 16 or 64 (the "
+       "traversal stops one or two depths earlier, its most numerous steps, and the leaves test the 16 or 64 "
+       "rays under a pair's node); auto (default) takes 64 on a CPU device (lavapipe), 4 on a GPU; a --variant "
+       "named without it takes 4, as the paper does (the same mask)",
+       {"auto", "4", "16", "64"}},
       {"leaf-test", "T",
        "the leaves' ray/triangle test: auto (default) tests from the light where that is exact (a light within 8 "
        "half-diagonals of the scene), the triangle's edge planes through the light made once for a leaf pair's "

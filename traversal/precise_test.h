@@ -337,7 +337,7 @@ CS_FN bool leafHit(vec3 p, vec3 light, vec4 ray, float eps, vec3 P0, vec3 P1, ve
 }
 
 // The leaf test from the light (traversal.h, LeafTest::FromLight): the same question as leafHit, asked
-// so that all it needs of the triangle is computed once for the sixteen (or four) rays of a leaf pair,
+// so that all it needs of the triangle is computed once for the 4, 16 or 64 rays of a leaf pair,
 // which share their origin, the light. Used where the light is among the geometry (the world frame: a
 // light within 8 half-diagonals of the scene, coordinates in [2^-12, 2^40] -- traversal.h leafTestFor);
 // a far light takes leafHit, whose nearer end keeps the hit distance's rounding an ulp of the

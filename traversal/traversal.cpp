@@ -22,8 +22,8 @@ constexpr VkFormat kPairFormat = VK_FORMAT_R32G32B32A32_UINT;  // (triangle, nod
 constexpr VkFormat kRayFormat = VK_FORMAT_R32G32B32A32_UINT;   // ConeTree::rays(), one texel a ray (traverse_leaves.comp)
 constexpr uint64_t kPairBytes = 8;          // uvec2
 constexpr uint64_t kStatsBytes = STAT_WORDS * 4;
-// Levels of the tree the leaves take (leafStepOf): 1 for four rays a leaf pair, 2 for sixteen.
-uint32_t leafLevels(LeafRays rays) { return rays == LeafRays::Sixteen ? 2u : 1u; }
+// Levels of the tree the leaves take (leafStepOf): 1 for four rays a leaf pair, 2 for sixteen, 3 for 64.
+uint32_t leafLevels(LeafRays rays) { return rays == LeafRays::SixtyFour ? 3u : rays == LeafRays::Sixteen ? 2u : 1u; }
 }  // namespace
 
 // A buffer of `pairs` uvec2 pairs, rounded up to whole 16-byte texels: the kernels read pairs as RGBA32UI
@@ -615,7 +615,7 @@ void Traversal::learnBatch(const uint32_t* w, const TraversalStats& frame, uint6
 
 LeafRays Traversal::resolveLeafRays(LeafRays wanted) const {
   if (wanted != LeafRays::Auto) return wanted;
-  return ctx_.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? LeafRays::Sixteen : LeafRays::Four;
+  return ctx_.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? LeafRays::SixtyFour : LeafRays::Four;
 }
 
 const char* leafTestName(LeafTest test) { return test == LeafTest::FromLight ? "from_light" : "two_ends"; }

@@ -12,9 +12,9 @@
 // the step's survivor count, and each invocation writes its pairs at its prefix within the reservation
 // (no per-input masks, no scan, no second pass over the inputs; the order of the pairs across subgroups
 // is the order the reservations were taken, and nothing depends on it). The pairs of
-// depth D-1 (parents of leaves) go to traverse_leaves.comp -- or those of D-2, with sixteen rays a leaf
-// pair (LeafRays below) -- one invocation per pair, reading the triangle once for the (up to) four or
-// sixteen rays under the node; it rebuilds each ray from the light and the sample's
+// depth D-1 (parents of leaves) go to traverse_leaves.comp -- or those of D-2 or D-3, with 16 or 64 rays a
+// leaf pair (LeafRays below) -- one invocation per pair, reading the triangle once for the (up to) four,
+// 16 or 64 rays under the node; it rebuilds each ray from the light and the sample's
 // position (conetree/cone_math.h) and runs the watertight ray/triangle test with hits counted at distances in (eps, L - eps) from the light
 // (the reference's interval, measured from the other end). A hit ANDs the sample's visibility word with
 // 0: idempotent, so the mask does not depend on order, races or how the work was split.
@@ -256,18 +256,18 @@ enum class ExpansionLanes { Auto, PerCluster, PerTriangle };
 const char* expansionLanesName(ExpansionLanes lanes);
 
 // How many rays a leaf pair covers: Four, paper 002's leaves -- the pairs of the deepest interior depth,
-// D - 1, each tested against its node's four rays -- or Sixteen: the traversal stops a depth earlier and
-// the pairs of depth D - 2 go to the leaves, each against the sixteen rays under its node (a tree of depth
-// 1 keeps four). The same mask either way: a pair the last test would have rejected holds no ray the leaf
-// test hits (precise_test.h: the test's margins cover the leaf test's rounding), so its extra leaf tests
-// find nothing. What it trades: the last depth's tests, the most numerous of the traversal, with their
-// appends, against more leaf tests (measured on lavapipe at 1024², two interleaved runs: the traversal
-// halves on the room, the fur and 2CylinderEngine, and loses a third on the museum, while the leaves stay
-// about level; a third level, 64 rays a pair, moved the time from the traversal into the leaves and saved
-// nothing more; docs/ARCHITECTURE.md).
-// Auto: Sixteen on a CPU device (lavapipe), whose lanes pay for every step's bookkeeping; Four on a GPU,
-// where it has not been measured against Sixteen yet.
-enum class LeafRays { Auto, Four, Sixteen };
+// D - 1, each tested against its node's four rays -- or Sixteen or SixtyFour: the traversal stops one or
+// two depths earlier and the pairs of depth D - 2 (D - 3) go to the leaves, each against the 16 (64) rays
+// under its node (a tree gives the levels it has: depth 2 sixteen, depth 1 four). The same mask either
+// way: a pair a skipped test would have rejected holds no ray the leaf test hits (precise_test.h: the
+// test's margins cover the leaf test's rounding), so its extra leaf tests find nothing. What it trades:
+// the last depths' tests, the most numerous of the traversal, with their appends, against more leaf tests
+// (measured on lavapipe at 1024², docs/ARCHITECTURE.md: sixteen halved the traversal on the room, the fur
+// and 2CylinderEngine with the leaves about level; with the leaf test from the light, LeafTest, 64 takes
+// a further third off the traversal for fewer added to the leaves).
+// Auto: SixtyFour on a CPU device (lavapipe), whose lanes pay for every step's bookkeeping; Four on a GPU,
+// where neither has been measured against it yet.
+enum class LeafRays { Auto, Four, Sixteen, SixtyFour };
 
 // What one traversal reads. Buffers stay owned by the caller.
 struct TraversalInput {
@@ -337,8 +337,8 @@ class Traversal {
   // What the last record() gave the sphere-test kernel's last-depth expansion: PerCluster or PerTriangle
   // (ExpansionLanes::Auto resolved for this device).
   ExpansionLanes lastExpansionLanes() const { return lastExpansionLanes_; }
-  // The last frame's rays a leaf pair (Four or Sixteen: Auto resolved for the device; a tree of depth 1
-  // takes four whatever this says).
+  // The last frame's rays a leaf pair (Four, Sixteen or SixtyFour: Auto resolved for the device; a tree
+  // shallower than the levels asked gives what it has, a tree of depth 1 four).
   LeafRays leafRays() const { return leafRays_; }
   const vk::Buffer& stateBuffer() const { return state_; }
   // The counters of the device path from the state words read back (STATE_WORDS of them), for a tree

@@ -152,10 +152,12 @@ struct TraversePush {
 
 // The step whose pairs go to the leaves instead of a test (traversal.h, LeafRays): with one level of
 // leaves (four rays a leaf pair) the tree's depth D, the pairs of depth D - 1; with two (sixteen rays a
-// pair) D - 1, the pairs of depth D - 2, where the tree has two levels to give (D >= 2). A leaf pair's rays
-// are then [node << 2 (D - step + 1), (node + 1) << 2 (D - step + 1)).
+// pair) D - 1, the pairs of depth D - 2; with three (sixty-four) D - 2, the pairs of depth D - 3 -- as many
+// levels as the tree has to give (a tree of depth 2 gives two, of depth 1 one). A leaf pair's rays are
+// then [node << 2 (D - step + 1), (node + 1) << 2 (D - step + 1)).
 CS_FN uint leafStepOf(uint treeDepth, uint leafLevels) {
-  return leafLevels > 1u && treeDepth >= leafLevels ? treeDepth - (leafLevels - 1u) : treeDepth;
+  uint levels = leafLevels < treeDepth ? leafLevels : treeDepth;
+  return levels > 1u ? treeDepth - (levels - 1u) : treeDepth;
 }
 
 // traverse_advance.comp: between two steps of the device path (one invocation).
@@ -170,8 +172,8 @@ struct AdvancePush {
   uint frameTriangles;  // the triangles of the whole record() the batch is one of (the expansion rule's scale)
   uint sphereExpansion;  // 1: an expansion step's triangle pairs go to the sphere-test kernel (STATE_SPHERE_ARGS)
   uint wholeExpansion;   // with sphereExpansion: 1 = that step is STEP_EXPAND_WHOLE (a lane per cluster pair)
-  uint leafLevels;       // 1: the pairs of depth D - 1 go to the leaves (four rays each); 2: those of depth
-                         // D - 2 (sixteen rays each) where the tree is that deep (traversal.h, LeafRays)
+  uint leafLevels;       // 1: the pairs of depth D - 1 go to the leaves (four rays each); 2 (3): those of
+                         // depth D - 2 (D - 3), 16 (64) rays each, as deep as the tree goes (leafStepOf)
 };
 
 // frame_triangles.comp: the triangles' vertices relative to the light in the far-light frame.

@@ -3,8 +3,8 @@
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 // The device path's bookkeeping between two steps (one invocation; traversal.h, "One submission"). Step c
 // expands the pairs of depth c - 1 into depth c (step 0: the batch's triangles into the root); at c = D,
-// the depth whose pairs the leaves take plus one (the tree's depth, or one less with sixteen rays a leaf
-// pair: traversal.h, LeafRays), the pairs go to the leaves instead. Before step c this kernel
+// the depth whose pairs the leaves take plus one (the tree's depth, or one or two less with 16 or 64 rays a
+// leaf pair: traversal.h, LeafRays), the pairs go to the leaves instead. Before step c this kernel
 //  - adds what step c - 1 did to its depth's totals (inputs, tests, survivors, steps run, early accept),
 //  - flags an overflow when step c - 1's survivors passed the capacity (what the step wrote is never read, and
 //    every later step of the frame is a dispatch of zero workgroups: the host redoes it chunked),

@@ -2,13 +2,13 @@
 #extension GL_GOOGLE_include_directive : require
 // The leaves (002 §3.1 steps 3-4): for each (triangle, node) pair of the deepest interior level, the exact
 // ray/triangle test against each of the node's (up to) four rays; a hit shadows the sample -- or, with
-// sixteen rays a leaf pair (traversal.h, LeafRays), for each pair of the depth above it, against the (up
-// to) sixteen rays under the node. One invocation per pair: the triangle is read once for its rays, and
+// 16 or 64 rays a leaf pair (traversal.h, LeafRays), for each pair of the depth one or two above it,
+// against the (up to) 16 or 64 rays under the node. One invocation per pair: the triangle is read once for its rays, and
 // lavapipe's cost per invocation (more than a ray test's arithmetic) is paid once, not once a ray.
 // Visibility holds the bits of a float (1.0 lit); a hit ANDs it with 0 -- idempotent, so the result does
 // not depend on order, chunking or races.
 // Counts nothing per test (shared or global atomics per invocation cost ~15 % on lavapipe): the host
-// counts 4 (or 16) tests per pair, and the pairs of the last node, past the last ray, count the rays they
+// counts 4 (16, 64) tests per pair, and the pairs of the last node, past the last ray, count the rays they
 // lack in STAT_MISSING.
 // bindings: 0 = triangles (uniform texel buffer, RGBA32F, 3 texels a triangle), 1 = arena (uniform texel buffer, RGBA32UI: two uvec2 pairs a texel),
 //           2 = rays (uniform texel buffer, RGBA32UI, one texel a sorted ray: the sample's position as float
@@ -40,7 +40,7 @@ void main() {
   uvec4 two = texelFetch(arena, int(at >> 1u));
   uvec2 pair = (at & 1u) == 0u ? two.xy : two.zw;
   uint leafCount = p.deviceParams != 0u ? statWord(STATE_LEAF_COUNT) : p.childCount;
-  uint shift = p.deviceParams != 0u ? statWord(STATE_LEAF_SHIFT) : p.leafShift;  // 2 or 4: four or sixteen rays
+  uint shift = p.deviceParams != 0u ? statWord(STATE_LEAF_SHIFT) : p.leafShift;  // 2, 4 or 6: 4, 16 or 64 rays
   uint span = 1u << shift;
   uint first = pair.y << shift;
   uint end = min(first + span, leafCount);
@@ -49,28 +49,40 @@ void main() {
   vec3 P0 = texelFetch(tris, int(3u * pair.x)).xyz;
   vec3 P1 = texelFetch(tris, int(3u * pair.x + 1u)).xyz;
   vec3 P2 = texelFetch(tris, int(3u * pair.x + 2u)).xyz;
-  // The tests first, the hits as bits (bit k: ray first + k; at most 16), then the writes for the hits alone: lavapipe
+  // The tests first, the hits as bits, then the writes for the hits alone: lavapipe
   // makes a storage access lane by lane in a loop that runs for every lane, active or not, and an `if`
   // does not skip it (it runs both sides of every branch), so a load and an atomic per ray cost the
   // kernel eight such loops a pair; a loop over the hits runs as often as the lane with the most hits
   // needs, and once when none has any.
-  uint hits = 0u;
+  // Bit k of hits (k < 32) or of hits2 (k >= 32): ray first + k hit (at most 64 rays a pair; two selects
+  // a ray, not an index into a vector, which lavapipe makes a trip through memory).
+  uint hits = 0u, hits2 = 0u;
   if (SPEC_FROM_LIGHT != 0u) {
     LeafTriangle t = leafTriangle(P0, P1, P2, light);
     for (uint leaf = first; leaf < end; leaf++) {
       vec3 samplePos = uintBitsToFloat(texelFetch(rays, int(leaf)).xyz);
       vec4 ray = leafRay(samplePos, light);
-      if (leafRayUsable(ray, p.minLength) && leafHitFromLight(t, samplePos, ray, p.eps)) hits |= 1u << (leaf - first);
+      uint k = leaf - first;
+      uint bit = leafRayUsable(ray, p.minLength) && leafHitFromLight(t, samplePos, ray, p.eps) ? 1u << (k & 31u) : 0u;
+      hits |= k < 32u ? bit : 0u;
+      hits2 |= k < 32u ? 0u : bit;
     }
   } else {
     for (uint leaf = first; leaf < end; leaf++) {
       vec3 samplePos = uintBitsToFloat(texelFetch(rays, int(leaf)).xyz);
       vec4 ray = leafRay(samplePos, light);
-      if (leafRayUsable(ray, p.minLength) && leafHit(samplePos, light, ray, p.eps, P0, P1, P2)) hits |= 1u << (leaf - first);
+      uint k = leaf - first;
+      uint bit = leafRayUsable(ray, p.minLength) && leafHit(samplePos, light, ray, p.eps, P0, P1, P2) ? 1u << (k & 31u) : 0u;
+      hits |= k < 32u ? bit : 0u;
+      hits2 |= k < 32u ? 0u : bit;
     }
   }
   for (uint todo = hits; todo != 0u; todo &= todo - 1u) {
     uint sampleIndex = texelFetch(rays, int(first + uint(findLSB(todo)))).w;
+    if (visibility[sampleIndex] != 0u) atomicAnd(visibility[sampleIndex], 0u);
+  }
+  for (uint todo = hits2; todo != 0u; todo &= todo - 1u) {
+    uint sampleIndex = texelFetch(rays, int(first + 32u + uint(findLSB(todo)))).w;
     if (visibility[sampleIndex] != 0u) atomicAnd(visibility[sampleIndex], 0u);
   }
 }
