@@ -841,7 +841,9 @@ TEST(RayKeys, OrderedBitsSortAsTheFloatsDo) {
   for (size_t i = 0; i < v.size(); ++i) {
     EXPECT_EQ(rays::fromOrderedBits(rays::orderedBits(v[i])), v[i]);
     EXPECT_NE(rays::orderedBits(v[i]), RAY_BOUNDS_EMPTY);
-    if (i > 0 && v[i - 1] < v[i]) EXPECT_LT(rays::orderedBits(v[i - 1]), rays::orderedBits(v[i])) << v[i - 1] << " < " << v[i];
+    if (i > 0 && v[i - 1] < v[i]) {
+      EXPECT_LT(rays::orderedBits(v[i - 1]), rays::orderedBits(v[i])) << v[i - 1] << " < " << v[i];
+    }
   }
 }
 

@@ -705,8 +705,11 @@ TEST(ConeMethod, LeafPairsOfFourSixteenOrSixtyFourRaysGiveTheSameMaskAndSkipTheL
     // lack the same span - lit % span rays.
     const uint64_t full = span * b["leaf_pairs"].get<uint64_t>(), tests = b["leaf_tests"].get<uint64_t>();
     ASSERT_LE(tests, full) << what;
-    if (lit % span == 0) EXPECT_EQ(tests, full) << what;
-    else EXPECT_EQ((full - tests) % (span - lit % span), 0u) << what;
+    if (lit % span == 0) {
+      EXPECT_EQ(tests, full) << what;
+    } else {
+      EXPECT_EQ((full - tests) % (span - lit % span), 0u) << what;
+    }
     EXPECT_GT(b["leaf_tests"].get<uint64_t>(), a["leaf_tests"].get<uint64_t>()) << what;
     // The chunked path at the least arena: the same mask and counts.
     const MethodOutput got = run(rays, true);
