@@ -494,6 +494,27 @@ TEST(ConeHardCases, FarLightOnTheBuiltinSceneAndAGltfModel) {
                        "2CylinderEngine, far light " + std::to_string(int(k)) + " diagonals");
 }
 
+// The leaf test from the light (traversal.h LeafTest) runs up to the far frame's threshold (8
+// half-diagonals from the centre of the bounds), where its rays are longest: just inside it, exact and
+// within the band of the two ends' test (Harness::run runs both); just outside, the far frame and the
+// two ends' test.
+TEST(ConeHardCases, LightsEitherSideOfTheFarFramesThreshold) {
+  Scene scene = soup(floorAndCasters(), "threshold");
+  const vec3 c = 0.5f * (scene.boundsMin + scene.boundsMax);
+  const float diag = glm::length(scene.boundsMax - scene.boundsMin);
+  const Camera cam = lookAt({5, 6, 8}, {0, 0.5f, 0});
+  for (const vec3 dir : {vec3(0.3f, 1.0f, 0.2f), vec3(-0.7f, 0.35f, 0.6f)}) {
+    for (float k : {3.9f, 4.1f}) {  // diagonals: 7.8 and 8.2 half-diagonals
+      const std::string what = "floor and casters, light " + std::to_string(k) + " diagonals";
+      const CaseResult r = Harness::get().run(scene, cam, farLight(c, diag, k, dir), 96, 96, what);
+      EXPECT_EQ(r.stats["frame"], k < 4.0f ? "world" : "far") << what;
+      EXPECT_EQ(r.stats["leaf_test"], k < 4.0f ? "from_light" : "two_ends") << what;
+      EXPECT_GT(r.shadowed, 0u) << what;
+      EXPECT_LT(r.shadowed, r.error.litSamples) << what;
+    }
+  }
+}
+
 TEST(ConeHardCases, FarLightMaskIsBitIdenticalAtEveryArenaSize) {
   // The far-light frame under bounded memory: the minimal arena (one node's children per depth, chunks of
   // one pair) and a small one give the default's mask bit for bit, for the default and two-pass variants.
