@@ -57,25 +57,17 @@ void main() {
   // Bit k of hits (k < 32) or of hits2 (k >= 32): ray first + k hit (at most 64 rays a pair; two selects
   // a ray, not an index into a vector, which lavapipe makes a trip through memory).
   uint hits = 0u, hits2 = 0u;
-  if (SPEC_FROM_LIGHT != 0u) {
-    LeafTriangle t = leafTriangle(P0, P1, P2, light);
-    for (uint leaf = first; leaf < end; leaf++) {
-      vec3 samplePos = uintBitsToFloat(texelFetch(rays, int(leaf)).xyz);
-      vec4 ray = leafRay(samplePos, light);
-      uint k = leaf - first;
-      uint bit = leafRayUsable(ray, p.minLength) && leafHitFromLight(t, samplePos, ray, p.eps) ? 1u << (k & 31u) : 0u;
-      hits |= k < 32u ? bit : 0u;
-      hits2 |= k < 32u ? 0u : bit;
-    }
-  } else {
-    for (uint leaf = first; leaf < end; leaf++) {
-      vec3 samplePos = uintBitsToFloat(texelFetch(rays, int(leaf)).xyz);
-      vec4 ray = leafRay(samplePos, light);
-      uint k = leaf - first;
-      uint bit = leafRayUsable(ray, p.minLength) && leafHit(samplePos, light, ray, p.eps, P0, P1, P2) ? 1u << (k & 31u) : 0u;
-      hits |= k < 32u ? bit : 0u;
-      hits2 |= k < 32u ? 0u : bit;
-    }
+  LeafTriangle t;
+  if (SPEC_FROM_LIGHT != 0u) t = leafTriangle(P0, P1, P2, light);
+  for (uint leaf = first; leaf < end; leaf++) {
+    vec3 samplePos = uintBitsToFloat(texelFetch(rays, int(leaf)).xyz);
+    vec4 ray = leafRay(samplePos, light);
+    bool hit = SPEC_FROM_LIGHT != 0u ? leafHitFromLight(t, samplePos, ray, p.eps)
+                                     : leafHit(samplePos, light, ray, p.eps, P0, P1, P2);
+    uint k = leaf - first;
+    uint bit = leafRayUsable(ray, p.minLength) && hit ? 1u << (k & 31u) : 0u;
+    hits |= k < 32u ? bit : 0u;
+    hits2 |= k < 32u ? 0u : bit;
   }
   for (uint todo = hits; todo != 0u; todo &= todo - 1u) {
     uint sampleIndex = texelFetch(rays, int(first + uint(findLSB(todo)))).w;
