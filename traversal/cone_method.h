@@ -83,7 +83,7 @@ struct ConeOptions {
   // pair on a CPU device, per triangle pair on a GPU), cluster or triangle. The same mask.
   traversal::ExpansionLanes lastExpansionLanes = traversal::ExpansionLanes::Auto;
   // Rays a leaf pair covers (traversal.h LeafRays; --leaf-rays): auto (64 on a CPU device, four on a
-  // GPU), 4 (paper 002's leaves) or 16. The same mask.
+  // GPU), 4 (paper 002's leaves), 16 or 64. The same mask.
   traversal::LeafRays leafRays = traversal::LeafRays::Auto;
   // The leaves' test (traversal.h LeafTest; --leaf-test): true (auto), the test from the light wherever it
   // is exact (traversal::leafTestFor: a light among the geometry), else the two ends'; false, the two ends'
