@@ -1,23 +1,28 @@
 // The ray key of 002 §3.5 and the screen order of its unsorted variant, as plain functions that glslang
 // and C++ both compile: the kernels use them, and so do the tests as their CPU reference.
 //
-// Ray key (27 bits, ray = light -> sample, direction d = sample - light), sorted in three radix passes of
-// nine bits:
-//   bits 24..26  face = 2 * axis + (d[axis] < 0): the major axis of d (x, y, z = 0, 1, 2) and its sign.
-//                Ties (|d.x| == |d.y| >= |d.z|, ...) go to the lowest axis, so boundary directions have
-//                exactly one face.
-//   bits  0..23  Hilbert index of the cell that the face coordinates (d[axis+1], d[axis+2]) / |d[axis]|
-//                (both in [-1, 1]) fall in, on a 2^12 x 2^12 grid over the face's *fitted square*
-//                (fittedFaceGrid): the whole face zoomed in by halves while a square half the size, on
-//                the face's own grid or half a square off it, still holds the box of the face
-//                coordinates of RAY_BOUNDS_SAMPLES lit samples spread evenly over the frame's
-//                (ray_bounds.comp). The whole face when none of them is on it; samples outside the box
-//                go to the square's edge cells. A zoomed view or a distant light, whose rays span a
-//                sliver of a face, still gets cells as fine as its rays. Measured against the 2^14
-//                whole-face grid of 31 bits it replaced (docs/ARCHITECTURE.md, "rays/"): pairs tested
-//                within -3.2 .. +1.8 % on every view and scene tried, with a radix pass of four saved.
+// Ray key (18 bits, ray = light -> sample, direction d = sample - light), sorted in two radix passes of
+// nine bits. The key space 0 .. 2^18 - 1 is shared out among the six direction faces (faceKeySlot):
+//   face = 2 * axis + (d[axis] < 0): the major axis of d (x, y, z = 0, 1, 2) and its sign. Ties
+//          (|d.x| == |d.y| >= |d.z|, ...) go to the lowest axis, so boundary directions have exactly one face.
+//   Each face that RAY_BOUNDS_SAMPLES lit samples spread evenly over the frame's (ray_bounds.comp, the
+//   subset) reach gets a run of 4^k consecutive keys, k = 9, 8 or 7 (faceKeySlot): the faces with more of
+//   the subset's samples choose first, each the largest run that leaves 4^7 for every face after it; the
+//   runs lie in face order. One face alone gets 2^9 x 2^9 cells, up to four faces 2^8 x 2^8 each, five or
+//   six 2^8 for the three with the most samples and 2^7 for the rest. A ray's key: the run's first key + the Hilbert index of the cell that the face
+//   coordinates (d[axis+1], d[axis+2]) / |d[axis]| (both in [-1, 1]) fall in, on the 2^k x 2^k grid
+//   over the face's *fitted square* (fittedFaceGrid): the whole face zoomed in by halves while a square
+//   half the size, on the face's own grid or half a square off it, still holds the box of the subset's
+//   face coordinates there. Samples outside the box (the subset missed them) go to the square's edge
+//   cells; a face none of the subset reached sends its rays to RAY_KEY_LAST (rare: fewer than about one
+//   lit sample in RAY_BOUNDS_SAMPLES). A zoomed view or a distant light, whose rays span a sliver of a
+//   face, still gets cells as fine as its rays. Measured against the 2^12 grid on every face of 27 bits
+//   and three passes it replaced (docs/ARCHITECTURE.md, "rays/"): pairs tested within +2 % on every view
+//   tried, with a radix pass of three saved.
 // Degenerate rays (zero length: a sample at the light; or a non-finite direction) get
-// RAY_KEY_DEGENERATE, which no real direction produces (face field 7), so they sort after all others.
+// RAY_KEY_DEGENERATE = 2^18 - 1, so they sort after all others: a real key is at most RAY_KEY_LAST (the
+// last cell of runs that fill the key space shares the key of the cell before it, its neighbour on the
+// curve).
 // Rays sharing a cell keep their compaction order (row-major pixels; the sort is stable).
 //
 // GPU and CPU agree exactly on the face and on the integer Hilbert index of a cell; the face coordinates
@@ -30,17 +35,20 @@
 
 #include "rays/rays_layout.h"
 
-#define RAY_KEY_HILBERT_ORDER 12
-#define RAY_KEY_FACE_SHIFT 24
-#define RAY_KEY_BITS 27
-#define RAY_KEY_DEGENERATE 0x7FFFFFFu
+#define RAY_KEY_BITS 18
+#define RAY_KEY_DEGENERATE 0x3FFFFu
+#define RAY_KEY_LAST 0x3FFFEu  // the largest key of a real direction
+#define RAY_KEY_MAX_ORDER 9    // a face's grid: 2^9 x 2^9 cells at most (one face fills the key space) ...
+#define RAY_KEY_MIN_ORDER 7    // ... and 2^7 x 2^7 at least, for a face the subset reached
 // The key in the far-light frame (frameRayKey): a 2^15 x 2^15 grid, 30 bits, four passes.
 #define FRAME_KEY_BITS 31
 #define FRAME_KEY_DEGENERATE 0x7FFFFFFFu
 // The box of a face: words 4 * face + (0 .. 3) hold orderedBits of the minimum of u, of v, of -u and of
 // -v over the face's samples of the subset (atomicMin; all ones, RAY_BOUNDS_EMPTY, while it has none).
+// Word RAY_BOUNDS_COUNTS + face counts the subset's samples on the face (zero before the pass).
 #define RAY_BOUNDS_SAMPLES 16384u
 #define RAY_BOUNDS_WORDS 32u
+#define RAY_BOUNDS_COUNTS 24u
 #define RAY_BOUNDS_EMPTY 0xFFFFFFFFu
 #define RAY_KEY_MAX_ZOOM 24  // halvings of a face's grid at most: past them cells are finer than fp32 resolves
 
@@ -183,18 +191,65 @@ CS_FN uint boundsSample(uint j, uint n) {
   return j * (n / RAY_BOUNDS_SAMPLES) + (j * (n % RAY_BOUNDS_SAMPLES)) / RAY_BOUNDS_SAMPLES;
 }
 
-// The key of a non-degenerate direction d on `face` with the given grid (the frame's: that face's
-// fittedFaceGrid).
-CS_FN uint faceRayKey(vec3 d, uint face, vec4 grid) {
-  uvec2 c = gridCell(rayFaceUV(d, face), grid, uint(RAY_KEY_HILBERT_ORDER));
-  return (face << uint(RAY_KEY_FACE_SHIFT)) | hilbertIndex(c.x, c.y, uint(RAY_KEY_HILBERT_ORDER));
+// The size of the run of keys `face` gets, as the order k of its 2^k x 2^k grid, from the subset's samples
+// on each face (counts, the bounds' words RAY_BOUNDS_COUNTS ..): the faces ranked by count (ties to the
+// lower face), each taking the largest order whose run leaves 4^RAY_KEY_MIN_ORDER keys for every face
+// ranked after it. The face must have a count.
+CS_FN uint faceKeyOrder(uint face, uint counts[6]) {
+  uint seen = 0u, rank = 0u;
+  for (uint f = 0u; f < 6u; ++f) {
+    seen += counts[f] > 0u ? 1u : 0u;
+    rank += counts[f] > counts[face] || (counts[f] == counts[face] && f < face) ? 1u : 0u;
+  }
+  uint used = 0u, order = uint(RAY_KEY_MAX_ORDER);  // keys taken by the faces ranked before
+  for (uint r = 0u; r <= rank; ++r) {
+    used += r > 0u ? 1u << (2u * order) : 0u;
+    uint later = (seen - r - 1u) << (2u * uint(RAY_KEY_MIN_ORDER));
+    order = uint(RAY_KEY_MAX_ORDER);
+    while (order > uint(RAY_KEY_MIN_ORDER) && (1u << (2u * order)) + later > (1u << uint(RAY_KEY_BITS)) - used) --order;
+  }
+  return order;
+}
+// The run of keys `face` gets, (order, first key): the runs of the faces with a count back to back in face
+// order (ranked order was measured to cost the fur 7 % more pairs: where one face's curve ends and the next
+// begins changes the nodes that straddle them). Order 0 and RAY_KEY_LAST for a face with no count, whose
+// rays all take that key. The same on every device: integer arithmetic on the same counts.
+CS_FN uvec2 faceKeySlot(uint face, uint counts[6]) {
+  if (counts[face] == 0u) return uvec2(0u, uint(RAY_KEY_LAST));
+  uint first = 0u;
+  for (uint f = 0u; f < face; ++f) first += counts[f] > 0u ? 1u << (2u * faceKeyOrder(f, counts)) : 0u;
+  return uvec2(faceKeyOrder(face, counts), first);
 }
 
-// The key of d on its whole face (no fitted box): the tests' reference for faces and Hilbert order.
+// The key of a non-degenerate direction d on `face`, with the face's grid (fittedFaceGrid of its slot's
+// order) and slot (faceKeySlot).
+CS_FN uint faceRayKey(vec3 d, uint face, vec4 grid, uvec2 slot) {
+  if (slot.x == 0u) return slot.y;
+  uvec2 c = gridCell(rayFaceUV(d, face), grid, slot.x);
+  return min(slot.y + hilbertIndex(c.x, c.y, slot.x), uint(RAY_KEY_LAST));
+}
+
+// A face's key grid as ray_grids.comp writes it for the keys kernels, one vec4: (u0, v0, scale, slot),
+// the slot as the exact float first * 16 + order (< 2^22), the cells square (fittedFaceGrid's scales are
+// equal). faceKey is faceRayKey on it.
+CS_FN vec4 faceKeyGrid(uvec4 box, uvec2 slot) {
+  vec4 g = fittedFaceGrid(box, max(slot.x, 1u));
+  return vec4(g.x, g.y, g.z, float(slot.y * 16u + slot.x));
+}
+CS_FN uint faceKey(vec3 d, uint face, vec4 keyGrid) {
+  uint s = uint(keyGrid.w);
+  return faceRayKey(d, face, vec4(keyGrid.x, keyGrid.y, keyGrid.z, keyGrid.z), uvec2(s & 15u, s >> 4u));
+}
+
+// The key of d on its whole face, every face counted alike (faces 0-2 get 2^8 cells, 3-5 2^7): the tests'
+// reference for faces and Hilbert order.
 CS_FN uint rayKey(vec3 d) {
   uint face = rayFace(d);
   if (face == 7u) return RAY_KEY_DEGENERATE;
-  return faceRayKey(d, face, wholeFaceGrid(uint(RAY_KEY_HILBERT_ORDER)));
+  uint same[6];
+  for (uint f = 0u; f < 6u; ++f) same[f] = 1u;
+  uvec2 slot = faceKeySlot(face, same);
+  return faceRayKey(d, face, wholeFaceGrid(slot.x), slot);
 }
 
 // The ray key in a rotated frame (the cone path's far-light frame, traversal/traversal.h): d_f = the ray
@@ -246,12 +301,15 @@ using glsl::fittedFaceGrid;
 using glsl::zoomOrigin;
 using glsl::boundsSample;
 using glsl::faceRayKey;
+using glsl::faceKeySlot;
+using glsl::faceKeyGrid;
+using glsl::faceKey;
 using glsl::screenOffsetInTile;
 using glsl::screenOrderPixel;
 using glsl::screenTileOrigin;
 constexpr uint32_t kRayKeyDegenerate = RAY_KEY_DEGENERATE;
 constexpr uint32_t kRayKeyBits = RAY_KEY_BITS;
-constexpr uint32_t kRayKeyHilbertOrder = RAY_KEY_HILBERT_ORDER;
+constexpr uint32_t kRayKeyLast = RAY_KEY_LAST;
 constexpr uint32_t kFrameKeyBits = FRAME_KEY_BITS;
 constexpr uint32_t kFrameKeyDegenerate = FRAME_KEY_DEGENERATE;
 }  // namespace cs::rays

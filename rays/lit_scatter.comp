@@ -6,7 +6,7 @@
 // (sort::RadixSort::recordFromPairs), so no array of sample indices or of keys is stored and read back
 // in between. The lit bits and ranks come from lit_count.comp (kept), the block offsets from the scan of
 // its counts, the faces' grids from ray_grids.comp: no scan and no barrier here. The key is
-// ray_keys.comp's: faceRayKey on the face's fitted grid, or frameRayKey in a rotated frame (SPEC_FRAMED).
+// ray_keys.comp's: faceKey on the face's fitted grid, or frameRayKey in a rotated frame (SPEC_FRAMED).
 // bindings: 0 = position (uniform texel buffer, RGBA32F: a texel per pixel), 1 = kept (uvec2[] per
 //           invocation: bits, rank in the block), 2 = offsets (uint[] per block, exclusive), 3 = pairs
 //           (uvec2[]), 4 = the faces' grids (vec4 per face; world keys)
@@ -49,7 +49,7 @@ void main() {
       vec3 d = x - pc.light.xyz;
       uint face = rayFace(d);
       vec4 grid = face == 0u ? g0 : face == 1u ? g1 : face == 2u ? g2 : face == 3u ? g3 : face == 4u ? g4 : g5;
-      key = face == 7u ? RAY_KEY_DEGENERATE : faceRayKey(d, face, grid);
+      key = face == 7u ? RAY_KEY_DEGENERATE : faceKey(d, face, grid);
     }
     pairs[at++] = uvec2(key, pixel);
   }

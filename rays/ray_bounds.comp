@@ -2,14 +2,15 @@
 #extension GL_GOOGLE_include_directive : require
 // The fitted box of each face for the ray keys (rays/hilbert.h, RAY_BOUNDS_SAMPLES): the face
 // coordinates of RAY_BOUNDS_SAMPLES lit samples spread evenly over the compacted ones (boundsSample),
-// each invocation taking RAY_BOUNDS_ITEMS of them. An invocation keeps its own minima per face, the
-// workgroup merges them in shared memory and adds them to the buffer with one atomicMin a word.
+// each invocation taking RAY_BOUNDS_ITEMS of them, and how many of them each face has (the faces' runs of
+// keys, faceKeySlot). An invocation keeps its own minima and counts per face, the workgroup merges them
+// in shared memory and adds them to the buffer with one atomicMin (atomicAdd) a word.
 // The subset's samples come from the compacted pixel indices, or (SPEC_FROM_BITS: the fused compaction,
 // LitRays::recordCompactionWithKeys, which stores no such array) from lit_count.comp's bits and the scan
 // of its block counts: the same samples, the k-th lit pixel in row-major order found by walking the
 // blocks and their words forward (an invocation's subset indices are consecutive and increasing).
 // bindings: 0 = position (vec4[] per pixel), 1 = samples (uint[] pixel indices), 2 = bounds
-//           (RAY_BOUNDS_WORDS uint, all ones before the dispatch), 3 = countWords (device count),
+//           (RAY_BOUNDS_WORDS uint: the boxes all ones, the counts zero before the dispatch), 3 = countWords (device count),
 //           4 = kept (uvec2[]: SCAN_ITEMS bits an invocation of lit_count.comp, and its rank), 5 = offsets (uint[] per
 //           block of SCAN_BLOCK pixels, exclusive; pc.count is then the pixel count)
 #include "rays/rays_layout.h"
@@ -26,6 +27,7 @@ layout(push_constant) uniform Push { KeysPush pc; };
 #include "sort/common.glsl"
 
 shared uint box[24];
+shared uint faceCounts[6];
 
 // SPEC_FROM_BITS: where the walk stands -- block b, word w of it, and the rank of that word's first lit
 // pixel among all of them.
@@ -57,10 +59,12 @@ uint litPixel(uint k, uint n) {
 void main() {
   uint t = gl_LocalInvocationIndex;
   if (t < 24u) box[t] = RAY_BOUNDS_EMPTY;
+  if (t < 6u) faceCounts[t] = 0u;
   uint n = countOf(pc.count, pc.countIndex, pc.flags);
   // Per face: the least orderedBits of u, v, -u, -v among this invocation's samples.
   uvec4 least[6];
-  for (uint f = 0u; f < 6u; ++f) least[f] = uvec4(RAY_BOUNDS_EMPTY);
+  uint seen[6];
+  for (uint f = 0u; f < 6u; ++f) least[f] = uvec4(RAY_BOUNDS_EMPTY), seen[f] = 0u;
   uint first = (gl_WorkGroupID.x * RAY_BOUNDS_THREADS + t) * RAY_BOUNDS_ITEMS;
   for (uint k = 0u; k < RAY_BOUNDS_ITEMS && n > 0u; ++k) {
     uint j = boundsSample(first + k, n);
@@ -69,11 +73,15 @@ void main() {
     if (face == 7u) continue;
     vec2 uv = rayFaceUV(d, face);
     least[face] = min(least[face], uvec4(orderedBits(uv.x), orderedBits(uv.y), orderedBits(-uv.x), orderedBits(-uv.y)));
+    ++seen[face];
   }
   barrier();
   for (uint f = 0u; f < 6u; ++f)
-    if (least[f].x != RAY_BOUNDS_EMPTY)
+    if (least[f].x != RAY_BOUNDS_EMPTY) {
       for (uint c = 0u; c < 4u; ++c) atomicMin(box[4u * f + c], least[f][c]);
+      atomicAdd(faceCounts[f], seen[f]);
+    }
   barrier();
   if (t < 24u && box[t] != RAY_BOUNDS_EMPTY) atomicMin(bounds[t], box[t]);
+  if (t < 6u && faceCounts[t] != 0u) atomicAdd(bounds[RAY_BOUNDS_COUNTS + t], faceCounts[t]);
 }

@@ -1,8 +1,9 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
-// Each face's key grid (fittedFaceGrid, rays/hilbert.h) from the box ray_bounds.comp left, once a frame,
-// so the keys kernel reads one vec4 a ray instead of zooming per ray.
-// bindings: 0 = boxes (RAY_BOUNDS_WORDS uint), 1 = grids (vec4 per face)
+// Each face's key grid (faceKeyGrid, rays/hilbert.h: its run of keys from the subset's counts, its fitted
+// grid of that size from its box) from what ray_bounds.comp left, once a frame, so the keys kernels read
+// one vec4 a ray instead of zooming per ray.
+// bindings: 0 = boxes and counts (RAY_BOUNDS_WORDS uint), 1 = grids (vec4 per face)
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
 layout(local_size_x = 8) in;
@@ -12,5 +13,8 @@ layout(push_constant) uniform Push { KeysPush pc; };
 
 void main() {
   uint face = gl_LocalInvocationIndex;
-  if (face < 6u) grids[face] = fittedFaceGrid(boxes[face], uint(RAY_KEY_HILBERT_ORDER));
+  if (face >= 6u) return;
+  uint counts[6];
+  for (uint f = 0u; f < 6u; ++f) counts[f] = boxes[RAY_BOUNDS_COUNTS / 4u + f / 4u][f % 4u];
+  grids[face] = faceKeyGrid(boxes[face], faceKeySlot(face, counts));
 }

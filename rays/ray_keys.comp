@@ -1,7 +1,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 // The Hilbert ray key (rays/hilbert.h) of every compacted sample: ray = light -> position[sample], in the
-// world on its face's fitted grid (faceRayKey on ray_grids.comp's grid) or in a rotated frame
+// world on its face's fitted grid and run of keys (faceKey on ray_grids.comp's grid) or in a rotated frame
 // (frameRayKey, KeysPush::framed).
 // bindings: 0 = position (uniform texel buffer, RGBA32F: a texel per pixel), 1 = samples (uint[] pixel
 //           indices), 2 = keys (uint[]), 3 = countWords (device count), 4 = the faces' grids (vec4 per
@@ -31,6 +31,6 @@ void main() {
   } else {
     vec3 d = x - pc.light.xyz;
     uint face = rayFace(d);
-    keys[i] = face == 7u ? RAY_KEY_DEGENERATE : faceRayKey(d, face, grids[face]);
+    keys[i] = face == 7u ? RAY_KEY_DEGENERATE : faceKey(d, face, grids[face]);
   }
 }

@@ -20,7 +20,8 @@ constexpr VkFormat kPixelTexels = VK_FORMAT_R32G32B32A32_SFLOAT;
 
 static_assert(RAY_BOUNDS_THREADS * RAY_BOUNDS_ITEMS * RAY_BOUNDS_GROUPS == RAY_BOUNDS_SAMPLES,
               "ray_bounds.comp's grid covers the subset once");
-static_assert(RAY_BOUNDS_WORDS >= 24, "four words for each of six faces");
+static_assert(RAY_BOUNDS_COUNTS >= 24 && RAY_BOUNDS_COUNTS % 4 == 0 && RAY_BOUNDS_WORDS >= RAY_BOUNDS_COUNTS + 6,
+              "four words for each of six faces, then a count each");
 
 const char* rayOrderName(RayOrder order) {
   switch (order) {
@@ -123,7 +124,8 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
   const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(pixels, SCAN_BLOCK));
   const vk::BufferRange position = vk::texels(g.position, kPixelTexels);
   if (!framed) {  // each face's box over recordKeys' subset, found from the bits, and its fitted grid
-    cmd.fill(bounds_, RAY_BOUNDS_EMPTY, 0, bounds_.size);
+    cmd.fill(bounds_, RAY_BOUNDS_EMPTY, 0, RAY_BOUNDS_COUNTS * 4);  // the boxes empty, the counts zero
+    cmd.fill(bounds_, 0, RAY_BOUNDS_COUNTS * 4, bounds_.size - RAY_BOUNDS_COUNTS * 4);
     cmd.barrier();
     cmd.dispatch(litBounds_, {g.position, samples_, bounds_, count_, keptBits_, compact_.blockOffsets()}, push,
                  RAY_BOUNDS_GROUPS);
@@ -159,7 +161,8 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
     countBinding.range = (VkDeviceSize(count.word.index) + 1) * 4;
   }
   if (!framed) {  // each face's box over the subset, for its fitted grid
-    cmd.fill(bounds_, RAY_BOUNDS_EMPTY, 0, bounds_.size);
+    cmd.fill(bounds_, RAY_BOUNDS_EMPTY, 0, RAY_BOUNDS_COUNTS * 4);  // the boxes empty, the counts zero
+    cmd.fill(bounds_, 0, RAY_BOUNDS_COUNTS * 4, bounds_.size - RAY_BOUNDS_COUNTS * 4);
     cmd.barrier();
     // (bindings 4 and 5, the lit bits and block starts, are read only with SPEC_FROM_BITS)
     cmd.dispatch(rayBounds_, {g.position, samples_, bounds_, countBinding, keptBits_, keptBits_}, push, RAY_BOUNDS_GROUPS);
@@ -208,18 +211,36 @@ void LitRays::record(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light,
 
 uint32_t LitRays::readCount() const { return vk::download<uint32_t>(ctx_, count_, 1)[0]; }
 
-std::array<glm::uvec4, 6> referenceBoxes(const GBuffer& g, const std::vector<uint32_t>& samples, glm::vec3 light) {
-  std::array<glm::uvec4, 6> box;
-  box.fill(glm::uvec4(RAY_BOUNDS_EMPTY));
+FaceBounds referenceBounds(const GBuffer& g, const std::vector<uint32_t>& samples, glm::vec3 light) {
+  FaceBounds b;
+  b.boxes.fill(glm::uvec4(RAY_BOUNDS_EMPTY));
+  b.counts.fill(0);
   const uint32_t n = uint32_t(samples.size());
   for (uint32_t j = 0; j < RAY_BOUNDS_SAMPLES && n > 0; ++j) {
     const glm::vec3 d = glm::vec3(g.position[samples[boundsSample(j, n)]]) - light;
     const uint32_t face = rayFace(d);
     if (face == 7) continue;
     const glm::vec2 uv = rayFaceUV(d, face);
-    box[face] = glm::min(box[face], glm::uvec4(orderedBits(uv.x), orderedBits(uv.y), orderedBits(-uv.x), orderedBits(-uv.y)));
+    b.boxes[face] = glm::min(b.boxes[face], glm::uvec4(orderedBits(uv.x), orderedBits(uv.y), orderedBits(-uv.x), orderedBits(-uv.y)));
+    ++b.counts[face];
   }
-  return box;
+  return b;
+}
+
+FaceBounds FaceBounds::fromWords(const std::vector<uint32_t>& words) {
+  if (words.size() < RAY_BOUNDS_COUNTS + 6) throw Error("FaceBounds::fromWords: " + std::to_string(words.size()) + " words, want " + std::to_string(RAY_BOUNDS_COUNTS + 6));
+  FaceBounds b;
+  for (uint32_t face = 0; face < 6; ++face) {
+    b.boxes[face] = glm::uvec4(words[4 * face], words[4 * face + 1], words[4 * face + 2], words[4 * face + 3]);
+    b.counts[face] = words[RAY_BOUNDS_COUNTS + face];
+  }
+  return b;
+}
+
+glm::vec4 FaceBounds::keyGrid(uint32_t face) const {
+  uint32_t c[6];
+  std::copy(counts.begin(), counts.end(), c);
+  return faceKeyGrid(boxes.at(face), faceKeySlot(face, c));
 }
 
 std::vector<uint32_t> referenceRayOrder(const GBuffer& g, glm::vec3 light, RayOrder order) {
@@ -235,12 +256,14 @@ std::vector<uint32_t> referenceRayOrder(const GBuffer& g, glm::vec3 light, RayOr
   for (uint32_t i = 0; i < g.size(); ++i)
     if (g.isLit(i)) samples.push_back(i);
   if (order == RayOrder::Hilbert) {
-    const std::array<glm::uvec4, 6> boxes = referenceBoxes(g, samples, light);
+    const FaceBounds bounds = referenceBounds(g, samples, light);
+    std::array<glm::vec4, 6> grids;
+    for (uint32_t face = 0; face < 6; ++face) grids[face] = bounds.keyGrid(face);
     std::vector<uint32_t> keys(g.size());
     for (uint32_t s : samples) {
       const glm::vec3 d = glm::vec3(g.position[s]) - light;
       const uint32_t face = rayFace(d);
-      keys[s] = face == 7 ? kRayKeyDegenerate : faceRayKey(d, face, fittedFaceGrid(boxes[face], kRayKeyHilbertOrder));
+      keys[s] = face == 7 ? kRayKeyDegenerate : faceKey(d, face, grids[face]);
     }
     std::stable_sort(samples.begin(), samples.end(), [&](uint32_t a, uint32_t b) { return keys[a] < keys[b]; });
   }

@@ -97,9 +97,17 @@ class LitRays {
   bool pairsPending_ = false;        // the last recording left its pairs in the sort's input
 };
 
-// CPU reference of the faces' fitted boxes (ray_bounds.comp; fittedFaceGrid makes each a grid) for the lit
-// samples `samples` in compaction order.
-std::array<glm::uvec4, 6> referenceBoxes(const GBuffer& g, const std::vector<uint32_t>& samples, glm::vec3 light);
+// What ray_bounds.comp finds of the faces (LitRays::bounds()'s words): each face's box of the subset's
+// face coordinates and how many of the subset's samples it has; keyGrid(face) is the grid ray_grids.comp
+// makes of them for that face (faceKeyGrid: its fitted grid and run of keys).
+struct FaceBounds {
+  std::array<glm::uvec4, 6> boxes;
+  std::array<uint32_t, 6> counts;
+  static FaceBounds fromWords(const std::vector<uint32_t>& words);  // RAY_BOUNDS_WORDS, as downloaded
+  glm::vec4 keyGrid(uint32_t face) const;
+};
+// CPU reference of ray_bounds.comp for the lit samples `samples` in compaction order.
+FaceBounds referenceBounds(const GBuffer& g, const std::vector<uint32_t>& samples, glm::vec3 light);
 
 // CPU reference of the whole step (tests, debugging): lit samples of `g` in the given order.
 std::vector<uint32_t> referenceRayOrder(const GBuffer& g, glm::vec3 light, RayOrder order);

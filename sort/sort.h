@@ -84,7 +84,7 @@ uint32_t ceilDiv(uint64_t a, uint32_t b);
 std::vector<uint32_t> scanLevelCounts(uint32_t n, size_t minLevels = 1);
 // uint32 elements of scratch a Scan of `capacity` needs (block sums and their scans, every level >= 1).
 uint64_t scanScratchElements(uint32_t capacity);
-uint32_t radixPasses(uint32_t keyBits);     // ceil(keyBits / RADIX_BITS): 27-bit ray keys in 3, 32 bits in 4
+uint32_t radixPasses(uint32_t keyBits);     // ceil(keyBits / RADIX_BITS): 18-bit ray keys in 2, 32 bits in 4
 // The radix sort's tile, chosen per device (sort_layout.h): `threads` invocations a workgroup, each
 // owning `items` consecutive keys; the kernels get both as specialisation constants.
 struct SortShape {

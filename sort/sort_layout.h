@@ -30,8 +30,8 @@
 // reaches the kernels as specialisation constants: the workgroup size (local_size_x_id 0, SORT_THREADS
 // in the kernels) and SORT_ITEMS (constant_id 1). The defaults below are the CPU device's (lavapipe):
 // few invocations, each with a long run of keys, because every invocation pays for its own counters.
-// Nine bits a digit, not eight: the ray key's 27 bits (rays/hilbert.h) take three passes instead of four,
-// for the same counters per key (16 invocations x 256 words where eight bits took 32 x 128); measured on
+// Nine bits a digit, not eight: the ray key's 18 bits (rays/hilbert.h) take two passes instead of three
+// (and the 27 bits it had three instead of four), for the same counters per key (16 invocations x 256 words where eight bits took 32 x 128); measured on
 // lavapipe, 1 M random 32-bit pairs (four passes either way) sort in 74-77 ms, 8-bit digits 78-97 ms.
 #define RADIX_BITS 9
 #define RADIX_BINS (1 << RADIX_BITS)

@@ -89,7 +89,7 @@ TEST(SortSizing, RadixPassesAndTilesCoverTheKeysAndTheCount) {
   EXPECT_EQ(sort::radixPasses(1), 1u);
   EXPECT_EQ(sort::radixPasses(9), 1u);
   EXPECT_EQ(sort::radixPasses(10), 2u);
-  EXPECT_EQ(sort::radixPasses(rays::kRayKeyBits), 3u) << "the ray key: three passes";
+  EXPECT_EQ(sort::radixPasses(rays::kRayKeyBits), 2u) << "the ray key: two passes";
   EXPECT_EQ(sort::radixPasses(rays::kFrameKeyBits), 4u);
   EXPECT_EQ(sort::radixPasses(32), 4u);
   for (sort::SortShape shape : {sort::kCpuSortShape, sort::kGpuSortShape}) {
@@ -589,9 +589,9 @@ TEST(Hilbert, GpuAndCpuMatchAnIndependentReferenceOnEveryCellOfSmallGrids) {
     EXPECT_SAME_ARRAY(gpu, want, "GPU, order " << order);
     EXPECT_SAME_ARRAY(cpu, want, "CPU, order " << order);
   }
-  // On the CPU, every cell up to the ray key's own order (2^12 x 2^12), and samples of the far frame's
-  // (2^15) and the largest (2^16).
-  for (uint32_t order = 9; order <= rays::kRayKeyHilbertOrder; ++order) {
+  // On the CPU, every cell up to 2^12 x 2^12 (the ray key's grids go to 2^9), and samples of the far
+  // frame's (2^15) and the largest (2^16).
+  for (uint32_t order = 9; order <= 12u; ++order) {
     const uint32_t side = 1u << order;
     for (uint32_t y = 0; y < side; ++y)
       for (uint32_t x = 0; x < side; ++x)
@@ -628,17 +628,32 @@ TEST(Hilbert, ConsecutiveIndicesAreNeighbouringCells) {
   }
 }
 
-// Whether `got` is the ray key of d on `grid` (its face's; default the whole face) with each face
-// coordinate (d[axis+1] / |d[axis]|, d[axis+2] / ...) moved by up to `ulps` ulp: what a GPU may give,
-// since Vulkan lets its division be 2.5 ulp off (a direction that close to a cell edge may land in the
-// neighbouring cell). The face must be exact: it comes from comparisons alone.
-bool isRayKeyUpToDivision(glm::vec3 d, uint32_t got, std::optional<glm::vec4> grid = {}, int ulps = 3) {
-  const uint32_t face = rays::rayFace(d), order = RAY_KEY_HILBERT_ORDER;
+// The slots rayKey gives the faces (every face counted alike).
+glm::uvec2 wholeFaceSlot(uint32_t face) {
+  uint32_t same[6] = {1, 1, 1, 1, 1, 1};
+  return rays::faceKeySlot(face, same);
+}
+// The face whose run of keys (under rayKey's slots) holds `key`; 7 for none.
+uint32_t wholeFaceKeyFace(uint32_t key) {
+  for (uint32_t face = 0; face < 6; ++face) {
+    const glm::uvec2 s = wholeFaceSlot(face);
+    if (key >= s.y && key - s.y < (1u << (2 * s.x))) return face;
+  }
+  return 7;
+}
+
+// Whether `got` is the ray key of d on `keyGrid` (its face's, faceKeyGrid; default rayKey's: the whole
+// face) with each face coordinate (d[axis+1] / |d[axis]|, d[axis+2] / ...) moved by up to `ulps` ulp: what
+// a GPU may give, since Vulkan lets its division be 2.5 ulp off (a direction that close to a cell edge may
+// land in the neighbouring cell). The face must be exact: it comes from comparisons alone.
+bool isRayKeyUpToDivision(glm::vec3 d, uint32_t got, std::optional<glm::vec4> keyGrid = {}, int ulps = 3) {
+  const uint32_t face = rays::rayFace(d);
   if (face == 7) return got == RAY_KEY_DEGENERATE;
-  const glm::vec4 gr = grid ? *grid : rays::wholeFaceGrid(order);
-  const uint32_t want = rays::faceRayKey(d, face, gr);
+  const glm::vec4 gr = keyGrid ? *keyGrid : rays::faceKeyGrid(glm::uvec4(RAY_BOUNDS_EMPTY), wholeFaceSlot(face));
+  const uint32_t want = rays::faceKey(d, face, gr);
   if (got == want) return true;
-  if (got >> RAY_KEY_FACE_SHIFT != face) return false;
+  const uint32_t slot = uint32_t(gr.w), order = slot & 15u, first = slot >> 4;
+  if (order == 0 || got < first || got - first >= (1u << (2 * order))) return false;
   const uint32_t axis = face >> 1;
   const float m = std::abs(d[axis]), last = float((1u << order) - 1);
   auto cells = [&](float q, float lo0, float scale) {  // the range of cells q moved by up to `ulps` ulp falls in
@@ -647,10 +662,10 @@ bool isRayKeyUpToDivision(glm::vec3 d, uint32_t got, std::optional<glm::vec4> gr
     auto cell = [&](float x) { return uint32_t(std::clamp(std::floor((x - lo0) * scale), 0.0f, last)); };
     return glm::uvec2(cell(lo), cell(hi));
   };
-  const glm::uvec2 xs = cells(d[(axis + 1) % 3] / m, gr.x, gr.z), ys = cells(d[(axis + 2) % 3] / m, gr.y, gr.w);
+  const glm::uvec2 xs = cells(d[(axis + 1) % 3] / m, gr.x, gr.z), ys = cells(d[(axis + 2) % 3] / m, gr.y, gr.z);
   for (uint32_t x = xs.x; x <= xs.y; ++x)
     for (uint32_t y = ys.x; y <= ys.y; ++y)
-      if (((face << RAY_KEY_FACE_SHIFT) | rays::hilbertIndex(x, y, order)) == got) return true;
+      if (std::min(first + rays::hilbertIndex(x, y, order), rays::kRayKeyLast) == got) return true;
   return false;
 }
 
@@ -667,13 +682,13 @@ TEST(RayKeys, FaceIsTheMajorAxisWithTiesGoingToTheLowestAxis) {
   EXPECT_EQ(rays::rayFace(vec3(0, -2, 2)), 3u) << "y == z: y";
   EXPECT_EQ(rays::rayFace(vec3(-0.0f, -0.0f, 0)), 7u) << "zero length";
   // Face corners and edges land on the grid's corners and edges; the centre on the middle cells.
-  const uint32_t last = (1u << rays::kRayKeyHilbertOrder) - 1, mid = 1u << (rays::kRayKeyHilbertOrder - 1);
-  EXPECT_EQ(rays::rayCell(vec3(1, -1, -1), 0, rays::kRayKeyHilbertOrder), glm::uvec2(0, 0));
-  EXPECT_EQ(rays::rayCell(vec3(1, 1, 1), 0, rays::kRayKeyHilbertOrder), glm::uvec2(last, last));
-  EXPECT_EQ(rays::rayCell(vec3(1, 0, 0), 0, rays::kRayKeyHilbertOrder), glm::uvec2(mid, mid));
-  EXPECT_EQ(rays::rayCell(vec3(-4, 4, -4), 1, rays::kRayKeyHilbertOrder), glm::uvec2(last, 0)) << "-x face: (y, z) / 4";
-  EXPECT_EQ(rays::rayKey(vec3(1, -1, -1)) >> RAY_KEY_FACE_SHIFT, 0u);
-  EXPECT_EQ(rays::rayKey(vec3(0, 0, -1)) >> RAY_KEY_FACE_SHIFT, 5u);
+  const uint32_t order = RAY_KEY_MAX_ORDER, last = (1u << order) - 1, mid = 1u << (order - 1);
+  EXPECT_EQ(rays::rayCell(vec3(1, -1, -1), 0, order), glm::uvec2(0, 0));
+  EXPECT_EQ(rays::rayCell(vec3(1, 1, 1), 0, order), glm::uvec2(last, last));
+  EXPECT_EQ(rays::rayCell(vec3(1, 0, 0), 0, order), glm::uvec2(mid, mid));
+  EXPECT_EQ(rays::rayCell(vec3(-4, 4, -4), 1, order), glm::uvec2(last, 0)) << "-x face: (y, z) / 4";
+  EXPECT_EQ(wholeFaceKeyFace(rays::rayKey(vec3(1, -1, -1))), 0u);
+  EXPECT_EQ(wholeFaceKeyFace(rays::rayKey(vec3(0, 0, -1))), 5u);
   // Scaling a direction does not move it.
   EXPECT_EQ(rays::rayKey(vec3(0.3f, -0.2f, 0.9f)), rays::rayKey(vec3(3, -2, 9) * 0.25f * 0.4f));
 }
@@ -687,8 +702,73 @@ TEST(RayKeys, ZeroLengthAndNonFiniteRaysGetTheDegenerateKeyOnBothSides) {
     EXPECT_EQ(rays::rayKey(glm::vec3(dirs[i])), rays::kRayKeyDegenerate) << "direction " << i;
     EXPECT_EQ(gpu[i], rays::kRayKeyDegenerate) << "direction " << i;
   }
-  // Greater than every real direction's key: degenerate rays sort last.
-  EXPECT_GT(rays::kRayKeyDegenerate, rays::rayKey(glm::vec3(0, 0, -1)) | ((1u << RAY_KEY_FACE_SHIFT) - 1));
+  // Greater than every real direction's key: degenerate rays sort last (faceKeySlots below: a real key
+  // is at most RAY_KEY_LAST).
+  EXPECT_EQ(rays::kRayKeyDegenerate, (1u << rays::kRayKeyBits) - 1);
+  EXPECT_EQ(rays::kRayKeyLast, rays::kRayKeyDegenerate - 1);
+  for (float a : {1.0f, -1.0f})
+    for (float b : {0.999f, -0.999f})
+      for (float c : {0.999f, -0.999f}) {
+        EXPECT_LT(rays::rayKey(glm::vec3(a, b, c)), rays::kRayKeyDegenerate);
+        EXPECT_LT(rays::rayKey(glm::vec3(b, a, c)), rays::kRayKeyDegenerate);
+        EXPECT_LT(rays::rayKey(glm::vec3(c, b, a)), rays::kRayKeyDegenerate);
+      }
+}
+
+// The key space shared out among the faces by the subset's counts: runs that do not overlap, in face
+// order, the finest for the faces with the most samples, each face reached at least 2^7 x 2^7 cells.
+TEST(RayKeys, FaceSlotsShareOutTheKeySpaceByTheSubsetsCounts) {
+  auto slots = [](std::array<uint32_t, 6> counts) {
+    std::array<glm::uvec2, 6> s;
+    for (uint32_t face = 0; face < 6; ++face) s[face] = rays::faceKeySlot(face, counts.data());
+    return s;
+  };
+  using glm::uvec2;
+  const uint32_t last = rays::kRayKeyLast;
+  std::array<glm::uvec2, 6> s = slots({0, 0, 0, 0, 900, 0});
+  EXPECT_EQ(s[4], uvec2(9, 0)) << "one face: 2^9 x 2^9 cells, the whole key space";
+  for (uint32_t face : {0u, 1u, 2u, 3u, 5u}) EXPECT_EQ(s[face], uvec2(0, last)) << "face " << face << ": not reached";
+  // Its last cell, the curve's end (2^9 - 1, 0), shares the key of the cell before it: degenerate rays
+  // stay last.
+  const glm::vec4 grid = rays::faceKeyGrid(glm::uvec4(RAY_BOUNDS_EMPTY), s[4]);
+  EXPECT_EQ(rays::faceKey(glm::vec3(0.9999f, -0.9999f, 1), 4, grid), last);
+  EXPECT_EQ(rays::faceKey(glm::vec3(-0.9999f, -0.9999f, 1), 4, grid), 0u) << "the curve's start";
+  EXPECT_EQ(rays::faceKey(glm::vec3(5, 5, 0.1f), 0, rays::faceKeyGrid(glm::uvec4(RAY_BOUNDS_EMPTY), s[0])), last)
+      << "a face the subset missed";
+  s = slots({3, 0, 7, 0, 0, 0});
+  EXPECT_EQ(s[0], uvec2(8, 0)) << "two faces: 2^8 each, in face order";
+  EXPECT_EQ(s[2], uvec2(8, 1u << 16));
+  s = slots({5, 5, 5, 5, 0, 0});
+  EXPECT_EQ(s[0], uvec2(8, 0)) << "four faces of 2^8: ties to the lower face";
+  EXPECT_EQ(s[3], uvec2(8, 3u << 16));
+  s = slots({1, 9, 2, 8, 3, 7});
+  uint32_t next = 0;
+  for (uint32_t face = 0; face < 6; ++face) {
+    EXPECT_EQ(s[face].y, next) << "face " << face << ": runs in face order, back to back";
+    EXPECT_EQ(s[face].x, face == 1 || face == 3 || face == 5 ? 8u : 7u) << "face " << face;
+    next += 1u << (2 * s[face].x);
+  }
+  EXPECT_LE(next, 1u << rays::kRayKeyBits);
+  // Every count pattern: runs disjoint, inside the key space, at least 2^7 for each face reached.
+  for (uint32_t mask = 1; mask < 64; ++mask)
+    for (uint32_t seed = 0; seed < 8; ++seed) {
+      std::array<uint32_t, 6> counts{};
+      for (uint32_t face = 0; face < 6; ++face) counts[face] = (mask >> face & 1) ? 1 + (face * 7 + seed * 3) % 5 : 0;
+      s = slots(counts);
+      std::vector<std::pair<uint32_t, uint32_t>> runs;
+      for (uint32_t face = 0; face < 6; ++face) {
+        if (counts[face] == 0) {
+          EXPECT_EQ(s[face], uvec2(0, last));
+          continue;
+        }
+        EXPECT_GE(s[face].x, uint32_t(RAY_KEY_MIN_ORDER));
+        EXPECT_LE(s[face].x, uint32_t(RAY_KEY_MAX_ORDER));
+        runs.push_back({s[face].y, s[face].y + (1u << (2 * s[face].x))});
+      }
+      std::sort(runs.begin(), runs.end());
+      for (size_t i = 1; i < runs.size(); ++i) EXPECT_LE(runs[i - 1].second, runs[i].first) << "mask " << mask;
+      EXPECT_LE(runs.back().second, 1u << rays::kRayKeyBits) << "mask " << mask;
+    }
 }
 
 TEST(RayKeys, GpuMatchesCpuOnRandomAndFaceBoundaryDirections) {
@@ -708,7 +788,7 @@ TEST(RayKeys, GpuMatchesCpuOnRandomAndFaceBoundaryDirections) {
   size_t differ = 0;
   for (size_t i = 0; i < dirs.size(); ++i) {
     const glm::vec3 d(dirs[i]);
-    ASSERT_EQ(gpu[i] >> RAY_KEY_FACE_SHIFT, rays::rayKey(d) >> RAY_KEY_FACE_SHIFT) << "face of direction " << i;
+    ASSERT_EQ(wholeFaceKeyFace(gpu[i]), wholeFaceKeyFace(rays::rayKey(d))) << "face of direction " << i;
     ASSERT_TRUE(isRayKeyUpToDivision(d, gpu[i]))
         << "direction " << i << " (" << d.x << ", " << d.y << ", " << d.z << "): key " << gpu[i] << ", want "
         << rays::rayKey(d) << " or a neighbouring cell's";
@@ -761,17 +841,17 @@ TEST(LitRays, MatchTheCpuReferenceInEveryOrder) {
     // boxes may differ from the CPU's by the same divisions' rounding: the order is then the stable sort
     // of the lit samples by the keys it computed, each the CPU's up to a division on the GPU's grid.
     const std::vector<uint32_t> keys = vk::download<uint32_t>(ctx, rays.keys(), want.size());
-    const std::vector<uint32_t> words = vk::download<uint32_t>(ctx, rays.bounds(), 24);
+    const rays::FaceBounds bounds = rays::FaceBounds::fromWords(vk::download<uint32_t>(ctx, rays.bounds(), RAY_BOUNDS_WORDS));
     std::vector<uint32_t> lit;
     for (uint32_t i = 0; i < f.host.size(); ++i)
       if (f.host.isLit(i)) lit.push_back(i);
-    const std::array<glm::uvec4, 6> cpuBoxes = rays::referenceBoxes(f.host, lit, f.light);
+    const rays::FaceBounds cpu = rays::referenceBounds(f.host, lit, f.light);
+    EXPECT_EQ(bounds.counts, cpu.counts) << "the faces come from comparisons alone";
     std::array<glm::vec4, 6> grids;
     for (uint32_t face = 0; face < 6; ++face) {
-      const glm::uvec4 box(words[4 * face], words[4 * face + 1], words[4 * face + 2], words[4 * face + 3]);
       for (int c = 0; c < 4; ++c)
-        ASSERT_LE(std::abs(int64_t(box[c]) - int64_t(cpuBoxes[face][c])), 3) << "face " << face << " box word " << c;
-      grids[face] = rays::fittedFaceGrid(box, rays::kRayKeyHilbertOrder);
+        ASSERT_LE(std::abs(int64_t(bounds.boxes[face][c]) - int64_t(cpu.boxes[face][c])), 3) << "face " << face << " box word " << c;
+      grids[face] = bounds.keyGrid(face);
     }
     std::vector<uint32_t> a = got, b = want;
     std::sort(a.begin(), a.end());
@@ -783,7 +863,7 @@ TEST(LitRays, MatchTheCpuReferenceInEveryOrder) {
       const uint32_t face = rays::rayFace(d);
       const glm::vec4 grid = face < 6 ? grids[face] : glm::vec4(0);
       ASSERT_TRUE(isRayKeyUpToDivision(d, keys[i], grid)) << "sample " << got[i] << " at " << i;
-      differ += keys[i] != (face < 6 ? rays::faceRayKey(d, face, grid) : rays::kRayKeyDegenerate);
+      differ += keys[i] != (face < 6 ? rays::faceKey(d, face, grid) : rays::kRayKeyDegenerate);
       if (i > 0) {
         ASSERT_TRUE(keys[i - 1] < keys[i] || (keys[i - 1] == keys[i] && got[i - 1] < got[i]))
             << "not a stable sort at " << i;
@@ -828,8 +908,16 @@ TEST(LitRays, SampleAtTheLightSortsLastAndEqualKeysKeepRowOrder) {
   EXPECT_EQ(keys[n - 2], rays::kRayKeyDegenerate);
   auto at = [&](uint32_t pixel) { return std::find(samples.begin(), samples.end(), pixel) - samples.begin(); };
   EXPECT_EQ(at(10), at(8) + 1) << "equal keys keep row-major order";
-  EXPECT_EQ(keys[at(1)] >> RAY_KEY_FACE_SHIFT, 0u) << "x == y goes to +x";
-  EXPECT_EQ(keys[at(5)] >> RAY_KEY_FACE_SHIFT, 1u) << "|x| == |y| == |z| goes to -x";
+  // Each key in its face's run (the faces' slots from the GPU's counts).
+  const rays::FaceBounds bounds = rays::FaceBounds::fromWords(vk::download<uint32_t>(ctx, rays.bounds(), RAY_BOUNDS_WORDS));
+  auto inRun = [&](uint32_t key, uint32_t face) {
+    uint32_t c[6];
+    std::copy(bounds.counts.begin(), bounds.counts.end(), c);
+    const glm::uvec2 s = rays::faceKeySlot(face, c);
+    return s.x > 0 && key >= s.y && key - s.y < (1u << (2 * s.x));
+  };
+  EXPECT_TRUE(inRun(keys[at(1)], 0)) << "x == y goes to +x";
+  EXPECT_TRUE(inRun(keys[at(5)], 1)) << "|x| == |y| == |z| goes to -x";
 }
 
 TEST(RayKeys, OrderedBitsSortAsTheFloatsDo) {
@@ -851,7 +939,7 @@ TEST(RayKeys, AFittedGridIsTheFacesGridZoomedOntoItsBox) {
   using glm::uvec2;
   using glm::uvec4;
   using glm::vec4;
-  const uint32_t order = rays::kRayKeyHilbertOrder, n = 1u << order;
+  const uint32_t order = RAY_KEY_MAX_ORDER, n = 1u << order;
   auto box = [](float u0, float v0, float u1, float v1) {
     return uvec4(rays::orderedBits(u0), rays::orderedBits(v0), rays::orderedBits(-u1), rays::orderedBits(-v1));
   };
@@ -1108,6 +1196,7 @@ TEST(SortGrid, EveryKernelIsCorrectOnTwoDimensionalGrids) {
     EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), ref.size()), ref, rays::rayOrderName(order));
   }
 }
+
 
 }  // namespace
 }  // namespace cs

@@ -844,8 +844,17 @@ TEST(ConeMethod, RayOrderChosenOnTheGpuKeepsTheMaskOfBothOrders) {
     const bool wall = std::string(view) == "wall";
     EXPECT_EQ(first.stats["ray_order"], wall ? "screen" : "hilbert") << view << ": looseness " << looseness;
     EXPECT_EQ(looseness > ORDER_LOOSE_RATIO, !wall) << view;
-    // The pairs are those of the order it chose.
-    EXPECT_EQ(first.stats["pairs_tested"], (wall ? sc : h).stats["pairs_tested"]) << view;
+    // The pairs are those of the order it chose. Rays sharing a ray key keep their compaction order, which
+    // a measured frame takes in screen order and a sorted frame in rows: the sorted order's pairs up to
+    // those ties, and far from the screen order's.
+    const double pairs = first.stats["pairs_tested"].get<double>(), sorted = h.stats["pairs_tested"].get<double>(),
+                 screened = sc.stats["pairs_tested"].get<double>();
+    if (wall) {
+      EXPECT_EQ(pairs, screened) << view;
+    } else {
+      EXPECT_NEAR(pairs, sorted, 0.005 * sorted) << view << ": screen order " << screened;
+      EXPECT_GT(std::abs(pairs - screened), 0.05 * sorted) << view << ": screen order " << screened;
+    }
     for (uint32_t k = 1; k <= 8; ++k) {
       const MethodOutput next = runCounted(*method, frame);
       EXPECT_EQ(next.visibility, h.visibility) << view << " frame " << k;
