@@ -9,16 +9,17 @@
 //   subset) reach gets a run of 4^k consecutive keys, k = 9, 8 or 7 (faceKeySlot): the faces with more of
 //   the subset's samples choose first, each the largest run that leaves 4^7 for every face after it; the
 //   runs lie in face order. One face alone gets 2^9 x 2^9 cells, up to four faces 2^8 x 2^8 each, five or
-//   six 2^8 for the three with the most samples and 2^7 for the rest. A ray's key: the run's first key + the Hilbert index of the cell that the face
-//   coordinates (d[axis+1], d[axis+2]) / |d[axis]| (both in [-1, 1]) fall in, on the 2^k x 2^k grid
-//   over the face's *fitted square* (fittedFaceGrid): the whole face zoomed in by halves while a square
-//   half the size, on the face's own grid or half a square off it, still holds the box of the subset's
-//   face coordinates there. Samples outside the box (the subset missed them) go to the square's edge
-//   cells; a face none of the subset reached sends its rays to RAY_KEY_LAST (rare: fewer than about one
-//   lit sample in RAY_BOUNDS_SAMPLES). A zoomed view or a distant light, whose rays span a sliver of a
-//   face, still gets cells as fine as its rays. Measured against the 2^12 grid on every face of 27 bits
-//   and three passes it replaced (docs/ARCHITECTURE.md, "rays/"): pairs tested within +2 % on every view
-//   tried, with a radix pass of three saved.
+//   six 2^8 for the three with the most samples and 2^7 for the rest. A ray's key: the run's first key +
+//   the Hilbert index of the cell that the face coordinates (d[axis+1], d[axis+2]) / |d[axis]| (both in
+//   [-1, 1]) fall in, on the 2^k x 2^k grid over the face's *fitted square* (fittedFaceGrid): the whole
+//   face zoomed in by halves while a square half the size, on the face's own grid or half a square off
+//   it, still holds the box of the subset's face coordinates there. Samples outside the box (the subset
+//   missed them) go to the square's edge cells; a face none of the subset reached sends its rays to
+//   RAY_KEY_LAST (rare: fewer than about one lit sample in RAY_BOUNDS_SAMPLES). A zoomed view or a distant
+//   light, whose rays span a sliver of a face, still gets cells as fine as its rays. Measured against the
+//   2^12 grid on every face of 27 bits and three passes it replaced (docs/ARCHITECTURE.md, "rays/"):
+//   pairs tested within +2 % on the views and scenes measured (+4.2 % on a model over a ground plane),
+//   with a radix pass of three saved.
 // Degenerate rays (zero length: a sample at the light; or a non-finite direction) get
 // RAY_KEY_DEGENERATE = 2^18 - 1, so they sort after all others: a real key is at most RAY_KEY_LAST (the
 // last cell of runs that fill the key space shares the key of the cell before it, its neighbour on the

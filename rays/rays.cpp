@@ -221,14 +221,16 @@ FaceBounds referenceBounds(const GBuffer& g, const std::vector<uint32_t>& sample
     const uint32_t face = rayFace(d);
     if (face == 7) continue;
     const glm::vec2 uv = rayFaceUV(d, face);
-    b.boxes[face] = glm::min(b.boxes[face], glm::uvec4(orderedBits(uv.x), orderedBits(uv.y), orderedBits(-uv.x), orderedBits(-uv.y)));
+    b.boxes[face] =
+        glm::min(b.boxes[face], glm::uvec4(orderedBits(uv.x), orderedBits(uv.y), orderedBits(-uv.x), orderedBits(-uv.y)));
     ++b.counts[face];
   }
   return b;
 }
 
 FaceBounds FaceBounds::fromWords(const std::vector<uint32_t>& words) {
-  if (words.size() < RAY_BOUNDS_COUNTS + 6) throw Error("FaceBounds::fromWords: " + std::to_string(words.size()) + " words, want " + std::to_string(RAY_BOUNDS_COUNTS + 6));
+  CS_CHECK(words.size() >= RAY_BOUNDS_COUNTS + 6,
+           "FaceBounds::fromWords: " << words.size() << " words, want " << RAY_BOUNDS_COUNTS + 6);
   FaceBounds b;
   for (uint32_t face = 0; face < 6; ++face) {
     b.boxes[face] = glm::uvec4(words[4 * face], words[4 * face + 1], words[4 * face + 2], words[4 * face + 3]);
