@@ -10,7 +10,8 @@
 // of its block counts: the same samples, the k-th lit pixel in row-major order found by walking the
 // blocks and their words forward (an invocation's subset indices are consecutive and increasing).
 // bindings: 0 = position (vec4[] per pixel), 1 = samples (uint[] pixel indices), 2 = bounds
-//           (RAY_BOUNDS_WORDS uint: the boxes all ones, the counts zero before the dispatch), 3 = countWords (device count),
+//           (RAY_BOUNDS_WORDS uint: the boxes all ones, the counts zero before the dispatch),
+//           3 = countWords (device count),
 //           4 = kept (uvec2[]: SCAN_ITEMS bits an invocation of lit_count.comp, and its rank), 5 = offsets (uint[] per
 //           block of SCAN_BLOCK pixels, exclusive; pc.count is then the pixel count)
 #include "rays/rays_layout.h"

@@ -124,9 +124,7 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
   const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(pixels, SCAN_BLOCK));
   const vk::BufferRange position = vk::texels(g.position, kPixelTexels);
   if (!framed) {  // each face's box over recordKeys' subset, found from the bits, and its fitted grid
-    cmd.fill(bounds_, RAY_BOUNDS_EMPTY, 0, RAY_BOUNDS_COUNTS * 4);  // the boxes empty, the counts zero
-    cmd.fill(bounds_, 0, RAY_BOUNDS_COUNTS * 4, bounds_.size - RAY_BOUNDS_COUNTS * 4);
-    cmd.barrier();
+    recordBoundsClear(cmd);
     cmd.dispatch(litBounds_, {g.position, samples_, bounds_, count_, keptBits_, compact_.blockOffsets()}, push,
                  RAY_BOUNDS_GROUPS);
     cmd.barrier();
@@ -137,6 +135,12 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
                {position, keptBits_, compact_.blockOffsets(), sort_.pairInput(), grids_}, push, grid.x, grid.y);
   cmd.barrier();
   pairsPending_ = true;
+}
+
+void LitRays::recordBoundsClear(vk::Commands& cmd) {
+  cmd.fill(bounds_, RAY_BOUNDS_EMPTY, 0, RAY_BOUNDS_COUNTS * 4);  // the boxes empty, the counts zero
+  cmd.fill(bounds_, 0, RAY_BOUNDS_COUNTS * 4, bounds_.size - RAY_BOUNDS_COUNTS * 4);
+  cmd.barrier();
 }
 
 void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, sort::Count count) {
@@ -161,9 +165,7 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
     countBinding.range = (VkDeviceSize(count.word.index) + 1) * 4;
   }
   if (!framed) {  // each face's box over the subset, for its fitted grid
-    cmd.fill(bounds_, RAY_BOUNDS_EMPTY, 0, RAY_BOUNDS_COUNTS * 4);  // the boxes empty, the counts zero
-    cmd.fill(bounds_, 0, RAY_BOUNDS_COUNTS * 4, bounds_.size - RAY_BOUNDS_COUNTS * 4);
-    cmd.barrier();
+    recordBoundsClear(cmd);
     // (bindings 4 and 5, the lit bits and block starts, are read only with SPEC_FROM_BITS)
     cmd.dispatch(rayBounds_, {g.position, samples_, bounds_, countBinding, keptBits_, keptBits_}, push, RAY_BOUNDS_GROUPS);
     cmd.barrier();

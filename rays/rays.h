@@ -93,6 +93,7 @@ class LitRays {
   vk::Buffer keptBits_;  // lit_count.comp's bits and ranks, one uvec2 per SCAN_ITEMS positions
   // lit_count.comp over the push's enumeration, then the scan of its block counts (the lit count to count_).
   void recordLitCount(vk::Commands& cmd, const DeviceGBuffer& g, const LitPush& push);
+  void recordBoundsClear(vk::Commands& cmd);  // bounds_ as ray_bounds.comp expects it: boxes empty, counts 0
   uint32_t keyBits_ = RAY_KEY_BITS;  // of the keys the last recordKeys (or recordCompactionWithKeys) recorded
   bool pairsPending_ = false;        // the last recording left its pairs in the sort's input
 };
