@@ -68,7 +68,10 @@ class LitRays {
 
   const vk::Buffer& samples() const { return samples_; }
   const vk::Buffer& keys() const { return keys_; }
-  const vk::Buffer& bounds() const { return bounds_; }  // the faces' boxes (RAY_BOUNDS_WORDS uint)
+  const vk::Buffer& bounds() const { return bounds_; }  // the faces' boxes and counts (RAY_BOUNDS_WORDS uint)
+  // The bits of the keys the last recordKeys or recordCompactionWithKeys made (RAY_KEY_BITS, or
+  // FRAME_KEY_BITS in a rotated frame): the sort takes sort::radixPasses of them.
+  uint32_t keyBits() const { return keyBits_; }
   const sort::RadixSort& sorter() const { return sort_; }
   const vk::Buffer& countBuffer() const { return count_; }
   // The lit count, on the GPU.

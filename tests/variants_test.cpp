@@ -16,6 +16,7 @@
 #include "eval/registry.h"
 #include "eval/metrics.h"
 #include "raster/raster.h"
+#include "rays/hilbert.h"
 #include "reference/embree_reference.h"
 #include "sort/sort.h"
 #include "eval/epsilon.h"
@@ -165,6 +166,12 @@ TEST(VariantNames, MapToTheirOptionsAndTheSwitchesCombine) {
                                                    ", tiles of " + std::to_string(shape.threads) + " x " +
                                                    std::to_string(shape.items) + " keys")
         << what;
+    // The key the sorted variants sort by: 18 bits (two radix passes) in the world frame; none unsorted.
+    if (sorted) {
+      EXPECT_EQ(out.stats.value("ray_key_bits", 0u), rays::kRayKeyBits) << what;
+    } else {
+      EXPECT_FALSE(out.stats.contains("ray_key_bits")) << what;
+    }
   }
   try {
     cone.check(settingsOf({{"variant", "Precise"}, {"ray-order", "auto"}}));

@@ -394,6 +394,7 @@ class ConeMethod : public ShadowMethod {
     tree_.setShape(lit);
     stats["lit_samples"] = lit;
     stats["ray_sort"] = raySortName();
+    if (options_.sorted) stats["ray_key_bits"] = rays_->keyBits();
     stats["tree_depth"] = shape[SHAPE_DEPTH];
     stats["tree_nodes"] = shape[SHAPE_NODES];
     if (adaptive) {
@@ -457,7 +458,9 @@ class ConeMethod : public ShadowMethod {
     return ts;
   }
 
-  // How the rays are sorted on this device: the radix sort's scheme and tile (sort::sortSchemeFor, sortShapeFor).
+  // How the rays are sorted on this device: the radix sort's scheme and tile (sort::sortSchemeFor,
+  // sortShapeFor). The key's width is "ray_key_bits" (18 in the world frame: two passes; 31 in the far
+  // frame: four).
   std::string raySortName() const {
     const sort::RadixSort& s = rays_->sorter();
     return std::string(sort::sortSchemeName(s.scheme())) + ", tiles of " + std::to_string(s.shape().threads) + " x " +
@@ -527,6 +530,7 @@ class ConeMethod : public ShadowMethod {
     const uint32_t lit = rays_->readCount();
     stats["lit_samples"] = lit;
     stats["ray_sort"] = raySortName();
+    if (options_.sorted) stats["ray_key_bits"] = rays_->keyBits();
     stats["traversal_path"] = "per-stage submits (two-pass: the update is decided on the host)";
     stats["stage_timing"] = "one submission per stage, host wall clock (two-pass)";
     traversal::TraversalStats ts;
