@@ -186,7 +186,7 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
 }
 
 void LitRays::recordSort(vk::Commands& cmd, sort::Count count) {
-  if (pairsPending_) sort_.recordFromPairs(cmd, keys_, samples_, count, keyBits_);
+  if (pairsPending_) sort_.recordFromPairs(cmd, keys_, samples_, count, keyBits_, keepSortedKeys_);
   else sort_.record(cmd, keys_, samples_, count, keyBits_);
   pairsPending_ = false;
 }

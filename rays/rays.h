@@ -65,6 +65,9 @@ class LitRays {
   // Sorts (keys(), samples()) by key -- or, after recordCompactionWithKeys, its pairs into them: the key
   // bits of the last recording's kind (RAY_KEY_BITS or, in a rotated frame, FRAME_KEY_BITS).
   void recordSort(vk::Commands& cmd, sort::Count count);
+  // Whether keys() holds the sorted keys after a sort from recordCompactionWithKeys' pairs (default yes);
+  // a caller that needs only the order (samples()) spares the sort's last pass its key stores.
+  void keepSortedKeys(bool keep) { keepSortedKeys_ = keep; }
 
   const vk::Buffer& samples() const { return samples_; }
   const vk::Buffer& keys() const { return keys_; }
@@ -93,6 +96,7 @@ class LitRays {
   vk::Kernel litBounds_;                       // fused: ray_bounds.comp SPEC_FROM_BITS
   vk::Kernel litScatter_, frameLitScatter_;    // fused: lit_scatter.comp, world or rotated-frame keys
   vk::Buffer samples_, keys_, count_, bounds_, grids_, keyArgs_;
+  bool keepSortedKeys_ = true;
   vk::Buffer keptBits_;  // lit_count.comp's bits and ranks, one uvec2 per SCAN_ITEMS positions
   // lit_count.comp over the push's enumeration, then the scan of its block counts (the lit count to count_).
   void recordLitCount(vk::Commands& cmd, const DeviceGBuffer& g, const LitPush& push);

@@ -17,7 +17,8 @@
 //    only for SPINS reads: a tile still unpublished by then is counted from its keys here, so the
 //    result never depends on scheduling (sort::sortSchemeFor says where waiting is expected to be short).
 // Layouts (sort.h): the input is separate keys and values, or (PAIRS_IN) interleaved pairs in binding 7;
-// the output separate keys and values, or (PAIRS_OUT) interleaved pairs in binding 6, one uvec2 store a key.
+// the output separate keys and values, or (PAIRS_OUT) interleaved pairs in binding 6, one uvec2 store a key,
+// or (KEYS_OUT false, separate) the values alone.
 // bindings: 0 = keysIn (or pairsIn), 1 = valuesIn (uint[], read as uvec4), 2 = keysOut, 3 = valuesOut
 //           (uint[]), 4 = hist (scanned) or the look-back workspace, 5 = countWords (device count),
 //           6 = pairsOut (uvec2[]), 7 = pairsIn (PAIRS_IN: the pairs as a uniform texel buffer, RGBA32UI),
@@ -38,6 +39,7 @@ layout(push_constant) uniform Push { RadixPush pc; };
 layout(constant_id = 2) const bool LOOKBACK = false;
 layout(constant_id = 3) const uint SPINS = LOOKBACK_SPINS;
 layout(constant_id = 5) const bool PAIRS_OUT = false;
+layout(constant_id = 6) const bool KEYS_OUT = true;  // false: the last pass of a sort whose caller needs the order only
 #define WG_SIZE SORT_THREADS
 #define WG_RAKE SORT_RAKE
 #include "sort/workgroup_scan.glsl"
@@ -223,7 +225,7 @@ void main() {
       if (PAIRS_OUT) {
         pairsOut[dst] = uvec2(key[c], value[c]);
       } else {
-        keysOut[dst] = key[c];
+        if (KEYS_OUT) keysOut[dst] = key[c];
         if (hasValues) valuesOut[dst] = value[c];
       }
     }

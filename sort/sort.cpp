@@ -319,6 +319,11 @@ RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape, SortS
                                                             {3, spins}, {4, in}, {5, out}};
       scatter_[in][out] = vk::createKernel(ctx, "radix_scatter", spv_radix_scatter_comp, 9, sizeof(RadixPush), spec, 1u << 7);
     }
+  if (pairs_)
+    scatterValues_ = vk::createKernel(ctx, "radix_scatter (values)", spv_radix_scatter_comp, 9, sizeof(RadixPush),
+                                      {{0, shape.threads}, {1, shape.items}, {2, lookBack ? 1u : 0u}, {3, spins}, {4, 1u},
+                                       {5, 0u}, {6, 0u}},
+                                      1u << 7);
 }
 
 uint64_t RadixSort::bytesAllocated() const {
@@ -333,19 +338,19 @@ vk::BufferRange RadixSort::pairInput() const {
 
 void RadixSort::record(vk::Commands& cmd, const vk::BufferRange& keys, const vk::BufferRange& values, Count count,
                        uint32_t keyBits) {
-  recordPasses(cmd, keys, values, count, keyBits, false);
+  recordPasses(cmd, keys, values, count, keyBits, false, true);
 }
 
 void RadixSort::recordFromPairs(vk::Commands& cmd, const vk::BufferRange& keys, const vk::BufferRange& values,
-                                Count count, uint32_t keyBits) {
+                                Count count, uint32_t keyBits, bool keysOut) {
   CS_CHECK(pairs_, "radix sort from pairs: no pair scratch on this device (RadixSort::pairInputs)");
   CS_CHECK(radixPasses(keyBits) >= 2 && values.buffer != VK_NULL_HANDLE,
            "radix sort from pairs: " << keyBits << " key bits (two passes or more, with values)");
-  recordPasses(cmd, keys, values, count, keyBits, true);
+  recordPasses(cmd, keys, values, count, keyBits, true, keysOut);
 }
 
 void RadixSort::recordPasses(vk::Commands& cmd, const vk::BufferRange& keys, const vk::BufferRange& values,
-                             Count count, uint32_t keyBits, bool fromPairs) {
+                             Count count, uint32_t keyBits, bool fromPairs, bool keysOut) {
   CS_CHECK(count.max <= capacity_, "radix sort of " << count.max << " pairs, capacity " << capacity_);
   CS_CHECK(keyBits <= 32, "radix sort: " << keyBits << " key bits");
   checkRange(keys, "radix sort keys");
@@ -438,7 +443,8 @@ void RadixSort::recordPasses(vk::Commands& cmd, const vk::BufferRange& keys, con
     }
     // Scatter: stable rank inside the tile, written from the tile's start of each digit.
     const vk::BufferRange none(dummy_);
-    overTiles(scatter_[src.pairs][dst.pairs],
+    const bool valuesOnly = !keysOut && p + 1 == passes;  // (fromPairs: src.pairs, dst the caller's arrays)
+    overTiles(valuesOnly ? scatterValues_ : scatter_[src.pairs][dst.pairs],
               {src.pairs ? none : src.keys, src.values, dst.pairs ? none : dst.keys, dst.pairs ? none : dst.values, table,
                countBinding, dst.pairs ? dst.keys : none, src.texels, ranks_},
               push);

@@ -221,9 +221,11 @@ class RadixSort {
   // the sort's own scratch (pairInput()) instead of two arrays: the first pass reads them there, so the
   // pairs are stored once and never split. Results land in `keys` and `values` as with record(). Only
   // where pairInputs() (the pair scratch fits one storage binding and one texel buffer) and for keys of
-  // two or more passes (keyBits > RADIX_BITS); a cs::Error otherwise.
+  // two or more passes (keyBits > RADIX_BITS); a cs::Error otherwise. With keysOut false the last pass
+  // writes the values alone and `keys` is left as it was: for a caller that needs only the order (one
+  // scattered store a key fewer).
   void recordFromPairs(vk::Commands& cmd, const vk::BufferRange& keys, const vk::BufferRange& values, Count count,
-                       uint32_t keyBits);
+                       uint32_t keyBits, bool keysOut = true);
   bool pairInputs() const { return pairs_; }
   vk::BufferRange pairInput() const;  // uvec2[capacity]: where recordFromPairs reads its pairs
   uint32_t capacity() const { return capacity_; }
@@ -233,7 +235,7 @@ class RadixSort {
 
  private:
   void recordPasses(vk::Commands& cmd, const vk::BufferRange& keys, const vk::BufferRange& values, Count count,
-                    uint32_t keyBits, bool fromPairs);
+                    uint32_t keyBits, bool fromPairs, bool keysOut);
 
   vk::Context& ctx_;
   uint32_t capacity_;
@@ -246,8 +248,8 @@ class RadixSort {
   // binding) scratchA_ holds keys and scratchB_ values.
   bool pairs_ = false;
   // count_: radix_count (ReduceThenScan, [1] reading pairs) or radix_histogram (LookBack);
-  // scatter_[pairs in][pairs out].
-  vk::Kernel count_[2], scatter_[2][2];
+  // scatter_[pairs in][pairs out]; scatterValues_: pairs in, the values alone out (KEYS_OUT false).
+  vk::Kernel count_[2], scatter_[2][2], scatterValues_;
   vk::Buffer scratchA_, scratchB_, hist_, dummy_, args_;  // hist_: the table, or the look-back workspace
   vk::Buffer ranks_;  // reduce-then-scan: each tile's scanned counters, count pass to scatter (radix.glsl)
 };

@@ -159,6 +159,7 @@ class ConeMethod : public ShadowMethod {
     if (!rays_ || raysWidth_ != width || raysHeight_ != height) {
       rays_.reset();
       rays_ = std::make_unique<rays::LitRays>(ctx_, width, height);
+      rays_->keepSortedKeys(false);  // the tree reads the order (samples()) only
       raysWidth_ = width;
       raysHeight_ = height;
       if (options_.twoPass) {
