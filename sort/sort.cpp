@@ -303,6 +303,7 @@ RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape, SortS
   dummy_ = dummyBuffer(ctx);
   args_ = vk::createBuffer(ctx, 16, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
   const uint32_t spins = lookBackSpins >= 0 ? uint32_t(lookBackSpins) : LOOKBACK_SPINS;
+  spins_ = spins;
   for (uint32_t in = 0; in < 2; ++in) {
     if (lookBack && in == 1 && !pairs_) break;  // the look-back histogram reads the first pass's input only
     const std::initializer_list<vk::SpecConstant> spec = {{0, shape.threads}, {1, shape.items}, {2, lookBack ? 1u : 0u},
@@ -319,11 +320,6 @@ RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape, SortS
                                                             {3, spins}, {4, in}, {5, out}};
       scatter_[in][out] = vk::createKernel(ctx, "radix_scatter", spv_radix_scatter_comp, 9, sizeof(RadixPush), spec, 1u << 7);
     }
-  if (pairs_)
-    scatterValues_ = vk::createKernel(ctx, "radix_scatter (values)", spv_radix_scatter_comp, 9, sizeof(RadixPush),
-                                      {{0, shape.threads}, {1, shape.items}, {2, lookBack ? 1u : 0u}, {3, spins}, {4, 1u},
-                                       {5, 0u}, {6, 0u}},
-                                      1u << 7);
 }
 
 uint64_t RadixSort::bytesAllocated() const {
@@ -444,6 +440,12 @@ void RadixSort::recordPasses(vk::Commands& cmd, const vk::BufferRange& keys, con
     // Scatter: stable rank inside the tile, written from the tile's start of each digit.
     const vk::BufferRange none(dummy_);
     const bool valuesOnly = !keysOut && p + 1 == passes;  // (fromPairs: src.pairs, dst the caller's arrays)
+    if (valuesOnly && scatterValues_.pipeline == VK_NULL_HANDLE) {  // compiled for the callers that ask
+      scatterValues_ = vk::createKernel(ctx_, "radix_scatter (values)", spv_radix_scatter_comp, 9, sizeof(RadixPush),
+                                        {{0, shape_.threads}, {1, shape_.items}, {2, lookBack ? 1u : 0u}, {3, spins_},
+                                         {4, 1u}, {5, 0u}, {6, 0u}},
+                                        1u << 7);
+    }
     overTiles(valuesOnly ? scatterValues_ : scatter_[src.pairs][dst.pairs],
               {src.pairs ? none : src.keys, src.values, dst.pairs ? none : dst.keys, dst.pairs ? none : dst.values, table,
                countBinding, dst.pairs ? dst.keys : none, src.texels, ranks_},

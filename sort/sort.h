@@ -248,8 +248,10 @@ class RadixSort {
   // binding) scratchA_ holds keys and scratchB_ values.
   bool pairs_ = false;
   // count_: radix_count (ReduceThenScan, [1] reading pairs) or radix_histogram (LookBack);
-  // scatter_[pairs in][pairs out]; scatterValues_: pairs in, the values alone out (KEYS_OUT false).
+  // scatter_[pairs in][pairs out]; scatterValues_: pairs in, the values alone out (KEYS_OUT false),
+  // compiled at its first use. spins_: the look-back's reads before counting a tile itself.
   vk::Kernel count_[2], scatter_[2][2], scatterValues_;
+  uint32_t spins_ = LOOKBACK_SPINS;
   vk::Buffer scratchA_, scratchB_, hist_, dummy_, args_;  // hist_: the table, or the look-back workspace
   vk::Buffer ranks_;  // reduce-then-scan: each tile's scanned counters, count pass to scatter (radix.glsl)
 };
