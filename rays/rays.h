@@ -58,8 +58,9 @@ class LitRays {
   // faces' boxes and grids follow (world keys: the same subset as recordKeys', found from the marks), and
   // lit_scatter.comp writes each lit sample's (key, pixel) pair straight into the sort's input -- no
   // flags, sample indices or keys stored and read back in between. samples() and keys() hold the result
-  // once recordSort has run. Only where fusedKeys() (the sort takes pairs: sort::RadixSort::pairInputs);
-  // the same order as recordCompaction(ScreenRows) + recordKeys + recordSort, bit for bit.
+  // once recordSort has run (keys() unless keepSortedKeys(false)). Only where fusedKeys() (the sort takes
+  // pairs: sort::RadixSort::pairInputs); the same order as recordCompaction(ScreenRows) + recordKeys +
+  // recordSort, bit for bit.
   bool fusedKeys() const { return sort_.pairInputs(); }
   void recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& keys);
   // Sorts (keys(), samples()) by key -- or, after recordCompactionWithKeys, its pairs into them: the key
