@@ -52,6 +52,11 @@
 #define CONE_ULP16 9.5367431640625e-07f      // 16 ulp = 2^-20: error growth of a nearly parallel projection
 #define CONE_ULP8 4.76837158203125e-07f      // 8 ulp = 2^-21
 #define CONE_ULP2 1.1920928955078125e-07f   // 2 ulp = 2^-23
+// The shortest edge-plane or triangle-plane normal (a product of two coordinates relative to the apex)
+// the early accept trusts: 2^-40. A GPU may flush denormals to zero, so a length() of a vector whose
+// components are below 2^-63 loses their squares; from 2^-40 up the loss (under 2^-62 in the length)
+// is far inside the test's margin (2^-14 of the length), below it the cone is simply not accepted.
+#define CONE_COVER_MIN_LENGTH 9.094947017729282e-13f  // 2^-40
 
 #ifdef __cplusplus
 namespace CONE_CPU_NAMESPACE {
@@ -207,12 +212,15 @@ CS_FN bool preciseConeTriangle(ConeNode cone, PreciseTriangle t, float eps) {
 //  - the plane crossing tau = d / (m.r) (m the plane normal on the triangle's side, d in the slab) of
 //    every direction lies in (eps, Lmin - eps), the slab's far side over the smallest m.r against
 //    Lmin - eps, its near side over the largest against eps, each with the relative margin.
-// Narrow cones only (cos alpha > CONE_WIDE_COS); an empty cone or an unreliable edge plane is never covered.
+// Narrow cones only (cos alpha > CONE_WIDE_COS); an empty cone or an unreliable edge plane is never covered,
+// nor a triangle whose plane or edge-plane normals are shorter than CONE_COVER_MIN_LENGTH (micro geometry
+// next to the light, where flushed denormals would void the margins).
 CS_FN bool edgeContains(vec4 e, vec3 a, float c, float s) {
   vec3 n = vec3(e);
   float nl = length(n);
   // |n| cos(phi + alpha) = min over the cone of n.r (alpha < pi/2 here), against the normal's error.
-  return e.w > 0.0f && dot(n, a) * c - length(cross(n, a)) * s > e.w + 4.0f * CONE_TEST_MARGIN * nl;
+  return e.w > 0.0f && nl >= CONE_COVER_MIN_LENGTH &&
+         dot(n, a) * c - length(cross(n, a)) * s > e.w + 4.0f * CONE_TEST_MARGIN * nl;
 }
 
 CS_FN bool preciseConeCovered(ConeNode cone, PreciseTriangle t, float eps) {
@@ -223,7 +231,7 @@ CS_FN bool preciseConeCovered(ConeNode cone, PreciseTriangle t, float eps) {
   float lmin = cone.sinLen.y;
   if (!(c > CONE_WIDE_COS) || !(lmin > 0.0f)) return false;
   float nl = t.plane.w;
-  if (!(nl > 0.0f) || !(t.slab.x > 0.0f || t.slab.y < 0.0f)) return false;  // light (near) in the plane
+  if (!(nl >= CONE_COVER_MIN_LENGTH) || !(t.slab.x > 0.0f || t.slab.y < 0.0f)) return false;  // light (near) in the plane
   if (!edgeContains(t.edge0, a, c, s) || !edgeContains(t.edge1, a, c, s) || !edgeContains(t.edge2, a, c, s))
     return false;
   vec3 m = t.slab.x > 0.0f ? vec3(t.plane) : -vec3(t.plane);
