@@ -53,15 +53,21 @@ struct ConeNode {
 
 // The far-light frame (traversal/traversal.h, "Far-light frame"): for a light well outside the scene's
 // bounds, the cones and the pass tests work in coordinates rotated so that z points from the light at
-// the scene's centre C: x_f = R (x - C), the light at lightFrame = R (light - C). Every ray and every
-// vertex is then within Θ of z, and the tests' rounding is relative to the cones' own angular size.
-// In the world frame (far == 0) the build and the tests see light-relative world coordinates as before.
+// the scene's centre C: x_f = S R (x - C), the light at lightFrame = S R (light - C). R's rows are fp32,
+// so its z row points at C only to ~2^-24 rad: the light would sit up to 2^-24 of its distance off the
+// z axis, and every coordinate relative to it would round to an ulp of that offset (at 10^13 from a
+// room, 0.004 across, where the room's own detail is 10^-6). S shears that offset away: x_f.x -= kx z_f,
+// x_f.y -= ky z_f with (kx, ky) the light's own lateral over axial coordinates under R, so the light's
+// lateral coordinates in the frame are what fp32 k leaves of them (D 2^-48 at most) instead of D 2^-24.
+// Every ray and every vertex is then within Θ of z, and the tests' rounding is relative to the cones'
+// own angular size. In the world frame (far == 0) the build and the tests see light-relative world
+// coordinates as before (k = 0).
 struct ConeFrame {
   vec4 rowX;        // xyz: the first row of R; w: 1 in the far frame, 0 in the world frame
-  vec4 rowY;        // xyz: the second row of R
-  vec4 rowZ;        // xyz: the third row of R (the direction from the light to C)
+  vec4 rowY;        // xyz: the second row of R; w: kx, the shear of x by z (0 in the world frame)
+  vec4 rowZ;        // xyz: the third row of R (the direction from the light to C); w: ky, of y by z
   vec4 centre;      // xyz: C (world); w: the frame's angular scale (1 in the world frame; precise_test.h)
-  vec4 lightFrame;  // xyz: R (light - C); w: unused
+  vec4 lightFrame;  // xyz: S R (light - C); w: unused
 };
 
 // The tree's shape on the GPU (conetree/tree_shape.comp writes it from the ray count; the build and the

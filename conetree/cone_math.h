@@ -35,10 +35,11 @@ CS_FN vec4 leafRay(vec3 samplePosition, vec3 light) {
   return vec4(w, L);
 }
 
-// A world point in the cone frame (cone_layout.h, ConeFrame): R (x - C).
+// A world point in the cone frame (cone_layout.h, ConeFrame): S R (x - C), the shear S by rowY.w, rowZ.w.
 CS_FN vec3 toConeFrame(vec3 x, ConeFrame f) {
   vec3 d = x - vec3(f.centre);
-  return vec3(dot(vec3(f.rowX), d), dot(vec3(f.rowY), d), dot(vec3(f.rowZ), d));
+  float z = dot(vec3(f.rowZ), d);
+  return vec3(dot(vec3(f.rowX), d) - f.rowY.w * z, dot(vec3(f.rowY), d) - f.rowZ.w * z, z);
 }
 
 // A ray is degenerate (never tested, in no cone) unless its length is finite and above minLength.

@@ -68,19 +68,29 @@ FrameChoice chooseFrame(glm::vec3 light, glm::vec3 lo, glm::vec3 hi) {
   f.frame.rowY = glm::vec4(glm::vec3(y), 0.0f);
   f.frame.rowZ = glm::vec4(glm::vec3(z), 0.0f);
   const glm::vec3 Cf(C);
-  // The rows as stored (fp32) define the map; the light goes through it in double.
+  // The rows as stored (fp32) define the map; the light goes through it in double. Its lateral coordinates
+  // under R alone are up to 2^-24 of D (the rows' rounding): the shear (kx, ky), stored as fp32 too, takes
+  // them to what fp32 k leaves (cone_layout.h, ConeFrame).
   const glm::dmat3 Rt(glm::dvec3(glm::vec3(f.frame.rowX)), glm::dvec3(glm::vec3(f.frame.rowY)),
                       glm::dvec3(glm::vec3(f.frame.rowZ)));  // columns = rows of R
-  auto toFrame = [&](glm::dvec3 p) { return glm::transpose(Rt) * (p - glm::dvec3(Cf)); };
+  const glm::dvec3 rotatedLight = glm::transpose(Rt) * (L - glm::dvec3(Cf));
+  const float kx = float(rotatedLight.x / rotatedLight.z), ky = float(rotatedLight.y / rotatedLight.z);
+  f.frame.rowY.w = kx;
+  f.frame.rowZ.w = ky;
+  auto toFrame = [&](glm::dvec3 p) {
+    const glm::dvec3 r = glm::transpose(Rt) * (p - glm::dvec3(Cf));
+    return glm::dvec3(r.x - double(kx) * r.z, r.y - double(ky) * r.z, r.z);
+  };
   const glm::dvec3 lf = toFrame(L);
   f.frame.lightFrame = glm::vec4(glm::vec3(lf), 0.0f);
   const double tanTheta = r / std::sqrt(D * D - r * r);
   f.scale = float(std::min(1.0, 4.0 * tanTheta));
   f.frame.centre = glm::vec4(Cf, f.scale);
-  // Slack between frame and world geometry: the transform's rounding (a few ulp of |x - C| <= r) and the
-  // world leaf test's (a few ulp of the triangle's distance to the sample, <= 2r), 2^-16 (256 ulp) of the
-  // diagonal over both; as an angle from the light, over the nearest distance to the bounds.
-  f.sigma = float(std::ldexp(2.0 * r, -16));
+  // Slack between frame and world geometry: the transform's rounding (a few ulp of |x - C| <= r, and of
+  // the light's lateral coordinates the shear leaves, which x - light subtracts) and the world leaf
+  // test's (a few ulp of the triangle's distance to the sample, <= 2r), 2^-16 (256 ulp) of the diagonal
+  // and that lateral offset over both; as an angle from the light, over the nearest distance to the bounds.
+  f.sigma = float(std::ldexp(2.0 * r + std::abs(lf.x) + std::abs(lf.y), -16));
   f.beta = float(double(f.sigma) / (D - r - double(f.sigma)) * (1.0 + std::ldexp(1.0, -10)));
   // Ray keys over the bounds' projection onto z = 1 in the frame.
   double u0 = INFINITY, u1 = -INFINITY, v0 = INFINITY, v1 = -INFINITY;

@@ -101,6 +101,7 @@ int EpsilonPolicy::bandFamily(glm::vec3 p, glm::vec3 n, glm::vec3 light, const B
   }
   if (options.endAlongRay)
     for (float f : kEndOffsets) add(rayToward(p, light, eps, relative(f)));
+  if (options.startBehind) add(rayToward(p - behindOffset() * n, light, eps, eps));
   return count;
 }
 

@@ -36,9 +36,15 @@
 //                         visible amount: 0.19 at 1e5)
 //   end along the ray   : origin p, t in (eps, L - e),                  e ∈ {0, 1e-5, 1e-3} · s
 //                         (e = 0 floors to `floor`: catches geometry between floor and eps of the light)
+//   start behind        : origin p - b·n, t in (eps, L' - eps),         b = 4 · FLT_EPSILON · M
+//                         (the raster's rounding can leave a sample a few ulps behind its surface: at a
+//                         grazing light the base ray then threads the crack where its surface meets the
+//                         next one, and which side of the edge it passes is the rounding's choice; at
+//                         other angles the ray meets its own surface within eps and nothing changes)
 // Members identical to the base ray (e.g. a = 1e-4·s when it equals eps) are skipped: same answer.
-// Up to 12 members per sample (13 rays with the base).
+// Up to 13 members per sample (14 rays with the base).
 #pragma once
+#include <algorithm>
 #include <array>
 #include <cfloat>
 #include <cstdint>
@@ -67,6 +73,7 @@ struct BandOptions {
   bool startAlongNormal = true;
   bool lightNudge = true;
   bool endAlongRay = true;
+  bool startBehind = true;
 };
 
 struct EpsilonPolicy {
@@ -76,8 +83,9 @@ struct EpsilonPolicy {
   static constexpr float kLightNudge = 1e-4f;                  // · s, sideways, 4 directions
   static constexpr float kNudgeFloorUlps = 4.0f;               // the nudge's own floor, in ulps
   static constexpr std::array<float, 3> kEndOffsets = {0.0f, 1e-5f, 1e-3f};     // · s, before the light
+  static constexpr float kBehindUlps = 4.0f;                   // b = kBehindUlps · FLT_EPSILON · M, start behind
   static constexpr int kMaxBandMembers =
-      int(kStartOffsets.size()) * 2 + 4 + int(kEndOffsets.size());
+      int(kStartOffsets.size()) * 2 + 4 + int(kEndOffsets.size()) + 1;
 
   float scale = 0;        // s: bounding-box diagonal
   float maxAbsCoord = 0;  // M: largest |coordinate| of any position
@@ -85,6 +93,8 @@ struct EpsilonPolicy {
   float eps = FLT_MIN;    // max(1e-4 · s, floor)
 
   float floored(float x) const { return x > floor ? x : floor; }
+  // b, how far behind its surface the start-behind member puts a sample (never below FLT_MIN).
+  float behindOffset() const { return std::max(kBehindUlps * FLT_EPSILON * maxAbsCoord, FLT_MIN); }
   float relative(float fractionOfScale) const { return floored(fractionOfScale * scale); }
   // δ, the sideways nudge of the light (floored at 4 ulps of M and of the light's coordinates).
   float lightNudge(glm::vec3 light) const;

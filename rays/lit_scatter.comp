@@ -41,9 +41,10 @@ void main() {
     bits &= bits - 1u;
     vec3 x = texelFetch(position, int(pixel)).xyz;
     uint key;
-    if (SPEC_FRAMED != 0u) {  // R (x - origin) - lightFrame: the ray in the rotated frame
+    if (SPEC_FRAMED != 0u) {  // S R (x - origin) - lightFrame: the ray in the rotated frame
       vec3 d = x - pc.origin.xyz;
       vec3 f = vec3(dot(pc.rowX.xyz, d), dot(pc.rowY.xyz, d), dot(pc.rowZ.xyz, d));
+      f.xy -= vec2(pc.rowY.w, pc.rowZ.w) * f.z;  // the frame's shear (cone_layout.h, ConeFrame)
       key = frameRayKey(f - pc.lightFrame.xyz, pc.rect);
     } else {
       vec3 d = x - pc.light.xyz;

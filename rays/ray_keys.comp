@@ -24,9 +24,10 @@ void main() {
   uint i = flatWorkgroup() * PIXEL_THREADS + gl_LocalInvocationIndex;
   if (i >= countOf(pc.count, pc.countIndex, pc.flags)) return;
   vec3 x = texelFetch(position, int(samples[i])).xyz;
-  if (SPEC_FRAMED != 0u) {  // R (x - origin) - lightFrame: the ray in the rotated frame
+  if (SPEC_FRAMED != 0u) {  // S R (x - origin) - lightFrame: the ray in the rotated frame
     vec3 d = x - pc.origin.xyz;
     vec3 f = vec3(dot(pc.rowX.xyz, d), dot(pc.rowY.xyz, d), dot(pc.rowZ.xyz, d));
+    f.xy -= vec2(pc.rowY.w, pc.rowZ.w) * f.z;  // the frame's shear (cone_layout.h, ConeFrame)
     keys[i] = frameRayKey(f - pc.lightFrame.xyz, pc.rect);
   } else {
     vec3 d = x - pc.light.xyz;

@@ -44,7 +44,7 @@ struct KeysPush {
   uint flags;
   uint framed;      // 1: keys in a rotated frame (frameRayKey), the rows, origin, light and rect below;
                     // LitRays picks the pipeline by it (the kernel's SPEC_FRAMED)
-  vec4 rowX, rowY, rowZ;  // the frame's rotation, rows (world -> frame)
+  vec4 rowX, rowY, rowZ;  // the frame's rotation, rows (world -> frame); rowY.w, rowZ.w its shear (ConeFrame)
   vec4 origin;            // xyz: the frame's origin (world)
   vec4 lightFrame;        // xyz: the light in the frame
   vec4 rect;              // (u0, v0, 1 / (u1 - u0), 1 / (v1 - v0)): what the keys' grid covers of z = 1

@@ -494,6 +494,23 @@ TEST(ConeHardCases, FarLightOnTheBuiltinSceneAndAGltfModel) {
                        "2CylinderEngine, far light " + std::to_string(int(k)) + " diagonals");
 }
 
+TEST(ConeHardCases, FarLightsGrazingTheWallsOfTheClosedRoom) {
+  // The built-in room is closed: a light outside shadows every sample, through its walls. In the plane
+  // z = 0 and far, the light grazes the back wall (z = -7, N.L down to 10^-13): the rays run along it and
+  // meet the ceiling a hair from the edge the two share. From 10^6 on, the precise test in the far frame
+  // rejected such pairs while the frame's rotation left the light D 2^-24 off its axis (coordinates
+  // relative to it rounded to 0.004 at 10^13; ConeFrame's shear); a sample the raster left an ulp
+  // behind the back wall threads the crack at the edge, which only a start behind the surface shows to
+  // be rounding's choice (eval/epsilon.h).
+  Scene scene = builtinScene();
+  const Camera cam = *scene.findCamera("room");
+  for (float d : {1e6f, 1e13f, 1e17f}) {
+    const vec3 light(d, 0.3f * d, 0.0f);
+    CaseResult r = Harness::get().run(scene, cam, light, 96, 96, "builtin/room, light (" + std::to_string(d) + ", 0.3 of it, 0)");
+    EXPECT_EQ(r.stats["frame"].get<std::string>(), "far");
+  }
+}
+
 // The leaf test from the light (traversal.h LeafTest) runs up to the far frame's threshold (8
 // half-diagonals from the centre of the bounds), where its rays are longest: just inside it, exact and
 // within the band of the two ends' test (Harness::run runs both); just outside, the far frame and the

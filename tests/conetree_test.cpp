@@ -417,3 +417,51 @@ TEST(ConeTree, CoherentRaysGiveTightCones) {
 
 }  // namespace
 }  // namespace cs
+
+namespace cs {
+namespace {
+
+// The far frame's shear (cone_layout.h, ConeFrame): its fp32 rows point at the scene's centre only to
+// ~2^-24 rad, so under them alone a light D away sits up to D 2^-24 off the z axis and every coordinate
+// relative to it rounds to an ulp of that (0.004 across at 10^13 from a room, where the room's detail is
+// 10^-6: the precise test then rejected pairs the leaf test hits). The shear leaves what fp32 k does:
+// at most D 2^-48 per component. And the frame takes the light to lightFrame: the fp32 map, in double.
+TEST(ConeFrameChoice, TheShearPutsAFarLightOnTheAxis) {
+  const glm::vec3 lo(-10, 0, -7), hi(10, 8, 7);
+  const glm::dvec3 C(0.5 * (glm::dvec3(lo) + glm::dvec3(hi)));
+  int far = 0;
+  for (double D : {1e3, 1e6, 1e9, 1e13, 1e16, 4e18})
+    for (glm::dvec3 dir : {glm::dvec3(1, 0.3, 0), glm::dvec3(0.3, 1, 0.2), glm::dvec3(-0.7, 0.35, 0.6), glm::dvec3(0, 0, -1),
+                           glm::dvec3(1e-3, 1, -2e-3)}) {
+      const glm::vec3 light(C + D * glm::normalize(dir));
+      const cone::FrameChoice f = cone::chooseFrame(light, lo, hi);
+      ASSERT_TRUE(f.far) << D;
+      far++;
+      const glm::vec4 lf = f.frame.lightFrame;
+      EXPECT_LE(std::abs(lf.x), std::ldexp(D, -48)) << "light at " << D << " along (" << dir.x << ", " << dir.y << ", " << dir.z << ")";
+      EXPECT_LE(std::abs(lf.y), std::ldexp(D, -48)) << "light at " << D;
+      EXPECT_NEAR(-lf.z, D, D * 1e-6) << "light at " << D;
+      // The fp32 map in double: the light goes to lightFrame; a corner of the bounds stays within the
+      // bounds' radius across z of the light (so its coordinates relative to the light round to an ulp of
+      // the scene, not of D 2^-24).
+      auto toFrame = [&](glm::dvec3 p) {
+        const glm::dvec3 d = p - glm::dvec3(glm::vec3(f.frame.centre));
+        const double z = glm::dot(glm::dvec3(glm::vec3(f.frame.rowZ)), d);
+        return glm::dvec3(glm::dot(glm::dvec3(glm::vec3(f.frame.rowX)), d) - double(f.frame.rowY.w) * z,
+                          glm::dot(glm::dvec3(glm::vec3(f.frame.rowY)), d) - double(f.frame.rowZ.w) * z, z);
+      };
+      const glm::dvec3 l = toFrame(glm::dvec3(light));
+      EXPECT_NEAR(l.x, lf.x, std::ldexp(std::abs(lf.x), -20) + 1e-30) << D;
+      EXPECT_NEAR(l.y, lf.y, std::ldexp(std::abs(lf.y), -20) + 1e-30) << D;
+      const glm::dvec3 corner = toFrame(glm::dvec3(hi)) - l;
+      EXPECT_LE(std::abs(corner.x) + std::abs(corner.y), 2.0 * glm::length(glm::dvec3(hi) - C) + std::ldexp(D, -46)) << D;
+      // And the GPU's formula (cone_math.h) agrees with the double map on the corner, to fp32.
+      const glm::vec3 g = cone::toConeFrame(hi, f.frame) - glm::vec3(lf);
+      EXPECT_NEAR(g.x, corner.x, 1e-4 * glm::length(glm::dvec3(hi) - C)) << D;
+      EXPECT_NEAR(g.y, corner.y, 1e-4 * glm::length(glm::dvec3(hi) - C)) << D;
+    }
+  EXPECT_EQ(far, 30);
+}
+
+}  // namespace
+}  // namespace cs

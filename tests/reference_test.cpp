@@ -150,10 +150,14 @@ TEST(EpsilonPolicy, BaseRayStopsEpsilonShortOfBothEnds) {
 TEST(EpsilonPolicy, BandFamilyHasEveryMemberThatDiffersFromTheBase) {
   EpsilonPolicy p = EpsilonPolicy::forScene(analyticScene());
   ShadowRay rays[EpsilonPolicy::kMaxBandMembers];
-  // Start along ray: 1e-4·s equals eps and is skipped (2); along normal (3); nudges (4); ends (3).
-  EXPECT_EQ(p.bandFamily(glm::vec3(1, 0, 1), glm::vec3(0, 1, 0), kLight, {}, rays), 12);
+  // Start along ray: 1e-4·s equals eps and is skipped (2); along normal (3); nudges (4); ends (3); behind (1).
+  EXPECT_EQ(p.bandFamily(glm::vec3(1, 0, 1), glm::vec3(0, 1, 0), kLight, {}, rays), 13);
   ShadowRay base = p.baseRay(glm::vec3(1, 0, 1), kLight);
-  for (int i = 0; i < 12; ++i) EXPECT_FALSE(rays[i] == base) << "member " << i;
+  for (int i = 0; i < 13; ++i) EXPECT_FALSE(rays[i] == base) << "member " << i;
+  // The last starts 4 ulps of M behind the surface, with the base's epsilon.
+  EXPECT_EQ(rays[12].org, glm::vec3(1, 0, 1) - p.behindOffset() * glm::vec3(0, 1, 0));
+  EXPECT_FLOAT_EQ(p.behindOffset(), EpsilonPolicy::kBehindUlps * FLT_EPSILON * p.maxAbsCoord);
+  EXPECT_FLOAT_EQ(rays[12].tnear, p.eps);
   // Nudged lights sit 1e-4·s off the ray, perpendicular to it.
   for (int i = 5; i < 9; ++i) {
     glm::vec3 nudgedLight = rays[i].org + rays[i].dir * (rays[i].tfar + p.eps);
@@ -161,9 +165,10 @@ TEST(EpsilonPolicy, BandFamilyHasEveryMemberThatDiffersFromTheBase) {
     EXPECT_NEAR(glm::length(offset), EpsilonPolicy::kLightNudge * p.scale, 1e-5f);
     EXPECT_NEAR(glm::dot(offset, base.dir), 0.0f, 1e-5f);
   }
-  // Translated by 1e5 every along-ray distance floors to eps: only the normal offsets and nudges remain.
+  // Translated by 1e5 every along-ray distance floors to eps: only the normal offsets, the nudges and the
+  // start behind remain.
   EpsilonPolicy far = EpsilonPolicy::forScene(analyticScene(glm::vec3(1e5f)));
-  EXPECT_EQ(far.bandFamily(glm::vec3(1e5f), glm::vec3(0, 1, 0), glm::vec3(1e5f) + kLight, {}, rays), 7);
+  EXPECT_EQ(far.bandFamily(glm::vec3(1e5f), glm::vec3(0, 1, 0), glm::vec3(1e5f) + kLight, {}, rays), 8);
 }
 
 TEST(EpsilonPolicy, OrthonormalBasisIsOrthonormal) {

@@ -899,7 +899,7 @@ class ConeMethod : public ShadowMethod {
   // The clusters' spheres relative to the light in the pass tests' coordinates (the world, or the far
   // frame through its fp32 rows), written to host-visible buffers when the triangles or the frame
   // changed. Padded by 2^-16 of the magnitudes: the GPU's vertices are fp32 differences of up to those
-  // magnitudes (v - light, or R (v - C) - R (light - C)), a few ulp off the exact ones.
+  // magnitudes (v - light, or S R (v - C) - S R (light - C)), a few ulp off the exact ones.
   void updateClusterSpheres(glm::vec3 light) {
     const cone::ConeFrame& f = frame_.frame;
     if (clusterSpheresUpload_ == uploads_ && clusterSpheresLight_ == light && clusterSpheresFar_ == frame_.far &&
@@ -913,8 +913,13 @@ class ConeMethod : public ShadowMethod {
     const glm::dmat3 R = glm::transpose(glm::dmat3(glm::dvec3(glm::vec3(f.rowX)), glm::dvec3(glm::vec3(f.rowY)),
                                                    glm::dvec3(glm::vec3(f.rowZ))));
     const glm::dvec3 C(glm::vec3(f.centre)), LF(glm::vec3(f.lightFrame)), L(light);
+    const double kx = f.rowY.w, ky = f.rowZ.w;  // the frame's shear (cone_layout.h, ConeFrame)
+    auto toFrame = [&](glm::dvec3 c) {
+      const glm::dvec3 r = R * (c - C);
+      return glm::dvec3(r.x - kx * r.z, r.y - ky * r.z, r.z);
+    };
     auto sphere = [&](glm::dvec3 c, double r) {
-      const glm::dvec3 rel = frame_.far ? R * (c - C) - LF : c - L;
+      const glm::dvec3 rel = frame_.far ? toFrame(c) - LF : c - L;
       const double operands = frame_.far ? glm::length(c - C) + r + glm::length(LF) : glm::length(c) + r + glm::length(L);
       return traversal::clusterSphere(rel, r, operands);
     };

@@ -43,7 +43,8 @@
 // cones narrower than 2^-16 rad, every margin passes and every triangle reaches every leaf. When the light
 // is at least 8 half-diagonals from the centre C of the triangles' bounds (the bounds within Θ <= 7.2
 // degrees of the direction to C), the cone path works in a rotated frame instead: z from the light to C,
-// x_f = R (x - C), the light at R (light - C) computed in double. There every vertex and every ray is
+// x_f = S R (x - C), the light at S R (light - C) computed in double, S the shear that takes the light's
+// lateral offset under the fp32 rows (up to D 2^-24) off it (cone_layout.h, ConeFrame). There every vertex and every ray is
 // within Θ of z, their components across z are <= |v| tan Θ, and the rounding of the tests' cross and dot
 // products is that much smaller: the margins of the quantities measured across the cones -- the edge
 // planes' orientation and normal error, the bounding sphere's radius and its distance across the cone,
@@ -53,8 +54,9 @@
 // below, never steered off by a GPU's approximate sin/cos. The ray keys cover the bounds' projection
 // (rays/hilbert.h frameRayKey) instead of six cube faces. The frame's geometry is the world's through an
 // fp32 rotation: the leaves stay in world coordinates (leafHit, as the reference), and the difference --
-// the transform's rounding, a few ulp of |x - C|, and the leaf test's, a few ulp of a triangle's distance
-// to the sample -- is covered by widening every leaf cone by sigma = 2^-16 of the bounds' diagonal across
+// the transform's rounding, a few ulp of |x - C| and of the light's lateral coordinates the shear leaves,
+// and the leaf test's, a few ulp of a triangle's distance to the sample -- is covered by widening every
+// leaf cone by sigma = 2^-16 of the bounds' diagonal plus those lateral coordinates across
 // (as the angle beta = sigma / (nearest distance to the bounds)) and along (Lmin - sigma, Lmax + sigma).
 // Bit-identical masks across variants and arena sizes hold in both frames (tests/cone_exactness_test.cpp,
 // far lights from 10 to 10^16 diagonals); the margins' conservativeness in the far frame is checked by
