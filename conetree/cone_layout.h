@@ -93,7 +93,8 @@ struct ShapePush {
 // Push constants of conetree/tree_spread.comp.
 struct SpreadPush {
   uint firstWord;     // the per-depth sums go to words firstWord + 2 d (uint64: lo, hi) of the output
-  uint pad0, pad1, pad2;
+  float scale;        // the sums are in units of scale^2: the far frame's angular scale (1 in the world frame)
+  uint pad1, pad2;
 };
 #define CONE_SPREAD_THREADS 64
 #define CONE_SPREAD_SAMPLES 4096  // nodes summed per depth at most (evenly strided), the rest estimated

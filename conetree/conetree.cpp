@@ -183,10 +183,11 @@ void ConeTree::recordDevice(vk::Commands& cmd, const vk::Buffer& positions, cons
   }
 }
 
-void ConeTree::recordSpread(vk::Commands& cmd, const vk::Buffer& words, uint32_t firstWord) {
+void ConeTree::recordSpread(vk::Commands& cmd, const vk::Buffer& words, uint32_t firstWord, float scale) {
   CS_CHECK(firstWord % 2 == 0 && (uint64_t(firstWord) + 2 * (SHAPE_MAX_DEPTH + 1)) * 4 <= words.size,
            "cone tree spread: words " << firstWord << " .. of a " << words.size << "-byte buffer");
-  SpreadPush sp{firstWord, 0, 0, 0};
+  CS_CHECK(scale > 0.0f && scale <= 1.0f, "cone tree spread: scale " << scale << " (0 .. 1]");
+  SpreadPush sp{firstWord, scale, 0, 0};
   cmd.dispatch(spread_, {nodes_, shapeWords_, words}, sp, std::max(maxDepth_, 1u));  // a workgroup per height
   cmd.barrier();
 }

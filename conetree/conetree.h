@@ -66,10 +66,11 @@ class ConeTree {
                     const vk::Buffer& countWords, uint32_t countIndex, uint32_t maxCount, glm::vec3 light,
                     float minLength, const FrameChoice* frame = nullptr, bool keepWhenZero = false);
   // After a device build: writes words firstWord + 2 d (uint64, even firstWord) of `words`, for each
-  // depth d of the tree, the sum over its nodes of 1 - cos(half-angle) in CONE_SPREAD_UNIT fixed point,
-  // estimated from CONE_SPREAD_SAMPLES strided nodes on a larger depth (tree_spread.comp). Words of
-  // depths the tree does not have are left as they are.
-  void recordSpread(vk::Commands& cmd, const vk::Buffer& words, uint32_t firstWord);
+  // depth d of the tree, the sum over its nodes of (1 - cos(half-angle)) / scale^2 in CONE_SPREAD_UNIT
+  // fixed point, estimated from CONE_SPREAD_SAMPLES strided nodes on a larger depth (tree_spread.comp).
+  // scale: the frame's angular scale (FrameChoice::scale; in (0, 1]), so a far light's narrow cones
+  // still register. Words of depths the tree does not have are left as they are.
+  void recordSpread(vk::Commands& cmd, const vk::Buffer& words, uint32_t firstWord, float scale = 1.0f);
   // The host's copy of the shape after a device build (`leaves` from shapeBuffer()); 0: no tree.
   void setShape(uint32_t leaves);
   const vk::Buffer& shapeBuffer() const { return shapeWords_; }

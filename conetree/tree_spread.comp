@@ -8,7 +8,10 @@
 // levels cover more than its top groups rays that point apart (the cone method's choice of ray order
 // reads it). Empty cones count 0. A depth of more than CONE_SPREAD_SAMPLES nodes is estimated from that
 // many evenly strided nodes, scaled to the whole depth: the sums are compared, not reported to the ulp,
-// and every tree gets the same estimate (no atomics, no race).
+// and every tree gets the same estimate (no atomics, no race). In units of p.scale^2: the far frame's
+// cones are as narrow as its angular scale (2^-34 rad from 10^11 away), so 1 - cos would vanish in the
+// fixed point and every tree look as tight as a sorted one; the verdict compares depths, so any common
+// unit serves.
 // One workgroup per depth: workgroup h - 1 sums the depth h levels above the leaves (none past the tree).
 // bindings: 0 = nodes (ConeNode[]), 1 = shape words, 2 = output words
 #include "conetree/cone_math.h"
@@ -34,9 +37,10 @@ void main() {
   float sum = 0.0f;
   for (uint k = l; k < taken; k += uint(CONE_SPREAD_THREADS)) {
     ConeNode c = nodes[offset + k * stride];
-    // 1 - cos, without cancellation for narrow cones: sin^2 / (1 + cos).
-    float cosA = c.axisCos.w, sinA = c.sinLen.x;
-    sum += coneIsEmpty(c) ? 0.0f : (cosA >= 0.0f ? sinA * sinA / (1.0f + cosA) : 1.0f - cosA);
+    // 1 - cos, without cancellation for narrow cones: sin^2 / (1 + cos); over scale^2, sin scaled first
+    // (no square below the smallest float).
+    float cosA = c.axisCos.w, sinA = c.sinLen.x / p.scale;
+    sum += coneIsEmpty(c) ? 0.0f : (cosA >= 0.0f ? sinA * sinA / (1.0f + cosA) : (1.0f - cosA) / (p.scale * p.scale));
   }
   partial[l] = sum;
   barrier();

@@ -352,12 +352,15 @@ TEST(ConeTree, SpreadPerDepthAndAKeptTreeOnAZeroCount) {
     std::vector<uint32_t> marked(2 + 2 * (SHAPE_MAX_DEPTH + 1), 0xABCDu);
     vk::upload(ctx, words, marked.data(), marked.size() * 4);
     cone::ConeTree tree(ctx);
+    vk::Buffer scaled = vk::createBuffer(ctx, 4 * (2 + 2 * (SHAPE_MAX_DEPTH + 1)));
     {
       vk::Commands cmd(ctx);
       tree.recordDevice(cmd, positions, samples, count, 0, n, light, minLength);
       tree.recordSpread(cmd, words, 2);
+      tree.recordSpread(cmd, scaled, 2, 0.25f);  // in units of scale^2: 16 times the sums
       cmd.submit();
     }
+    const std::vector<uint32_t> gotScaled = vk::download<uint32_t>(ctx, scaled, marked.size());
     const cone::TreeShape s = cone::treeShape(n);
     const std::vector<ConeNode> nodes = vk::download<ConeNode>(ctx, tree.nodes(), s.nodes());
     const std::vector<uint32_t> got = vk::download<uint32_t>(ctx, words, marked.size());
@@ -377,6 +380,9 @@ TEST(ConeTree, SpreadPerDepthAndAKeptTreeOnAZeroCount) {
       const double spread = double(v) / double(CONE_SPREAD_UNIT);
       const double tolerance = s.counts[d] <= CONE_SPREAD_SAMPLES ? 1e-4 : 0.05;
       EXPECT_NEAR(spread, want, tolerance * want + 1e-9) << "n=" << n << " depth " << d << " of " << s.depth;
+      const uint64_t vs = uint64_t(gotScaled[2 + 2 * d]) | (uint64_t(gotScaled[3 + 2 * d]) << 32);
+      EXPECT_NEAR(double(vs) / double(CONE_SPREAD_UNIT), 16.0 * want, tolerance * 16.0 * want + 1e-9)
+          << "scaled, n=" << n << " depth " << d;
     }
     // A rebuild the GPU decided against (count 0 with keepWhenZero): the tree stands.
     const std::vector<uint32_t> shapeBefore = vk::download<uint32_t>(ctx, tree.shapeBuffer(), SHAPE_WORDS);

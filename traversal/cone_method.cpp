@@ -327,7 +327,7 @@ class ConeMethod : public ShadowMethod {
                          2.0f * in.eps, &frame_);
       cmd.fill(orderWords_, 0);
       cmd.barrier();
-      tree_.recordSpread(cmd, orderWords_, ORDER_SPREAD);
+      tree_.recordSpread(cmd, orderWords_, ORDER_SPREAD, frame_.scale);
       cmd.dispatch(orderChoice_, {tree_.shapeBuffer(), orderWords_}, static_cast<const void*>(nullptr), 0u, 1u, 1u, 1u);
       cmd.barrier();
       boundary("order");
