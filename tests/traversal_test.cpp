@@ -210,6 +210,26 @@ TEST(ClusterSphere, ASuperClusterBoundHoldsItsClusters) {
   }
 }
 
+// A triangle seen from far away, as the far frame holds it: z about the light's distance D for all three
+// vertices. Its bounding sphere stays about the triangle's own size, whatever D: the centre made from a
+// third of the sum once landed an ulp of D off the vertices (3 D rounds to an ulp of 3 D) and the radius
+// grew to that, 64 at 10^9.
+TEST(SphereConeTriangle, TheBoundingSphereOfAFarTriangleIsItsOwnSize) {
+  std::mt19937 rng(43);
+  std::uniform_real_distribution<float> u(-10.0f, 10.0f);
+  for (float D : {1e4f, 1.04403059e9f, 1e10f, 1.04403059e11f, 3e17f, 4e18f}) {
+    const float z = D;  // a float: the frame's z of every vertex once rounded
+    for (int t = 0; t < 200; ++t) {
+      const vec3 v0(u(rng), u(rng), z), v1(u(rng), u(rng), z), v2(u(rng), u(rng), z);
+      const float size = std::max(glm::length(v1 - v0), std::max(glm::length(v2 - v0), glm::length(v2 - v1)));
+      const float scale = std::min(1.0f, 4.0f * 14.0f / D);  // the frame's angular scale for bounds of radius 14
+      const glm::vec4 s = cone::boundingSphere(v0, v1, v2, scale);
+      EXPECT_LE(s.w, size * 1.01f + 1e-3f) << "D " << D << " triangle " << t;
+      for (vec3 v : {v0, v1, v2}) EXPECT_LE(glm::length(glm::dvec3(v) - glm::dvec3(vec3(s))), double(s.w)) << "D " << D;
+    }
+  }
+}
+
 // The far-light frame (traversal.h): with the margins scaled by the frame's angular scale, the precise
 // and sphere tests still never reject a pair a brute-force search finds intersecting, and they reject
 // more of the others than with scale 1 (the point of the frame: there narrow cones far from the apex keep

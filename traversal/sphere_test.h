@@ -27,8 +27,12 @@ namespace glsl {
 // the frame's angular scale (precise_test.h, edgePlane): the radius is measured from the rounded centre,
 // so what it must cover is the rounding of v_i - c, a few ulp of the components across z (~|v| scale in
 // the far frame; the components along z are within a factor 2 of each other and subtract exactly).
+// The centre as v0 plus a third of the edges, not a third of the sum: in the far frame the vertices' z
+// components are all about the light's distance D, and 3 D rounds to an ulp of 3 D, so (v0 + v1 + v2) / 3
+// could land an ulp of D off them (64 at 10^9, 8192 at 10^11) and the radius grow to that: a sphere as
+// wide as the room from 10^9 away, and the test rejecting nothing (a frame 10x slower at those distances).
 CS_FN vec4 boundingSphere(vec3 v0, vec3 v1, vec3 v2, float scale) {
-  vec3 c = (v0 + v1 + v2) * (1.0f / 3.0f);
+  vec3 c = v0 + ((v1 - v0) + (v2 - v0)) * (1.0f / 3.0f);
   // The largest of three lengths as one square root of the largest squared length: the same value
   // (sqrt is monotonic and correctly rounded), a third of the square roots.
   vec3 d0 = v0 - c, d1 = v1 - c, d2 = v2 - c;
