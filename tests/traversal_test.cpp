@@ -141,6 +141,47 @@ TEST(ClusterSphere, NeverRejectsAClusterHoldingATriangleARayOfTheConeHits) {
   EXPECT_GT(rejected, misses / 4) << rejected << " of " << misses;
 }
 
+// The far frame's cluster spheres (traversal.h, clusterSphereFar): padded across z only, their centre's z
+// rounded as far as the GPU's vertices' z may be from the host's exact one (half an ulp of it either way).
+// A cluster holding a triangle some ray of the cone hits is never rejected, from 1 to 10^6 (the generator)
+// and scaled by powers of two up to ~10^18 (exact: every length and eps with it), and many pairs no ray
+// hits still are.
+TEST(ClusterSphere, FarFrameSpheresPaddedAcrossZAloneNeverRejectAHitCluster) {
+  test::FarPairGenerator gen(20261206);
+  BruteForce brute;
+  std::mt19937 rng(11);
+  int hits = 0, misses = 0, rejected = 0, rejectedPaddedByD = 0;
+  for (int i = 0; i < 12000; ++i) {
+    test::FarPair f = gen.make();
+    Pair& p = f.pair;
+    const float k = std::ldexp(1.0f, int(rng() % 40));  // 1 .. 2^39
+    for (vec3& v : p.v) v *= k;
+    p.cone.sinLen.y *= k, p.cone.sinLen.z *= k;
+    p.eps *= k;
+    std::vector<glm::vec4> verts = {glm::vec4(p.v[0], 1), glm::vec4(p.v[1], 1), glm::vec4(p.v[2], 1)};
+    const glm::dvec4 b = traversal::clusterBounds(verts.data(), verts.size());
+    glm::dvec3 rel(b);
+    const double ulpZ = std::ldexp(1.0, std::ilogb(std::max(std::abs(rel.z), 1e-30)) - 23);
+    rel.z += ulpZ * (double(rng() % 1001) / 1000.0 - 0.5);  // the host's exact z against the GPU's rounded one
+    const glm::vec4 sphere = traversal::clusterSphereFar(rel, b.w, glm::length(glm::dvec2(rel)) + b.w);
+    const bool keep = cone::sphereConeTriangle(p.cone, sphere, p.eps, f.scale);
+    if (brute.hit(p)) {
+      hits++;
+      ASSERT_TRUE(keep) << "far pair " << i << " (kind " << p.kind << ", scaled by " << k << ") is hit but its cluster was rejected";
+    } else {
+      misses++;
+      rejected += !keep;
+      // padded by 2^-16 of the whole distance, as before
+      rejectedPaddedByD += !cone::sphereConeTriangle(p.cone, traversal::clusterSphere(rel, b.w, glm::length(rel) + b.w), p.eps, f.scale);
+    }
+  }
+  std::printf("  far clusters: %d hit, %d of %d others rejected (%d padded by the distance)\n", hits, rejected, misses,
+              rejectedPaddedByD);
+  EXPECT_GT(hits, 1000);
+  EXPECT_GT(rejected, misses / 8) << rejected << " of " << misses;
+  EXPECT_GE(rejected, rejectedPaddedByD);
+}
+
 // A cluster's groups (traversal.h, ClusterWorld): each fp32 group bound holds its four triangles'
 // vertices, measured in double, for clusters of 1 to 16 triangles at magnitudes from 1e-3 to 1e7 (where
 // rounding the centre to fp32 moves it by more than the group's size); a group with no triangles has the

@@ -919,9 +919,9 @@ class ConeMethod : public ShadowMethod {
       return glm::dvec3(r.x - kx * r.z, r.y - ky * r.z, r.z);
     };
     auto sphere = [&](glm::dvec3 c, double r) {
-      const glm::dvec3 rel = frame_.far ? toFrame(c) - LF : c - L;
-      const double operands = frame_.far ? glm::length(c - C) + r + glm::length(LF) : glm::length(c) + r + glm::length(L);
-      return traversal::clusterSphere(rel, r, operands);
+      if (frame_.far)
+        return traversal::clusterSphereFar(toFrame(c) - LF, r, glm::length(c - C) + r + glm::length(glm::dvec2(LF)));
+      return traversal::clusterSphere(c - L, r, glm::length(c) + r + glm::length(L));
     };
     for (size_t b = 0; b < triangles_.size(); ++b) {
       const size_t first = b * perBuffer, end = std::min(clusterWorld_.size(), first + perBuffer);

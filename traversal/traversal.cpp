@@ -109,6 +109,11 @@ glm::vec4 clusterSphere(glm::dvec3 rel, double radius, double operands) {
   return glm::vec4(glm::vec3(rel), float((radius + pad) * (1.0 + std::ldexp(1.0, -20))));
 }
 
+glm::vec4 clusterSphereFar(glm::dvec3 rel, double radius, double lateralOperands) {
+  const double pad = std::ldexp(glm::length(glm::dvec2(rel)) + radius + lateralOperands, -16);
+  return glm::vec4(glm::vec3(rel), float((radius + pad) * (1.0 + std::ldexp(1.0, -20))));
+}
+
 uint64_t hilbertIndex3(uint32_t x, uint32_t y, uint32_t z, int bits) {
   // Skilling's form: undo the excess work of each level on the transposed coordinates, then Gray-decode;
   // the index is the coordinates' bits interleaved, x's first, from the top level down.

@@ -194,6 +194,13 @@ glm::dvec4 superBounds(const ClusterWorld* clusters, size_t count);
 // of the fp32 values the GPU's vertices are differences of) so it holds the vertices as the GPU
 // rounds them.
 glm::vec4 clusterSphere(glm::dvec3 rel, double radius, double operands);
+// The same in the far-light frame, where rel.z is about the light's distance D and rounds to an ulp of
+// D: the pass tests' own margins cover a centre that far off along z (2^-16 of |c| along the rays, and
+// across them 2^-16 |c| times the frame's angular scale, which bounds how far a shift along z moves a
+// point across any cone of the frame), so the radius is padded by 2^-16 of what lies across z only:
+// |rel.xy| + radius + `lateralOperands` (|x - C| and the light's lateral coordinates in the frame).
+// Padding by 2^-16 of D instead made every cluster as wide as the scene from ~10^3 diagonals on.
+glm::vec4 clusterSphereFar(glm::dvec3 rel, double radius, double lateralOperands);
 // The position of cell (x, y, z) of a 2^bits-a-side grid (bits 1 to 21) along a 3D Hilbert curve:
 // consecutive positions are cells that share a face, so the triangles of any run of them are one
 // connected piece of space (the cluster order; a Morton order jumps, and a cluster across a jump is two
