@@ -68,24 +68,19 @@ FrameChoice chooseFrame(glm::vec3 light, glm::vec3 lo, glm::vec3 hi) {
   f.frame.rowY = glm::vec4(glm::vec3(y), 0.0f);
   f.frame.rowZ = glm::vec4(glm::vec3(z), 0.0f);
   const glm::vec3 Cf(C);
+  f.frame.centre = glm::vec4(Cf, 0.0f);
   // The rows as stored (fp32) define the map; the light goes through it in double. Its lateral coordinates
   // under R alone are up to 2^-24 of D (the rows' rounding): the shear (kx, ky), stored as fp32 too, takes
   // them to what fp32 k leaves (cone_layout.h, ConeFrame).
-  const glm::dmat3 Rt(glm::dvec3(glm::vec3(f.frame.rowX)), glm::dvec3(glm::vec3(f.frame.rowY)),
-                      glm::dvec3(glm::vec3(f.frame.rowZ)));  // columns = rows of R
-  const glm::dvec3 rotatedLight = glm::transpose(Rt) * (L - glm::dvec3(Cf));
-  const float kx = float(rotatedLight.x / rotatedLight.z), ky = float(rotatedLight.y / rotatedLight.z);
-  f.frame.rowY.w = kx;
-  f.frame.rowZ.w = ky;
-  auto toFrame = [&](glm::dvec3 p) {
-    const glm::dvec3 r = glm::transpose(Rt) * (p - glm::dvec3(Cf));
-    return glm::dvec3(r.x - double(kx) * r.z, r.y - double(ky) * r.z, r.z);
-  };
+  const glm::dvec3 rotatedLight = toConeFrameExact(L, f.frame);  // the shear still 0
+  f.frame.rowY.w = float(rotatedLight.x / rotatedLight.z);
+  f.frame.rowZ.w = float(rotatedLight.y / rotatedLight.z);
+  auto toFrame = [&](glm::dvec3 p) { return toConeFrameExact(p, f.frame); };
   const glm::dvec3 lf = toFrame(L);
   f.frame.lightFrame = glm::vec4(glm::vec3(lf), 0.0f);
   const double tanTheta = r / std::sqrt(D * D - r * r);
   f.scale = float(std::min(1.0, 4.0 * tanTheta));
-  f.frame.centre = glm::vec4(Cf, f.scale);
+  f.frame.centre.w = f.scale;
   // Slack between frame and world geometry: the transform's rounding (a few ulp of |x - C| <= r, and of
   // the light's lateral coordinates the shear leaves, which x - light subtracts) and the world leaf
   // test's (a few ulp of the triangle's distance to the sample, <= 2r), 2^-16 (256 ulp) of the diagonal
@@ -104,6 +99,13 @@ FrameChoice chooseFrame(glm::vec3 light, glm::vec3 lo, glm::vec3 hi) {
   u0 -= pu, u1 += pu, v0 -= pv, v1 += pv;
   f.keyRect = glm::vec4(float(u0), float(v0), float(1.0 / (u1 - u0)), float(1.0 / (v1 - v0)));
   return f;
+}
+
+glm::dvec3 toConeFrameExact(glm::dvec3 x, const ConeFrame& f) {
+  const glm::dvec3 d = x - glm::dvec3(glm::vec3(f.centre));
+  const double z = glm::dot(glm::dvec3(glm::vec3(f.rowZ)), d);
+  return glm::dvec3(glm::dot(glm::dvec3(glm::vec3(f.rowX)), d) - double(f.rowY.w) * z,
+                    glm::dot(glm::dvec3(glm::vec3(f.rowY)), d) - double(f.rowZ.w) * z, z);
 }
 
 void ConeTree::ensureNodes(uint32_t count) {

@@ -41,6 +41,10 @@ struct FrameChoice {
 // bounds [lo, hi] (Θ <= 7.2 degrees), else the world frame.
 constexpr double kFarFrameRatio = 8.0;
 FrameChoice chooseFrame(glm::vec3 light, glm::vec3 lo, glm::vec3 hi);
+// The frame's map in double, with its fp32 rows, centre and shear as stored: S R (x - C), what
+// toConeFrame (cone_math.h) computes in fp32. The host's exact side of the frame (the light, the keys'
+// rectangle, the clusters' spheres).
+glm::dvec3 toConeFrameExact(glm::dvec3 x, const ConeFrame& f);
 FrameChoice worldFrame(glm::vec3 light);
 
 class ConeTree {

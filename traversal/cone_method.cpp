@@ -910,17 +910,11 @@ class ConeMethod : public ShadowMethod {
     clusterSpheresOf_ = f;
     const size_t perBuffer = chunkTriangles_ / CLUSTER_SIZE;
     clusterSpheres_.resize(triangles_.size());
-    const glm::dmat3 R = glm::transpose(glm::dmat3(glm::dvec3(glm::vec3(f.rowX)), glm::dvec3(glm::vec3(f.rowY)),
-                                                   glm::dvec3(glm::vec3(f.rowZ))));
     const glm::dvec3 C(glm::vec3(f.centre)), LF(glm::vec3(f.lightFrame)), L(light);
-    const double kx = f.rowY.w, ky = f.rowZ.w;  // the frame's shear (cone_layout.h, ConeFrame)
-    auto toFrame = [&](glm::dvec3 c) {
-      const glm::dvec3 r = R * (c - C);
-      return glm::dvec3(r.x - kx * r.z, r.y - ky * r.z, r.z);
-    };
     auto sphere = [&](glm::dvec3 c, double r) {
       if (frame_.far)
-        return traversal::clusterSphereFar(toFrame(c) - LF, r, glm::length(c - C) + r + glm::length(glm::dvec2(LF)));
+        return traversal::clusterSphereFar(cone::toConeFrameExact(c, f) - LF, r,
+                                           glm::length(c - C) + r + glm::length(glm::dvec2(LF)));
       return traversal::clusterSphere(c - L, r, glm::length(c) + r + glm::length(L));
     };
     for (size_t b = 0; b < triangles_.size(); ++b) {
