@@ -6,7 +6,7 @@
 // each, and how many each block of SCAN_BLOCK positions holds. Invocation t of block b owns the
 // SCAN_ITEMS consecutive positions from b * SCAN_BLOCK + t * SCAN_ITEMS; kept[b * SCAN_THREADS + t] holds
 // its bits (bit k: the k-th of them is lit) and the lit positions of the block before its own. The
-// scatter (lit_samples.comp, or lit_scatter.comp with the keys) reads that one uvec2 instead of the
+// scatter (lit_samples.comp, or lit_runs.comp with the keys) reads that one uvec2 instead of the
 // G-buffer and a scan of its own (a barrier costs a CPU driver a switch per subgroup), and
 // ray_bounds.comp finds its subset by the bits.
 // bindings: 0 = position, 1 = normal (uniform texel buffers, RGBA32F: a texel per pixel), 2 = kept

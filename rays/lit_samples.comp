@@ -4,7 +4,7 @@
 // enumeration, in its order, writes the pixel index it stands for (row-major: the position itself;
 // SPEC_MORTON: its pixel in the tiled Morton screen order) to samples[offsets[block] + its rank among the
 // block's lit positions]. The lit bits and ranks come from lit_count.comp (kept), the block offsets from
-// the scan of its counts: no barrier here. The sorted path's own scatter, with the keys, is lit_scatter.comp.
+// the scan of its counts: no barrier here. The sorted path keys its lit pixels in lit_runs.comp instead.
 // bindings: 0 = kept (uvec2[] per invocation: bits, rank in the block), 1 = offsets (uint[] per block,
 //           exclusive), 2 = samples (uint[])
 #include "rays/rays_layout.h"

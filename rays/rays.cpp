@@ -8,15 +8,24 @@
 #include "rays/hilbert.h"
 #include "rays/lit_count.comp.h"
 #include "rays/lit_samples.comp.h"
-#include "rays/lit_scatter.comp.h"
+#include "rays/lit_runs.comp.h"
 #include "rays/ray_bounds.comp.h"
 #include "rays/ray_grids.comp.h"
 #include "rays/ray_keys.comp.h"
+#include "rays/run_expand.comp.h"
+#include "rays/run_items.comp.h"
 
 namespace cs::rays {
 
 // The G-buffer read as texels (vk::texels): position and normal are one vec4 a pixel.
 constexpr VkFormat kPixelTexels = VK_FORMAT_R32G32B32A32_SFLOAT;
+// The runs' words (run_items.comp and after): uint arrays read as R32UI texels.
+constexpr VkFormat kWordTexels = VK_FORMAT_R32_UINT;
+// count_'s words: the lit count, the runs' count.
+constexpr uint32_t kLitWord = 0, kRunsWord = 1;
+// runArgs_: indirect arguments (x, y, z) for the run kernels (a workgroup per PIXEL_THREADS runs) and
+// for the scan of the runs' lengths (a workgroup per SCAN_BLOCK runs).
+constexpr uint32_t kRunGroupsArgs = 0, kRunScanArgs = 4;
 
 static_assert(RAY_BOUNDS_THREADS * RAY_BOUNDS_ITEMS * RAY_BOUNDS_GROUPS == RAY_BOUNDS_SAMPLES,
               "ray_bounds.comp's grid covers the subset once");
@@ -46,6 +55,9 @@ ScreenDomain screenDomain(uint32_t width, uint32_t height, RayOrder order) {
 }
 
 namespace {
+// Invocations of lit_count.comp (and lit_runs.comp) over `positions` row-major positions: whole blocks.
+uint32_t blockInvocations(uint64_t positions) { return sort::ceilDiv(positions, SCAN_BLOCK) * SCAN_THREADS; }
+
 uint32_t checkedPixels(const vk::Context& ctx, uint32_t width, uint32_t height) {
   uint64_t domain = std::max(screenDomain(width, height, RayOrder::ScreenMorton).size, uint64_t(width) * height);
   sort::checkBinding(ctx, domain, 4, "lit samples");
@@ -59,7 +71,9 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
       maxDomain_(std::max(screenDomain(width, height, RayOrder::ScreenMorton).size, uint64_t(maxPixels_))),
       compact_(ctx, uint32_t(maxDomain_)),
       sort_(ctx, maxPixels_),
-      groups_(ctx) {
+      groups_(ctx),
+      runScan_(ctx, blockInvocations(maxPixels_)),
+      itemScan_(ctx, std::max(maxPixels_, 1u)) {
   rayBounds_ = vk::createKernel(ctx, "ray_bounds", spv_ray_bounds_comp, 6, sizeof(KeysPush), {{0, 0u}});
   rayGrids_ = vk::createKernel(ctx, "ray_grids", spv_ray_grids_comp, 2, sizeof(KeysPush));
   rayKeys_ = vk::createKernel(ctx, "ray_keys", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 0u}}, 0x1u);
@@ -69,8 +83,11 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
   litSamples_ = vk::createKernel(ctx, "lit_samples", spv_lit_samples_comp, 3, sizeof(LitPush), {{0, 0u}});
   mortonLitSamples_ = vk::createKernel(ctx, "lit_samples (Morton)", spv_lit_samples_comp, 3, sizeof(LitPush), {{0, 1u}});
   litBounds_ = vk::createKernel(ctx, "ray_bounds (lit bits)", spv_ray_bounds_comp, 6, sizeof(KeysPush), {{0, 1u}});
-  litScatter_ = vk::createKernel(ctx, "lit_scatter", spv_lit_scatter_comp, 5, sizeof(KeysPush), {{0, 0u}}, 0x1u);
-  frameLitScatter_ = vk::createKernel(ctx, "lit_scatter (frame)", spv_lit_scatter_comp, 5, sizeof(KeysPush), {{0, 1u}}, 0x1u);
+  litRuns_ = vk::createKernel(ctx, "lit_runs", spv_lit_runs_comp, 7, sizeof(KeysPush), {{0, 0u}}, 0x1u);
+  frameLitRuns_ = vk::createKernel(ctx, "lit_runs (frame)", spv_lit_runs_comp, 7, sizeof(KeysPush), {{0, 1u}}, 0x1u);
+  runItems_ = vk::createKernel(ctx, "run_items", spv_run_items_comp, 6, sizeof(RunsPush), {}, 0x10u);
+  runExpand_ = vk::createKernel(ctx, "run_expand", spv_run_expand_comp, 6, sizeof(RunsPush), {{0, 0u}}, 0x13u);
+  runExpandKeys_ = vk::createKernel(ctx, "run_expand (keys)", spv_run_expand_comp, 6, sizeof(RunsPush), {{0, 1u}}, 0x13u);
   samples_ = vk::createBuffer(ctx, uint64_t(maxPixels_) * 4);
   keys_ = vk::createBuffer(ctx, uint64_t(maxPixels_) * 4);
   count_ = vk::createBuffer(ctx, 16);
@@ -78,11 +95,20 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
   grids_ = vk::createBuffer(ctx, 8 * 16);
   keyArgs_ = vk::createBuffer(ctx, 16, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
   keptBits_ = vk::createBuffer(ctx, uint64_t(sort::ceilDiv(maxDomain_, SCAN_BLOCK)) * SCAN_THREADS * 8);
+  const uint64_t words = std::max(maxPixels_, 1u);
+  runKeys_ = vk::createBuffer(ctx, words * 4);
+  runOrder_ = vk::createBuffer(ctx, words * 4);
+  runStarts_ = vk::createBuffer(ctx, words * 4);
+  leaderBits_ = vk::createBuffer(ctx, uint64_t(blockInvocations(maxPixels_)) * 4);
+  runCounts_ = vk::createBuffer(ctx, uint64_t(blockInvocations(maxPixels_)) * 4);
+  runArgs_ = vk::createBuffer(ctx, 32, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
 }
 
 uint64_t LitRays::bytesAllocated() const {
-  return compact_.bytesAllocated() + sort_.bytesAllocated() + samples_.size +
-         keys_.size + count_.size + bounds_.size + grids_.size + keyArgs_.size + keptBits_.size;
+  return compact_.bytesAllocated() + sort_.bytesAllocated() + runScan_.bytesAllocated() +
+         itemScan_.bytesAllocated() + samples_.size + keys_.size + count_.size + bounds_.size + grids_.size +
+         keyArgs_.size + keptBits_.size + runKeys_.size + runOrder_.size + runStarts_.size +
+         leaderBits_.size + runCounts_.size + runArgs_.size;
 }
 
 void LitRays::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, RayOrder order) {
@@ -97,7 +123,7 @@ void LitRays::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, RayOrd
   cmd.dispatch(morton ? mortonLitSamples_ : litSamples_, {keptBits_, compact_.blockOffsets(), samples_}, push, grid.x,
                grid.y);
   cmd.barrier();
-  pairsPending_ = false;
+  runsPending_ = false;
 }
 
 void LitRays::recordLitCount(vk::Commands& cmd, const DeviceGBuffer& g, const LitPush& push) {
@@ -115,7 +141,7 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
            "G-buffer of " << g.width << "x" << g.height << " exceeds the " << maxPixels_ << " pixels LitRays was made for");
   CS_CHECK(fusedKeys(), "compaction with keys: the sort takes no pairs on this device (LitRays::fusedKeys)");
   KeysPush push = frame;
-  push.count = uint32_t(pixels);  // lit_scatter: the pixels; ray_bounds: the pixels and the lit count's bound
+  push.count = uint32_t(pixels);  // lit_runs, run_items: the pixels; ray_bounds: the pixels and the lit count's bound
   push.countIndex = 0;
   push.flags = FLAG_COUNT_FROM_BUFFER;
   const bool framed = frame.framed != 0u;
@@ -131,10 +157,23 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
     cmd.dispatch(rayGrids_, {bounds_, grids_}, push, 1);
     cmd.barrier();
   }
-  cmd.dispatch(framed ? frameLitScatter_ : litScatter_,
-               {position, keptBits_, compact_.blockOffsets(), sort_.pairInput(), grids_}, push, grid.x, grid.y);
+  // Keys and runs of equal keys (lit_runs.comp), each invocation's first run (the scan of its runs'
+  // counts, their total the runs' count), then one item a run as the sort's input (run_items.comp).
+  const uint32_t invocations = blockInvocations(pixels);
+  cmd.dispatch(framed ? frameLitRuns_ : litRuns_,
+               {position, keptBits_, compact_.blockOffsets(), runKeys_, grids_, leaderBits_, runCounts_}, push, grid.x,
+               grid.y);
   cmd.barrier();
-  pairsPending_ = true;
+  runScan_.record(cmd, vk::BufferRange(runCounts_, 0, uint64_t(invocations) * 4),
+                  vk::BufferRange(runCounts_, 0, uint64_t(invocations) * 4), sort::Count(invocations),
+                  sort::GpuWord(count_, kRunsWord));
+  const RunsPush runs{uint32_t(pixels), maxPixels_, kRunsWord, kLitWord};
+  cmd.dispatch(runItems_,
+               {keptBits_, compact_.blockOffsets(), runCounts_, leaderBits_, vk::texels(runKeys_, kWordTexels),
+                sort_.pairInput()},
+               runs, grid.x, grid.y);
+  cmd.barrier();
+  runsPending_ = true;
 }
 
 void LitRays::recordBoundsClear(vk::Commands& cmd) {
@@ -157,7 +196,7 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
   push.flags = count.onDevice() ? FLAG_COUNT_FROM_BUFFER : 0u;
   const bool framed = frame.framed != 0u;
   keyBits_ = framed ? kFrameKeyBits : kRayKeyBits;
-  pairsPending_ = false;
+  runsPending_ = false;
   vk::BufferRange countBinding = count.onDevice() ? vk::BufferRange() : vk::BufferRange(count_);
   if (count.onDevice()) {
     countBinding.buffer = count.word.buffer;
@@ -186,9 +225,28 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
 }
 
 void LitRays::recordSort(vk::Commands& cmd, sort::Count count) {
-  if (pairsPending_) sort_.recordFromPairs(cmd, keys_, samples_, count, keyBits_, keepSortedKeys_);
-  else sort_.record(cmd, keys_, samples_, count, keyBits_);
-  pairsPending_ = false;
+  if (!runsPending_) {
+    sort_.record(cmd, keys_, samples_, count, keyBits_);
+    return;
+  }
+  runsPending_ = false;
+  CS_CHECK(count.word.buffer == count_.buffer && count.word.index == kLitWord,
+           "LitRays::recordSort after recordCompactionWithKeys sorts the lit samples: pass count()");
+  // The runs' items by key (their keys too, for keepSortedKeys), where each run starts in the order (the
+  // scan of their lengths), then each run's pixels (and key) from there.
+  const sort::Count items = sort::Count::device(sort::GpuWord(count_, kRunsWord), maxPixels_);
+  sort_.recordFromPairs(cmd, runKeys_, runOrder_, items, keyBits_, keepSortedKeys_);
+  groups_.record(cmd, items, PIXEL_THREADS, runArgs_, kRunGroupsArgs);
+  groups_.record(cmd, items, SCAN_BLOCK, runArgs_, kRunScanArgs);
+  cmd.barrier();
+  itemScan_.record(cmd, runOrder_, runStarts_, items.withGroups(runArgs_.buffer, kRunScanArgs * 4), {},
+                   RUN_PIXEL_BITS);
+  const RunsPush runs{0, maxPixels_, kRunsWord, kLitWord};
+  cmd.dispatchIndirect(keepSortedKeys_ ? runExpandKeys_ : runExpand_,
+                       {vk::texels(runOrder_, kWordTexels), vk::texels(runStarts_, kWordTexels), samples_, keys_,
+                        vk::texels(runKeys_, kWordTexels), count_},
+                       &runs, sizeof(runs), runArgs_, kRunGroupsArgs * 4);
+  cmd.barrier();
 }
 
 void LitRays::record(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, RayOrder order) {

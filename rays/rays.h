@@ -55,16 +55,21 @@ class LitRays {
   void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& frame, sort::Count count);
   // Compaction and keys in one (row-major order; the sorted path): lit_count.comp marks the lit pixels
   // and counts them per block, the scan of the counts gives each block its start and the lit count, the
-  // faces' boxes and grids follow (world keys: the same subset as recordKeys', found from the marks), and
-  // lit_scatter.comp writes each lit sample's (key, pixel) pair straight into the sort's input -- no
-  // flags, sample indices or keys stored and read back in between. samples() and keys() hold the result
-  // once recordSort has run (keys() unless keepSortedKeys(false)). Only where fusedKeys() (the sort takes
-  // pairs: sort::RadixSort::pairInputs); the same order as recordCompaction(ScreenRows) + recordKeys +
-  // recordSort, bit for bit.
-  bool fusedKeys() const { return sort_.pairInputs(); }
+  // faces' boxes and grids follow (world keys: the same subset as recordKeys', found from the marks).
+  // lit_runs.comp then keys every lit pixel and finds the runs of equal keys (consecutive lit pixels of
+  // one invocation's SCAN_ITEMS whose keys agree: 65-80 % of the lit pixels of a render follow a
+  // neighbour that way), and run_items.comp writes one (key, leader pixel and length) item a run straight
+  // into the sort's input. recordSort sorts the items and writes each run's pixels where the run starts
+  // (run_expand.comp after a scan of the lengths): a stable sort puts a run's pixels next to each other
+  // in row order anyway, so samples() and keys() (unless keepSortedKeys(false)) are those of
+  // recordCompaction(ScreenRows) + recordKeys + recordSort, bit for bit, from a sort of a quarter to a
+  // third of the keys. Only where fusedKeys(): the sort takes pairs (sort::RadixSort::pairInputs) and a
+  // pixel index fits RUN_PIXEL_BITS.
+  bool fusedKeys() const { return sort_.pairInputs() && maxPixels_ <= (1u << RUN_PIXEL_BITS); }
   void recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& keys);
-  // Sorts (keys(), samples()) by key -- or, after recordCompactionWithKeys, its pairs into them: the key
-  // bits of the last recording's kind (RAY_KEY_BITS or, in a rotated frame, FRAME_KEY_BITS).
+  // Sorts (keys(), samples()) by key -- or, after recordCompactionWithKeys, its runs into them (`count`
+  // then is count()): the key bits of the last recording's kind (RAY_KEY_BITS or, in a rotated frame,
+  // FRAME_KEY_BITS).
   void recordSort(vk::Commands& cmd, sort::Count count);
   // Whether keys() holds the sorted keys after a sort from recordCompactionWithKeys' pairs (default yes);
   // a caller that needs only the order (samples()) spares the sort's last pass its key stores.
@@ -95,15 +100,24 @@ class LitRays {
   // Compaction: lit_count.comp and lit_samples.comp, row-major or Morton (SPEC_MORTON).
   vk::Kernel litCount_, mortonLitCount_, litSamples_, mortonLitSamples_;
   vk::Kernel litBounds_;                       // fused: ray_bounds.comp SPEC_FROM_BITS
-  vk::Kernel litScatter_, frameLitScatter_;    // fused: lit_scatter.comp, world or rotated-frame keys
+  // Fused: lit_runs.comp (world or rotated-frame keys), run_items.comp; after the sort run_expand.comp
+  // (with the keys: keepSortedKeys).
+  vk::Kernel litRuns_, frameLitRuns_, runItems_, runExpand_, runExpandKeys_;
+  sort::Scan runScan_;   // each lit_runs invocation's first run, from their counts
+  sort::Scan itemScan_;  // where each sorted run starts, from their lengths
   vk::Buffer samples_, keys_, count_, bounds_, grids_, keyArgs_;
+  // The runs: runKeys_ (a leader's key at its lit slot; after the sort the sorted runs' keys, when kept),
+  // leaderBits_ and runCounts_ (per lit_runs invocation: its leaders, their count, then its first run),
+  // runOrder_ (the sorted runs: leader pixel | (length - 1) << RUN_PIXEL_BITS), runStarts_ (where each
+  // starts in the order), runArgs_ (indirect arguments).
+  vk::Buffer runKeys_, runOrder_, runStarts_, leaderBits_, runCounts_, runArgs_;
   bool keepSortedKeys_ = true;
   vk::Buffer keptBits_;  // lit_count.comp's bits and ranks, one uvec2 per SCAN_ITEMS positions
   // lit_count.comp over the push's enumeration, then the scan of its block counts (the lit count to count_).
   void recordLitCount(vk::Commands& cmd, const DeviceGBuffer& g, const LitPush& push);
   void recordBoundsClear(vk::Commands& cmd);  // bounds_ as ray_bounds.comp expects it: boxes empty, counts 0
   uint32_t keyBits_ = RAY_KEY_BITS;  // of the keys the last recordKeys (or recordCompactionWithKeys) recorded
-  bool pairsPending_ = false;        // the last recording left its pairs in the sort's input
+  bool runsPending_ = false;         // the last recording left its runs' items in the sort's input
 };
 
 // What ray_bounds.comp finds of the faces (LitRays::bounds()'s words): each face's box of the subset's

@@ -50,6 +50,20 @@ struct KeysPush {
   vec4 rect;              // (u0, v0, 1 / (u1 - u0), 1 / (v1 - v0)): what the keys' grid covers of z = 1
 };
 
+// run_items.comp, run_expand.comp (LitRays::recordCompactionWithKeys: the sort takes one item a run of
+// equal keys, its leader's pixel and its length less one in the value's high bits, up to SCAN_ITEMS).
+#define RUN_PIXEL_BITS 27
+#define RUN_PIXEL_MASK ((1u << RUN_PIXEL_BITS) - 1u)
+#if (SCAN_ITEMS - 1) >= (1 << (32 - RUN_PIXEL_BITS))
+#error "a run (at most SCAN_ITEMS pixels) has its length less one in the bits above RUN_PIXEL_BITS"
+#endif
+struct RunsPush {
+  uint positions;   // run_items: the pixels enumerated (row-major)
+  uint items;       // the runs' upper bound (the lit samples' capacity); the count is countWords[itemsIndex]
+  uint itemsIndex;  // the word of the count binding holding the runs' count
+  uint litIndex;    // the word of the count binding holding the lit count
+};
+
 // hilbert_grid.comp (test kernel): every cell's Hilbert index and the keys of a list of directions.
 struct HilbertGridPush {
   uint order;       // grid of 2^order x 2^order cells
@@ -61,6 +75,7 @@ static_assert(sizeof(LitPush) == 32 && offsetof(LitPush, domain) == 16, "LitPush
 static_assert(sizeof(KeysPush) == 128 && offsetof(KeysPush, count) == 16 && offsetof(KeysPush, rowX) == 32,
               "KeysPush layout");
 static_assert(sizeof(HilbertGridPush) == 8, "HilbertGridPush layout");
+static_assert(sizeof(RunsPush) == 16, "RunsPush layout");
 }  // namespace cs::rays
 #endif
 #endif

@@ -11,3 +11,7 @@ uint levelCount() {
   for (uint l = 0u; l < pc.level; ++l) n = ceilDiv(n, SCAN_BLOCK);
   return n;
 }
+
+// What an element of the level counts for: itself, or with FLAG_FIELD (level 0) its high field plus one.
+uvec4 counted4(uvec4 x) { return (pc.flags & FLAG_FIELD) != 0u ? (x >> pc.fieldShift) + 1u : x; }
+uint counted(uint x) { return (pc.flags & FLAG_FIELD) != 0u ? (x >> pc.fieldShift) + 1u : x; }

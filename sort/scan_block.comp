@@ -17,10 +17,10 @@ layout(push_constant) uniform Push { ScanPush pc; };
 #include "sort/scan.glsl"
 
 uvec4 load4(uint v, uint n, bool inPlace) {
-  if (4u * v + 3u < n) return inPlace ? dst4[v] : src4[v];
+  if (4u * v + 3u < n) return counted4(inPlace ? dst4[v] : src4[v]);
   uvec4 r = uvec4(0u);
   for (uint c = 0u; c < 3u; ++c)
-    if (4u * v + c < n) r[c] = inPlace ? dst4[v][c] : src4[v][c];
+    if (4u * v + c < n) r[c] = counted(inPlace ? dst4[v][c] : src4[v][c]);
   return r;
 }
 

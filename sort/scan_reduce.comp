@@ -13,10 +13,10 @@ layout(push_constant) uniform Push { ScanPush pc; };
 #include "sort/scan.glsl"
 
 uvec4 load4(uint v, uint n) {
-  if (4u * v + 3u < n) return src4[v];
+  if (4u * v + 3u < n) return counted4(src4[v]);
   uvec4 r = uvec4(0u);
   for (uint c = 0u; c < 3u; ++c)
-    if (4u * v + c < n) r[c] = src4[v][c];
+    if (4u * v + c < n) r[c] = counted(src4[v][c]);
   return r;
 }
 

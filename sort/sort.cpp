@@ -165,7 +165,8 @@ vk::BufferRange Scan::countBinding(const Count& count) const { return bindWord(c
 vk::BufferRange Scan::wordBinding(GpuWord w) const { return bindWord(w, dummy_); }
 
 void Scan::record(vk::Commands& cmd, const vk::BufferRange& in, const vk::BufferRange& out, Count count,
-                  GpuWord total) {
+                  GpuWord total, int fieldShift) {
+  CS_CHECK(fieldShift < 32, "scan: a field from bit " << fieldShift);
   CS_CHECK(count.max <= capacity_, "scan of " << count.max << " elements, capacity " << capacity_);
   checkRange(in, "scan input");
   checkRange(out, "scan output");
@@ -174,15 +175,19 @@ void Scan::record(vk::Commands& cmd, const vk::BufferRange& in, const vk::Buffer
     VkDeviceSize gap = in.offset > out.offset ? in.offset - out.offset : out.offset - in.offset;
     CS_CHECK(gap >= VkDeviceSize(count.max) * 4, "scan: input and output ranges partly overlap");
   }
-  recordLevel(cmd, in, out, count, 0, total, inPlace);
+  recordLevel(cmd, in, out, count, 0, total, inPlace, fieldShift);
   cmd.barrier();
 }
 
 void Scan::recordLevel(vk::Commands& cmd, const vk::BufferRange& in, const vk::BufferRange& out,
-                       const Count& count, uint32_t level, GpuWord total, bool inPlace) {
+                       const Count& count, uint32_t level, GpuWord total, bool inPlace, int fieldShift) {
   const std::vector<uint32_t> counts = scanLevelCounts(count.max, level + 1);  // host bounds per level
   ScanPush push{count.max, count.word.index, countFlags(count), level, total.index, 0, 0, 0};
   if (inPlace) push.flags |= FLAG_IN_PLACE;
+  if (fieldShift >= 0) {
+    push.flags |= FLAG_FIELD;
+    push.fieldShift = uint32_t(fieldShift);
+  }
   if (level + 1 == counts.size()) {  // fits one block: scan it, no offsets, and report the total
     if (total.valid()) push.flags |= FLAG_WRITE_TOTAL;
     cmd.dispatch(block_, {in, out, dummy_, countBinding(count), wordBinding(total)}, push, 1);
@@ -197,7 +202,7 @@ void Scan::recordLevel(vk::Commands& cmd, const vk::BufferRange& in, const vk::B
   else
     cmd.dispatch(reduce_, {in, sums(level + 1), countBinding(count)}, push, g.x, g.y);
   cmd.barrier();
-  recordLevel(cmd, sums(level + 1), scanned(level + 1), count, level + 1, total, false);
+  recordLevel(cmd, sums(level + 1), scanned(level + 1), count, level + 1, total, false, -1);
   cmd.barrier();
   push.flags |= FLAG_ADD_OFFSETS;
   if (indirect)
@@ -223,7 +228,7 @@ void Compact::record(vk::Commands& cmd, const vk::BufferRange& flags, Count coun
   // Kept per block -> their exclusive scan (its total is the kept count) -> scatter from the offsets.
   cmd.dispatch(scan_.reduce_, {flags, scan_.sums(1), scan_.countBinding(count)}, push, g.x, g.y);
   cmd.barrier();
-  scan_.recordLevel(cmd, scan_.sums(1), scan_.scanned(1), count, 1, kept, false);
+  scan_.recordLevel(cmd, scan_.sums(1), scan_.scanned(1), count, 1, kept, false, -1);
   cmd.barrier();
   push.flags = countFlags(count) | (values.buffer ? FLAG_HAS_VALUES : 0u);
   const vk::BufferRange valuesOrDummy = values.buffer ? values : vk::BufferRange(scan_.dummy_);
@@ -233,7 +238,7 @@ void Compact::record(vk::Commands& cmd, const vk::BufferRange& flags, Count coun
 
 void Compact::recordBlockScan(vk::Commands& cmd, Count count, GpuWord kept) {
   CS_CHECK(count.max <= scan_.capacity_, "compaction of " << count.max << " elements, capacity " << scan_.capacity_);
-  scan_.recordLevel(cmd, scan_.sums(1), scan_.scanned(1), count, 1, kept, false);
+  scan_.recordLevel(cmd, scan_.sums(1), scan_.scanned(1), count, 1, kept, false, -1);
   cmd.barrier();
 }
 

@@ -138,8 +138,10 @@ class Scan {
   Scan(vk::Context& ctx, uint32_t capacity);
   // out[i] = in[0] + ... + in[i-1] (mod 2^32) for i < count; `total`, when valid, gets the sum of all.
   // `in` and `out` may be the very same range (in-place); partly overlapping ranges are an error.
+  // With fieldShift >= 0 each element counts as (in[i] >> fieldShift) + 1: a length less one kept in
+  // the high bits of a packed word (rays/: a run's pixels).
   void record(vk::Commands& cmd, const vk::BufferRange& in, const vk::BufferRange& out, Count count,
-              GpuWord total = {});
+              GpuWord total = {}, int fieldShift = -1);
   uint32_t capacity() const { return capacity_; }
   uint64_t bytesAllocated() const { return scratch_.size + dummy_.size; }
 
@@ -148,7 +150,7 @@ class Scan {
   // Scans level `level` of a base count: reads `in` (the caller's array at level 0, the block sums
   // above), writes `out`. Levels above it use the scratch arrays.
   void recordLevel(vk::Commands& cmd, const vk::BufferRange& in, const vk::BufferRange& out, const Count& count,
-                   uint32_t level, GpuWord total, bool inPlace);
+                   uint32_t level, GpuWord total, bool inPlace, int fieldShift);
   vk::BufferRange sums(uint32_t level) const;     // block sums of level - 1, one per block
   vk::BufferRange scanned(uint32_t level) const;  // their exclusive scan
   vk::BufferRange countBinding(const Count& count) const;

@@ -71,6 +71,7 @@
 #define FLAG_WRITE_TOTAL 8u        // scan: the single-block top level writes the grand total
 #define FLAG_IN_PLACE 16u          // scan: read the input through the output binding (in == out)
 #define FLAG_HAS_VALUES 32u        // compaction / sort: a value array travels with the keys
+#define FLAG_FIELD 64u             // scan, level 0: each element counts as (x >> fieldShift) + 1
 
 // ---- push constants -----------------------------------------------------------------------------
 #ifdef __cplusplus
@@ -87,7 +88,8 @@ struct ScanPush {
   uint flags;
   uint level;       // 0 = the caller's array, 1 = its block sums, ...
   uint totalIndex;  // element of the total binding that receives the grand total
-  uint pad0, pad1, pad2;
+  uint fieldShift;  // FLAG_FIELD: the element's field (a length less one in its high bits) starts here
+  uint pad1, pad2;
 };
 
 // groups_for.comp: indirect dispatch arguments for a device count.

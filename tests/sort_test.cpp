@@ -229,6 +229,37 @@ TEST(Scan, ReadsItsCountFromTheGpuAndLeavesTheRestAlone) {
   }
 }
 
+// A field of packed words (rays/: a run's pixel in the low bits, its length less one above bit 27) scanned
+// as the lengths, with the count on the GPU and the first level's workgroups from it (Count::withGroups):
+// the words past the count, and the workgroups past its blocks, change nothing.
+TEST(Scan, CountsAFieldOfPackedWordsWithItsWorkgroupsFromTheDevice) {
+  auto& ctx = test::context();
+  const uint32_t bound = 3 * SCAN_BLOCK * SCAN_BLOCK / 2 + 7, shift = 27;  // three levels at the bound
+  std::mt19937 rng(5);
+  std::vector<uint32_t> in(bound), lengths(bound);
+  for (uint32_t i = 0; i < bound; ++i) {
+    lengths[i] = 1 + rng() % 32;
+    in[i] = (rng() & ((1u << shift) - 1u)) | ((lengths[i] - 1u) << shift);
+  }
+  sort::Scan scan(ctx, bound);
+  sort::IndirectGroups groups(ctx);
+  vk::Buffer args = vk::createBuffer(ctx, 16, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
+  for (uint32_t n : {0u, 1u, 2047u, 2048u, 2049u, 300001u, bound}) {
+    vk::Buffer a = gpuArray(ctx, in), b = gpuArray(ctx, std::vector<uint32_t>(bound, 0xABCDu));
+    vk::Buffer words = gpuArray(ctx, {0, 0, n, 0});  // the count at element 2, the total at 3
+    const Count count = Count::device(GpuWord(words, 2), bound);
+    vk::Commands cmd(ctx);
+    groups.record(cmd, count, SCAN_BLOCK, args, 0);
+    cmd.barrier();
+    scan.record(cmd, a, b, count.withGroups(args.buffer, 0), GpuWord(words, 3), int(shift));
+    cmd.submit();
+    std::vector<uint32_t> want = exclusiveSum(std::vector<uint32_t>(lengths.begin(), lengths.begin() + n));
+    want.resize(bound, 0xABCDu);
+    EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, b, bound), want, "device count " << n);
+    EXPECT_EQ(vk::download<uint32_t>(ctx, words, 1, 3)[0], std::accumulate(lengths.begin(), lengths.begin() + n, 0u));
+  }
+}
+
 TEST(Scan, WorksOnRangesInsideABufferAndRejectsMisalignedOnes) {
   auto& ctx = test::context();
   const uint32_t n = 5001, first = 64;  // the array starts 256 bytes into the buffer
@@ -1040,12 +1071,18 @@ TEST(LitRays, FusedCompactionAndKeysMatchTheStepsOnSparseAndDenseFrames) {
   const glm::vec3 light(0.3f, 1.5f, -2.0f);
   std::mt19937 rng(11);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f), r(0.5f, 40.0f);
-  std::vector<glm::vec4> pos(pixels);
-  for (uint32_t i = 0; i < pixels; ++i) {
-    // A smooth field of directions (neighbouring pixels close, as in a render) with noise on top.
+  // Two fields of directions: a smooth one with noise on top (few neighbours share a key), and one of
+  // stretches of 1 to 40 pixels of a row that share a direction (runs of equal keys, cut by the
+  // invocations' 32 positions, by unlit pixels and by the next stretch; a run of a whole 32).
+  std::vector<glm::vec4> noisy(pixels), stretches(pixels);
+  for (uint32_t i = 0, left = 0; i < pixels; ++i) {
     const float a = 6.0f * float(i % w) / w, b = 3.0f * float(i / w) / h;
     const glm::vec3 dir = glm::normalize(glm::vec3(std::cos(a), std::sin(b) + 0.1f * u(rng), std::sin(a) + 0.1f * u(rng)));
-    pos[i] = glm::vec4(light + dir * r(rng), 1.0f);
+    noisy[i] = glm::vec4(light + dir * r(rng), 1.0f);
+    if (left == 0 || i % w == 0) left = 1 + rng() % 40;  // a new stretch: this pixel's position
+    else stretches[i] = stretches[i - 1];                 // the stretch's position again: its key
+    if (stretches[i].w == 0.0f) stretches[i] = noisy[i];
+    --left;
   }
   struct Pattern {
     const char* name;
@@ -1060,8 +1097,10 @@ TEST(LitRays, FusedCompactionAndKeysMatchTheStepsOnSparseAndDenseFrames) {
   };
   rays::LitRays rays(ctx, w, h);
   ASSERT_TRUE(rays.fusedKeys());
+  for (const std::vector<glm::vec4>* field : {&noisy, &stretches})
   for (const Pattern& pattern : patterns)
     for (bool framed : {false, true}) {
+      const std::vector<glm::vec4>& pos = *field;
       std::vector<glm::vec4> nrm(pixels);
       for (uint32_t i = 0; i < pixels; ++i) nrm[i] = glm::vec4(0, 1, 0, pattern.lit(i) ? 0.5f : 0.0f);
       DeviceGBuffer g;
@@ -1079,7 +1118,8 @@ TEST(LitRays, FusedCompactionAndKeysMatchTheStepsOnSparseAndDenseFrames) {
         push.lightFrame = glm::vec4(0.0f);
         push.rect = glm::vec4(-2.0f, -2.0f, 0.25f, 0.25f);
       }
-      const std::string what = std::string(pattern.name) + (framed ? ", rotated frame" : ", world keys");
+      const std::string what = std::string(field == &noisy ? "noisy, " : "stretches, ") + pattern.name +
+                               (framed ? ", rotated frame" : ", world keys");
       // Steps: compaction, keys, sort.
       vk::Commands cmd(ctx);
       rays.recordCompaction(cmd, g, rays::RayOrder::ScreenRows);
@@ -1091,6 +1131,12 @@ TEST(LitRays, FusedCompactionAndKeysMatchTheStepsOnSparseAndDenseFrames) {
       const std::vector<uint32_t> samples = vk::download<uint32_t>(ctx, rays.samples(), n);
       const std::vector<uint32_t> keys = vk::download<uint32_t>(ctx, rays.keys(), n);
       const std::vector<uint32_t> bounds = vk::download<uint32_t>(ctx, rays.bounds(), 24);
+      if (field == &stretches && std::string(pattern.name) == "all") {  // runs as long as they come
+        size_t whole = 0;
+        for (size_t j = 0; j + 31 < n; ++j)
+          whole += samples[j] % 32 == 0 && samples[j + 31] == samples[j] + 31 && keys[j] == keys[j + 31];
+        EXPECT_GT(whole, 100u) << what << ": runs of a whole invocation's 32 pixels";
+      }
       // Fused.
       rays.recordCompactionWithKeys(cmd, g, push);
       rays.recordSort(cmd, rays.count());

@@ -420,25 +420,27 @@ void Buffer::reset() {
 
 BufferRange texels(const Buffer& b, VkFormat format) {
   CS_CHECK(b.ctx && b.buffer, "texels(): not a buffer");
-  CS_CHECK(format == VK_FORMAT_R32G32B32A32_SFLOAT || format == VK_FORMAT_R32G32B32A32_UINT,
-           "texels(): 16-byte formats only");
+  const bool word = format == VK_FORMAT_R32_UINT;
+  CS_CHECK(word || format == VK_FORMAT_R32G32B32A32_SFLOAT || format == VK_FORMAT_R32G32B32A32_UINT,
+           "texels(): RGBA32F, RGBA32UI or R32UI only");
+  const uint32_t texelBytes = word ? 4 : 16;
   BufferRange r(b);
   for (auto& [f, view] : b.views)
     if (f == format) {
       r.view = view;
       return r;
     }
-  const uint64_t elements = b.size / 16;
+  const uint64_t elements = b.size / texelBytes;
   const uint64_t limit = b.ctx->properties.limits.maxTexelBufferElements;
   if (elements > limit)
-    throw Error("a texel buffer of " + std::to_string(elements) + " 16-byte texels, above the device's "
-                    "maxTexelBufferElements of " + std::to_string(limit),
+    throw Error("a texel buffer of " + std::to_string(elements) + (word ? " 4-byte" : " 16-byte") +
+                    " texels, above the device's maxTexelBufferElements of " + std::to_string(limit),
                 b.ctx->deviceName(), "lower the resolution or the scene's triangles per buffer");
   VkBufferViewCreateInfo vi{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
   vi.buffer = b.buffer;
   vi.format = format;
   vi.offset = 0;
-  vi.range = elements * 16;
+  vi.range = elements * texelBytes;
   VkBufferView view = VK_NULL_HANDLE;
   VK_CHECK(vkCreateBufferView(b.ctx->device, &vi, nullptr, &view));
   b.views.emplace_back(format, view);

@@ -255,7 +255,8 @@ struct BufferRange {
 // (createKernel's texelBindings): on lavapipe texel fetches of 16-byte texels gather several times faster
 // than storage-buffer loads (TOOLCHAIN.md), on GPUs they read through the texture cache. The view is made
 // on first use and kept with the buffer; cs::Error when the buffer holds more texels than the device's
-// maxTexelBufferElements.
+// maxTexelBufferElements. Formats: RGBA32F, RGBA32UI, and R32UI for uint arrays read one word a fetch
+// (all three are uniform texel buffer formats every Vulkan device supports).
 BufferRange texels(const Buffer& buffer, VkFormat format);
 
 // A compute pipeline whose set 0 holds `bindings` storage buffers (bindings 0..n-1) -- or, for the bits

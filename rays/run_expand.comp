@@ -1,0 +1,31 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+// After the sort of the runs' items (rays.h, LitRays::recordCompactionWithKeys): each run's pixels in
+// the order, the j-th item's from starts[j] on (sort/'s scan of the items' lengths): its leader's pixel
+// and the next ones, as many as the run holds. With SPEC_KEYS the run's key too, at the same places
+// (LitRays::keepSortedKeys; the sort then left the items' keys in sortedKeys).
+// bindings: 0 = order (uniform texel buffer, R32UI: the sorted items, pixel | (length - 1) <<
+//           RUN_PIXEL_BITS), 1 = starts (uniform texel buffer, R32UI), 2 = samples (uint[]), 3 = keys
+//           (uint[]), 4 = sortedKeys (uniform texel buffer, R32UI), 5 = countWords
+#include "rays/rays_layout.h"
+layout(local_size_x = PIXEL_THREADS) in;
+layout(binding = 0) uniform usamplerBuffer order;
+layout(binding = 1) uniform usamplerBuffer starts;
+layout(std430, binding = 2) writeonly buffer Samples { uint samples[]; };
+layout(std430, binding = 3) writeonly buffer Keys { uint keys[]; };
+layout(binding = 4) uniform usamplerBuffer sortedKeys;
+layout(std430, binding = 5) readonly buffer CountWords { uint countWords[]; };
+layout(push_constant) uniform Push { RunsPush pc; };
+layout(constant_id = 0) const uint SPEC_KEYS = 0u;
+uint flatWorkgroup() { return gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x; }
+void main() {
+  uint j = flatWorkgroup() * PIXEL_THREADS + gl_LocalInvocationIndex;
+  if (j >= min(countWords[pc.itemsIndex], pc.items)) return;
+  uint item = texelFetch(order, int(j)).x, at = texelFetch(starts, int(j)).x;
+  uint pixel = item & RUN_PIXEL_MASK, length = (item >> RUN_PIXEL_BITS) + 1u;
+  uint key = SPEC_KEYS != 0u ? texelFetch(sortedKeys, int(j)).x : 0u;
+  for (uint k = 0u; k < length; ++k) {
+    samples[at + k] = pixel + k;
+    if (SPEC_KEYS != 0u) keys[at + k] = key;
+  }
+}
