@@ -44,6 +44,9 @@
 // The key in the far-light frame (frameRayKey): a 2^15 x 2^15 grid, 30 bits, four passes.
 #define FRAME_KEY_BITS 31
 #define FRAME_KEY_DEGENERATE 0x7FFFFFFFu
+#if RAY_KEY_MAX_ORDER > 12
+#error "faceCellCode keeps a cell's coordinates in 12 bits each"
+#endif
 // The box of a face: words 4 * face + (0 .. 3) hold orderedBits of the minimum of u, of v, of -u and of
 // -v over the face's samples of the subset (atomicMin; all ones, RAY_BOUNDS_EMPTY, while it has none).
 // Word RAY_BOUNDS_COUNTS + face counts the subset's samples on the face (zero before the pass).
@@ -237,10 +240,22 @@ CS_FN vec4 faceKeyGrid(uvec4 box, uvec2 slot) {
   vec4 g = fittedFaceGrid(box, max(slot.x, 1u));
   return vec4(g.x, g.y, g.z, float(slot.y * 16u + slot.x));
 }
-CS_FN uint faceKey(vec3 d, uint face, vec4 keyGrid) {
-  uint s = uint(keyGrid.w);
-  return faceRayKey(d, face, vec4(keyGrid.x, keyGrid.y, keyGrid.z, keyGrid.z), uvec2(s & 15u, s >> 4u));
+// faceKey in two steps, for the fused compaction's runs (lit_runs.comp, run_items.comp): faceCellCode
+// names d's cell, (face << 24) | (x << 12) | y (the face alone when its slot has no grid), and
+// faceCodeKey turns a code into the key; equal codes, equal keys, and faceCodeKey(faceCellCode(d)) is
+// faceRayKey's key. The cell costs a fraction of the Hilbert index, which the runs then take once a run.
+CS_FN uint faceCellCode(vec3 d, uint face, vec4 keyGrid) {
+  uint order = uint(keyGrid.w) & 15u;
+  if (order == 0u) return face << 24u;
+  uvec2 c = gridCell(rayFaceUV(d, face), vec4(keyGrid.x, keyGrid.y, keyGrid.z, keyGrid.z), order);
+  return (face << 24u) | (c.x << 12u) | c.y;
 }
+CS_FN uint faceCodeKey(uint code, vec4 keyGrid) {  // keyGrid: the grid of face code >> 24
+  uint s = uint(keyGrid.w), order = s & 15u;
+  if (order == 0u) return s >> 4u;
+  return min((s >> 4u) + hilbertIndex((code >> 12u) & 0xFFFu, code & 0xFFFu, order), uint(RAY_KEY_LAST));
+}
+CS_FN uint faceKey(vec3 d, uint face, vec4 keyGrid) { return faceCodeKey(faceCellCode(d, face, keyGrid), keyGrid); }
 
 // The key of d on its whole face, every face counted alike (faces 0-2 get 2^8 cells, 3-5 2^7): the tests'
 // reference for faces and Hilbert order.
@@ -259,7 +274,8 @@ CS_FN uint rayKey(vec3 d) {
 // [0, 1]^2 (values outside clamped to the edge cells): the whole grid spans the scene's projection, where
 // the face grid of rayKey would give a far light's rays a handful of cells. Degenerate (d_f.z <= 0 or not
 // finite): FRAME_KEY_DEGENERATE.
-CS_FN uint frameRayKey(vec3 d, vec4 rect) {
+// frameRayKey in two steps, as faceKey's: the cell's code, (x << 15) | y, or FRAME_KEY_DEGENERATE; its key.
+CS_FN uint frameCellCode(vec3 d, vec4 rect) {
   if (!(d.z > 0.0f) || !(abs(d.x) <= CS_FLT_MAX && abs(d.y) <= CS_FLT_MAX && d.z <= CS_FLT_MAX))
     return FRAME_KEY_DEGENERATE;
   float u = (d.x / d.z - rect.x) * rect.z;
@@ -267,8 +283,12 @@ CS_FN uint frameRayKey(vec3 d, vec4 rect) {
   float n = 32768.0f;  // 2^15
   uint x = uint(clamp(floor(u * n), 0.0f, n - 1.0f));
   uint y = uint(clamp(floor(v * n), 0.0f, n - 1.0f));
-  return hilbertIndex(x, y, 15u);
+  return (x << 15u) | y;
 }
+CS_FN uint frameCodeKey(uint code) {
+  return code == FRAME_KEY_DEGENERATE ? code : hilbertIndex(code >> 15u, code & 0x7FFFu, 15u);
+}
+CS_FN uint frameRayKey(vec3 d, vec4 rect) { return frameCodeKey(frameCellCode(d, rect)); }
 
 
 // The pixel (x, y) at position i of the unsorted screen order over tiles of 2^MORTON_TILE_BITS pixels

@@ -83,9 +83,10 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
   litSamples_ = vk::createKernel(ctx, "lit_samples", spv_lit_samples_comp, 3, sizeof(LitPush), {{0, 0u}});
   mortonLitSamples_ = vk::createKernel(ctx, "lit_samples (Morton)", spv_lit_samples_comp, 3, sizeof(LitPush), {{0, 1u}});
   litBounds_ = vk::createKernel(ctx, "ray_bounds (lit bits)", spv_ray_bounds_comp, 6, sizeof(KeysPush), {{0, 1u}});
-  litRuns_ = vk::createKernel(ctx, "lit_runs", spv_lit_runs_comp, 7, sizeof(KeysPush), {{0, 0u}}, 0x1u);
-  frameLitRuns_ = vk::createKernel(ctx, "lit_runs (frame)", spv_lit_runs_comp, 7, sizeof(KeysPush), {{0, 1u}}, 0x1u);
-  runItems_ = vk::createKernel(ctx, "run_items", spv_run_items_comp, 6, sizeof(RunsPush), {}, 0x10u);
+  litRuns_ = vk::createKernel(ctx, "lit_runs", spv_lit_runs_comp, 6, sizeof(KeysPush), {{0, 0u}}, 0x1u);
+  frameLitRuns_ = vk::createKernel(ctx, "lit_runs (frame)", spv_lit_runs_comp, 6, sizeof(KeysPush), {{0, 1u}}, 0x1u);
+  runItems_ = vk::createKernel(ctx, "run_items", spv_run_items_comp, 7, sizeof(KeysPush), {{0, 0u}}, 0x41u);
+  frameRunItems_ = vk::createKernel(ctx, "run_items (frame)", spv_run_items_comp, 7, sizeof(KeysPush), {{0, 1u}}, 0x41u);
   runExpand_ = vk::createKernel(ctx, "run_expand", spv_run_expand_comp, 6, sizeof(RunsPush), {{0, 0u}}, 0x13u);
   runExpandKeys_ = vk::createKernel(ctx, "run_expand (keys)", spv_run_expand_comp, 6, sizeof(RunsPush), {{0, 1u}}, 0x13u);
   samples_ = vk::createBuffer(ctx, uint64_t(maxPixels_) * 4);
@@ -96,8 +97,8 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
   keyArgs_ = vk::createBuffer(ctx, 16, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
   keptBits_ = vk::createBuffer(ctx, uint64_t(sort::ceilDiv(maxDomain_, SCAN_BLOCK)) * SCAN_THREADS * 8);
   const uint64_t words = std::max(maxPixels_, 1u);
-  runKeys_ = vk::createBuffer(ctx, words * 4);
   runOrder_ = vk::createBuffer(ctx, words * 4);
+  runCells_ = vk::createBuffer(ctx, uint64_t(blockInvocations(maxPixels_)) * SCAN_ITEMS * 4);  // whole blocks
   runStarts_ = vk::createBuffer(ctx, words * 4);
   leaderBits_ = vk::createBuffer(ctx, uint64_t(blockInvocations(maxPixels_)) * 4);
   runCounts_ = vk::createBuffer(ctx, uint64_t(blockInvocations(maxPixels_)) * 4);
@@ -107,7 +108,7 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
 uint64_t LitRays::bytesAllocated() const {
   return compact_.bytesAllocated() + sort_.bytesAllocated() + runScan_.bytesAllocated() +
          itemScan_.bytesAllocated() + samples_.size + keys_.size + count_.size + bounds_.size + grids_.size +
-         keyArgs_.size + keptBits_.size + runKeys_.size + runOrder_.size + runStarts_.size +
+         keyArgs_.size + keptBits_.size + runKeys_.size + runCells_.size + runOrder_.size + runStarts_.size +
          leaderBits_.size + runCounts_.size + runArgs_.size;
 }
 
@@ -157,21 +158,19 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
     cmd.dispatch(rayGrids_, {bounds_, grids_}, push, 1);
     cmd.barrier();
   }
-  // Keys and runs of equal keys (lit_runs.comp), each invocation's first run (the scan of its runs'
-  // counts, their total the runs' count), then one item a run as the sort's input (run_items.comp).
+  // The runs of equal keys (lit_runs.comp: every lit pixel's key cell, four at a time, kept per pixel),
+  // each invocation's first run (the scan of its runs' counts, their total the runs' count), then one
+  // item a run as the sort's input (run_items.comp: the leader's key from its cell).
   const uint32_t invocations = blockInvocations(pixels);
-  cmd.dispatch(framed ? frameLitRuns_ : litRuns_,
-               {position, keptBits_, compact_.blockOffsets(), runKeys_, grids_, leaderBits_, runCounts_}, push, grid.x,
-               grid.y);
+  cmd.dispatch(framed ? frameLitRuns_ : litRuns_, {position, keptBits_, grids_, leaderBits_, runCounts_, runCells_},
+               push, grid.x, grid.y);
   cmd.barrier();
   runScan_.record(cmd, vk::BufferRange(runCounts_, 0, uint64_t(invocations) * 4),
                   vk::BufferRange(runCounts_, 0, uint64_t(invocations) * 4), sort::Count(invocations),
                   sort::GpuWord(count_, kRunsWord));
-  const RunsPush runs{uint32_t(pixels), maxPixels_, kRunsWord, kLitWord};
-  cmd.dispatch(runItems_,
-               {keptBits_, compact_.blockOffsets(), runCounts_, leaderBits_, vk::texels(runKeys_, kWordTexels),
-                sort_.pairInput()},
-               runs, grid.x, grid.y);
+  cmd.dispatch(framed ? frameRunItems_ : runItems_,
+               {position, keptBits_, runCounts_, leaderBits_, sort_.pairInput(), grids_, vk::texels(runCells_, kWordTexels)},
+               push, grid.x, grid.y);
   cmd.barrier();
   runsPending_ = true;
 }
@@ -235,7 +234,9 @@ void LitRays::recordSort(vk::Commands& cmd, sort::Count count) {
   // The runs' items by key (their keys too, for keepSortedKeys), where each run starts in the order (the
   // scan of their lengths), then each run's pixels (and key) from there.
   const sort::Count items = sort::Count::device(sort::GpuWord(count_, kRunsWord), maxPixels_);
-  sort_.recordFromPairs(cmd, runKeys_, runOrder_, items, keyBits_, keepSortedKeys_);
+  if (keepSortedKeys_ && !runKeys_.buffer) runKeys_ = vk::createBuffer(ctx_, uint64_t(std::max(maxPixels_, 1u)) * 4);
+  const vk::Buffer& sortedKeys = keepSortedKeys_ ? runKeys_ : runOrder_;  // (read by run_expand with the keys)
+  sort_.recordFromPairs(cmd, sortedKeys, runOrder_, items, keyBits_, keepSortedKeys_);
   groups_.record(cmd, items, PIXEL_THREADS, runArgs_, kRunGroupsArgs);
   groups_.record(cmd, items, SCAN_BLOCK, runArgs_, kRunScanArgs);
   cmd.barrier();
@@ -244,7 +245,7 @@ void LitRays::recordSort(vk::Commands& cmd, sort::Count count) {
   const RunsPush runs{0, maxPixels_, kRunsWord, kLitWord};
   cmd.dispatchIndirect(keepSortedKeys_ ? runExpandKeys_ : runExpand_,
                        {vk::texels(runOrder_, kWordTexels), vk::texels(runStarts_, kWordTexels), samples_, keys_,
-                        vk::texels(runKeys_, kWordTexels), count_},
+                        vk::texels(sortedKeys, kWordTexels), count_},
                        &runs, sizeof(runs), runArgs_, kRunGroupsArgs * 4);
   cmd.barrier();
 }

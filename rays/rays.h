@@ -102,15 +102,15 @@ class LitRays {
   vk::Kernel litBounds_;                       // fused: ray_bounds.comp SPEC_FROM_BITS
   // Fused: lit_runs.comp (world or rotated-frame keys), run_items.comp; after the sort run_expand.comp
   // (with the keys: keepSortedKeys).
-  vk::Kernel litRuns_, frameLitRuns_, runItems_, runExpand_, runExpandKeys_;
+  vk::Kernel litRuns_, frameLitRuns_, runItems_, frameRunItems_, runExpand_, runExpandKeys_;
   sort::Scan runScan_;   // each lit_runs invocation's first run, from their counts
   sort::Scan itemScan_;  // where each sorted run starts, from their lengths
   vk::Buffer samples_, keys_, count_, bounds_, grids_, keyArgs_;
-  // The runs: runKeys_ (a leader's key at its lit slot; after the sort the sorted runs' keys, when kept),
+  // The runs: runKeys_ (the sorted runs' keys, made on the first sort that keeps them: keepSortedKeys),
   // leaderBits_ and runCounts_ (per lit_runs invocation: its leaders, their count, then its first run),
   // runOrder_ (the sorted runs: leader pixel | (length - 1) << RUN_PIXEL_BITS), runStarts_ (where each
   // starts in the order), runArgs_ (indirect arguments).
-  vk::Buffer runKeys_, runOrder_, runStarts_, leaderBits_, runCounts_, runArgs_;
+  vk::Buffer runKeys_, runCells_, runOrder_, runStarts_, leaderBits_, runCounts_, runArgs_;
   bool keepSortedKeys_ = true;
   vk::Buffer keptBits_;  // lit_count.comp's bits and ranks, one uvec2 per SCAN_ITEMS positions
   // lit_count.comp over the push's enumeration, then the scan of its block counts (the lit count to count_).
