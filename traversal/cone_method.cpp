@@ -560,7 +560,8 @@ class ConeMethod : public ShadowMethod {
     for (const vk::Buffer& b : triangles_) triangleBytes += b.size;
     for (const vk::Buffer& b : frameTriangles_) triangleBytes += b.size;
     return triangleBytes + (rays_ ? rays_->bytesAllocated() : 0) + visibility_.size + tree_.bytesAllocated() +
-           (traversal_ ? traversal_->bytesAllocated() + traversal_->flagBytes() : 0) + readback_.bytesAllocated() +
+           (traversal_ ? traversal_->bytesAllocated() + traversal_->flagBytes() + traversal_->shadowedBytes() : 0) +
+           readback_.bytesAllocated() +
            clusterSphereBytes() +
            (compact_ ? compact_->bytesAllocated() : 0) +
            rayFlags_.size + remaining_.size + kept_.size + orderWords_.size;
@@ -577,7 +578,11 @@ class ConeMethod : public ShadowMethod {
       return;
     }
     const uint64_t budget = options_.memoryBudgetBytes;
-    uint64_t others = bytesAllocated() - (traversal_ ? traversal_->bytesAllocated() + traversal_->flagBytes() : 0);
+    uint64_t others = bytesAllocated() - (traversal_ ? traversal_->bytesAllocated() + traversal_->flagBytes() +
+                                                          traversal_->shadowedBytes()
+                                                    : 0);
+    // The leaves' hint, made at the first traversal for the rays the tree's buffer holds.
+    others += traversal::Traversal::shadowedBytes(std::max<uint64_t>(tree_.rays().size / 16, pixels));
     others += expectedClusterSphereBytes() - std::min(expectedClusterSphereBytes(), clusterSphereBytes());
     if (!ctx_.hostVisibleDeviceLocal) {  // the mask and the counters copied for the readback (once allocated: in `others`)
       const uint64_t readback = uint64_t(pixels) * 4 + (STATE_WORDS + SHAPE_WORDS + ORDER_WORDS) * 4 + 64;

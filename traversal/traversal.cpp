@@ -196,6 +196,7 @@ struct Traversal::Frame {
   std::vector<double> ratio;        // survivors per input of the last chunk out of each depth
   TraversalStats stats;
   uint32_t words[STAT_WORDS] = {};  // the counters of the last submit
+  bool shadowedCleared = false;     // the leaves' hint cleared in this traversal (by its first leaves)
 };
 
 uint64_t maxPairBufferBytes(const vk::Context& ctx) {
@@ -211,8 +212,8 @@ Traversal::Traversal(vk::Context& ctx, uint64_t memoryBytes)
 Traversal::Traversal(vk::Context& ctx, const ArenaPlan& plan) : ctx_(ctx), plan_(plan) {
   CS_CHECK(plan_.pairCapacity >= kMinPairs && plan_.chunkCapacity >= 1, "traversal arena plan too small");
   batchTriangles_ = plan_.chunkCapacity;
-  leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 6, sizeof(TraversePush), {{0, 0u}}, 0x27u);
-  leavesFromLight_ = vk::createKernel(ctx, "traverse leaves (from the light)", spv_traverse_leaves_comp, 6,
+  leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 7, sizeof(TraversePush), {{0, 0u}}, 0x27u);
+  leavesFromLight_ = vk::createKernel(ctx, "traverse leaves (from the light)", spv_traverse_leaves_comp, 7,
                                       sizeof(TraversePush), {{0, 1u}}, 0x27u);
   advance_ = vk::createKernel(ctx, "traverse advance", spv_traverse_advance_comp, 2, sizeof(AdvancePush));
   arena_ = vk::createBuffer(ctx, pairBufferBytes(plan_.pairCapacity));
@@ -364,8 +365,14 @@ void Traversal::leaves(Frame& f, uint32_t d) {
   cmd.barrier();
   cmd.mark("start");
   vk::Grid g = vk::gridFor(pairs, TRAVERSE_THREADS, ctx_.maxWorkgroups());
+  if (!f.shadowedCleared) {  // the hint starts empty in each traversal
+    ensureShadowed(f.in->tree->rays().size / 16);
+    cmd.fill(shadowed_, 0);
+    cmd.barrier();
+    f.shadowedCleared = true;
+  }
   cmd.dispatch(leafKernel(f.in->leafTest), {vk::texels(*f.in->triangles, kTexelFormat), vk::texels(arena_, kPairFormat), vk::texels(f.in->tree->rays(), kRayFormat), *f.in->visibility, stats_,
-                         vk::texels(stats_, kWordFormat)}, p,
+                         vk::texels(stats_, kWordFormat), shadowed_}, p,
                g.x, g.y);
   cmd.barrier();
   cmd.mark("leaves");
@@ -455,6 +462,14 @@ TraversalStats Traversal::run(const TraversalInput& in, vk::Timer* timer) {
   return f.stats;
 }
 
+void Traversal::ensureShadowed(uint64_t rays) {
+  const uint64_t bytes = shadowedBytes(rays);  // a bit a ray, and a word past the last (the leaves read two)
+  if (shadowed_.size < bytes) {
+    shadowed_.reset();
+    shadowed_ = vk::createBuffer(ctx_, bytes);
+  }
+}
+
 void Traversal::ensureFlags(uint64_t nodes) {
   const uint64_t bytes = std::max<uint64_t>(nodes * 4, 16);
   if (flags_.size < bytes) {
@@ -468,6 +483,8 @@ void Traversal::ensureFlags(uint64_t nodes) {
 void Traversal::recordBegin(vk::Commands& cmd, const TraversalInput& in) {
   CS_CHECK(in.tree, "traversal input incomplete");
   cmd.fill(state_, 0);
+  ensureShadowed(in.tree->rays().size / 16);
+  cmd.fill(shadowed_, 0);
   if (in.earlyAccept && in.test == TRAVERSE_TEST_PRECISE) {
     ensureFlags(in.tree->nodes().size / sizeof(cone::ConeNode));  // a flag per node the tree can have
     cmd.fill(flags_, 0);
@@ -582,7 +599,7 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
       p.countWord = STATE_LEAF_ARGS + 4 * c + 3;
       p.missingWord = STATE_LEAF_MISSING;
       cmd.dispatchIndirect(leafKernel(in.leafTest), {vk::texels(*in.triangles, kTexelFormat), vk::texels(*buffers[(c - 1) % 2], kPairFormat), vk::texels(in.tree->rays(), kRayFormat), *in.visibility, state_,
-                                     vk::texels(state_, kWordFormat)},
+                                     vk::texels(state_, kWordFormat), shadowed_},
                            &p, sizeof(p), state_, (STATE_LEAF_ARGS + 4 * c) * 4);
     }
     cmd.barrier();

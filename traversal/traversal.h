@@ -361,6 +361,9 @@ class Traversal {
   uint64_t bytesAllocated() const;
   // The early-accept flags (allocated on the first frame that uses them; not in bytesAllocated()).
   uint64_t flagBytes() const { return flags_.size; }
+  // The leaves' hint of the rays known shadowed (traverse_leaves.comp): a bit a ray, shadowedBytes(rays).
+  uint64_t shadowedBytes() const { return shadowed_.size; }
+  static uint64_t shadowedBytes(uint64_t rays) { return ((rays / 32 + 2) * 4 + 15) / 16 * 16; }  // whole vec4s
 
  private:
   struct Frame;
@@ -374,6 +377,7 @@ class Traversal {
   vk::Context& ctx_;
   ArenaPlan plan_;
   void ensureFlags(uint64_t nodes);
+  void ensureShadowed(uint64_t rays);
 
   const vk::Kernel& testKernel(const TraversePush& p, bool clusters, bool whole = false);
   std::unique_ptr<vk::Kernel> tests_[22];  // the test kernels per switches, the cluster kernel, the whole-cluster ones;
@@ -381,6 +385,7 @@ class Traversal {
   vk::Kernel leaves_, leavesFromLight_, advance_;
   const vk::Kernel& leafKernel(LeafTest test) const { return test == LeafTest::FromLight ? leavesFromLight_ : leaves_; }
   vk::Buffer arena_, chunk_, stats_, flags_, state_;
+  vk::Buffer shadowed_;  // the leaves' hint: a bit per sorted ray known shadowed (traverse_leaves.comp)
   uint32_t batchTriangles_ = 1;  // triangles per batch of the device path (learnBatch)
   bool clustersFit_ = true;      // false once a one-cluster batch overflowed: triangles only from then on
   bool usedClusters_ = false;    // the last record() started its batches as clusters

@@ -14,7 +14,8 @@
 //           2 = rays (uniform texel buffer, RGBA32UI, one texel a sorted ray: the sample's position as float
 //           bits and its pixel index, ConeTree::rays), 3 = visibility (uint per pixel), 4 = stats (the device
 //           path: the state words, the pair count at p.countWord), 5 = the same words as a uniform texel
-//           buffer (RGBA32UI): the counts every invocation reads, fetched instead of loaded from storage
+//           buffer (RGBA32UI): the counts every invocation reads, fetched instead of loaded from storage,
+//           6 = shadowed (a bit per sorted ray, and a word more)
 #include "traversal/precise_test.h"
 #include "traversal/traverse.glsl"
 
@@ -29,9 +30,22 @@ layout(binding = 2) uniform usamplerBuffer rays;  // RGBA32UI texels, one a sort
 layout(std430, binding = 3) buffer Visibility { uint visibility[]; };
 layout(std430, binding = 4) buffer Stats { uint stats[]; };
 layout(binding = 5) uniform usamplerBuffer statTexels;  // binding 4's words, four a texel
+// Bit r: sorted ray r is known to be shadowed (a leaf invocation hit it). A hint, never the answer: a
+// pair tests only the rays its words do not mark, and a bit is set only after the ray's visibility word
+// went to 0, so a stale read costs tests, never a wrong mask. Cleared per traversal.
+layout(std430, binding = 6) buffer Shadowed { uint shadowed[]; };
 layout(push_constant) uniform Push { TraversePush p; };
 
 uint statWord(uint w) { return texelWord(statTexels, w); }
+
+// Whether sorted ray `leaf` meets the pair's triangle within (eps, L - eps).
+bool rayHits(uint leaf, LeafTriangle t, vec3 P0, vec3 P1, vec3 P2, vec3 light) {
+  vec3 samplePos = uintBitsToFloat(texelFetch(rays, int(leaf)).xyz);
+  vec4 ray = leafRay(samplePos, light);
+  bool hit = SPEC_FROM_LIGHT != 0u ? leafHitFromLight(t, samplePos, ray, p.eps)
+                                   : leafHit(samplePos, light, ray, p.eps, P0, P1, P2);
+  return leafRayUsable(ray, p.minLength) && hit;
+}
 
 void main() {
   uint i = flatIndex();
@@ -45,6 +59,12 @@ void main() {
   uint first = pair.y << shift;
   uint end = min(first + span, leafCount);
   if (end < first + span) atomicAdd(stats[p.missingWord], first + span - max(end, first));  // past the last ray
+  // The rays still to test: those of the pair not yet known shadowed (a span of 4 or 16 rays lies in one
+  // word, 64 in two). None: the pair is done (a SIMD batch whose pairs all are skips the triangle too).
+  uint n = end > first ? end - first : 0u, w = first >> 5u, sh = first & 31u;
+  uint live = n == 0u ? 0u : ~(shadowed[w] >> sh) & (n >= 32u ? 0xFFFFFFFFu : (1u << n) - 1u);
+  uint live2 = n <= 32u ? 0u : ~shadowed[w + 1u] & (n >= 64u ? 0xFFFFFFFFu : (1u << (n - 32u)) - 1u);
+  if ((live | live2) == 0u) return;
   vec3 light = p.light.xyz;
   vec3 P0 = texelFetch(tris, int(3u * pair.x)).xyz;
   vec3 P1 = texelFetch(tris, int(3u * pair.x + 1u)).xyz;
@@ -59,15 +79,13 @@ void main() {
   uint hits = 0u, hits2 = 0u;
   LeafTriangle t;
   if (SPEC_FROM_LIGHT != 0u) t = leafTriangle(P0, P1, P2, light);
-  for (uint leaf = first; leaf < end; leaf++) {
-    vec3 samplePos = uintBitsToFloat(texelFetch(rays, int(leaf)).xyz);
-    vec4 ray = leafRay(samplePos, light);
-    bool hit = SPEC_FROM_LIGHT != 0u ? leafHitFromLight(t, samplePos, ray, p.eps)
-                                     : leafHit(samplePos, light, ray, p.eps, P0, P1, P2);
-    uint k = leaf - first;
-    uint bit = leafRayUsable(ray, p.minLength) && hit ? 1u << (k & 31u) : 0u;
-    hits |= k < 32u ? bit : 0u;
-    hits2 |= k < 32u ? 0u : bit;
+  for (uint todo = live; todo != 0u; todo &= todo - 1u) {
+    uint k = uint(findLSB(todo));
+    hits |= rayHits(first + k, t, P0, P1, P2, light) ? 1u << k : 0u;
+  }
+  for (uint todo = live2; todo != 0u; todo &= todo - 1u) {
+    uint k = uint(findLSB(todo));
+    hits2 |= rayHits(first + 32u + k, t, P0, P1, P2, light) ? 1u << k : 0u;
   }
   for (uint todo = hits; todo != 0u; todo &= todo - 1u) {
     uint sampleIndex = texelFetch(rays, int(first + uint(findLSB(todo)))).w;
@@ -77,4 +95,8 @@ void main() {
     uint sampleIndex = texelFetch(rays, int(first + 32u + uint(findLSB(todo)))).w;
     if (visibility[sampleIndex] != 0u) atomicAnd(visibility[sampleIndex], 0u);
   }
+  // Then the rays as known shadowed (after their visibility: the order a later reader relies on).
+  memoryBarrierBuffer();
+  if (hits != 0u) atomicOr(shadowed[w], hits << sh);
+  if (hits2 != 0u) atomicOr(shadowed[w + 1u], hits2);
 }
