@@ -119,6 +119,18 @@ void acceptChild(uint c, vec3 light) {
 // child in `firstChild`. Adds the tests it skips to `missing` (for STAT_MISSING: one atomic an invocation,
 // whatever the path, since lavapipe makes every storage access in a loop over the lanes that runs whether
 // a branch is taken or not) and counts the early-accept events.
+// The children [r.x, r.y) (at most four) whose cones the sphere may meet, as a mask (bit k: child r.x + k):
+// four tests written out, the ones past r.y dropped, not a loop (a loop iteration costs lavapipe's lanes
+// more than a node's fetch).
+uint nearChildren(uvec2 r, vec4 sphere, float scale) {
+  uint c = r.x, n = r.y - r.x;
+  uint m = (sphereConeTriangle(node(childOffset + c), sphere, p.eps, scale) ? 1u : 0u) |
+           (sphereConeTriangle(node(childOffset + c + 1u), sphere, p.eps, scale) ? 2u : 0u) |
+           (sphereConeTriangle(node(childOffset + c + 2u), sphere, p.eps, scale) ? 4u : 0u) |
+           (sphereConeTriangle(node(childOffset + c + 3u), sphere, p.eps, scale) ? 8u : 0u);
+  return m & ((1u << n) - 1u);
+}
+
 uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild, inout uint missing) {
   firstChild = 0u;
   if (SPEC_CLUSTERS == 0u && mode == STEP_EXPAND) {
@@ -147,9 +159,7 @@ uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild, inout uin
   uint mask = 0u;
   if (SPEC_CLUSTERS != 0u) {
     vec4 sphere = clusterSpheres[mode == STEP_SUPER ? SUPER_SPHERES * pair.x : clusterSphereAt(pair.x)];
-    for (uint c = r.x; c < r.y; c++)
-      if (sphereConeTriangle(node(childOffset + c), sphere, p.eps, coneScale())) mask |= 1u << (c - r.x);
-    return mask;
+    return nearChildren(r, sphere, coneScale());
   }
   vec3 light = p.light.xyz;
   // Relative to the light, exactly as the leaf test computes them from the light's end; in the far-light
@@ -170,18 +180,14 @@ uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild, inout uin
   } else if (SPEC_FRONT_FACE_CULLING != 0u && (p.fromTriangles != 0u || mode == STEP_EXPAND) && facesLight(v0, v1, v2)) {
     // 002 §3.6: a triangle facing the light casts no shadow in a closed mesh; dropped at the root.
   } else if (SPEC_TEST == TRAVERSE_TEST_SPHERE) {
-    vec4 sphere = boundingSphere(v0, v1, v2, scale);
-    for (uint c = r.x; c < r.y; c++)
-      if (sphereConeTriangle(node(childOffset + c), sphere, p.eps, scale)) mask |= 1u << (c - r.x);
+    mask = nearChildren(r, boundingSphere(v0, v1, v2, scale), scale);
   } else {
     // The precise test, with the sphere test ANDed in: both conservative, and the sphere's margins are
     // the tighter ones for small triangles (traversal.h). The sphere test first, on every child: it
     // rejects most pairs below the top levels, and the precise test's per-triangle set-up (lengths,
     // plane slab, three edge planes) is then not computed (unless another lane of the subgroup needs it).
     vec4 sphere = boundingSphere(v0, v1, v2, scale);
-    uint near = 0u;
-    for (uint c = r.x; c < r.y; c++)
-      if (sphereConeTriangle(node(childOffset + c), sphere, p.eps, scale)) near |= 1u << (c - r.x);
+    uint near = nearChildren(r, sphere, scale);
     if (near != 0u) {
       PreciseTriangle t = preciseTriangle(v0, v1, v2, scale);  // once for the (up to) four children
       // Over the set bits of `near` only: lavapipe runs a loop as many times as its busiest lane needs
