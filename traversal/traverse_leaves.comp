@@ -79,13 +79,23 @@ void main() {
   uint hits = 0u, hits2 = 0u;
   LeafTriangle t;
   if (SPEC_FROM_LIGHT != 0u) t = leafTriangle(P0, P1, P2, light);
-  for (uint todo = live; todo != 0u; todo &= todo - 1u) {
-    uint k = uint(findLSB(todo));
-    hits |= rayHits(first + k, t, P0, P1, P2, light) ? 1u << k : 0u;
+  // Two rays an iteration (the lowest two left; the same one twice when one is left): a loop iteration
+  // costs every lavapipe lane, and the two tests are independent.
+  for (uint todo = live; todo != 0u;) {
+    uint k0 = uint(findLSB(todo));
+    todo &= todo - 1u;
+    uint k1 = todo != 0u ? uint(findLSB(todo)) : k0;
+    todo &= todo - 1u;
+    hits |= (rayHits(first + k0, t, P0, P1, P2, light) ? 1u << k0 : 0u) |
+            (rayHits(first + k1, t, P0, P1, P2, light) ? 1u << k1 : 0u);
   }
-  for (uint todo = live2; todo != 0u; todo &= todo - 1u) {
-    uint k = uint(findLSB(todo));
-    hits2 |= rayHits(first + 32u + k, t, P0, P1, P2, light) ? 1u << k : 0u;
+  for (uint todo = live2; todo != 0u;) {
+    uint k0 = uint(findLSB(todo));
+    todo &= todo - 1u;
+    uint k1 = todo != 0u ? uint(findLSB(todo)) : k0;
+    todo &= todo - 1u;
+    hits2 |= (rayHits(first + 32u + k0, t, P0, P1, P2, light) ? 1u << k0 : 0u) |
+             (rayHits(first + 32u + k1, t, P0, P1, P2, light) ? 1u << k1 : 0u);
   }
   for (uint todo = hits; todo != 0u; todo &= todo - 1u) {
     uint sampleIndex = texelFetch(rays, int(first + uint(findLSB(todo)))).w;
