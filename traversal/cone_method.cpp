@@ -368,6 +368,12 @@ class ConeMethod : public ShadowMethod {
         if (clusters) part.clusterSpheres = &clusterSpheres_[b];
         for (uint32_t first : traversal_->record(cmd, part, boundary)) batchStarts.push_back(uint32_t(b) * chunkTriangles_ + first);
       });
+    if (onDevice) {
+      // The hits of the batches that completed (all of them but after an overflow, which the chunked
+      // traversal below resumes) into the visibility.
+      traversal_->recordEnd(cmd, in);
+      boundary("leaves");
+    }
     stats["clusters"] = clusters && onDevice;
     stats["last_expansion_test"] = options_.sphereLastExpansion && options_.test == ConeTest::Precise ? "sphere" : "precise";
     // a lane per cluster pair or per triangle pair, where that expansion runs in the sphere-test kernel

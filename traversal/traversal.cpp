@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "traversal/traverse_advance.comp.h"
+#include "traversal/leaf_hits.comp.h"
 #include "traversal/traverse_leaves.comp.h"
 #include "traversal/traverse_test.comp.h"
 
@@ -212,9 +213,10 @@ Traversal::Traversal(vk::Context& ctx, uint64_t memoryBytes)
 Traversal::Traversal(vk::Context& ctx, const ArenaPlan& plan) : ctx_(ctx), plan_(plan) {
   CS_CHECK(plan_.pairCapacity >= kMinPairs && plan_.chunkCapacity >= 1, "traversal arena plan too small");
   batchTriangles_ = plan_.chunkCapacity;
-  leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 7, sizeof(TraversePush), {{0, 0u}}, 0x27u);
-  leavesFromLight_ = vk::createKernel(ctx, "traverse leaves (from the light)", spv_traverse_leaves_comp, 7,
-                                      sizeof(TraversePush), {{0, 1u}}, 0x27u);
+  leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 6, sizeof(TraversePush), {{0, 0u}}, 0x17u);
+  leavesFromLight_ = vk::createKernel(ctx, "traverse leaves (from the light)", spv_traverse_leaves_comp, 6,
+                                      sizeof(TraversePush), {{0, 1u}}, 0x17u);
+  leafHits_ = vk::createKernel(ctx, "leaf hits", spv_leaf_hits_comp, 4, sizeof(LeafHitsPush), {}, 0xBu);
   advance_ = vk::createKernel(ctx, "traverse advance", spv_traverse_advance_comp, 2, sizeof(AdvancePush));
   arena_ = vk::createBuffer(ctx, pairBufferBytes(plan_.pairCapacity));
   chunk_ = vk::createBuffer(ctx, pairBufferBytes(plan_.chunkCapacity));
@@ -371,7 +373,7 @@ void Traversal::leaves(Frame& f, uint32_t d) {
     cmd.barrier();
     f.shadowedCleared = true;
   }
-  cmd.dispatch(leafKernel(f.in->leafTest), {vk::texels(*f.in->triangles, kTexelFormat), vk::texels(arena_, kPairFormat), vk::texels(f.in->tree->rays(), kRayFormat), *f.in->visibility, stats_,
+  cmd.dispatch(leafKernel(f.in->leafTest), {vk::texels(*f.in->triangles, kTexelFormat), vk::texels(arena_, kPairFormat), vk::texels(f.in->tree->rays(), kRayFormat), stats_,
                          vk::texels(stats_, kWordFormat), shadowed_}, p,
                g.x, g.y);
   cmd.barrier();
@@ -455,6 +457,13 @@ TraversalStats Traversal::run(const TraversalInput& in, vk::Timer* timer) {
     processDepth(f, 0);
     pos += m;
   }
+  if (f.shadowedCleared) {  // the leaves ran: their hits into the visibility
+    vk::Commands cmd(ctx_);
+    LeafHitsPush p{f.shape->leaves, 0u, 0u, 0u};
+    recordLeafHits(cmd, *in.tree, *in.visibility, p);
+    cmd.submit();
+    f.stats.submits++;
+  }
   // The scratch in use at the largest chunk (the estimate's alignment slack capped by what is allocated).
   const uint64_t scratch = bytesAllocated() - arena_.size;
   f.stats.peakBytes = f.stats.peakPairs * kPairBytes +
@@ -468,6 +477,28 @@ void Traversal::ensureShadowed(uint64_t rays) {
     shadowed_.reset();
     shadowed_ = vk::createBuffer(ctx_, bytes);
   }
+}
+
+void Traversal::recordLeafHits(vk::Commands& cmd, const cone::ConeTree& tree, const vk::Buffer& visibility,
+                               const LeafHitsPush& p) {
+  // A lane per LEAF_HITS_RAYS rays: on the device path the arguments pass 0's advance wrote from the
+  // tree's shape (zero workgroups when no batch ran: no bit is set then).
+  if (p.fromShape) {
+    cmd.dispatchIndirect(leafHits_, {vk::texels(tree.rays(), kRayFormat), vk::texels(shadowed_, VK_FORMAT_R32_UINT), visibility,
+                                     vk::texels(tree.shapeBuffer(), kWordFormat)},
+                         &p, sizeof(p), state_, STATE_HITS_ARGS * 4);
+  } else {
+    vk::Grid g = vk::gridFor((uint64_t(p.count) + LEAF_HITS_RAYS - 1) / LEAF_HITS_RAYS, CONE_BUILD_THREADS, ctx_.maxWorkgroups());
+    cmd.dispatch(leafHits_, {vk::texels(tree.rays(), kRayFormat), vk::texels(shadowed_, VK_FORMAT_R32_UINT), visibility,
+                             vk::texels(tree.shapeBuffer(), kWordFormat)},
+                 p, g.x, g.y);
+  }
+  cmd.barrier();
+}
+
+void Traversal::recordEnd(vk::Commands& cmd, const TraversalInput& in) {
+  CS_CHECK(in.tree && in.visibility, "traversal input incomplete");
+  recordLeafHits(cmd, *in.tree, *in.visibility, LeafHitsPush{0u, 1u, 0u, 0u});
 }
 
 void Traversal::ensureFlags(uint64_t nodes) {
@@ -598,7 +629,7 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
       p.first = 0;
       p.countWord = STATE_LEAF_ARGS + 4 * c + 3;
       p.missingWord = STATE_LEAF_MISSING;
-      cmd.dispatchIndirect(leafKernel(in.leafTest), {vk::texels(*in.triangles, kTexelFormat), vk::texels(*buffers[(c - 1) % 2], kPairFormat), vk::texels(in.tree->rays(), kRayFormat), *in.visibility, state_,
+      cmd.dispatchIndirect(leafKernel(in.leafTest), {vk::texels(*in.triangles, kTexelFormat), vk::texels(*buffers[(c - 1) % 2], kPairFormat), vk::texels(in.tree->rays(), kRayFormat), state_,
                                      vk::texels(state_, kWordFormat), shadowed_},
                            &p, sizeof(p), state_, (STATE_LEAF_ARGS + 4 * c) * 4);
     }

@@ -327,9 +327,11 @@ class Traversal {
 
   // The device path (see "One submission"). recordBegin() once per frame clears the counters (and the
   // early-accept flags, sized for the deepest tree the recording allows); record() once per triangle
-  // buffer. `boundary`, when given, is called after each batch's passes with "traversal" and after its
-  // leaves with "leaves" (a caller may end a submission there to time them).
+  // buffer; recordEnd() once after them puts the leaves' hits into the visibility (leaf_hits.comp; run()
+  // does so itself). `boundary`, when given, is called after each batch's passes with "traversal" and
+  // after its leaves with "leaves" (a caller may end a submission there to time them).
   void recordBegin(vk::Commands& cmd, const TraversalInput& in);
+  void recordEnd(vk::Commands& cmd, const TraversalInput& in);
   // Returns the first triangle of each batch, in order (STATE_BATCHES_DONE of them completed).
   std::vector<uint32_t> record(vk::Commands& cmd, const TraversalInput& in,
                                const std::function<void(const char*)>& boundary = {});
@@ -361,7 +363,7 @@ class Traversal {
   uint64_t bytesAllocated() const;
   // The early-accept flags (allocated on the first frame that uses them; not in bytesAllocated()).
   uint64_t flagBytes() const { return flags_.size; }
-  // The leaves' hint of the rays known shadowed (traverse_leaves.comp): a bit a ray, shadowedBytes(rays).
+  // The leaves' hits (traverse_leaves.comp, leaf_hits.comp): a bit a sorted ray, shadowedBytes(rays).
   uint64_t shadowedBytes() const { return shadowed_.size; }
   static uint64_t shadowedBytes(uint64_t rays) { return ((rays / 32 + 2) * 4 + 15) / 16 * 16; }  // whole vec4s
 
@@ -378,14 +380,15 @@ class Traversal {
   ArenaPlan plan_;
   void ensureFlags(uint64_t nodes);
   void ensureShadowed(uint64_t rays);
+  void recordLeafHits(vk::Commands& cmd, const cone::ConeTree& tree, const vk::Buffer& visibility, const LeafHitsPush& p);
 
   const vk::Kernel& testKernel(const TraversePush& p, bool clusters, bool whole = false);
   std::unique_ptr<vk::Kernel> tests_[22];  // the test kernels per switches, the cluster kernel, the whole-cluster ones;
                                            // each with the scale a constant 1 and from the push constants
-  vk::Kernel leaves_, leavesFromLight_, advance_;
+  vk::Kernel leaves_, leavesFromLight_, advance_, leafHits_;
   const vk::Kernel& leafKernel(LeafTest test) const { return test == LeafTest::FromLight ? leavesFromLight_ : leaves_; }
   vk::Buffer arena_, chunk_, stats_, flags_, state_;
-  vk::Buffer shadowed_;  // the leaves' hint: a bit per sorted ray known shadowed (traverse_leaves.comp)
+  vk::Buffer shadowed_;  // the leaves' hits: a bit per sorted ray (traverse_leaves.comp, leaf_hits.comp)
   uint32_t batchTriangles_ = 1;  // triangles per batch of the device path (learnBatch)
   bool clustersFit_ = true;      // false once a one-cluster batch overflowed: triangles only from then on
   bool usedClusters_ = false;    // the last record() started its batches as clusters

@@ -8,6 +8,7 @@
 //  - adds what step c - 1 did to its depth's totals (inputs, tests, survivors, steps run, early accept),
 //  - flags an overflow when step c - 1's survivors passed the capacity (what the step wrote is never read, and
 //    every later step of the frame is a dispatch of zero workgroups: the host redoes it chunked),
+//  - at step 0, writes the indirect arguments of leaf_hits.comp (a lane per LEAF_HITS_RAYS sorted rays),
 //  - writes step c's count, its TraversePush fields from the tree's shape, and the indirect arguments of
 //    its test (the cluster or the triangle kernel), or of the leaves at c = D, and clears the step counters.
 // bindings: 0 = shape words (SHAPE_*, conetree/tree_shape.comp), 1 = state words (STAT_*, STATE_*)
@@ -51,6 +52,7 @@ void main() {
   if (c == 0u) {
     n = state[STATE_OVERFLOW] != 0u || depth == 0u ? 0u : p.triangles;
     state[STATE_BATCH_TRIANGLES] = p.triangles;
+    writeArgs(STATE_HITS_ARGS, (shape[SHAPE_LEAVES] + LEAF_HITS_RAYS - 1u) / LEAF_HITS_RAYS, shape[SHAPE_LEAVES], CONE_BUILD_THREADS);
     // Clusters go down the upper levels when there are levels to spare before the leaves (see below),
     // super clusters first where the host asks.
     if (p.clusters == 2u && depth >= 3u) {

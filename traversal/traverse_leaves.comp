@@ -5,17 +5,18 @@
 // 16 or 64 rays a leaf pair (traversal.h, LeafRays), for each pair of the depth one or two above it,
 // against the (up to) 16 or 64 rays under the node. One invocation per pair: the triangle is read once for its rays, and
 // lavapipe's cost per invocation (more than a ray test's arithmetic) is paid once, not once a ray.
-// Visibility holds the bits of a float (1.0 lit); a hit ANDs it with 0 -- idempotent, so the result does
-// not depend on order, chunking or races.
+// A hit sets the ray's bit in `shadowed` (atomicOr, idempotent: the result does not depend on order,
+// chunking or races); leaf_hits.comp puts the set bits into the visibility once the traversal's leaves
+// have run. The bits are also the leaves' hint: a pair tests only the rays not yet known shadowed.
 // Counts nothing per test (shared or global atomics per invocation cost ~15 % on lavapipe): the host
 // counts 4 (16, 64) tests per pair, and the pairs of the last node, past the last ray, count the rays they
 // lack in STAT_MISSING.
 // bindings: 0 = triangles (uniform texel buffer, RGBA32F, 3 texels a triangle), 1 = arena (uniform texel buffer, RGBA32UI: two uvec2 pairs a texel),
 //           2 = rays (uniform texel buffer, RGBA32UI, one texel a sorted ray: the sample's position as float
-//           bits and its pixel index, ConeTree::rays), 3 = visibility (uint per pixel), 4 = stats (the device
-//           path: the state words, the pair count at p.countWord), 5 = the same words as a uniform texel
-//           buffer (RGBA32UI): the counts every invocation reads, fetched instead of loaded from storage,
-//           6 = shadowed (a bit per sorted ray, and a word more)
+//           bits and its pixel index, ConeTree::rays), 3 = stats (the device path: the state words, the
+//           pair count at p.countWord), 4 = the same words as a uniform texel buffer (RGBA32UI): the counts
+//           every invocation reads, fetched instead of loaded from storage, 5 = shadowed (a bit per sorted
+//           ray, and a word more)
 #include "traversal/precise_test.h"
 #include "traversal/traverse.glsl"
 
@@ -27,13 +28,12 @@ layout(local_size_x = TRAVERSE_THREADS) in;
 layout(binding = 0) uniform samplerBuffer tris;  // RGBA32F texels, three a triangle (traverse_test.comp)
 layout(binding = 1) uniform usamplerBuffer arena;  // RGBA32UI texels, two (triangle, node) pairs a texel
 layout(binding = 2) uniform usamplerBuffer rays;  // RGBA32UI texels, one a sorted ray
-layout(std430, binding = 3) buffer Visibility { uint visibility[]; };
-layout(std430, binding = 4) buffer Stats { uint stats[]; };
-layout(binding = 5) uniform usamplerBuffer statTexels;  // binding 4's words, four a texel
-// Bit r: sorted ray r is known to be shadowed (a leaf invocation hit it). A hint, never the answer: a
-// pair tests only the rays its words do not mark, and a bit is set only after the ray's visibility word
-// went to 0, so a stale read costs tests, never a wrong mask. Cleared per traversal.
-layout(std430, binding = 6) buffer Shadowed { uint shadowed[]; };
+layout(std430, binding = 3) buffer Stats { uint stats[]; };
+layout(binding = 4) uniform usamplerBuffer statTexels;  // binding 3's words, four a texel
+// Bit r: a leaf test hit sorted ray r. The answer (leaf_hits.comp turns it into the visibility) and a
+// hint: a pair tests only the rays its words do not mark; a stale read costs tests, never a wrong mask
+// (a bit once set stays set). Cleared per traversal.
+layout(std430, binding = 5) buffer Shadowed { uint shadowed[]; };
 layout(push_constant) uniform Push { TraversePush p; };
 
 uint statWord(uint w) { return texelWord(statTexels, w); }
@@ -69,13 +69,11 @@ void main() {
   vec3 P0 = texelFetch(tris, int(3u * pair.x)).xyz;
   vec3 P1 = texelFetch(tris, int(3u * pair.x + 1u)).xyz;
   vec3 P2 = texelFetch(tris, int(3u * pair.x + 2u)).xyz;
-  // The tests first, the hits as bits, then the writes for the hits alone: lavapipe
-  // makes a storage access lane by lane in a loop that runs for every lane, active or not, and an `if`
-  // does not skip it (it runs both sides of every branch), so a load and an atomic per ray cost the
-  // kernel eight such loops a pair; a loop over the hits runs as often as the lane with the most hits
-  // needs, and once when none has any.
-  // Bit k of hits (k < 32) or of hits2 (k >= 32): ray first + k hit (at most 64 rays a pair; two selects
-  // a ray, not an index into a vector, which lavapipe makes a trip through memory).
+  // The tests first, the hits as bits, then one atomic OR a word of them: lavapipe makes a storage
+  // access lane by lane in a loop that runs for every lane, active or not, and an `if` does not skip it
+  // (it runs both sides of every branch), so an access per ray or per hit would cost the kernel such a
+  // loop each. Bit k of hits (k < 32) or of hits2 (k >= 32): ray first + k hit (at most 64 rays a pair;
+  // two selects a ray, not an index into a vector, which lavapipe makes a trip through memory).
   uint hits = 0u, hits2 = 0u;
   LeafTriangle t;
   if (SPEC_FROM_LIGHT != 0u) t = leafTriangle(P0, P1, P2, light);
@@ -97,16 +95,6 @@ void main() {
     hits2 |= (rayHits(first + 32u + k0, t, P0, P1, P2, light) ? 1u << k0 : 0u) |
              (rayHits(first + 32u + k1, t, P0, P1, P2, light) ? 1u << k1 : 0u);
   }
-  for (uint todo = hits; todo != 0u; todo &= todo - 1u) {
-    uint sampleIndex = texelFetch(rays, int(first + uint(findLSB(todo)))).w;
-    if (visibility[sampleIndex] != 0u) atomicAnd(visibility[sampleIndex], 0u);
-  }
-  for (uint todo = hits2; todo != 0u; todo &= todo - 1u) {
-    uint sampleIndex = texelFetch(rays, int(first + 32u + uint(findLSB(todo)))).w;
-    if (visibility[sampleIndex] != 0u) atomicAnd(visibility[sampleIndex], 0u);
-  }
-  // Then the rays as known shadowed (after their visibility: the order a later reader relies on).
-  memoryBarrierBuffer();
   if (hits != 0u) atomicOr(shadowed[w], hits << sh);
   if (hits2 != 0u) atomicOr(shadowed[w + 1u], hits2);
 }
