@@ -77,23 +77,18 @@ void main() {
   uint hits = 0u, hits2 = 0u;
   LeafTriangle t;
   if (SPEC_FROM_LIGHT != 0u) t = leafTriangle(P0, P1, P2, light);
-  // Two rays an iteration (the lowest two left; the same one twice when one is left): a loop iteration
-  // costs every lavapipe lane, and the two tests are independent.
-  for (uint todo = live; todo != 0u;) {
-    uint k0 = uint(findLSB(todo));
-    todo &= todo - 1u;
-    uint k1 = todo != 0u ? uint(findLSB(todo)) : k0;
-    todo &= todo - 1u;
-    hits |= (rayHits(first + k0, t, P0, P1, P2, light) ? 1u << k0 : 0u) |
-            (rayHits(first + k1, t, P0, P1, P2, light) ? 1u << k1 : 0u);
-  }
-  for (uint todo = live2; todo != 0u;) {
-    uint k0 = uint(findLSB(todo));
-    todo &= todo - 1u;
-    uint k1 = todo != 0u ? uint(findLSB(todo)) : k0;
-    todo &= todo - 1u;
-    hits2 |= (rayHits(first + 32u + k0, t, P0, P1, P2, light) ? 1u << k0 : 0u) |
-             (rayHits(first + 32u + k1, t, P0, P1, P2, light) ? 1u << k1 : 0u);
+  // Two rays an iteration (the lowest two left of the pair's up to 64, over both words; the same one
+  // twice when one is left): a loop iteration costs every lavapipe lane, so one loop over the 64 runs as
+  // often as the busiest lane's rays need, where a loop per word ran as often as each word's busiest.
+  for (uint lo = live, hi = live2; (lo | hi) != 0u;) {
+    uint k0 = lo != 0u ? uint(findLSB(lo)) : 32u + uint(findLSB(hi));
+    if (lo != 0u) lo &= lo - 1u; else hi &= hi - 1u;
+    uint k1 = (lo | hi) == 0u ? k0 : (lo != 0u ? uint(findLSB(lo)) : 32u + uint(findLSB(hi)));
+    if (lo != 0u) lo &= lo - 1u; else hi &= hi - 1u;
+    bool h0 = rayHits(first + k0, t, P0, P1, P2, light);
+    bool h1 = rayHits(first + k1, t, P0, P1, P2, light);
+    hits |= (h0 && k0 < 32u ? 1u << k0 : 0u) | (h1 && k1 < 32u ? 1u << k1 : 0u);
+    hits2 |= (h0 && k0 >= 32u ? 1u << (k0 - 32u) : 0u) | (h1 && k1 >= 32u ? 1u << (k1 - 32u) : 0u);
   }
   if (hits != 0u) atomicOr(shadowed[w], hits << sh);
   if (hits2 != 0u) atomicOr(shadowed[w + 1u], hits2);
