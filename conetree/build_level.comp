@@ -84,7 +84,10 @@ void main() {
   ConeNode c3 = n > 3u ? child(r.x + 3u, pixels.w) : emptyCone();
   // In the far frame the axis from the children's sum and the widening CONE_PAD times the frame's angular
   // scale; in the world frame the approximate minimal merge and CONE_PAD (of rays, coneParentOfRays).
-  nodes[nodeOffset + j] = SPEC_FAR != 0u      ? coneParentFar(c0, c1, c2, c3, n, CONE_PAD * p.frame.centre.w)
-                          : SPEC_LEAVES != 0u ? coneParentOfRays(c0, c1, c2, c3, n, CONE_PAD)
-                                              : coneParent(c0, c1, c2, c3, n, CONE_PAD);
+  // Four children always: those past n are empty cones above, which every merge skips, so the parent is
+  // the one of the n children bit for bit, and the merges' loops over the children have a constant trip
+  // count (unrolled; a loop to n ran, on lavapipe, as an iteration a child in every lane).
+  nodes[nodeOffset + j] = SPEC_FAR != 0u      ? coneParentFar(c0, c1, c2, c3, 4u, CONE_PAD * p.frame.centre.w)
+                          : SPEC_LEAVES != 0u ? coneParentOfRays(c0, c1, c2, c3, 4u, CONE_PAD)
+                                              : coneParent(c0, c1, c2, c3, 4u, CONE_PAD);
 }
