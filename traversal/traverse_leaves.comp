@@ -84,13 +84,13 @@ void main() {
   // interleaved runs: two an iteration 27.3-33.8 ms, four 26.7-29.7, eight 30.2-31.1; the four written
   // through helper functions, 29.8-32.0.)
   for (uint lo = live, hi = live2; (lo | hi) != 0u;) {
-    uint k0 = lo != 0u ? uint(findLSB(lo)) : 32u + uint(findLSB(hi));
+    uint k0 = uint(findLSB(lo != 0u ? lo : hi)) + (lo != 0u ? 0u : 32u);
     if (lo != 0u) lo &= lo - 1u; else hi &= hi - 1u;
-    uint k1 = (lo | hi) == 0u ? k0 : (lo != 0u ? uint(findLSB(lo)) : 32u + uint(findLSB(hi)));
+    uint k1 = (lo | hi) == 0u ? k0 : uint(findLSB(lo != 0u ? lo : hi)) + (lo != 0u ? 0u : 32u);
     if (lo != 0u) lo &= lo - 1u; else hi &= hi - 1u;
-    uint k2 = (lo | hi) == 0u ? k1 : (lo != 0u ? uint(findLSB(lo)) : 32u + uint(findLSB(hi)));
+    uint k2 = (lo | hi) == 0u ? k1 : uint(findLSB(lo != 0u ? lo : hi)) + (lo != 0u ? 0u : 32u);
     if (lo != 0u) lo &= lo - 1u; else hi &= hi - 1u;
-    uint k3 = (lo | hi) == 0u ? k2 : (lo != 0u ? uint(findLSB(lo)) : 32u + uint(findLSB(hi)));
+    uint k3 = (lo | hi) == 0u ? k2 : uint(findLSB(lo != 0u ? lo : hi)) + (lo != 0u ? 0u : 32u);
     if (lo != 0u) lo &= lo - 1u; else hi &= hi - 1u;
     bool h0 = rayHits(first + k0, t, P0, P1, P2, light);
     bool h1 = rayHits(first + k1, t, P0, P1, P2, light);
