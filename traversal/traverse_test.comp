@@ -121,13 +121,14 @@ void acceptChild(uint c, vec3 light) {
 // a branch is taken or not) and counts the early-accept events.
 // The children [r.x, r.y) (at most four) whose cones the sphere may meet, as a mask (bit k: child r.x + k):
 // four tests written out, the ones past r.y dropped, not a loop (a loop iteration costs lavapipe's lanes
-// more than a node's fetch).
+// more than a node's fetch). A level's last node may have fewer children: the tests past them read its
+// last child again (the node array ends there; expandWhole does the same), and their bits are dropped.
 uint nearChildren(uvec2 r, vec4 sphere, float scale) {
-  uint c = r.x, n = r.y - r.x;
-  uint m = (sphereConeTriangle(node(childOffset + c), sphere, p.eps, scale) ? 1u : 0u) |
-           (sphereConeTriangle(node(childOffset + c + 1u), sphere, p.eps, scale) ? 2u : 0u) |
-           (sphereConeTriangle(node(childOffset + c + 2u), sphere, p.eps, scale) ? 4u : 0u) |
-           (sphereConeTriangle(node(childOffset + c + 3u), sphere, p.eps, scale) ? 8u : 0u);
+  uint c = childOffset + r.x, last = childOffset + r.y - 1u, n = r.y - r.x;
+  uint m = (sphereConeTriangle(node(c), sphere, p.eps, scale) ? 1u : 0u) |
+           (sphereConeTriangle(node(min(c + 1u, last)), sphere, p.eps, scale) ? 2u : 0u) |
+           (sphereConeTriangle(node(min(c + 2u, last)), sphere, p.eps, scale) ? 4u : 0u) |
+           (sphereConeTriangle(node(min(c + 3u, last)), sphere, p.eps, scale) ? 8u : 0u);
   return m & ((1u << n) - 1u);
 }
 
