@@ -11,7 +11,9 @@
 //           buffer, RGBA32UI: SHAPE_*, four a texel; read with fromShape only), 4 = rays (uvec4 per sorted ray, written
 //           by the depth above the rays: the sample's world position as float bits and its pixel index,
 //           what the leaves read, one texel a ray, instead of the pixel index and then the G-buffer),
-//           5 = nodes again (uniform texel buffer, RGBA32F: two texels a ConeNode; the depth below read)
+//           5 = nodes again (uniform texel buffer, RGBA32F: two texels a ConeNode; the depth below read),
+//           6 = binding 4's rays again (uniform texel buffer, RGBA32UI), read where their records are given
+//           (SPEC_LEAVES 2: rays/run_expand.comp wrote them, positions read in pixel order)
 #include "conetree/cone_math.h"
 
 layout(local_size_x = CONE_BUILD_THREADS) in;
@@ -25,20 +27,28 @@ layout(std430, binding = 2) writeonly buffer Nodes { ConeNode nodes[]; };
 layout(binding = 3) uniform usamplerBuffer shapeTexels;
 layout(std430, binding = 4) writeonly buffer Rays { uvec4 rays[]; };
 layout(binding = 5) uniform samplerBuffer nodeTexels;
+layout(binding = 6) uniform usamplerBuffer rayTexels;
 uint shapeWord(uint w) { return texelWord(shapeTexels, w); }
 layout(push_constant) uniform Push { BuildPush p; };
 // What the dispatch builds, as specialisation constants (ConeTree picks the pipeline): on lavapipe, code a
 // kernel holds costs every invocation even where a uniform branch skips it (the far frame's code took a
 // fifth of the museum's build at 1024²).
 layout(constant_id = 0) const uint SPEC_FAR = 0u;     // 1: the far-light frame (= p.frame.rowX.w != 0)
-layout(constant_id = 1) const uint SPEC_LEAVES = 0u;  // 1: the children are the sorted rays (= fromLeaves)
+// 1: the children are the sorted rays (= fromLeaves), their positions gathered by `samples` and their
+// records stored; 2: the same rays, their records given (binding 6), nothing gathered or stored.
+layout(constant_id = 1) const uint SPEC_LEAVES = 0u;
 
 uint count, nodeOffset, childCount, childOffset;
 
 ConeNode child(uint c, uint pixel) {
   if (SPEC_LEAVES != 0u) {
-    vec3 position = texelFetch(positions, int(pixel)).xyz;
-    rays[c] = uvec4(floatBitsToUint(position), pixel);
+    vec3 position;
+    if (SPEC_LEAVES == 2u) {
+      position = uintBitsToFloat(texelFetch(rayTexels, int(c)).xyz);
+    } else {
+      position = texelFetch(positions, int(pixel)).xyz;
+      rays[c] = uvec4(floatBitsToUint(position), pixel);
+    }
     if (SPEC_FAR != 0u) {  // far frame: the ray in frame coordinates, its cone widened
       vec4 ray = leafRay(toConeFrame(position, p.frame), p.frame.lightFrame.xyz);
       return leafRayUsable(ray, p.minLength) ? rayConeWidened(ray, p.beta, p.sigma) : emptyCone();
@@ -71,7 +81,7 @@ void main() {
   // The leaves' four pixel indices in one vector load (a lavapipe lane pays per access, not per byte);
   // the last node's, when it has fewer children, one by one, so nothing past the rays is read.
   uvec4 pixels = uvec4(0u);
-  if (SPEC_LEAVES != 0u) {
+  if (SPEC_LEAVES == 1u) {
     if (n == 4u) {
       pixels = samples4[j];
     } else {

@@ -30,13 +30,13 @@ ConeTree::ConeTree(vk::Context& ctx)
       spread_(vk::createKernel(ctx, "cone tree spread", spv_tree_spread_comp, 3, sizeof(SpreadPush))),
       shapeWords_(vk::createBuffer(ctx, SHAPE_WORDS * 4, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT)) {
   for (uint32_t far = 0; far < 2; ++far)
-    for (uint32_t leaves = 0; leaves < 2; ++leaves)
-      build_[far][leaves] = vk::createKernel(ctx, "cone tree build", spv_build_level_comp, 6, sizeof(BuildPush),
-                                             {{0, far}, {1, leaves}}, 0x29u);
+    for (uint32_t leaves = 0; leaves < 3; ++leaves)
+      build_[far][leaves] = vk::createKernel(ctx, "cone tree build", spv_build_level_comp, 7, sizeof(BuildPush),
+                                             {{0, far}, {1, leaves}}, 0x69u);
 }
 
-const vk::Kernel& ConeTree::buildKernel(const BuildPush& p, bool fromLeaves) const {
-  return build_[p.frame.rowX.w != 0.0f ? 1 : 0][fromLeaves ? 1 : 0];
+const vk::Kernel& ConeTree::buildKernel(const BuildPush& p, uint32_t leaves) const {
+  return build_[p.frame.rowX.w != 0.0f ? 1 : 0][leaves];
 }
 
 FrameChoice worldFrame(glm::vec3 light) {
@@ -152,9 +152,10 @@ void ConeTree::record(vk::Commands& cmd, const vk::Buffer& positions, const vk::
     p.childOffset = d + 1 < shape_.depth ? shape_.offsets[d + 1] : 0;
     p.fromLeaves = d + 1 == shape_.depth ? 1u : 0u;
     vk::Grid g = vk::gridFor(p.count, CONE_BUILD_THREADS, ctx_.maxWorkgroups());
-    cmd.dispatch(buildKernel(p, p.fromLeaves != 0),
+    cmd.dispatch(buildKernel(p, p.fromLeaves != 0 ? 1u : 0u),
                  {vk::texels(positions, VK_FORMAT_R32G32B32A32_SFLOAT), samples, nodes_,
-                  vk::texels(shapeWords_, VK_FORMAT_R32G32B32A32_UINT), rays_, vk::texels(nodes_, VK_FORMAT_R32G32B32A32_SFLOAT)},
+                  vk::texels(shapeWords_, VK_FORMAT_R32G32B32A32_UINT), rays_, vk::texels(nodes_, VK_FORMAT_R32G32B32A32_SFLOAT),
+                  vk::texels(rays_, VK_FORMAT_R32G32B32A32_UINT)},
                  p, g.x, g.y);
     cmd.barrier();
   }
@@ -162,7 +163,7 @@ void ConeTree::record(vk::Commands& cmd, const vk::Buffer& positions, const vk::
 
 void ConeTree::recordDevice(vk::Commands& cmd, const vk::Buffer& positions, const vk::BufferRange& samples,
                             const vk::Buffer& countWords, uint32_t countIndex, uint32_t maxCount, glm::vec3 light,
-                            float minLength, const FrameChoice* frame, bool keepWhenZero) {
+                            float minLength, const FrameChoice* frame, bool keepWhenZero, bool recordsGiven) {
   CS_CHECK(maxCount >= 1 && maxCount <= kMaxLeaves, "cone tree bound of " << maxCount << " rays (1 .. " << kMaxLeaves << ")");
   CS_CHECK(samples.offset % 16 == 0, "cone tree: the samples start at byte " << samples.offset << ", not a multiple of 16");
   const FrameChoice fc = frame ? *frame : worldFrame(light);
@@ -176,10 +177,10 @@ void ConeTree::recordDevice(vk::Commands& cmd, const vk::Buffer& positions, cons
     BuildPush p = basePush(light, minLength, fc);
     p.height = h;
     p.fromShape = 1;
-    cmd.dispatchIndirect(buildKernel(p, h == 1),
+    cmd.dispatchIndirect(buildKernel(p, h == 1 ? (recordsGiven ? 2u : 1u) : 0u),
                          {vk::texels(positions, VK_FORMAT_R32G32B32A32_SFLOAT), samples, nodes_,
                           vk::texels(shapeWords_, VK_FORMAT_R32G32B32A32_UINT), rays_,
-                          vk::texels(nodes_, VK_FORMAT_R32G32B32A32_SFLOAT)},
+                          vk::texels(nodes_, VK_FORMAT_R32G32B32A32_SFLOAT), vk::texels(rays_, VK_FORMAT_R32G32B32A32_UINT)},
                          &p, sizeof(p), shapeWords_, (SHAPE_BUILD_ARGS + 4 * h) * 4);
     cmd.barrier();
   }

@@ -66,9 +66,13 @@ class ConeTree {
   // shape() is not known on the host afterwards: setShape() sets it when the count has been read back.
   // With keepWhenZero, a device count of 0 builds nothing and leaves the shape and nodes of the build
   // recorded before (a rebuild the GPU decided against).
+  // With recordsGiven, rays() already holds the sorted rays' records (rayRecords(), written by
+  // rays::LitRays::recordSort from the same order as `samples`): the level above the rays reads them
+  // instead of gathering the positions by `samples` and storing the records.
   void recordDevice(vk::Commands& cmd, const vk::Buffer& positions, const vk::BufferRange& samples,
                     const vk::Buffer& countWords, uint32_t countIndex, uint32_t maxCount, glm::vec3 light,
-                    float minLength, const FrameChoice* frame = nullptr, bool keepWhenZero = false);
+                    float minLength, const FrameChoice* frame = nullptr, bool keepWhenZero = false,
+                    bool recordsGiven = false);
   // After a device build: writes words firstWord + 2 d (uint64, even firstWord) of `words`, for each
   // depth d of the tree, the sum over its nodes of (1 - cos(half-angle)) / scale^2 in CONE_SPREAD_UNIT
   // fixed point, estimated from CONE_SPREAD_SAMPLES strided nodes on a larger depth (tree_spread.comp).
@@ -86,6 +90,12 @@ class ConeTree {
   // Per sorted ray of the last build: uvec4(float bits of the sample's position, its pixel index), written
   // as the depth above the rays reads them, so the leaves fetch one RGBA32UI texel a ray.
   const vk::Buffer& rays() const { return rays_; }
+  // rays(), sized for up to maxCount rays, for a producer of the records before a recordDevice of as many
+  // (its recordsGiven).
+  const vk::Buffer& rayRecords(uint32_t maxCount) {
+    ensureNodes(maxCount);
+    return rays_;
+  }
   uint64_t bytesAllocated() const { return nodes_.size + rays_.size + shapeWords_.size; }
 
  private:
@@ -93,10 +103,11 @@ class ConeTree {
   BuildPush basePush(glm::vec3 light, float minLength, const FrameChoice& fc) const;
 
   vk::Context& ctx_;
-  // build_level.comp specialised: [far frame][children are rays] (its SPEC_FAR, SPEC_LEAVES).
-  vk::Kernel build_[2][2];
+  // build_level.comp specialised: [far frame][children: nodes, rays, rays whose records are given] (its
+  // SPEC_FAR, SPEC_LEAVES).
+  vk::Kernel build_[2][3];
   vk::Kernel shapeKernel_, spread_;
-  const vk::Kernel& buildKernel(const BuildPush& p, bool fromLeaves) const;
+  const vk::Kernel& buildKernel(const BuildPush& p, uint32_t leaves) const;  // leaves: SPEC_LEAVES
   vk::Buffer nodes_, rays_, shapeWords_;
   TreeShape shape_;
   uint32_t maxDepth_ = 0;

@@ -87,8 +87,12 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
   frameLitRuns_ = vk::createKernel(ctx, "lit_runs (frame)", spv_lit_runs_comp, 6, sizeof(KeysPush), {{0, 1u}}, 0x1u);
   runItems_ = vk::createKernel(ctx, "run_items", spv_run_items_comp, 7, sizeof(KeysPush), {{0, 0u}}, 0x41u);
   frameRunItems_ = vk::createKernel(ctx, "run_items (frame)", spv_run_items_comp, 7, sizeof(KeysPush), {{0, 1u}}, 0x41u);
-  runExpand_ = vk::createKernel(ctx, "run_expand", spv_run_expand_comp, 6, sizeof(RunsPush), {{0, 0u}}, 0x13u);
-  runExpandKeys_ = vk::createKernel(ctx, "run_expand (keys)", spv_run_expand_comp, 6, sizeof(RunsPush), {{0, 1u}}, 0x13u);
+  for (uint32_t keys = 0; keys < 2; ++keys)
+    for (uint32_t records = 0; records < 2; ++records)
+      runExpand_[keys][records] =
+          vk::createKernel(ctx, keys ? (records ? "run_expand (keys, records)" : "run_expand (keys)")
+                                     : (records ? "run_expand (records)" : "run_expand"),
+                           spv_run_expand_comp, 8, sizeof(RunsPush), {{0, keys}, {1, records}}, 0x53u);
   samples_ = vk::createBuffer(ctx, uint64_t(maxPixels_) * 4);
   keys_ = vk::createBuffer(ctx, uint64_t(maxPixels_) * 4);
   count_ = vk::createBuffer(ctx, 16);
@@ -223,10 +227,16 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
   cmd.barrier();
 }
 
-void LitRays::recordSort(vk::Commands& cmd, sort::Count count) {
+bool LitRays::recordSort(vk::Commands& cmd, sort::Count count, const vk::Buffer* records, const vk::Buffer* positions) {
+  CS_CHECK((records == nullptr) == (positions == nullptr), "LitRays::recordSort: the records need the positions");
+  const bool writeRecords = records != nullptr;
+  if (writeRecords)
+    CS_CHECK(records->size >= uint64_t(maxPixels_) * 16 && positions->size >= uint64_t(maxPixels_) * 16,
+             "LitRays::recordSort: records of " << records->size << " bytes, positions of " << positions->size
+                                                << " for up to " << maxPixels_ << " rays");
   if (!runsPending_) {
     sort_.record(cmd, keys_, samples_, count, keyBits_);
-    return;
+    return false;
   }
   runsPending_ = false;
   CS_CHECK(count.word.buffer == count_.buffer && count.word.index == kLitWord,
@@ -243,11 +253,15 @@ void LitRays::recordSort(vk::Commands& cmd, sort::Count count) {
   itemScan_.record(cmd, runOrder_, runStarts_, items.withGroups(runArgs_.buffer, kRunScanArgs * 4), {},
                    RUN_PIXEL_BITS);
   const RunsPush runs{0, maxPixels_, kRunsWord, kLitWord};
-  cmd.dispatchIndirect(keepSortedKeys_ ? runExpandKeys_ : runExpand_,
+  // Without the records, bindings 6 and 7 are not read or written: any valid buffers.
+  cmd.dispatchIndirect(runExpand_[keepSortedKeys_ ? 1 : 0][writeRecords ? 1 : 0],
                        {vk::texels(runOrder_, kWordTexels), vk::texels(runStarts_, kWordTexels), samples_, keys_,
-                        vk::texels(sortedKeys, kWordTexels), count_},
+                        vk::texels(sortedKeys, kWordTexels), count_,
+                        vk::texels(writeRecords ? *positions : samples_, kPixelTexels),
+                        writeRecords ? *records : samples_},
                        &runs, sizeof(runs), runArgs_, kRunGroupsArgs * 4);
   cmd.barrier();
+  return writeRecords;
 }
 
 void LitRays::record(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, RayOrder order) {

@@ -69,8 +69,13 @@ class LitRays {
   void recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& keys);
   // Sorts (keys(), samples()) by key -- or, after recordCompactionWithKeys, its runs into them (`count`
   // then is count()): the key bits of the last recording's kind (RAY_KEY_BITS or, in a rotated frame,
-  // FRAME_KEY_BITS).
-  void recordSort(vk::Commands& cmd, sort::Count count);
+  // FRAME_KEY_BITS). Given `records` (16 bytes a pixel of the G-buffer's capacity) and the G-buffer's
+  // `positions`, a sort of runs also writes each sorted ray's record, uvec4(float bits of its position,
+  // its pixel), as conetree::ConeTree::rays() holds them (read in pixel order here, where the tree's build
+  // would gather them in the sorted order), in place of samples(), which it leaves as it was (the records
+  // hold the pixels). Returns whether it wrote them (a sort of runs only; otherwise samples() as always).
+  bool recordSort(vk::Commands& cmd, sort::Count count, const vk::Buffer* records = nullptr,
+                  const vk::Buffer* positions = nullptr);
   // Whether keys() holds the sorted keys after a sort from recordCompactionWithKeys' pairs (default yes);
   // a caller that needs only the order (samples()) spares the sort's last pass its key stores.
   void keepSortedKeys(bool keep) { keepSortedKeys_ = keep; }
@@ -100,9 +105,9 @@ class LitRays {
   // Compaction: lit_count.comp and lit_samples.comp, row-major or Morton (SPEC_MORTON).
   vk::Kernel litCount_, mortonLitCount_, litSamples_, mortonLitSamples_;
   vk::Kernel litBounds_;                       // fused: ray_bounds.comp SPEC_FROM_BITS
-  // Fused: lit_runs.comp (world or rotated-frame keys), run_items.comp; after the sort run_expand.comp
-  // (with the keys: keepSortedKeys).
-  vk::Kernel litRuns_, frameLitRuns_, runItems_, frameRunItems_, runExpand_, runExpandKeys_;
+  // Fused: lit_runs.comp (world or rotated-frame keys), run_items.comp; after the sort run_expand.comp,
+  // [with the keys: keepSortedKeys][with the rays' records].
+  vk::Kernel litRuns_, frameLitRuns_, runItems_, frameRunItems_, runExpand_[2][2];
   sort::Scan runScan_;   // each lit_runs invocation's first run, from their counts
   sort::Scan itemScan_;  // where each sorted run starts, from their lengths
   vk::Buffer samples_, keys_, count_, bounds_, grids_, keyArgs_;

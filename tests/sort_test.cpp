@@ -1145,6 +1145,29 @@ TEST(LitRays, FusedCompactionAndKeysMatchTheStepsOnSparseAndDenseFrames) {
       EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), n), samples, what << ": samples");
       EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.keys(), n), keys, what << ": keys");
       if (!framed) EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.bounds(), 24), bounds, what << ": the faces' boxes");
+      // Fused, writing the sorted rays' records as the cone tree's rays() holds them: the record of the
+      // j-th ray is its sample's position (float bits) and pixel, in the same order; the keys as before.
+      {
+        vk::Buffer records = vk::createBuffer(ctx, uint64_t(pixels) * 16);
+        vk::Buffer positionsOnly = vk::createBuffer(ctx, 16);
+        EXPECT_THROW(rays.recordSort(cmd, rays.count(), &positionsOnly, &g.position), Error) << what << ": too small";
+        rays.recordCompactionWithKeys(cmd, g, push);
+        EXPECT_TRUE(rays.recordSort(cmd, rays.count(), &records, &g.position)) << what;
+        cmd.submit();
+        std::vector<uint32_t> want(size_t(n) * 4);
+        for (uint32_t j = 0; j < n; ++j) {
+          const glm::vec4 p = pos[samples[j]];
+          want[4 * j] = glm::floatBitsToUint(p.x), want[4 * j + 1] = glm::floatBitsToUint(p.y);
+          want[4 * j + 2] = glm::floatBitsToUint(p.z), want[4 * j + 3] = samples[j];
+        }
+        EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, records, uint64_t(n) * 4), want, what << ": records");
+        EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.keys(), n), keys, what << ": keys with the records");
+        // Without runs to expand (the steps' sort) nothing is written and it says so.
+        rays.recordCompaction(cmd, g, rays::RayOrder::ScreenRows);
+        rays.recordKeys(cmd, g, push, rays.count());
+        EXPECT_FALSE(rays.recordSort(cmd, rays.count(), &records, &g.position)) << what;
+        cmd.submit();
+      }
       if (!framed && ctx.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU)
         EXPECT_SAME_ARRAY(samples, rays::referenceRayOrder(host, light, rays::RayOrder::Hilbert), what << ": reference");
     }

@@ -111,7 +111,7 @@ class ConeMethod : public ShadowMethod {
     // (traversal.h): the keys, the tree and the pass tests in it, the leaves in the world.
     frame_ = cone::chooseFrame(frame.light, boundsLo_, boundsHi_);
     nlohmann::json stats = settingsStats(eps);
-    const traversal::TraversalInput in = traversalInput(g, frame.light, eps);
+    const traversal::TraversalInput in = traversalInput(frame.light, eps);
 
     std::vector<StageTime> stages;
     if (uploadMs > 0) stages.push_back({"upload", uploadMs, StageKind::Rebuild});
@@ -201,13 +201,11 @@ class ConeMethod : public ShadowMethod {
     return stats;
   }
 
-  // What the traversal reads for this frame: the tree, the sorted samples, the G-buffer's positions, the
+  // What the traversal reads for this frame: the tree (with its sorted rays: positions and pixels), the
   // visibility words, the light, epsilon and the variant's tests.
-  traversal::TraversalInput traversalInput(const DeviceGBuffer& g, glm::vec3 light, float eps) {
+  traversal::TraversalInput traversalInput(glm::vec3 light, float eps) {
     traversal::TraversalInput in;
     in.tree = &tree_;
-    in.samples = rays_->samples();
-    in.positions = vk::texels(g.position, VK_FORMAT_R32G32B32A32_SFLOAT);  // a storage or a texel binding
     in.visibility = &visibility_;
     in.light = light;
     in.eps = eps;
@@ -333,12 +331,16 @@ class ConeMethod : public ShadowMethod {
       boundary("order");
       sortCount = sort::Count::device(sort::GpuWord(orderWords_, ORDER_SORT_COUNT), maxRays);
     }
+    bool recordsGiven = false;
     if (options_.sorted) {
       if (!fused) {
         rays_->recordKeys(cmd, g, keysPush(frame.light), sortCount);
         boundary("keys");
       }
-      rays_->recordSort(cmd, sortCount);
+      // The fused path's sort also writes the sorted rays' records for the build (the positions read in
+      // pixel order there, not gathered in the sorted order by the build).
+      recordsGiven = fused ? rays_->recordSort(cmd, sortCount, &tree_.rayRecords(maxRays), &g.position)
+                           : rays_->recordSort(cmd, sortCount);
       boundary("sort");
     }
     if (adaptive)
@@ -346,7 +348,7 @@ class ConeMethod : public ShadowMethod {
                          2.0f * in.eps, &frame_, /*keepWhenZero=*/true);
     else
       tree_.recordDevice(cmd, g.position, rays_->samples(), rays_->countBuffer(), 0, maxRays, frame.light,
-                         2.0f * in.eps, &frame_);
+                         2.0f * in.eps, &frame_, /*keepWhenZero=*/false, recordsGiven);
     if (frame_.far && frameTrianglesStale()) recordFrameTriangles(cmd);
     boundary("build");
     ensureTraversal(pixels);
@@ -748,7 +750,6 @@ class ConeMethod : public ShadowMethod {
       });
       tp["tree_depth_pass_two"] = tree_.shape().depth;
       tp["tree_nodes_pass_two"] = tree_.shape().nodes();
-      in.samples = remaining_;
       two = traverse(in, blockerCount_, triangleCount_ - blockerCount_);
     }
     tp["pass_two"] = two.toJson();

@@ -23,6 +23,7 @@ constexpr VkFormat kPairFormat = VK_FORMAT_R32G32B32A32_UINT;  // (triangle, nod
 constexpr VkFormat kRayFormat = VK_FORMAT_R32G32B32A32_UINT;   // ConeTree::rays(), one texel a ray (traverse_leaves.comp)
 constexpr uint64_t kPairBytes = 8;          // uvec2
 constexpr uint64_t kStatsBytes = STAT_WORDS * 4;
+constexpr uint64_t kStateBytes = STATE_WORDS * 4;  // the state words, bound whole as a uniform buffer
 // Levels of the tree the leaves take (leafStepOf): 1 for four rays a leaf pair, 2 for sixteen, 3 for 64.
 uint32_t leafLevels(LeafRays rays) { return rays == LeafRays::SixtyFour ? 3u : rays == LeafRays::Sixteen ? 2u : 1u; }
 }  // namespace
@@ -241,10 +242,10 @@ const vk::Kernel& Traversal::testKernel(const TraversePush& p, bool clusters, bo
   if (!k)
     k = std::make_unique<vk::Kernel>(vk::createKernel(
         ctx_, clusters ? "traverse test (clusters)" : whole ? "traverse test (whole clusters)" : "traverse test",
-        spv_traverse_test_comp, 11, sizeof(TraversePush),
+        spv_traverse_test_comp, 10, sizeof(TraversePush),
         {{0, sphere && !clusters ? TRAVERSE_TEST_SPHERE : TRAVERSE_TEST_PRECISE}, {1, early ? 1u : 0u},
          {2, culling ? 1u : 0u}, {3, clusters ? 1u : 0u}, {4, whole ? 1u : 0u}, {5, scaled ? 1u : 0u}},
-        0x407u));
+        0x7u, 0x200u));
   return *k;
 }
 
@@ -306,11 +307,11 @@ bool Traversal::expandChunk(Frame& f, uint32_t child, bool fromTriangles, uint64
   vk::Grid g = vk::gridFor(count, TRAVERSE_THREADS, ctx_.maxWorkgroups());
   if (early)
     cmd.dispatch(testKernel(p, false), {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), vk::texels(chunk_, kPairFormat), arena_,
-                         stats_, f.in->samples, f.in->positions, *f.in->visibility, flags_, stats_,
-                         vk::texels(stats_, kWordFormat)}, p, g.x, g.y);
-  else  // bindings 5-9 unused: any valid buffer
+                         stats_, f.in->tree->rays(), *f.in->visibility, flags_, stats_,
+                         vk::uniforms(state_, kStateBytes)}, p, g.x, g.y);
+  else  // bindings 5-8 unused: any valid buffer
     cmd.dispatch(testKernel(p, false), {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), vk::texels(chunk_, kPairFormat), arena_,
-                         stats_, stats_, stats_, stats_, stats_, stats_, vk::texels(stats_, kWordFormat)}, p, g.x, g.y);
+                         stats_, stats_, stats_, stats_, stats_, vk::uniforms(state_, kStateBytes)}, p, g.x, g.y);
   cmd.barrier();
   cmd.mark("traversal");
   submit(f, cmd, f.stats.traversalMs);
@@ -586,7 +587,7 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
       ps.earlyAccept = 0u;
       cmd.dispatchIndirect(testKernel(ps, false, wholeExpansion),
                            {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), vk::texels(src, kPairFormat), dst, state_,
-                            state_, state_, state_, state_, spheres, vk::texels(state_, kWordFormat)},
+                            state_, state_, state_, spheres, vk::uniforms(state_, kStateBytes)},
                            &ps, sizeof(ps), state_, STATE_SPHERE_ARGS * 4);
     }
     for (bool clusterKernel : {false, true}) {
@@ -595,12 +596,12 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
       if (early)
         cmd.dispatchIndirect(testKernel(p, clusterKernel),
                              {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), vk::texels(src, kPairFormat), dst, state_,
-                              in.samples, in.positions, *in.visibility, flags_, spheres, vk::texels(state_, kWordFormat)},
+                              in.tree->rays(), *in.visibility, flags_, spheres, vk::uniforms(state_, kStateBytes)},
                              &p, sizeof(p), state_, args * 4);
       else
         cmd.dispatchIndirect(testKernel(p, clusterKernel),
                              {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), vk::texels(src, kPairFormat), dst, state_,
-                              state_, state_, state_, state_, spheres, vk::texels(state_, kWordFormat)},
+                              state_, state_, state_, spheres, vk::uniforms(state_, kStateBytes)},
                              &p, sizeof(p), state_, args * 4);
     }
     cmd.barrier();

@@ -288,8 +288,6 @@ struct TraversalInput {
   uint32_t triangleCount = 0;
   uint32_t firstTriangle = 0;             // the triangles traversed: [firstTriangle, firstTriangle + triangleCount)
   const cone::ConeTree* tree = nullptr;   // built over the rays below
-  vk::BufferRange samples;                // pixel index per sorted ray (tree->shape().leaves of them)
-  vk::BufferRange positions;              // vec4 per pixel (the G-buffer), with its RGBA32F texel view (vk::texels)
   const vk::Buffer* visibility = nullptr; // uint per pixel: float bits, 1.0f lit; hits write 0
   glm::vec3 light{0};
   float eps = 0;                          // hits count in (eps, L - eps)

@@ -23,11 +23,12 @@
 // bindings: 0 = triangles (uniform texel buffer, RGBA32F: 3 texels per triangle, world space; in the
 //           far-light frame relative to the light), 1 = nodes (uniform texel buffer, RGBA32F: 2 texels per
 //           ConeNode), 2 = input pairs (uniform texel buffer, RGBA32UI: two uvec2 a texel), 3 = output pairs (uvec2, from slot p.outFirst),
-//           4 = stats (uint[STAT_WORDS]; the device path's state words), 5 = samples (uint pixel per sorted
-//           ray), 6 = positions (vec4 per pixel), 7 = visibility (uint per pixel), 8 = flags (uint per
-//           interior node); 5-8 used with early accept only, 9 = cluster spheres (SUPER_SPHERES vec4s a
-//           super cluster: its own, then each cluster's own and its groups'; relative to the light as
-//           binding 0's vertices; device path), 10 = binding 4 as a uniform texel buffer (RGBA32UI), read
+//           4 = stats (uint[STAT_WORDS]; the device path's state words), 5 = rays (uvec4 per sorted ray:
+//           its sample's position as float bits, its pixel; conetree's ConeTree::rays()), 6 = visibility
+//           (uint per pixel), 7 = flags (uint per interior node); 5-7 used with early accept only, 8 =
+//           cluster spheres (SUPER_SPHERES vec4s a super cluster: its own, then each cluster's own and its
+//           groups'; relative to the light as binding 0's vertices; device path), 9 = the state words
+//           (binding 4's, the device path's) as a uniform buffer
 // Clusters (device path, STATE_MODE): a STEP_CLUSTERS step tests (cluster, node) pairs with the
 // cluster's sphere (sphere_test.h: false only when no ray of the cone meets the sphere, which holds all
 // the cluster's triangles) and writes (cluster, child) pairs; a STEP_EXPAND step's input i is triangle
@@ -59,15 +60,15 @@ uvec2 inputPair(uint at) {
 }
 layout(std430, binding = 3) writeonly buffer Outputs { uvec2 outPairs[]; };
 layout(std430, binding = 4) buffer Stats { uint stats[]; };
-layout(std430, binding = 5) readonly buffer Samples { uint samples[]; };
-layout(std430, binding = 6) readonly buffer Positions { vec4 positions[]; };
-layout(std430, binding = 7) buffer Visibility { uint visibility[]; };
-layout(std430, binding = 8) buffer Flags { uint flags[]; };
-layout(std430, binding = 9) readonly buffer Clusters { vec4 clusterSpheres[]; };
-// Binding 4's words again, as RGBA32UI texels: the words every invocation reads (the count, the shape
-// fields, the mode), written by earlier dispatches. A storage load is one load per lane on lavapipe, a
-// texel fetch next to nothing (docs/ARCHITECTURE.md, "Memory access").
-layout(binding = 10) uniform usamplerBuffer statWords;
+layout(std430, binding = 5) readonly buffer Rays { uvec4 rays[]; };
+layout(std430, binding = 6) buffer Visibility { uint visibility[]; };
+layout(std430, binding = 7) buffer Flags { uint flags[]; };
+layout(std430, binding = 8) readonly buffer Clusters { vec4 clusterSpheres[]; };
+// The state words again (the device path's binding 4), as a uniform buffer: the words every invocation
+// reads (the count, the shape fields, the mode), written by earlier dispatches. Read at a uniform offset,
+// lavapipe loads a uniform buffer's word once for the SIMD lanes, where a texel fetch gathers a lane at a
+// time and a storage load loops over the lanes (docs/ARCHITECTURE.md, "Memory access").
+layout(std140, binding = 9) uniform StateWords { uvec4 stateWords[STATE_WORDS / 4]; };
 layout(push_constant) uniform Push { TraversePush p; };
 // The switches of a frame, as specialisation constants (Traversal::testKernel): the kernel holds only the
 // code its switches run. Measured on lavapipe: code a uniform branch never enters still costs every
@@ -90,7 +91,7 @@ layout(constant_id = 4) const uint SPEC_WHOLE = 0u;
 layout(constant_id = 5) const uint SPEC_SCALED = 0u;
 float coneScale() { return SPEC_SCALED != 0u ? p.coneScale : 1.0f; }
 
-uint statWord(uint w) { return texelWord(statWords, w); }
+uint statWord(uint w) { return stateWords[w >> 2u][w & 3u]; }
 
 ConeNode node(uint n) {
   ConeNode c;
@@ -109,9 +110,9 @@ void acceptChild(uint c, vec3 light) {
   uint first = c << leafShift;
   uint end = min((c + 1u) << leafShift, leafCount);
   for (uint leaf = first; leaf < end; leaf++) {
-    uint sampleIndex = samples[leaf];
-    vec4 ray = leafRay(positions[sampleIndex].xyz, light);
-    if (leafRayUsable(ray, p.minLength) && visibility[sampleIndex] != 0u) atomicAnd(visibility[sampleIndex], 0u);
+    uvec4 r = rays[leaf];  // the sample's position, its pixel
+    vec4 ray = leafRay(uintBitsToFloat(r.xyz), light);
+    if (leafRayUsable(ray, p.minLength) && visibility[r.w] != 0u) atomicAnd(visibility[r.w], 0u);
   }
 }
 

@@ -418,6 +418,19 @@ void Buffer::reset() {
   buffer = VK_NULL_HANDLE, memory = VK_NULL_HANDLE, mapped = nullptr, size = 0;
 }
 
+BufferRange uniforms(const Buffer& b, VkDeviceSize bytes) {
+  CS_CHECK(b.ctx && b.buffer, "uniforms(): not a buffer");
+  CS_CHECK(bytes > 0 && bytes <= b.size, "uniforms(): " << bytes << " bytes of a buffer of " << b.size);
+  const VkDeviceSize limit = b.ctx->properties.limits.maxUniformBufferRange;
+  if (bytes > limit)
+    throw Error("a uniform buffer of " + std::to_string(bytes) + " bytes, above the device's maxUniformBufferRange of " +
+                    std::to_string(limit),
+                b.ctx->deviceName(), "report it: the words a kernel reads as uniforms are a fixed few hundred");
+  BufferRange r(b, 0, bytes);
+  r.uniform = true;
+  return r;
+}
+
 BufferRange texels(const Buffer& b, VkFormat format) {
   CS_CHECK(b.ctx && b.buffer, "texels(): not a buffer");
   const bool word = format == VK_FORMAT_R32_UINT;
@@ -454,7 +467,7 @@ Buffer createBuffer(Context& ctx, VkDeviceSize size, Memory memory, VkBufferUsag
   b.size = std::max<VkDeviceSize>(16, (size + 15) & ~VkDeviceSize(15));
   VkBufferCreateInfo bi{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
   bi.size = b.size;
-  bi.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT |
+  bi.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT |
              VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT | extraUsage;
   VK_CHECK(vkCreateBuffer(ctx.device, &bi, nullptr, &b.buffer));
   VkMemoryRequirements req;
@@ -723,7 +736,8 @@ Kernel& Kernel::operator=(Kernel&& o) noexcept {
   if (this != &o) {
     reset();
     ctx = o.ctx, name = std::move(o.name), module = o.module, setLayout = o.setLayout, layout = o.layout;
-    pipeline = o.pipeline, bindings = o.bindings, texelBindings = o.texelBindings, pushBytes = o.pushBytes;
+    pipeline = o.pipeline, bindings = o.bindings, texelBindings = o.texelBindings,
+    uniformBindings = o.uniformBindings, pushBytes = o.pushBytes;
     o.module = VK_NULL_HANDLE, o.setLayout = VK_NULL_HANDLE, o.layout = VK_NULL_HANDLE, o.pipeline = VK_NULL_HANDLE;
   }
   return *this;
@@ -810,7 +824,8 @@ SpirvInterface spirvInterface(const uint32_t* spirv, size_t spirvBytes) {
 }
 
 Kernel createKernel(Context& ctx, const char* name, const uint32_t* spirv, size_t spirvBytes, uint32_t bindings,
-                    uint32_t pushBytes, std::initializer_list<SpecConstant> spec, uint32_t texelBindings) {
+                    uint32_t pushBytes, std::initializer_list<SpecConstant> spec, uint32_t texelBindings,
+                    uint32_t uniformBindings) {
   // The host's binding count against what the kernel declares: a kernel reading a binding the host never
   // pushes, or a host pushing buffers the kernel does not declare, is a bug to stop here, not a wrong
   // answer or a driver crash later.
@@ -829,6 +844,8 @@ Kernel createKernel(Context& ctx, const char* name, const uint32_t* spirv, size_
   k.name = name;
   k.bindings = bindings;
   k.texelBindings = texelBindings;
+  k.uniformBindings = uniformBindings;
+  CS_CHECK((texelBindings & uniformBindings) == 0, name << ": a binding is both a texel and a uniform buffer");
   k.pushBytes = pushBytes;
   CS_CHECK(pushBytes <= ctx.properties.limits.maxPushConstantsSize,
            name << ": push constants of " << pushBytes << " bytes exceed the device's "
@@ -837,7 +854,10 @@ Kernel createKernel(Context& ctx, const char* name, const uint32_t* spirv, size_
 
   std::vector<VkDescriptorSetLayoutBinding> b(bindings);
   for (uint32_t i = 0; i < bindings; ++i)
-    b[i] = {i, (texelBindings & (1u << i)) ? VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+    b[i] = {i,
+            (texelBindings & (1u << i))     ? VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER
+            : (uniformBindings & (1u << i)) ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER
+                                            : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
             1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   VkDescriptorSetLayoutCreateInfo li{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
   li.flags = VK_DESCRIPTOR_SET_LAYOUT_CREATE_PUSH_DESCRIPTOR_BIT_KHR;
@@ -976,7 +996,12 @@ static void pushBuffers(Context& ctx, VkCommandBuffer cb, const Kernel& kernel,
       CS_CHECK(b.view != VK_NULL_HANDLE, kernel.name << ": binding " << i << " is a texel buffer: pass vk::texels()");
       writes[i].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
       writes[i].pTexelBufferView = &views[i];
+    } else if (kernel.uniformBindings & (1u << i)) {
+      CS_CHECK(b.uniform, kernel.name << ": binding " << i << " is a uniform buffer: pass vk::uniforms()");
+      writes[i].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+      writes[i].pBufferInfo = &infos[i];
     } else {
+      CS_CHECK(!b.uniform, kernel.name << ": binding " << i << " is a storage buffer, given vk::uniforms()");
       writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
       writes[i].pBufferInfo = &infos[i];
     }
@@ -1024,7 +1049,7 @@ void Commands::copy(const Buffer& src, const Buffer& dst, VkDeviceSize bytes, Vk
 void Commands::barrier() {
   VkMemoryBarrier mb{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
   mb.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT;
-  mb.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_READ_BIT |
+  mb.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_UNIFORM_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_READ_BIT |
                      VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_HOST_READ_BIT;
   vkCmdPipelineBarrier(cb_, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
                        VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT |
