@@ -124,12 +124,19 @@ void acceptChild(uint c, vec3 light) {
 // four tests written out, the ones past r.y dropped, not a loop (a loop iteration costs lavapipe's lanes
 // more than a node's fetch). A level's last node may have fewer children: the tests past them read its
 // last child again (the node array ends there; expandWhole does the same), and their bits are dropped.
+// The four children's nodes as nearChildren read them (the precise test picks its node from these, not
+// fetching it again).
+ConeNode kid0, kid1, kid2, kid3;
 uint nearChildren(uvec2 r, vec4 sphere, float scale) {
   uint c = childOffset + r.x, last = childOffset + r.y - 1u, n = r.y - r.x;
-  uint m = (sphereConeTriangle(node(c), sphere, p.eps, scale) ? 1u : 0u) |
-           (sphereConeTriangle(node(min(c + 1u, last)), sphere, p.eps, scale) ? 2u : 0u) |
-           (sphereConeTriangle(node(min(c + 2u, last)), sphere, p.eps, scale) ? 4u : 0u) |
-           (sphereConeTriangle(node(min(c + 3u, last)), sphere, p.eps, scale) ? 8u : 0u);
+  kid0 = node(c);
+  kid1 = node(min(c + 1u, last));
+  kid2 = node(min(c + 2u, last));
+  kid3 = node(min(c + 3u, last));
+  uint m = (sphereConeTriangle(kid0, sphere, p.eps, scale) ? 1u : 0u) |
+           (sphereConeTriangle(kid1, sphere, p.eps, scale) ? 2u : 0u) |
+           (sphereConeTriangle(kid2, sphere, p.eps, scale) ? 4u : 0u) |
+           (sphereConeTriangle(kid3, sphere, p.eps, scale) ? 8u : 0u);
   return m & ((1u << n) - 1u);
 }
 
@@ -196,8 +203,8 @@ uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild, inout uin
       // (an `if` it runs whole, for every lane), so this is the test's cost where a triangle is near few
       // of the four children.
       for (uint todo = near; todo != 0u; todo &= todo - 1u) {
-        uint c = r.x + uint(findLSB(todo));
-        ConeNode n = node(childOffset + c);
+        uint k = uint(findLSB(todo)), c = r.x + k;
+        ConeNode n = k == 0u ? kid0 : k == 1u ? kid1 : k == 2u ? kid2 : kid3;  // selects, not a fetch
         if (!preciseConeTriangle(n, t, p.eps)) continue;
         if (SPEC_EARLY_ACCEPT != 0u && preciseConeCovered(n, t, p.eps)) acceptChild(c, light);
         else mask |= 1u << (c - r.x);
