@@ -142,16 +142,19 @@ uint nearChildren(uvec2 r, vec4 sphere, float scale) {
 
 uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild, inout uint missing) {
   firstChild = 0u;
-  if (SPEC_CLUSTERS == 0u && mode == STEP_EXPAND) {
-    uvec2 cp = inputPair(i >> CLUSTER_SHIFT);
-    pair = uvec2((cp.x << CLUSTER_SHIFT) + (i & (CLUSTER_SIZE - 1u)), cp.y);
+  // One input fetch whatever the step (lavapipe runs every side of a branch, a fetch in each included):
+  // an expansion's input i is part of pair i / CLUSTER_SIZE (triangle kernel) or i / SUPER_CLUSTERS
+  // (cluster kernel), any other step's is pair p.first + i; pass 0 reads pair 0, in range, and ignores it.
+  bool expand = SPEC_CLUSTERS == 0u && mode == STEP_EXPAND, split = SPEC_CLUSTERS != 0u && mode == STEP_SPLIT;
+  uvec2 in_ = inputPair(p.fromTriangles != 0u ? 0u : expand ? i >> CLUSTER_SHIFT : split ? i >> 2u : p.first + i);
+  if (expand) {
+    pair = uvec2((in_.x << CLUSTER_SHIFT) + (i & (CLUSTER_SIZE - 1u)), in_.y);
     if (pair.x >= p.triangleEnd) {  // past the last cluster's triangles: no test
       missing += 4u;
       return 0u;
     }
-  } else if (SPEC_CLUSTERS != 0u && mode == STEP_SPLIT) {
-    uvec2 sp = inputPair(i >> 2u);  // (SUPER_CLUSTERS inputs a pair)
-    pair = uvec2(SUPER_CLUSTERS * sp.x + (i & (SUPER_CLUSTERS - 1u)), sp.y);
+  } else if (split) {
+    pair = uvec2(SUPER_CLUSTERS * in_.x + (i & (SUPER_CLUSTERS - 1u)), in_.y);
     if ((pair.x << CLUSTER_SHIFT) >= p.triangleEnd) {  // past the last super cluster's clusters: no test
       missing += 4u;
       return 0u;
@@ -159,7 +162,7 @@ uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild, inout uin
   } else {
     // pass 0: super clusters, clusters or triangles
     uint first = SPEC_CLUSTERS == 0u ? p.first : (mode == STEP_SUPER ? p.first >> SUPER_SHIFT : p.first >> CLUSTER_SHIFT);
-    pair = p.fromTriangles != 0u ? uvec2(first + i, 0u) : inputPair(p.first + i);
+    pair = p.fromTriangles != 0u ? uvec2(first + i, 0u) : in_;
   }
   uvec2 r = p.fromTriangles != 0u ? uvec2(0u, 1u) : childRange(pair.y, childCount);
   firstChild = r.x;
