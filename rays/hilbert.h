@@ -5,8 +5,9 @@
 // nine bits. The key space 0 .. 2^18 - 1 is shared out among the six direction faces (faceKeySlot):
 //   face = 2 * axis + (d[axis] < 0): the major axis of d (x, y, z = 0, 1, 2) and its sign. Ties
 //          (|d.x| == |d.y| >= |d.z|, ...) go to the lowest axis, so boundary directions have exactly one face.
-//   Each face that RAY_BOUNDS_SAMPLES lit samples spread evenly over the frame's (ray_bounds.comp, the
-//   subset) reach gets a run of 4^k consecutive keys, k = 9, 8 or 7 (faceKeySlot): the faces with more of
+//   Each face that the lit ones among RAY_BOUNDS_SAMPLES pixels spread evenly over the frame's
+//   (ray_bounds.comp, the subset: it needs no compaction, so the fused compaction keys the pixels in the
+//   pass that finds the lit ones) reach gets a run of 4^k consecutive keys, k = 9, 8 or 7 (faceKeySlot): the faces with more of
 //   the subset's samples choose first, each the largest run that leaves 4^7 for every face after it; the
 //   runs lie in face order. One face alone gets 2^9 x 2^9 cells, up to four faces 2^8 x 2^8 each, five or
 //   six 2^8 for the three with the most samples and 2^7 for the rest. A ray's key: the run's first key +
@@ -15,7 +16,7 @@
 //   face zoomed in by halves while a square half the size, on the face's own grid or half a square off
 //   it, still holds the box of the subset's face coordinates there. Samples outside the box (the subset
 //   missed them) go to the square's edge cells; a face none of the subset reached sends its rays to
-//   RAY_KEY_LAST (rare: fewer than about one lit sample in RAY_BOUNDS_SAMPLES). A zoomed view or a distant
+//   RAY_KEY_LAST (rare: fewer than about one lit pixel in RAY_BOUNDS_SAMPLES). A zoomed view or a distant
 //   light, whose rays span a sliver of a face, still gets cells as fine as its rays. Measured against the
 //   2^12 grid on every face of 27 bits and three passes it replaced (docs/ARCHITECTURE.md, "rays/"):
 //   pairs tested within +2 % on the views and scenes measured (+4.2 % on a model over a ground plane),
@@ -50,7 +51,7 @@
 // The box of a face: words 4 * face + (0 .. 3) hold orderedBits of the minimum of u, of v, of -u and of
 // -v over the face's samples of the subset (atomicMin; all ones, RAY_BOUNDS_EMPTY, while it has none).
 // Word RAY_BOUNDS_COUNTS + face counts the subset's samples on the face (zero before the pass).
-#define RAY_BOUNDS_SAMPLES 16384u
+#define RAY_BOUNDS_SAMPLES 16384u  // at most 2^16: boundsSample multiplies below it in 32 bits (rays.cpp)
 #define RAY_BOUNDS_WORDS 32u
 #define RAY_BOUNDS_COUNTS 24u
 #define RAY_BOUNDS_EMPTY 0xFFFFFFFFu
@@ -189,8 +190,9 @@ CS_FN vec4 fittedFaceGrid(uvec4 box, uint order) {
   return grid;
 }
 
-// Which lit sample the subset's j-th member is (j < RAY_BOUNDS_SAMPLES, n lit samples): spread evenly,
-// floor(j * n / RAY_BOUNDS_SAMPLES) in 32-bit arithmetic. May repeat a sample when n is small.
+// Which pixel the subset's j-th member is (j < RAY_BOUNDS_SAMPLES, n pixels, row-major): spread evenly,
+// floor(j * n / RAY_BOUNDS_SAMPLES) in 32-bit arithmetic (j and n % RAY_BOUNDS_SAMPLES below 2^16). May
+// repeat a pixel when n is small. The subset is its lit ones.
 CS_FN uint boundsSample(uint j, uint n) {
   return j * (n / RAY_BOUNDS_SAMPLES) + (j * (n % RAY_BOUNDS_SAMPLES)) / RAY_BOUNDS_SAMPLES;
 }

@@ -1,14 +1,14 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
-// Compaction of the lit samples, step 1 (rays.h, LitRays::recordCompaction and recordCompactionWithKeys):
+// Compaction of the lit samples, step 1 (rays.h, LitRays::recordCompaction; the fused compaction,
+// recordCompactionWithKeys, does this in lit_runs.comp, with the runs):
 // which positions of the enumeration (row-major pixels, or the tiled Morton screen order of the unsorted
 // variant, SPEC_MORTON) are lit samples (geometry present and direct-light term > 0, litSample), one bit
 // each, and how many each block of SCAN_BLOCK positions holds. Invocation t of block b owns the
 // SCAN_ITEMS consecutive positions from b * SCAN_BLOCK + t * SCAN_ITEMS; kept[b * SCAN_THREADS + t] holds
 // its bits (bit k: the k-th of them is lit) and the lit positions of the block before its own. The
-// scatter (lit_samples.comp, or lit_runs.comp with the keys) reads that one uvec2 instead of the
-// G-buffer and a scan of its own (a barrier costs a CPU driver a switch per subgroup), and
-// ray_bounds.comp finds its subset by the bits.
+// scatter (lit_samples.comp) reads that one uvec2 instead of the G-buffer and a scan of its own (a
+// barrier costs a CPU driver a switch per subgroup).
 // bindings: 0 = position, 1 = normal (uniform texel buffers, RGBA32F: a texel per pixel), 2 = kept
 //           (uvec2[] per invocation: bits, rank in the block), 3 = counts (uint[] per block)
 #include "rays/rays_layout.h"

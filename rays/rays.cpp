@@ -27,6 +27,7 @@ constexpr uint32_t kLitWord = 0, kRunsWord = 1;
 // for the scan of the runs' lengths (a workgroup per SCAN_BLOCK runs).
 constexpr uint32_t kRunGroupsArgs = 0, kRunScanArgs = 4;
 
+static_assert(RAY_BOUNDS_SAMPLES <= 65536u, "boundsSample: j * (n % RAY_BOUNDS_SAMPLES) in 32 bits");
 static_assert(RAY_BOUNDS_THREADS * RAY_BOUNDS_ITEMS * RAY_BOUNDS_GROUPS == RAY_BOUNDS_SAMPLES,
               "ray_bounds.comp's grid covers the subset once");
 static_assert(RAY_BOUNDS_COUNTS >= 24 && RAY_BOUNDS_COUNTS % 4 == 0 && RAY_BOUNDS_WORDS >= RAY_BOUNDS_COUNTS + 6,
@@ -74,7 +75,7 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
       groups_(ctx),
       runScan_(ctx, blockInvocations(maxPixels_)),
       itemScan_(ctx, std::max(maxPixels_, 1u)) {
-  rayBounds_ = vk::createKernel(ctx, "ray_bounds", spv_ray_bounds_comp, 6, sizeof(KeysPush), {{0, 0u}});
+  rayBounds_ = vk::createKernel(ctx, "ray_bounds", spv_ray_bounds_comp, 3, sizeof(KeysPush), {}, 0x3u);
   rayGrids_ = vk::createKernel(ctx, "ray_grids", spv_ray_grids_comp, 2, sizeof(KeysPush));
   rayKeys_ = vk::createKernel(ctx, "ray_keys", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 0u}}, 0x1u);
   frameRayKeys_ = vk::createKernel(ctx, "ray_keys (frame)", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 1u}}, 0x1u);
@@ -82,9 +83,8 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
   mortonLitCount_ = vk::createKernel(ctx, "lit_count (Morton)", spv_lit_count_comp, 4, sizeof(LitPush), {{0, 1u}}, 0x3u);
   litSamples_ = vk::createKernel(ctx, "lit_samples", spv_lit_samples_comp, 3, sizeof(LitPush), {{0, 0u}});
   mortonLitSamples_ = vk::createKernel(ctx, "lit_samples (Morton)", spv_lit_samples_comp, 3, sizeof(LitPush), {{0, 1u}});
-  litBounds_ = vk::createKernel(ctx, "ray_bounds (lit bits)", spv_ray_bounds_comp, 6, sizeof(KeysPush), {{0, 1u}});
-  litRuns_ = vk::createKernel(ctx, "lit_runs", spv_lit_runs_comp, 6, sizeof(KeysPush), {{0, 0u}}, 0x1u);
-  frameLitRuns_ = vk::createKernel(ctx, "lit_runs (frame)", spv_lit_runs_comp, 6, sizeof(KeysPush), {{0, 1u}}, 0x1u);
+  litRuns_ = vk::createKernel(ctx, "lit_runs", spv_lit_runs_comp, 8, sizeof(KeysPush), {{0, 0u}}, 0x3u);
+  frameLitRuns_ = vk::createKernel(ctx, "lit_runs (frame)", spv_lit_runs_comp, 8, sizeof(KeysPush), {{0, 1u}}, 0x3u);
   runItems_ = vk::createKernel(ctx, "run_items", spv_run_items_comp, 7, sizeof(KeysPush), {{0, 0u}}, 0x41u);
   frameRunItems_ = vk::createKernel(ctx, "run_items (frame)", spv_run_items_comp, 7, sizeof(KeysPush), {{0, 1u}}, 0x41u);
   for (uint32_t keys = 0; keys < 2; ++keys)
@@ -151,24 +151,20 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
   push.flags = FLAG_COUNT_FROM_BUFFER;
   const bool framed = frame.framed != 0u;
   keyBits_ = framed ? kFrameKeyBits : kRayKeyBits;
-  recordLitCount(cmd, g, LitPush{g.width, g.height, 0, 0, uint32_t(pixels), 0, 0, 0});
   const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(pixels, SCAN_BLOCK));
   const vk::BufferRange position = vk::texels(g.position, kPixelTexels);
-  if (!framed) {  // each face's box over recordKeys' subset, found from the bits, and its fitted grid
-    recordBoundsClear(cmd);
-    cmd.dispatch(litBounds_, {g.position, samples_, bounds_, count_, keptBits_, compact_.blockOffsets()}, push,
-                 RAY_BOUNDS_GROUPS);
-    cmd.barrier();
-    cmd.dispatch(rayGrids_, {bounds_, grids_}, push, 1);
-    cmd.barrier();
-  }
-  // The runs of equal keys (lit_runs.comp: every lit pixel's key cell, four at a time, kept per pixel),
+  if (!framed) recordBounds(cmd, g, push);  // the faces' grids first, from the pixels alone
+  // One pass over the pixels (lit_runs.comp): which are lit, and the runs of equal keys among them (every
+  // pixel's key cell, four at a time, kept per pixel); the scan of the blocks' lit counts (the lit count),
   // each invocation's first run (the scan of its runs' counts, their total the runs' count), then one
   // item a run as the sort's input (run_items.comp: the leader's key from its cell).
   const uint32_t invocations = blockInvocations(pixels);
-  cmd.dispatch(framed ? frameLitRuns_ : litRuns_, {position, keptBits_, grids_, leaderBits_, runCounts_, runCells_},
+  cmd.dispatch(framed ? frameLitRuns_ : litRuns_,
+               {position, vk::texels(g.normal, kPixelTexels), keptBits_, compact_.blockCounts(), grids_, leaderBits_,
+                runCounts_, runCells_},
                push, grid.x, grid.y);
   cmd.barrier();
+  compact_.recordBlockScan(cmd, uint32_t(pixels), sort::GpuWord(count_, 0));
   runScan_.record(cmd, vk::BufferRange(runCounts_, 0, uint64_t(invocations) * 4),
                   vk::BufferRange(runCounts_, 0, uint64_t(invocations) * 4), sort::Count(invocations),
                   sort::GpuWord(count_, kRunsWord));
@@ -179,9 +175,16 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
   runsPending_ = true;
 }
 
-void LitRays::recordBoundsClear(vk::Commands& cmd) {
+void LitRays::recordBounds(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& keys) {
   cmd.fill(bounds_, RAY_BOUNDS_EMPTY, 0, RAY_BOUNDS_COUNTS * 4);  // the boxes empty, the counts zero
   cmd.fill(bounds_, 0, RAY_BOUNDS_COUNTS * 4, bounds_.size - RAY_BOUNDS_COUNTS * 4);
+  cmd.barrier();
+  KeysPush push = keys;
+  push.count = g.width * g.height;  // the subset is spread over the pixels
+  cmd.dispatch(rayBounds_, {vk::texels(g.position, kPixelTexels), vk::texels(g.normal, kPixelTexels), bounds_}, push,
+               RAY_BOUNDS_GROUPS);
+  cmd.barrier();
+  cmd.dispatch(rayGrids_, {bounds_, grids_}, push, 1);
   cmd.barrier();
 }
 
@@ -206,14 +209,7 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
     countBinding.offset = 0;
     countBinding.range = (VkDeviceSize(count.word.index) + 1) * 4;
   }
-  if (!framed) {  // each face's box over the subset, for its fitted grid
-    recordBoundsClear(cmd);
-    // (bindings 4 and 5, the lit bits and block starts, are read only with SPEC_FROM_BITS)
-    cmd.dispatch(rayBounds_, {g.position, samples_, bounds_, countBinding, keptBits_, keptBits_}, push, RAY_BOUNDS_GROUPS);
-    cmd.barrier();
-    cmd.dispatch(rayGrids_, {bounds_, grids_}, push, 1);
-    cmd.barrier();
-  }
+  if (!framed) recordBounds(cmd, g, push);  // each face's box over the subset, for its fitted grid
   const vk::Kernel& keys = framed ? frameRayKeys_ : rayKeys_;
   if (count.onDevice()) {  // as many workgroups as the device count needs (none for a count of 0)
     groups_.record(cmd, count, PIXEL_THREADS, keyArgs_, 0);
@@ -286,13 +282,15 @@ void LitRays::record(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light,
 
 uint32_t LitRays::readCount() const { return vk::download<uint32_t>(ctx_, count_, 1)[0]; }
 
-FaceBounds referenceBounds(const GBuffer& g, const std::vector<uint32_t>& samples, glm::vec3 light) {
+FaceBounds referenceBounds(const GBuffer& g, glm::vec3 light) {
   FaceBounds b;
   b.boxes.fill(glm::uvec4(RAY_BOUNDS_EMPTY));
   b.counts.fill(0);
-  const uint32_t n = uint32_t(samples.size());
+  const uint32_t n = uint32_t(g.size());
   for (uint32_t j = 0; j < RAY_BOUNDS_SAMPLES && n > 0; ++j) {
-    const glm::vec3 d = glm::vec3(g.position[samples[boundsSample(j, n)]]) - light;
+    const uint32_t pixel = boundsSample(j, n);
+    if (!g.isLit(pixel)) continue;
+    const glm::vec3 d = glm::vec3(g.position[pixel]) - light;
     const uint32_t face = rayFace(d);
     if (face == 7) continue;
     const glm::vec2 uv = rayFaceUV(d, face);
@@ -333,7 +331,7 @@ std::vector<uint32_t> referenceRayOrder(const GBuffer& g, glm::vec3 light, RayOr
   for (uint32_t i = 0; i < g.size(); ++i)
     if (g.isLit(i)) samples.push_back(i);
   if (order == RayOrder::Hilbert) {
-    const FaceBounds bounds = referenceBounds(g, samples, light);
+    const FaceBounds bounds = referenceBounds(g, light);
     std::array<glm::vec4, 6> grids;
     for (uint32_t face = 0; face < 6; ++face) grids[face] = bounds.keyGrid(face);
     std::vector<uint32_t> keys(g.size());

@@ -53,10 +53,10 @@ class LitRays {
   void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, sort::Count count);  // -> keys()
   // The keys in a rotated frame (frameRayKey): `frame` holds KeysPush's rowX .. rect (framed = 1).
   void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& frame, sort::Count count);
-  // Compaction and keys in one (row-major order; the sorted path): lit_count.comp marks the lit pixels
-  // and counts them per block, the scan of the counts gives each block its start and the lit count, the
-  // faces' boxes and grids follow (world keys: the same subset as recordKeys', found from the marks).
-  // lit_runs.comp then keys every lit pixel and finds the runs of equal keys (consecutive lit pixels of
+  // Compaction and keys in one (row-major order; the sorted path): the faces' boxes and grids first (world
+  // keys: from the subset of the pixels recordKeys takes too, which needs no compaction), then one pass
+  // over the pixels (lit_runs.comp) marks the lit ones, counts them per block (the scan of the counts
+  // gives the lit count), keys every pixel and finds the runs of equal keys (consecutive lit pixels of
   // one invocation's SCAN_ITEMS whose keys agree: 65-80 % of the lit pixels of a render follow a
   // neighbour that way), and run_items.comp writes one (key, leader pixel and length) item a run straight
   // into the sort's input. recordSort sorts the items and writes each run's pixels where the run starts
@@ -104,7 +104,6 @@ class LitRays {
   vk::Kernel rayKeys_, frameRayKeys_;          // the world's keys, a rotated frame's (ray_keys.comp SPEC_FRAMED)
   // Compaction: lit_count.comp and lit_samples.comp, row-major or Morton (SPEC_MORTON).
   vk::Kernel litCount_, mortonLitCount_, litSamples_, mortonLitSamples_;
-  vk::Kernel litBounds_;                       // fused: ray_bounds.comp SPEC_FROM_BITS
   // Fused: lit_runs.comp (world or rotated-frame keys), run_items.comp; after the sort run_expand.comp,
   // [with the keys: keepSortedKeys][with the rays' records].
   vk::Kernel litRuns_, frameLitRuns_, runItems_, frameRunItems_, runExpand_[2][2];
@@ -120,7 +119,8 @@ class LitRays {
   vk::Buffer keptBits_;  // lit_count.comp's bits and ranks, one uvec2 per SCAN_ITEMS positions
   // lit_count.comp over the push's enumeration, then the scan of its block counts (the lit count to count_).
   void recordLitCount(vk::Commands& cmd, const DeviceGBuffer& g, const LitPush& push);
-  void recordBoundsClear(vk::Commands& cmd);  // bounds_ as ray_bounds.comp expects it: boxes empty, counts 0
+  // The faces' boxes over the subset of the G-buffer's pixels (ray_bounds.comp) and their grids (ray_grids.comp).
+  void recordBounds(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& keys);
   uint32_t keyBits_ = RAY_KEY_BITS;  // of the keys the last recordKeys (or recordCompactionWithKeys) recorded
   bool runsPending_ = false;         // the last recording left its runs' items in the sort's input
 };
@@ -134,8 +134,8 @@ struct FaceBounds {
   static FaceBounds fromWords(const std::vector<uint32_t>& words);  // RAY_BOUNDS_WORDS, as downloaded
   glm::vec4 keyGrid(uint32_t face) const;
 };
-// CPU reference of ray_bounds.comp for the lit samples `samples` in compaction order.
-FaceBounds referenceBounds(const GBuffer& g, const std::vector<uint32_t>& samples, glm::vec3 light);
+// CPU reference of ray_bounds.comp: the faces' boxes and counts over the lit pixels of the subset.
+FaceBounds referenceBounds(const GBuffer& g, glm::vec3 light);
 
 // CPU reference of the whole step (tests, debugging): lit samples of `g` in the given order.
 std::vector<uint32_t> referenceRayOrder(const GBuffer& g, glm::vec3 light, RayOrder order);

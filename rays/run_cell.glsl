@@ -1,8 +1,7 @@
 // The key cell of the ray to pixel p's position (rays/hilbert.h faceCellCode, frameCellCode), for
 // lit_runs.comp and run_items.comp: equal cells, equal keys. Expects `position`, `pc` (KeysPush),
 // SPEC_FRAMED and the faces' grids in g0 .. g5.
-uint runCell(uint p) {
-  vec3 x = texelFetch(position, int(p)).xyz;
+uint runCellAt(vec3 x) {  // of the position x
   if (SPEC_FRAMED != 0u) {  // S R (x - origin) - lightFrame: the ray in the rotated frame
     vec3 d = x - pc.origin.xyz;
     vec3 f = vec3(dot(pc.rowX.xyz, d), dot(pc.rowY.xyz, d), dot(pc.rowZ.xyz, d));
@@ -14,6 +13,7 @@ uint runCell(uint p) {
   vec4 grid = face == 0u ? g0 : face == 1u ? g1 : face == 2u ? g2 : face == 3u ? g3 : face == 4u ? g4 : g5;
   return face == 7u ? 7u << 24u : faceCellCode(d, face, grid);
 }
+uint runCell(uint p) { return runCellAt(texelFetch(position, int(p)).xyz); }
 // The key of a cell runCell gave.
 uint runCellKey(uint code) {
   if (SPEC_FRAMED != 0u) return frameCodeKey(code);
