@@ -200,6 +200,22 @@ TEST(EarlyAccept, FiresOnALargeWallInFrontOfTheLightWithTheSameMaskAndFewerPairs
   EXPECT_LT(early.pairs, plain.pairs);
 }
 
+// The frame sorted without measuring the screen order first (the fused compaction, whose sort writes the
+// sorted rays' records for the tree): early accept reads a covered node's rays from those records, and
+// the mask is the one-frame reference's, bit for bit, in one submission.
+TEST(EarlyAccept, SortedWithoutMeasuringReadsTheRaysFromTheSortsRecords) {
+  Scene scene = largeWallScene();
+  Frame f(scene, lookAt({7, 3, 2}, {0, 0, -6}, 1.1f), vec3(0, 0, 0), 128);
+  Result plain = runExact(f, ConeOptions{}, "large wall PreciseSorted");
+  ConeOptions o = sea();
+  o.adaptiveOrder = false;
+  Result early = runExact(f, o, "large wall PreciseSEA, sorted without measuring");
+  EXPECT_EQ(early.stats["ray_order"], "hilbert");
+  EXPECT_EQ(early.stats["traversal_path"], "one submission");
+  EXPECT_TRUE(sameBits(plain.mask, early.mask)) << "early accept on the sort's records changed the mask";
+  EXPECT_GT(accepted(early), 0u) << "early accept must fire on a large occluder in front of the light";
+}
+
 TEST(EarlyAccept, BitIdenticalAtATinyTraversalMemory) {
   Scene scene = largeWallScene();
   Frame f(scene, lookAt({7, 3, 2}, {0, 0, -6}, 1.1f), vec3(0, 0, 0), 96);
