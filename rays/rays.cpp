@@ -146,9 +146,7 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
            "G-buffer of " << g.width << "x" << g.height << " exceeds the " << maxPixels_ << " pixels LitRays was made for");
   CS_CHECK(fusedKeys(), "compaction with keys: the sort takes no pairs on this device (LitRays::fusedKeys)");
   KeysPush push = frame;
-  push.count = uint32_t(pixels);  // lit_runs, run_items: the pixels; ray_bounds: the pixels and the lit count's bound
-  push.countIndex = 0;
-  push.flags = FLAG_COUNT_FROM_BUFFER;
+  push.count = uint32_t(pixels);  // lit_runs, run_items (and ray_bounds, recordBounds): the pixels
   const bool framed = frame.framed != 0u;
   keyBits_ = framed ? kFrameKeyBits : kRayKeyBits;
   const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(pixels, SCAN_BLOCK));
