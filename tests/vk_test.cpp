@@ -201,6 +201,43 @@ TEST(Texels, ABufferPastTheDevicesTexelLimitIsAClearError) {
   }
 }
 
+TEST(Uniforms, ARangePastTheBufferOrTheDevicesLimitOrTheWrongBindingIsAClearError) {
+  // The words every invocation reads (the traversal's state) are bound as uniform buffers: a range past
+  // the buffer or past maxUniformBufferRange is refused with the sizes, and a uniform range given to a
+  // storage binding is refused when the dispatch is recorded, naming the kernel and the binding.
+  auto& ctx = test::context();
+  vk::Buffer words = vk::createBuffer(ctx, 256);
+  const vk::BufferRange r = vk::uniforms(words, 256);
+  EXPECT_TRUE(r.uniform);
+  EXPECT_EQ(r.range, 256u);
+  EXPECT_THROW(vk::uniforms(words, 272), Error) << "past the buffer";
+  EXPECT_THROW(vk::uniforms(words, 0), Error) << "empty";
+  {
+    const uint32_t saved = ctx.properties.limits.maxUniformBufferRange;
+    ctx.properties.limits.maxUniformBufferRange = 128;
+    try {
+      vk::uniforms(words, 256);
+      ADD_FAILURE() << "a uniform range past maxUniformBufferRange was made";
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("256 bytes"), std::string::npos) << what;
+      EXPECT_NE(what.find("maxUniformBufferRange of 128"), std::string::npos) << what;
+    }
+    ctx.properties.limits.maxUniformBufferRange = saved;
+  }
+  vk::Kernel k = vk::createKernel(ctx, "iota", spv_iota_comp, 2, 8);
+  vk::Buffer b = vk::createBuffer(ctx, 64);
+  vk::Commands cmd(ctx);
+  struct { uint32_t count, scale; } push{1, 1};
+  try {
+    cmd.dispatch(k, {r, b}, push, 1, 1);
+    FAIL() << "a uniform range was bound to a storage binding";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("iota: binding 0 is a storage buffer"), std::string::npos) << what;
+  }
+}
+
 TEST(Context, VulkanFailuresNameTheCallTheResultAndWhatToDo) {
   // What a device loss or an exhausted heap turns into wherever VK_CHECK sees it (every Vulkan call).
   auto message = [](VkResult r) {
