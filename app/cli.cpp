@@ -5,6 +5,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <map>
 #include <sstream>
 
@@ -379,6 +380,12 @@ Options parseArgs(int argc, char** argv) {
   for (const MethodInfo* m : chosen)
     if (m->check) m->check(settingsFor(o, *m));
   return o;
+}
+
+std::vector<std::string> runInputs(const Options& options) {
+  std::error_code ec;
+  if (options.scene.empty() || !std::filesystem::exists(options.scene, ec)) return {};
+  return {options.scene};
 }
 
 }  // namespace cs

@@ -55,6 +55,8 @@ struct Options {
 Settings settingsFor(const Options& options, const MethodInfo& method);
 // The chosen methods' registry entries (all registered when none were chosen).
 std::vector<const MethodInfo*> chosenMethods(const Options& options);
+// The files a run reads that an output folder may never hold (the scene file, when SCENE names one).
+std::vector<std::string> runInputs(const Options& options);
 
 // Registers the built-in methods, then parses; throws UsageError. help/--help and --version come back as
 // command "help"/"version" with `text` to print.

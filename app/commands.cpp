@@ -117,6 +117,18 @@ int runRender(const Options& o) {
   spec.frames = o.frames;
   log << "  view " << spec.view << ", light " << vec3Text(spec.light) << ", " << o.width << "x" << o.height << "\n";
 
+  const std::vector<std::string> inputs = runInputs(o);
+  const bool dumpInOut = !o.dump.empty() && pathWithin(o.dump, o.out);
+  const bool outInDump = !o.dump.empty() && !dumpInOut && pathWithin(o.out, o.dump);
+  std::unique_ptr<StagedDir> dump =
+      !o.dump.empty() && !dumpInOut ? std::make_unique<StagedDir>(o.dump, inputs) : nullptr;
+  std::unique_ptr<StagedDir> out = outInDump ? nullptr : std::make_unique<StagedDir>(o.out, inputs);
+  auto inside = [](const StagedDir& staged, const std::string& path) {
+    return (fs::path(staged.path()) / fs::absolute(path).lexically_normal().lexically_relative(staged.target()))
+        .lexically_normal()
+        .string();
+  };
+
   log << "[2/5] device" << std::endl;
   auto ctx = commandContext(o);
   log << "  device: " << ctx->driverDescription() << "\n";
@@ -153,20 +165,11 @@ int runRender(const Options& o) {
     results.push_back(std::move(r));
   }
 
-  // Output: --out and --dump both written in full into their staging folders first, then each put in
-  // place in one step, so a failure while writing either leaves neither. A dump folder inside the output
-  // folder (or the same one) is written inside its staging folder, and the other way round.
+  // Output: --out and --dump both written in full into their staging folders (made before the run, so a
+  // folder that may not be replaced is refused first), then each put in place in one step, so a failure
+  // while writing either leaves neither. A dump folder inside the output folder (or the same one) is
+  // written inside its staging folder, and the other way round.
   {
-    namespace fs = std::filesystem;
-    const bool dumpInOut = !o.dump.empty() && pathWithin(o.dump, o.out);
-    const bool outInDump = !o.dump.empty() && !dumpInOut && pathWithin(o.out, o.dump);
-    std::unique_ptr<StagedDir> dump = !o.dump.empty() && !dumpInOut ? std::make_unique<StagedDir>(o.dump) : nullptr;
-    std::unique_ptr<StagedDir> out = outInDump ? nullptr : std::make_unique<StagedDir>(o.out);
-    auto inside = [](const StagedDir& staged, const std::string& path) {
-      return (fs::path(staged.path()) / fs::absolute(path).lexically_normal().lexically_relative(staged.target()))
-          .lexically_normal()
-          .string();
-    };
     const std::string outDir = out ? out->path() : inside(*dump, o.out);
     const std::string dumpDir = o.dump.empty() ? "" : dump ? dump->path() : inside(*out, o.dump);
     const std::vector<float>& ref = visibility[reference->name];

@@ -558,7 +558,7 @@ int runCompare(const Options& o) {
   log << "device: " << device << std::endl;
   const std::vector<std::string> skipped = dropUnsupported(settings, *ctx, o, log);
 
-  StagedDir out(o.out);
+  StagedDir out(o.out, runInputs(o));
   std::vector<Row> rows;
   std::vector<Closeup> closeups;
   std::vector<std::string> stems;

@@ -263,7 +263,7 @@ int runDynamicCompare(const Options& o) {
       return !why.empty();
     });
 
-  StagedDir out(o.out);
+  StagedDir out(o.out, runInputs(o));
   Raster raster(*ctx, rest);
   Scene scene = rest;
   std::vector<ViewLog> viewLogs;

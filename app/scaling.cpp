@@ -277,7 +277,7 @@ int runScaling(const Options& base) {
       << copies.size() << " triangle point(s) up to " << copies.back() * scene.triangleCount() << " triangles, "
       << methods.size() << " method(s); device: " << device << std::endl;
 
-  StagedDir out(o.out);
+  StagedDir out(o.out, runInputs(o));
   std::vector<ScalingRow> rows;
   auto failAll = [&](const ScalingRow& proto, const std::string& tag, const std::string& why) {
     for (const MethodInfo* m : methods) {

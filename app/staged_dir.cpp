@@ -5,6 +5,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
@@ -15,6 +16,7 @@
 #include <set>
 #include <system_error>
 #include <thread>
+#include <vector>
 
 #include "core/error.h"
 
@@ -48,19 +50,75 @@ fs::path normalPath(const std::string& p) {
   return n;
 }
 
-// The target may be replaced: it does not exist, is an empty folder, or coneshadow wrote it.
-void checkReplaceable(const fs::path& target) {
+constexpr const char* kMarkerHeader = "written by coneshadow: the next run into this folder replaces it as a whole";
+constexpr const char* kEntryPrefix = "entry ";
+
+// Both spellings of a path: as given (made absolute and normal) and with its links resolved.
+bool within(const fs::path& inner, const fs::path& outer) {
+  if (pathWithin(inner.string(), outer.string())) return true;
+  std::error_code e1, e2;
+  const fs::path a = fs::weakly_canonical(inner, e1), b = fs::weakly_canonical(outer, e2);
+  return !e1 && !e2 && pathWithin(a.string(), b.string());
+}
+
+// The entries a marker lists; `legacy` when it lists none (a marker of an earlier version).
+std::set<std::string> markerEntries(const fs::path& marker, bool& legacy) {
+  std::ifstream in(marker);
+  std::set<std::string> names;
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind(kEntryPrefix, 0) == 0) names.insert(line.substr(std::char_traits<char>::length(kEntryPrefix)));
+  legacy = names.empty();
+  return names;
+}
+
+// The target may be replaced: it does not exist, or is a folder that is empty or that coneshadow wrote
+// (its marker lists every entry in it), and it holds neither the current folder nor an input.
+void checkReplaceable(const fs::path& target, const std::vector<std::string>& inputs) {
   std::error_code ec;
   const fs::file_status st = fs::symlink_status(target, ec);
   if (ec || !fs::exists(st)) return;
   if (!fs::is_directory(st))
     throw Error("the output path exists and is not a folder", target.string(), "choose a new or empty folder");
-  // The marker, or what earlier versions left: results.json (--out) or meta.json (--dump).
-  if (fs::is_empty(target, ec) || fs::exists(target / kOutputMarker) || fs::exists(target / "results.json") ||
-      fs::exists(target / "meta.json"))
-    return;
-  throw Error("the output folder holds files coneshadow did not write, and a run replaces its output folder as a whole",
-              target.string(), "choose a new or empty folder");
+  const fs::path cwd = fs::current_path(ec);
+  if (!ec && within(cwd, target))
+    throw Error("the output folder is the current folder or holds it, and a run replaces its output folder as a whole",
+                target.string(), "choose a new folder outside the current one, e.g. --out results");
+  for (const std::string& input : inputs)
+    if (!input.empty() && within(fs::path(input), target))
+      throw Error("the output folder holds the scene " + fs::path(input).filename().string() +
+                      ", and a run replaces its output folder as a whole",
+                  target.string(), "choose a new folder that does not hold the scene");
+  if (fs::is_empty(target, ec) && !ec) return;
+  const fs::path marker = target / kOutputMarker;
+  if (!fs::is_regular_file(fs::symlink_status(marker, ec)))
+    throw Error("the output folder holds files coneshadow did not write, and a run replaces its output folder as a whole",
+                target.string(), "choose a new or empty folder");
+  bool legacy = false;
+  const std::set<std::string> written = markerEntries(marker, legacy);
+  if (legacy) return;
+  for (const fs::directory_entry& e : fs::directory_iterator(target, ec)) {
+    const std::string name = e.path().filename().string();
+    if (name != kOutputMarker && !written.count(name))
+      throw Error("the output folder holds '" + name.substr(0, 60) +
+                      "', which coneshadow did not write there, and a run replaces its output folder as a whole",
+                  target.string(), "move that file out, or choose a new or empty folder");
+  }
+  if (ec) throw Error("cannot list the output folder: " + ec.message(), target.string(), "check permissions");
+}
+
+// The marker with the list of what the folder holds, written last into the staging folder.
+void writeMarker(const fs::path& folder) {
+  std::vector<std::string> names;
+  std::error_code ec;
+  for (const fs::directory_entry& e : fs::directory_iterator(folder, ec))
+    if (e.path().filename() != kOutputMarker) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  std::ofstream marker(folder / kOutputMarker, std::ios::trunc);
+  marker << kMarkerHeader << "\n";
+  for (const std::string& n : names) marker << kEntryPrefix << n << "\n";
+  marker.close();
+  if (ec || !marker) throw Error("cannot write the output folder's marker", folder.string(), "check permissions and free space");
 }
 
 // Removes a folder that another thread may still be writing into: a few tries.
@@ -82,11 +140,11 @@ bool pathWithin(const std::string& inner, const std::string& outer) {
   return true;
 }
 
-StagedDir::StagedDir(const std::string& target) {
+StagedDir::StagedDir(const std::string& target, const std::vector<std::string>& inputs) : inputs_(inputs) {
   const fs::path t = normalPath(target);
   target_ = t.string();
   if (t == t.root_path()) throw Error("cannot replace the root folder with the output", target_, "choose a new folder");
-  checkReplaceable(t);
+  checkReplaceable(t, inputs_);
   std::error_code ec;
   fs::create_directories(t.parent_path(), ec);
   if (ec) throw Error("cannot create the output folder's parent: " + ec.message(), target_, "check the path and permissions");
@@ -98,12 +156,12 @@ StagedDir::StagedDir(const std::string& target) {
     untrack(staging_);
     throw Error("cannot write beside the output folder: " + ec.message(), target_, "check permissions");
   }
-  std::ofstream marker(fs::path(staging_) / kOutputMarker);
-  marker << "written by coneshadow: the next run into this folder replaces it as a whole\n";
-  if (!marker) {
+  try {
+    writeMarker(staging_);
+  } catch (const Error&) {
     removeTree(staging_);
     untrack(staging_);
-    throw Error("cannot write into the staging folder", staging_, "check permissions and free space");
+    throw;
   }
 }
 
@@ -115,7 +173,8 @@ StagedDir::~StagedDir() {
 
 void StagedDir::commit() {
   const fs::path t(target_);
-  checkReplaceable(t);  // again: the target may have changed while the run worked
+  writeMarker(staging_);
+  checkReplaceable(t, inputs_);  // again: the target may have changed while the run worked
   std::error_code ec;
   if (!fs::exists(fs::symlink_status(t, ec))) {
     if (std::rename(staging_.c_str(), target_.c_str()) != 0)

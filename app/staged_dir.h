@@ -4,15 +4,18 @@
 // (renameat2 RENAME_EXCHANGE) after which the old contents are removed. A reader sees the old folder or
 // the new one, never a mix, and a run replaces its folder's previous results rather than adding to them.
 //
-// Because the target is replaced as a whole, an existing target must be empty or written by coneshadow
-// (it holds the marker file kOutputMarker, or the results.json or meta.json of an earlier version); any
-// other folder is refused when the StagedDir is made, before the run writes anything.
+// Because the target is replaced as a whole, nothing is replaced unless coneshadow's marker says it wrote
+// it: an existing target must be an empty folder, or hold the marker file kOutputMarker, which lists the
+// entries the run wrote, and nothing else. A folder whose marker lists no entries (earlier versions) is
+// taken as coneshadow's. Any other folder is refused, before the run writes anything and again at commit.
+// A target may not be the current folder or hold it, nor hold any of the run's inputs (the scene).
 //
 // SIGINT, SIGTERM and SIGHUP remove every live staging folder before the process exits with 128 + the
 // signal's number (installInterruptCleanup: the signals are blocked in every thread and one thread waits
 // for them, so the cleanup runs outside a signal handler).
 #pragma once
 #include <string>
+#include <vector>
 
 namespace cs {
 
@@ -20,7 +23,8 @@ inline constexpr const char* kOutputMarker = ".coneshadow-output";
 
 class StagedDir {
  public:
-  explicit StagedDir(const std::string& target);
+  // `inputs`: files the run reads (the scene); the target may not hold any of them.
+  explicit StagedDir(const std::string& target, const std::vector<std::string>& inputs = {});
   ~StagedDir();  // removes the staging folder unless committed
   StagedDir(const StagedDir&) = delete;
   StagedDir& operator=(const StagedDir&) = delete;
@@ -31,6 +35,7 @@ class StagedDir {
 
  private:
   std::string target_, staging_;
+  std::vector<std::string> inputs_;
   bool committed_ = false;
 };
 

@@ -106,6 +106,128 @@ TEST(StagedDir, AFolderConeshadowDidNotWriteIsRefusedAndLeftAlone) {
   EXPECT_TRUE(fs::exists(t.path / "empty" / cs::kOutputMarker));
 }
 
+// Every file and folder under `dir`, with each file's contents: what a victim folder must still hold.
+std::vector<std::string> snapshot(const fs::path& dir) {
+  std::vector<std::string> out;
+  for (auto& e : fs::recursive_directory_iterator(dir)) {
+    std::string line = fs::relative(e.path(), dir).string();
+    if (e.is_regular_file()) {
+      std::ifstream f(e.path());
+      line += "=" + std::string(std::istreambuf_iterator<char>(f), {});
+    }
+    out.push_back(line);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// A folder of a user's: notes, a subfolder, the results.json and meta.json an older coneshadow wrote
+// without its marker, and a one-triangle scene over a ground quad.
+fs::path makeVictim(const fs::path& dir) {
+  fs::create_directories(dir / "drafts");
+  writeText(dir / "notes.txt", "mine");
+  writeText(dir / "drafts" / "chapter.tex", "also mine");
+  writeText(dir / "results.json", "[]");
+  writeText(dir / "meta.json", "{}");
+  writeText(dir / "scene.obj",
+            "v -4 0 -4\nv 4 0 -4\nv 4 0 4\nv -4 0 4\nv -1 1 -1\nv 1 1 -1\nv 0 1 1\nf 1 3 2\nf 1 4 3\nf 5 7 6\n");
+  return dir / "scene.obj";
+}
+
+TEST(StagedDir, OnlyTheMarkerSaysAFolderIsConeshadowsNotAResultsFile) {
+  TempFolder t;
+  const fs::path victim = t.path / "victim";
+  makeVictim(victim);
+  const std::vector<std::string> before = snapshot(victim);
+  EXPECT_THROW(cs::StagedDir s(victim.string()), cs::Error);
+  EXPECT_EQ(snapshot(victim), before);
+}
+
+TEST(StagedDir, AFileAddedToAnEarlierOutputKeepsTheFolderFromBeingReplaced) {
+  TempFolder t;
+  const fs::path target = t.path / "out";
+  {
+    cs::StagedDir s(target.string());
+    writeText(fs::path(s.path()) / "a.png", "img");
+    s.commit();
+  }
+  writeText(target / "my_notes.txt", "added by the user");
+  const std::vector<std::string> before = snapshot(target);
+  try {
+    cs::StagedDir s(target.string());
+    FAIL() << "a folder holding a file coneshadow did not write was accepted";
+  } catch (const cs::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("my_notes.txt"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(snapshot(target), before);
+  fs::remove(target / "my_notes.txt");
+  cs::StagedDir again(target.string());  // what it wrote alone: replaceable again
+  again.commit();
+  // A marker of an earlier version, which lists nothing, still marks the folder as coneshadow's.
+  writeText(target / cs::kOutputMarker, "written by coneshadow: the next run into this folder replaces it as a whole\n");
+  writeText(target / "old.png", "img");
+  cs::StagedDir legacy(target.string());
+}
+
+TEST(StagedDir, AnOutputFolderNeverHoldsTheCurrentFolderOrTheScene) {
+  TempFolder t;
+  const fs::path target = t.path / "out";
+  {
+    cs::StagedDir s(target.string());
+    s.commit();
+  }
+  const fs::path cwd = fs::current_path();
+  fs::current_path(target);
+  EXPECT_THROW(cs::StagedDir s("."), cs::Error);
+  EXPECT_THROW(cs::StagedDir s(target.string()), cs::Error);
+  fs::current_path(cwd);
+  writeText(target / "scene.obj", "v 0 0 0\n");
+  try {
+    cs::StagedDir s(target.string(), {(target / "scene.obj").string()});
+    FAIL() << "an output folder holding the scene was accepted";
+  } catch (const cs::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("scene.obj"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(fs::exists(target / "scene.obj"));
+}
+
+TEST(StagedDir, NoCommandReplacesAUsersFolderOrTheScenesFolder) {
+  TempFolder t;
+  const fs::path victim = t.path / "notes";
+  const fs::path scene = makeVictim(victim);
+  const std::vector<std::string> before = snapshot(victim);
+  const std::string small = " --width 16 --height 16 --quiet";
+  const std::string cd = "cd '" + victim.string() + "' && ";
+  struct Case {
+    std::string args, launcher;
+  };
+  const std::vector<Case> cases = {
+      {"render" + small + " --out .", cd},
+      {"render scene.obj" + small + " --out .", cd},
+      {"render " + scene.string() + small + " --out " + victim.string(), ""},
+      {"render" + small + " --out " + (t.path / "fresh").string() + " --dump " + victim.string(), ""},
+      {"render" + small + " --out " + victim.string() + "/./", ""},
+      {"compare" + small + " --methods cone --out " + victim.string(), ""},
+      {"compare " + scene.string() + small + " --methods cone --out .", cd},
+      {"compare" + small + " --methods cone --animate 2 --out " + victim.string(), ""},
+  };
+  for (const Case& c : cases) {
+    cs::test::CliRun r = cs::test::cli(c.args, c.launcher);
+    EXPECT_NE(r.code, 0) << c.args << "\n" << r.out;
+    EXPECT_NE(r.out.find("replaces its output folder as a whole"), std::string::npos) << c.args << "\n" << r.out;
+    EXPECT_EQ(snapshot(victim), before) << c.args;
+    EXPECT_FALSE(fs::exists(t.path / "fresh")) << c.args << ": no partial output";
+  }
+  // A folder coneshadow wrote that holds the scene (copied in later) is refused too, the scene kept.
+  const fs::path out = t.path / "out";
+  ASSERT_EQ(cs::test::cli("render" + small + " --out " + out.string()).code, 0);
+  fs::copy_file(scene, out / "scene.obj");
+  cs::test::CliRun r = cs::test::cli("render " + (out / "scene.obj").string() + small + " --out " + out.string());
+  EXPECT_NE(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("holds the scene"), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(out / "scene.obj"));
+}
+
 TEST(StagedDir, PathWithinComparesNormalPaths) {
   EXPECT_TRUE(cs::pathWithin("/a/b/c", "/a/b"));
   EXPECT_TRUE(cs::pathWithin("/a/b/", "/a/b"));
