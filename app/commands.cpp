@@ -187,7 +187,8 @@ int runRender(const Options& o) {
               << " " << o.width << "x" << o.height << ": " << row.totalMs << " ms (median of " << o.frames << "), "
               << reference->name << " " << frame->reference.medianMs << " ms, misclassified " << std::setprecision(6)
               << row.error.misclassifiedFraction << " (outside band " << row.error.misclassifiedOutsideBand
-              << " samples), raster " << std::setprecision(3) << frame->rasterMs << " ms; wrote " << o.out << "/"
+              << " samples; band " << std::setprecision(3) << 100.0 * row.error.bandFraction << " % of the lit samples"
+              << (row.error.undecided ? ", UNDECIDED: " + row.error.undecidedReason() : std::string()) << "), raster " << std::setprecision(3) << frame->rasterMs << " ms; wrote " << o.out << "/"
               << (o.dump.empty() ? "" : " and " + o.dump + "/") << "\n";
     if (row.stats.contains("per_frame") && !o.quiet) {  // a progressive method: its error frame by frame
       std::cout << "  " << row.method << " per frame (0 = warm-up): ";

@@ -178,12 +178,17 @@ struct Verdict {
   const Row* fastestExact = nullptr;
   const Row* fastestGood = nullptr;
   const Row* smallestGood = nullptr;
+  std::string undecided;  // why the view is undecided (its band covers too many samples); "" when decided
 };
 
 Verdict verdictOf(const std::vector<Row>& rows, const std::string& view) {
   Verdict v;
   for (const Row& r : rows) {
     if (r.result.view != view || r.result.method == referenceMethod().name) continue;
+    if (r.result.error.undecided) {  // the band swallowed the answer: no row is exact or good here
+      v.undecided = r.result.error.undecidedReason();
+      continue;
+    }
     const double e = r.result.error.misclassifiedFractionOutsideBand;
     const bool exact = r.result.error.misclassifiedOutsideBand == 0;
     if (exact && (!v.fastestExact || r.result.totalMs < v.fastestExact->result.totalMs)) v.fastestExact = &r;
@@ -212,13 +217,19 @@ std::vector<std::string> verdictCells(const std::vector<Row>& rows, const std::s
   std::string reference = "—";
   for (const Row& r : rows)
     if (r.result.view == view && r.result.method == referenceMethod().name) reference = num(r.result.totalMs, 1);
+  if (!v.undecided.empty()) {
+    const std::string cell = "undecided: " + v.undecided;
+    return {view, cell, cell, cell, reference};
+  }
   return {view, verdictCell(v.fastestExact), verdictCell(v.fastestGood), verdictCell(v.smallestGood), reference};
 }
 
 const char* kVerdictText =
     "Among the methods on these samples, per view: the fastest that misclassifies nothing outside the ambiguity band, "
     "the fastest and the smallest in memory that misclassify at most 0.1 % of the lit samples outside it (times are "
-    "medians per frame; the reference, Embree, is the ground truth and not a candidate).";
+    "medians per frame; the reference, Embree, is the ground truth and not a candidate). A view whose ambiguity band "
+    "covers more than 1 % of its lit samples is undecided: fp32 rounding can flip that many answers, so no method is "
+    "called exact or good there.";
 
 const char* kLegendMd =
     "Images, per setting: *shaded* (the method's shadows), *mask* (white: lit sample called lit; black: lit sample "

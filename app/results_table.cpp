@@ -31,6 +31,10 @@ std::string settingOf(const nlohmann::json& row) {
 std::string cell(const nlohmann::json& row) {
   double ms = row.at("total_ms").get<double>();
   double out = row.at("error").at("misclassified_fraction_outside_band").get<double>() * 100.0;
+  const nlohmann::json& error = row.at("error");
+  if (error.value("undecided", false))  // older results lack the key: decided as they were read then
+    return fixed(ms, ms < 10 ? 2 : 1) + " ms / undecided (band " +
+           fixed(error.at("band_fraction").get<double>() * 100.0, 1) + " %)";
   return fixed(ms, ms < 10 ? 2 : 1) + " ms / " + (out == 0 ? std::string("0") : fixed(out, 3)) + " %";
 }
 
@@ -50,7 +54,7 @@ std::string resultsTable(const std::vector<nlohmann::json>& runs) {
   os << "Device: ";
   for (size_t i = 0; i < devices.size(); ++i) os << (i ? "; " : "") << "`" << devices[i] << "`";
   os << " (Embree on the host CPU). Cells: median ms per frame / % of the lit samples misclassified outside the "
-        "ambiguity band.\n\n"
+        "ambiguity band, or \"undecided\" where the band covers over 1 % of them.\n\n"
      << "| scene / view | size |";
   for (auto& s : settings) os << " " << s << " |";
   os << "\n| --- | --- |";

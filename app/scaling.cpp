@@ -73,6 +73,8 @@ struct ScalingRow {
   uint64_t bytes = 0, peakBytes = 0;
   uint64_t lit = 0, band = 0, misclassified = 0, misclassifiedOutsideBand = 0;
   double misclassifiedPct = 0, misclassifiedOutsideBandPct = 0;
+  double bandFraction = 0;
+  bool undecided = false;  // the band covers more than kUndecidedBandFraction of the lit samples
   bool ok() const { return status == "ok"; }
 };
 
@@ -81,7 +83,7 @@ const std::vector<std::string> kColumns = {
     "sweep", "width", "height", "pixels", "copies", "triangles", "light_distance_diagonals", "light_x", "light_y",
     "light_z", "method", "status", "ms_median", "ms_min", "ms_max", "pairs_tested",
     "bytes_allocated", "peak_bytes", "lit_samples", "band_samples", "misclassified", "misclassified_pct",
-    "misclassified_outside_band", "misclassified_outside_band_pct"};
+    "misclassified_outside_band", "misclassified_outside_band_pct", "band_fraction", "undecided"};
 
 nlohmann::ordered_json toJson(const ScalingRow& r) {
   nlohmann::ordered_json j;
@@ -112,6 +114,8 @@ nlohmann::ordered_json toJson(const ScalingRow& r) {
   num("misclassified_pct", r.misclassifiedPct);
   num("misclassified_outside_band", r.misclassifiedOutsideBand);
   num("misclassified_outside_band_pct", r.misclassifiedOutsideBandPct);
+  num("band_fraction", r.bandFraction);
+  num("undecided", r.undecided);
   return j;
 }
 
@@ -186,7 +190,8 @@ std::string distanceMd(const std::string& sceneName, const std::string& view, co
      << "light moved out along its own direction from the centre of the scene's bounds to the given number of "
      << "bounding-box diagonals; every method judged against Embree on the same samples. Band: samples whose "
      << "reference answer flips under the epsilon policy's perturbations (its light nudge is floored at 4 ulp of "
-     << "the light's coordinates, so the band widens with the distance). Pairs: the cone path's (triangle, node) "
+     << "the light's coordinates, so the band widens with the distance); where it covers over 1 % of the lit samples the "
+     << "point is undecided: no count outside the band judges it. Pairs: the cone path's (triangle, node) "
      << "tests.\n\n"
      << "| light distance (diagonals) | method | ms median (min-max) | misclassified outside band | misclassified "
      << "(all) | band | pairs tested | status |\n"
@@ -197,7 +202,8 @@ std::string distanceMd(const std::string& sceneName, const std::string& view, co
     if (r.ok())
       os << fixed(r.msMedian, 2) << " (" << fixed(r.msMin, 2) << "-" << fixed(r.msMax, 2) << ") | "
          << fixed(r.misclassifiedOutsideBandPct, 4) << " % (" << r.misclassifiedOutsideBand << ") | "
-         << fixed(r.misclassifiedPct, 4) << " % | " << r.band << " | "
+         << fixed(r.misclassifiedPct, 4) << " % | " << r.band << " (" << fixed(100.0 * r.bandFraction, 2) << " %"
+         << (r.undecided ? ", undecided" : "") << ") | "
          << (r.pairsTested ? std::to_string(r.pairsTested) : std::string("-")) << " | ok |\n";
     else
       os << "- | - | - | - | - | " << r.status << " |\n";
@@ -338,11 +344,14 @@ int runScaling(const Options& base) {
         r.misclassifiedPct = err.misclassifiedFraction * 100.0;
         r.misclassifiedOutsideBand = err.misclassifiedOutsideBand;
         r.misclassifiedOutsideBandPct = err.misclassifiedFractionOutsideBand * 100.0;
+        r.bandFraction = err.bandFraction;
+        r.undecided = err.undecided;
         const auto& stats = j.runs.output.stats;
         if (stats.contains("pairs_tested") && stats["pairs_tested"].is_number_integer())
           r.pairsTested = stats["pairs_tested"].get<uint64_t>();
         log << tag << m->name << ": " << fixed(r.msMedian, 2) << " ms, " << mib(r.bytes) << " MiB, "
-            << r.misclassifiedOutsideBand << " misclassified outside band" << std::endl;
+            << r.misclassifiedOutsideBand << " misclassified outside band"
+            << (r.undecided ? ", UNDECIDED: " + err.undecidedReason() : std::string()) << std::endl;
       } catch (const std::exception& e) {
         r.status = std::string("failed: ") + e.what();
         log << tag << m->name << " " << r.status << std::endl;

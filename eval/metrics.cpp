@@ -2,6 +2,7 @@
 #include "eval/metrics.h"
 
 #include <cmath>
+#include <cstdio>
 
 #include "core/error.h"
 
@@ -52,7 +53,19 @@ ErrorStats compareVisibility(const GBuffer& g, const std::vector<float>& method,
   s.falseLightFractionOutsideBand = ratio(s.falseLightOutsideBand, outside);
   s.meanAbsError = s.litSamples ? absSum / double(s.litSamples) : 0.0;
   s.meanAbsErrorOutsideBand = outside ? absSumOutside / double(outside) : 0.0;
+  s.bandFraction = ratio(s.bandSamples, s.litSamples);
+  s.undecided = s.bandFraction > kUndecidedBandFraction;
   return s;
+}
+
+std::string ErrorStats::undecidedReason() const {
+  if (!undecided) return "";
+  char text[200];
+  std::snprintf(text, sizeof text,
+                "the ambiguity band covers %.3g %% of the lit samples (over %.3g %%): fp32 rounding can flip them, so "
+                "no count outside the band judges this frame",
+                100.0 * bandFraction, 100.0 * kUndecidedBandFraction);
+  return text;
 }
 
 nlohmann::json toJson(const ErrorStats& s) {
@@ -71,7 +84,10 @@ nlohmann::json toJson(const ErrorStats& s) {
           {"false_shadow_fraction_outside_band", s.falseShadowFractionOutsideBand},
           {"false_light_fraction_outside_band", s.falseLightFractionOutsideBand},
           {"mean_abs_error", s.meanAbsError},
-          {"mean_abs_error_outside_band", s.meanAbsErrorOutsideBand}};
+          {"mean_abs_error_outside_band", s.meanAbsErrorOutsideBand},
+          {"band_fraction", s.bandFraction},
+          {"undecided", s.undecided},
+          {"undecided_reason", s.undecidedReason()}};
 }
 
 }  // namespace cs

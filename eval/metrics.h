@@ -3,6 +3,7 @@
 // without the ambiguity band, plus mean absolute visibility error.
 #pragma once
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -13,6 +14,10 @@ namespace cs {
 
 // Visibility at or above this is "lit" when a value in [0,1] is turned into a classification.
 inline constexpr float kLitThreshold = 0.5f;
+
+// A frame whose ambiguity band holds more than this fraction of its lit samples is undecided: the
+// reference cannot tell a right mask from a wrong one there, so no count outside the band is a verdict.
+inline constexpr double kUndecidedBandFraction = 0.01;
 
 struct ErrorStats {
   uint64_t litSamples = 0;                // samples counted: GBuffer::isLit
@@ -32,6 +37,11 @@ struct ErrorStats {
   double falseLightFractionOutsideBand = 0;
   double meanAbsError = 0;                // mean |method - reference| over lit samples
   double meanAbsErrorOutsideBand = 0;     // the same over lit samples not in the band
+  double bandFraction = 0;                // bandSamples / litSamples; 0 when no sample is lit
+  bool undecided = false;                 // bandFraction > kUndecidedBandFraction
+
+  // Why the frame is undecided, for a result line or a report; "" when it is decided.
+  std::string undecidedReason() const;
 };
 
 // method, reference: one value per pixel of `gbuffer`. band: one byte per pixel (nonzero = in band), or

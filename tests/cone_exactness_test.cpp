@@ -48,6 +48,14 @@ struct Harness {
   // light: exact too; its mask may differ from the default's within the band only.
   std::unique_ptr<ShadowMethod> twoEnds;
 
+  // Substrings of the labels of frames the running test makes ambiguous on purpose (UndecidedAllowed).
+  std::vector<std::string> undecidedLabels;
+  bool undecidedAllowed(const std::string& what) const {
+    for (const std::string& l : undecidedLabels)
+      if (what.find(l) != std::string::npos) return true;
+    return false;
+  }
+
   static Harness& get() {
     static vk::Context& ctx = test::context();  // constructed first, so destroyed after the harness
     (void)ctx;
@@ -84,6 +92,11 @@ struct Harness {
     MethodOutput mine = cones[0]->run(frame);
     std::vector<uint8_t> band = embree.ambiguityBand(scene, host, light, policy);
     CaseResult r = check(host, mine, ref.visibility, band, what);
+    // A frame whose band covers over 1 % of its samples proves little about them: only a frame a test
+    // names as ambiguous by construction may be undecided (exactness outside its band is checked all the
+    // same); any other undecided frame fails.
+    if (r.error.undecided && !undecidedAllowed(what))
+      ADD_FAILURE() << what << ": undecided, and the test does not expect it: " << r.error.undecidedReason();
     // The other variants on the same frame: exact too, and the default's mask bit for bit.
     std::string pairs = variants[0] + " " + std::to_string(mine.stats["pairs_tested"].get<uint64_t>());
     for (size_t v = 1; v < cones.size(); ++v) {
@@ -151,10 +164,11 @@ struct Harness {
         << what << ": " << r.error.falseShadowOutsideBand << " false shadow, " << r.error.falseLightOutsideBand
         << " false light outside the band (of " << r.error.litSamples << " lit, " << r.error.bandSamples
         << " in the band)" << detail.str();
-    std::printf("  %-58s lit %6llu shadowed %6llu band %5llu | in band: %llu fs %llu fl | pairs %llu leaf tests %llu\n",
+    std::printf("  %-58s lit %6llu shadowed %6llu band %5llu%s | in band: %llu fs %llu fl | pairs %llu leaf tests %llu\n",
                 what.c_str(), (unsigned long long)r.error.litSamples, (unsigned long long)r.shadowed,
-                (unsigned long long)r.error.bandSamples, (unsigned long long)r.error.falseShadow,
-                (unsigned long long)r.error.falseLight, (unsigned long long)mine.stats["pairs_tested"].get<uint64_t>(),
+                (unsigned long long)r.error.bandSamples, r.error.undecided ? " (undecided)" : "",
+                (unsigned long long)r.error.falseShadow, (unsigned long long)r.error.falseLight,
+                (unsigned long long)mine.stats["pairs_tested"].get<uint64_t>(),
                 (unsigned long long)mine.stats["leaf_tests"].get<uint64_t>());
     return r;
   }
@@ -162,9 +176,21 @@ struct Harness {
 
 using test::lookAt;
 
+// Within a test: the frames whose labels hold one of `labels` may be undecided (eval/metrics.h), each
+// for the reason the test gives where it makes one.
+struct UndecidedAllowed {
+  explicit UndecidedAllowed(std::vector<std::string> labels) { Harness::get().undecidedLabels = std::move(labels); }
+  ~UndecidedAllowed() { Harness::get().undecidedLabels.clear(); }
+  UndecidedAllowed(const UndecidedAllowed&) = delete;
+  UndecidedAllowed& operator=(const UndecidedAllowed&) = delete;
+};
+
 // ---- the built-in scene -------------------------------------------------------------------------------
 
 TEST(ConeExactness, BuiltinSceneFromEveryViewAndTwoLights) {
+  // Undecided here: hairs thinner than the band's 1e-3 diagonal offsets (fur), the grazing
+  // light 2 cm above the floor, and close-ups of shadow edges (edge, room, wall), whose band spans many pixels.
+  UndecidedAllowed ambiguous({"builtin/fur", "builtin/room", "builtin/edge", "builtin/wall light (1.3"});
   Scene scene = builtinScene();
   ASSERT_FALSE(scene.lights.empty());
   const vec3 lights[] = {
@@ -205,6 +231,9 @@ struct ModelCase {
 };
 
 TEST(ConeExactness, GltfModelsOnAGroundPlaneFromTwoLightsOneCloseToASurface) {
+  // Undecided here: thin parts and touching surfaces within the band's offsets, and the light
+  // 1e-3 of the diagonal above the ground, which grazes it.
+  UndecidedAllowed ambiguous({"2CylinderEngine", "ClearCoat", "textureTransform"});
   const ModelCase models[] = {
       {"2CylinderEngine-glTF-Binary/2CylinderEngine.glb", 128},
       {"ClearCoat-glTF/ClearCoatTest.gltf", 128},
@@ -233,6 +262,8 @@ TEST(ConeExactness, GltfModelsOnAGroundPlaneFromTwoLightsOneCloseToASurface) {
 // ---- the BART scenes paper 002 measured on --------------------------------------------------------------
 
 TEST(ConeExactness, BartMuseumKitchenAndRobotsFromTheirViewsAndLights) {
+  // Undecided here: the kitchen's touching furniture, within the band's offsets of each other.
+  UndecidedAllowed ambiguous({"kitchen"});
   const std::string bart = CONESHADOW_BART_SCENES;
   if (!std::filesystem::exists(bart + "/museum/museum5.aff")) GTEST_SKIP() << "no BART scenes at " << bart;
   struct BartCase {
@@ -294,6 +325,8 @@ std::vector<vec3> floorAndCasters(float size = 10) {
 }
 
 TEST(ConeHardCases, LightAHairAwayFromALargeWall) {
+  // A light 1e-4 from the wall: most rays graze it.
+  UndecidedAllowed ambiguous({"hair-wall"});
   // Light 1e-4 from a huge wall (z = 0), the camera looking at the wall and the floor: the cones of the
   // wall's own samples are nearly hemispheres (past pi/2 - eps: the complementary-cone path).
   std::vector<vec3> p = floorAndCasters();
@@ -315,6 +348,8 @@ TEST(ConeHardCases, LightExactlyInATrianglesPlane) {
 }
 
 TEST(ConeHardCases, SampleAtTheLight) {
+  // Samples at the light: their rays are shorter than the band's offsets.
+  UndecidedAllowed ambiguous({"sample-at-light"});
   // The light sits exactly on the floor (y = 0) and on a box corner: samples at (or within eps of) the
   // light have empty rays and must stay lit, with no NaN anywhere.
   std::vector<vec3> p = floorAndCasters();
@@ -346,6 +381,8 @@ TEST(ConeHardCases, SliversAndZeroAreaTriangles) {
 }
 
 TEST(ConeHardCases, SceneTranslatedFarFromTheOrigin) {
+  // At 1e5 from the origin the epsilon floor (32 ulp) widens the band.
+  UndecidedAllowed ambiguous({"translated 1e5"});
   const vec3 offset(1e5f, -1e5f, 1e5f);
   std::vector<vec3> p = floorAndCasters();
   for (vec3& v : p) v += offset;
@@ -390,6 +427,8 @@ TEST(ConeHardCases, LightInsideAClosedMesh) {
 }
 
 TEST(ConeHardCases, OneHugeTriangleCoveringTheView) {
+  // A light a hair above the triangle grazes all of it.
+  UndecidedAllowed ambiguous({"huge, light a hair above"});
   // One triangle (z = 0) far larger than the view, a second one between it and the light, far enough
   // from both that the epsilon (1e-4 of the 5.6e3 diagonal) does not swallow it.
   std::vector<vec3> p = {{-2e3f, -2e3f, 0}, {2e3f, -2e3f, 0}, {0, 2e3f, 0}, {-20, -15, 40}, {25, -10, 40}, {0, 20, 40}};
@@ -451,6 +490,8 @@ TEST(ConeHardCases, FarLightsFromTenToATenThousandThousandDiagonals) {
 }
 
 TEST(ConeHardCases, FarLightsUpToTheDocumentedLimitAndAClearErrorPastIt) {
+  // At 2^62 the light nudge's floor (4 ulp of the light) is a visible angle.
+  UndecidedAllowed ambiguous({"4.5e18"});
   // Up to 2^62 from the scene (eval/epsilon.h, kMaxLightDistance): exact outside the band, however
   // wide the band grows; past it, the cone path refuses the frame instead of a silently lit mask.
   Scene scene = soup(floorAndCasters(), "far-light limit");
@@ -477,6 +518,8 @@ TEST(ConeHardCases, FarLightsUpToTheDocumentedLimitAndAClearErrorPastIt) {
 }
 
 TEST(ConeHardCases, FarLightOnTheBuiltinSceneAndAGltfModel) {
+  // The engine's touching parts, as in the glTF test above.
+  UndecidedAllowed ambiguous({"2CylinderEngine, far light"});
   // The closed built-in room from outside (every sample behind a wall) and open: its casters alone.
   Scene builtin = builtinScene();
   const float bdiag = glm::length(builtin.boundsMax - builtin.boundsMin);
@@ -495,6 +538,8 @@ TEST(ConeHardCases, FarLightOnTheBuiltinSceneAndAGltfModel) {
 }
 
 TEST(ConeHardCases, FarLightsGrazingTheWallsOfTheClosedRoom) {
+  // Grazing the back wall: which side of its edge with the ceiling a ray passes is rounding's choice.
+  UndecidedAllowed ambiguous({"builtin/room, light ("});
   // The built-in room is closed: a light outside shadows every sample, through its walls. In the plane
   // z = 0 and far, the light grazes the back wall (z = -7, N.L down to 10^-13): the rays run along it and
   // meet the ceiling a hair from the edge the two share. From 10^6 on, the precise test in the far frame
@@ -578,6 +623,8 @@ TEST(ConeHardCases, FarLightOnTheBartMuseum) {
 }
 
 TEST(ConeHardCases, SceneFarFromTheOriginLitFromFarAway) {
+  // As SceneTranslatedFarFromTheOrigin.
+  UndecidedAllowed ambiguous({"translated 1e5"});
   const vec3 offset(1e5f, -1e5f, 1e5f);
   std::vector<vec3> p = floorAndCasters();
   for (vec3& v : p) v += offset;
@@ -590,6 +637,8 @@ TEST(ConeHardCases, SceneFarFromTheOriginLitFromFarAway) {
 }
 
 TEST(ConeHardCases, LightExactlyOnAVertexAndOnAnEdge) {
+  // A light on an edge: rays from the edge's neighbours graze both its triangles.
+  UndecidedAllowed ambiguous({"light on a vertex / edge"});
   // Box 2 of floorAndCasters spans (1, 0, 1)-(2.5, 3, 2): its top corner (1, 3, 1) and the midpoint of
   // its top edge along x, (1.75, 3, 1), both exact in fp32.
   Scene scene = soup(floorAndCasters(), "light-on-vertex");
@@ -614,6 +663,67 @@ TEST(ConeHardCases, LightInsideAThinSlab) {
   const vec3 light(0.1f, 1.025f, 0.2f);
   Harness::get().run(scene, lookAt({4.0f, 1.025f, 4.0f}, {0, 1.025f, 0}, 1.2f), light, 96, 96, "light in a thin slab");
   Harness::get().run(scene, lookAt({0.3f, 1.04f, 0.4f}, {-3, 1.01f, -1}, 1.2f), light, 96, 96, "light in a thin slab, near");
+}
+
+// Lights 1 to 10^16 scene diagonals outside closed and nearly closed scenes (issue 48): the built-in room
+// seen from inside (every sample behind a wall from the light), a closed box over a plane, a plane under
+// a slab a thousandth of the diagonal thick. From above, off every axis and straight along one; every
+// frame decided (its band under 1 % of the lit samples) and exact, most samples in shadow.
+TEST(ConeHardCases, FarLightsOutsideClosedScenesAreExactAndDecided) {
+  std::vector<vec3> boxOverPlane, slab;
+  auto box = [](std::vector<vec3>& p, vec3 lo, vec3 hi) {  // closed, faces outward
+    vec3 d = hi - lo;
+    addQuad(p, lo, {0, d.y, 0}, {d.x, 0, 0});
+    addQuad(p, lo + vec3(0, 0, d.z), {d.x, 0, 0}, {0, d.y, 0});
+    addQuad(p, lo, {0, 0, d.z}, {0, d.y, 0});
+    addQuad(p, lo + vec3(d.x, 0, 0), {0, d.y, 0}, {0, 0, d.z});
+    addQuad(p, lo + vec3(0, d.y, 0), {0, 0, d.z}, {d.x, 0, 0});
+    addQuad(p, lo, {d.x, 0, 0}, {0, 0, d.z});
+  };
+  addQuad(boxOverPlane, {-6, 0, -6}, {0, 0, 12}, {12, 0, 0});
+  box(boxOverPlane, {-2, 1, -2}, {2, 3, 2});
+  addQuad(slab, {-6, 0, -6}, {0, 0, 12}, {12, 0, 0});
+  box(slab, {-3, 1, -3}, {3, 1.017f, 3});  // 1/1000 of the diagonal
+  struct Case {
+    Scene scene;
+    Camera camera;
+  };
+  Scene room = builtinScene();
+  std::vector<Case> cases = {{room, *room.findCamera("room")},
+                             {soup(boxOverPlane, "box over a plane"), lookAt({0.3f, 0.6f, 0.2f}, {-5, 0, -4}, 1.3f)},
+                             {soup(slab, "plane under a thin slab"), lookAt({0.2f, 0.5f, 0.3f}, {-4, 0, -5}, 1.3f)}};
+  for (Case& c : cases) {
+    const vec3 centre = 0.5f * (c.scene.boundsMin + c.scene.boundsMax);
+    const float diag = glm::length(c.scene.boundsMax - c.scene.boundsMin);
+    for (float k : {1.0f, 1e2f, 1e4f, 1e8f, 1e12f, 1e16f})
+      for (vec3 dir : {vec3(0.3f, 1.0f, 0.2f), vec3(0.0f, 1.0f, 0.0f), vec3(-0.6f, 0.8f, 0.45f)}) {
+        if (dir.x == 0 && c.scene.name == room.name) continue;  // straight up grazes the room's walls: below
+        std::ostringstream what;
+        what << c.scene.name << ", light " << k << " diagonals toward (" << dir.x << ", " << dir.y << ", " << dir.z << ")";
+        const vec3 light = farLight(centre, diag, k + 0.5f, dir);
+        CaseResult r = Harness::get().run(c.scene, c.camera, light, 64, 64, what.str());
+        EXPECT_GT(r.error.litSamples, 1000u) << what.str();
+        EXPECT_GT(r.shadowed, r.error.litSamples / 2) << what.str();
+      }
+  }
+}
+
+// The example of issue 48: the light straight above the closed room, a hair off the axis, so every wall
+// faces it at a grazing 10^-8 rad and every ray from a wall runs along it to the edge where it meets the
+// ceiling. Which side of that edge a ray passes is fp32 rounding's choice (a sample an ulp behind its
+// wall escapes the room), so the band holds nearly every wall sample: the frame is undecided, and says so.
+TEST(ConeHardCases, AFrameWhoseBandCoversItsSamplesIsUndecided) {
+  Scene scene = builtinScene();
+  test::ReferenceFrame f(scene, *scene.findCamera("wall"), vec3(1.3f, 1e8f, -0.7f), 64);
+  auto cone = makeConeMethod(test::context());
+  const MethodOutput out = cone->run(f.input);
+  const ErrorStats e = compareVisibility(f.host, out.visibility, f.reference, f.band);
+  EXPECT_TRUE(e.undecided) << e.bandSamples << " of " << e.litSamples << " in the band";
+  EXPECT_GT(e.bandFraction, 0.5);
+  EXPECT_NE(e.undecidedReason().find("no count outside the band judges this frame"), std::string::npos);
+  const nlohmann::json j = toJson(e);
+  EXPECT_EQ(j["undecided"], true);
+  EXPECT_DOUBLE_EQ(j["band_fraction"].get<double>(), e.bandFraction);
 }
 
 }  // namespace

@@ -94,6 +94,7 @@ inline ConeRun runExactCone(ReferenceFrame& f, const ConeOptions& o, const std::
   auto method = makeConeMethod(context(), o);
   MethodOutput out = method->run(f.input);
   ErrorStats e = compareVisibility(f.host, out.visibility, f.reference, f.band);
+  EXPECT_FALSE(e.undecided) << what << ": " << e.undecidedReason();
   EXPECT_EQ(e.misclassifiedOutsideBand, 0u) << what << ": " << e.falseShadowOutsideBand << " false shadow, "
                                             << e.falseLightOutsideBand << " false light (of " << e.litSamples << " lit)";
   EXPECT_EQ(out.stats["variant"].get<std::string>(), coneVariantName(o)) << what;

@@ -84,6 +84,28 @@ TEST(Metrics, CountsFalseShadowAndFalseLightOverLitSamplesOnly) {
   EXPECT_NEAR(s.meanAbsError, (0 + 1 + 1 + 0 + 0.6 + 0.6) / 6.0, 1e-7);
 }
 
+TEST(Metrics, AFrameWhoseBandHoldsOverOnePercentOfItsLitSamplesIsUndecided) {
+  GBuffer g = rowGBuffer(std::vector<bool>(200, true));
+  std::vector<float> ref(200, 1.0f), met(200, 1.0f);
+  std::vector<uint8_t> band(200, 0);
+  band[3] = band[7] = 1;  // 1 % exactly: decided
+  ErrorStats s = compareVisibility(g, met, ref, band);
+  EXPECT_DOUBLE_EQ(s.bandFraction, 0.01);
+  EXPECT_FALSE(s.undecided);
+  EXPECT_EQ(s.undecidedReason(), "");
+  band[9] = 1;  // 1.5 %: undecided, with its reason
+  s = compareVisibility(g, met, ref, band);
+  EXPECT_TRUE(s.undecided);
+  EXPECT_NE(s.undecidedReason().find("1.5 %"), std::string::npos) << s.undecidedReason();
+  const nlohmann::json j = toJson(s);
+  EXPECT_EQ(j["undecided"], true);
+  EXPECT_DOUBLE_EQ(j["band_fraction"].get<double>(), 0.015);
+  // No lit sample: nothing is undecided.
+  s = compareVisibility(rowGBuffer(std::vector<bool>(4, false)), std::vector<float>(4, 1), std::vector<float>(4, 1),
+                        std::vector<uint8_t>(4, 1));
+  EXPECT_FALSE(s.undecided);
+}
+
 TEST(Metrics, BandSplitsTheCounts) {
   GBuffer g = rowGBuffer({true, true, true, true, true, false});
   std::vector<float> ref = {1, 1, 0, 0, 1, 1};
@@ -125,7 +147,9 @@ TEST(Metrics, JsonCarriesEveryField) {
   EXPECT_EQ(j.at("false_shadow").get<uint64_t>(), 1u);
   EXPECT_EQ(j.at("lit_samples").get<uint64_t>(), 2u);
   EXPECT_DOUBLE_EQ(j.at("mean_abs_error").get<double>(), 0.5);
-  EXPECT_EQ(j.size(), 16u);
+  EXPECT_EQ(j.size(), 19u);
+  EXPECT_EQ(j.at("undecided").get<bool>(), false);
+  EXPECT_DOUBLE_EQ(j.at("band_fraction").get<double>(), 0.0);
 }
 
 TEST(ImageIo, PfmRoundTripKeepsRowOrderAndStoresTheBottomRowFirst) {

@@ -13,6 +13,7 @@
 #include <sstream>
 #include <map>
 #include <errno.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 namespace cs::vk {
@@ -239,7 +240,23 @@ DriverCall::~DriverCall() {
 
 void setDriverCrashCleanup(void (*cleanup)()) { gDriverCrashCleanup.store(cleanup); }
 
+// Below this address-space limit (ulimit -v) lavapipe's device start runs out of memory in ways it does
+// not survive (a double free in vkCreateDevice at ~550 MB, a deadlock a little above): refused first.
+// A 96x96 frame of the cone path and the cube map completes at ~1.3 GB.
+constexpr uint64_t kMinAddressSpace = uint64_t(1) << 30;
+
+void checkAddressSpaceLimit() {
+  struct rlimit limit {};
+  if (getrlimit(RLIMIT_AS, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY || limit.rlim_cur >= kMinAddressSpace) return;
+  throw Error("the process's address-space limit is " + std::to_string(uint64_t(limit.rlim_cur) >> 20) +
+                  " MB, below the " + std::to_string(kMinAddressSpace >> 20) +
+                  " MB the Vulkan driver needs to start (out of memory)",
+              "Vulkan device", "raise the limit: ulimit -v unlimited, or at least ulimit -v " +
+                                   std::to_string(kMinAddressSpace >> 10));
+}
+
 std::unique_ptr<Context> createContext(const ContextOptions& options) {
+  checkAddressSpaceLimit();
   DriverCall guard("the driver's start (vkCreateInstance, vkCreateDevice)");
   auto ctx = std::make_unique<Context>();
   bool validation = options.validation;
