@@ -246,7 +246,8 @@ bool count(std::string_view w, uint64_t& v) {
 // exact size of its scalar properties plus each list's count).
 void checkPly(const std::string& path, std::string_view b) {
   const size_t end = b.find("end_header");
-  if (end == std::string_view::npos) return;  // assimp refuses it
+  // Without it assimp's PLY reader reads past the end of the file forever.
+  if (end == std::string_view::npos) refuse(path, "the PLY header has no end_header line", "re-export it");
   const size_t bodyAt = b.find('\n', end);
   const size_t body = bodyAt == std::string_view::npos ? 0 : b.size() - bodyAt - 1;
   bool ascii = true;

@@ -208,6 +208,8 @@ TEST_F(LoaderHostile, HeaderCountsAreCheckedAgainstTheFileSize) {
   std::ostringstream warn;
   EXPECT_EQ(loadSceneFile(write("ok.ply", plyHead + "3" + plyRest), warn).indices.size(), 3u);
   refused(write("billion.ply", plyHead + "1000000000" + plyRest), "claims 1000000000 elements");
+  // No end_header: assimp read on past the end forever (found by the assimp fuzzer).
+  refused(write("open.ply", plyHead + "3\nproperty float x\n0 0 0\n"), "no end_header line");
   std::string binary = "ply\nformat binary_little_endian 1.0\nelement vertex 4294967295\nproperty float x\n"
                        "property float y\nproperty float z\nend_header\n";
   binary += std::string(36, '\0');

@@ -50,7 +50,9 @@ for loader in gltf glb aff assimp; do
   rm -rf "$findings"
   mkdir -p "$findings" "$OUT/corpus/$loader"
   echo "fuzz: $loader for ${SECONDS_EACH} s"
-  if "$OUT/${loader}_fuzzer" -max_total_time="$SECONDS_EACH" -timeout=25 -rss_limit_mb=2048 -max_len=65536 \
+  lsan=
+  [ "$loader" = assimp ] && lsan=suppressions=$PWD/fuzz/assimp.lsan
+  if LSAN_OPTIONS=$lsan "$OUT/${loader}_fuzzer" -max_total_time="$SECONDS_EACH" -timeout=25 -rss_limit_mb=2048 -max_len=65536 \
       -seed="$FUZZ_SEED" -dict="$dict" -artifact_prefix="$findings/" -print_final_stats=1 \
       "$OUT/corpus/$loader" "$seeds" > "$OUT/$loader.log" 2>&1; then
     echo "fuzz: $loader: $(grep -o 'stat::number_of_executed_units: *[0-9]*' "$OUT/$loader.log" | grep -o '[0-9]*$') inputs, no findings"
