@@ -5,16 +5,15 @@
 #include <array>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <memory>
 #include <optional>
-#include <sstream>
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
 
 #include "core/error.h"
+#include "core/input_guard.h"
 #include "core/scene.h"
 
 namespace cs {
@@ -24,6 +23,10 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr int kMaxIncludeDepth = 32;
+// Over a whole load, includes repeat: a file including the next twice, 30 levels deep, asks for 2^30
+// parses. BART's kitchen reads 187 files, 5.7 MB in all.
+constexpr size_t kMaxFilesRead = 4096;
+constexpr uint64_t kMaxBytesRead = 256ull << 20;
 constexpr size_t kMaxBlockDepth = 256;  // nested { } blocks: BART nests a dozen
 constexpr uint32_t kConeSegments = 16;  // sides of a tessellated cone or cylinder
 constexpr uint32_t kSphereRings = 8;     // a sphere: kSphereRings x 2·kSphereRings quads
@@ -125,12 +128,17 @@ class Parser {
       if (fs::equivalent(open, path, ec))
         throw Error("an include cycle: '" + path.string() + "' includes itself", from, "remove the include");
     }
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw Error("cannot open '" + path.string() + "'", from.empty() ? path.string() : from,
-                         "AFF includes are relative to the including file");
-    std::stringstream ss;
-    ss << in.rdbuf();
-    File f{path, tokenize(ss.str()), 0};
+    if (root_.empty()) root_ = path.string();
+    if (++filesRead_ > kMaxFilesRead)
+      throw Error("the scene reads more than " + std::to_string(kMaxFilesRead) + " files through its includes", root_,
+                  "an include fan-out? each include is read again every time it is named");
+    const std::string text = readSceneBytes(path.string(), from);
+    bytesRead_ += text.size();
+    if (bytesRead_ > kMaxBytesRead)
+      throw Error("the scene's files pass " + std::to_string(kMaxBytesRead >> 20) +
+                      " MiB in all (includes counted each time they are named)",
+                  root_, "an include fan-out? BART's kitchen reads 5.7 MB");
+    File f{path, tokenize(text), 0};
     std::vector<Group*> stack{&into};
     reading_.push_back(path);
     while (f.pos < f.tokens.size()) statement(f, stack, depth);
@@ -149,6 +157,9 @@ class Parser {
   Parsed& out_;
   size_t depth_ = 0;  // open blocks over all the files being read (includes nest inside blocks)
   std::vector<fs::path> reading_;  // the files being read, the outermost first
+  size_t filesRead_ = 0;           // over the whole load, includes counted each time
+  std::string root_;               // the scene file the load began with
+  uint64_t bytesRead_ = 0;
 
   static std::string at(const File& f, const Token& t) { return f.name() + ":" + std::to_string(t.line); }
   static std::string at(const File& f) {
@@ -163,18 +174,18 @@ class Parser {
     const Token& t = next(f, what);
     char* end = nullptr;
     const double v = std::strtod(t.text.c_str(), &end);
-    if (end == t.text.c_str() || *end != '\0')
-      throw Error(std::string("expected ") + what + ", got '" + t.text + "'", at(f, t));
-    if (!std::isfinite(v)) throw Error(std::string(what) + " is not finite ('" + t.text + "')", at(f, t));
+    if (end == t.text.c_str() || end != t.text.c_str() + t.text.size())
+      throw Error(std::string("expected ") + what + ", got " + quoteInput(t.text), at(f, t));
+    if (!std::isfinite(v)) throw Error(std::string(what) + " is not finite (" + quoteInput(t.text) + ")", at(f, t));
     return v;
   }
   uint32_t count(File& f, const char* what, uint32_t lo = 0, uint32_t hi = 1u << 26) {
     const Token& t = next(f, what);
     char* end = nullptr;
     const long long v = std::strtoll(t.text.c_str(), &end, 10);
-    if (end == t.text.c_str() || *end != '\0' || v < lo || v > hi)
+    if (end == t.text.c_str() || end != t.text.c_str() + t.text.size() || v < lo || v > hi)
       throw Error(std::string("expected ") + what + " (a whole number in [" + std::to_string(lo) + ", " +
-                      std::to_string(hi) + "]), got '" + t.text + "'",
+                      std::to_string(hi) + "]), got " + quoteInput(t.text),
                   at(f, t));
     return uint32_t(v);
   }
@@ -194,11 +205,11 @@ class Parser {
   static bool looksNumeric(const std::string& s) {
     char* end = nullptr;
     std::strtod(s.c_str(), &end);
-    return end != s.c_str() && *end == '\0';
+    return end != s.c_str() && end == s.c_str() + s.size();
   }
   void expect(File& f, const char* word) {
     const Token& t = next(f, word);
-    if (t.text != word) throw Error(std::string("expected '") + word + "', got '" + t.text + "'", at(f, t));
+    if (t.text != word) throw Error(std::string("expected '") + word + "', got " + quoteInput(t.text), at(f, t));
   }
   void skipNumbers(File& f, int n, const char* what) {
     for (int i = 0; i < n; ++i) number(f, what);
@@ -254,6 +265,12 @@ class Parser {
     } else if (k == "i") {
       count(f, "an include's detail level", 0, 1000);
       const Token& name = next(f, "an include's file name");
+      // Only BART files: a system file's first line is never read and quoted back as a bad keyword.
+      std::string ext = fs::path(name.text).extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+      if (ext != ".aff")
+        throw Error("an include names " + quoteInput(name.text) + ", not a BART (.aff) file", at(f, name),
+                    "includes name .aff files");
       const fs::path p = f.path.parent_path() / name.text;
       parseFile(p, g, depth + 1, at(f, name));
     } else if (k == "xs") {
@@ -279,7 +296,10 @@ class Parser {
     } else if (k == "k") {
       keyframes(f, t);
     } else {
-      throw Error("unknown keyword '" + k + "'", at(f, t),
+      const bool word = k.size() <= 24 && std::all_of(k.begin(), k.end(), [](char c) {
+        return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '{' || c == '}';
+      });
+      throw Error(word ? "unknown keyword " + quoteInput(k) : "a token of " + std::to_string(k.size()) + " characters where a keyword was expected", at(f, t),
                   "AFF keywords read: v l b am f fm a p pp tt tpa c s m i xs x k { }");
     }
   }
@@ -306,8 +326,10 @@ class Parser {
         if (!(a > 0 && a < 180)) throw Error("field of view " + std::to_string(a) + " is not in (0, 180) degrees", where);
         c.yfov = float(glm::radians(a));
       } else if (w == "hither") {
+        const std::string where = at(f);
         const double h = number(f, "the near distance");
-        c.znear = h > 0 ? float(h) : 1e-3f;
+        if (h < 0) throw Error("the view's hither (near distance) " + std::to_string(h) + " is negative", where);
+        c.znear = float(h);  // 0: unset, chosen from the scene's size when placed
       } else {
         count(f, "a resolution", 1, 1u << 16);
         count(f, "a resolution", 1, 1u << 16);
@@ -418,7 +440,7 @@ class Parser {
       skipNumbers(f, int(2 * uvs), "a texture coordinate");
       word = next(f, "triangles").text;
     }
-    if (word != "triangles") throw Error("expected 'triangles' in a mesh, got '" + word + "'", at(f));
+    if (word != "triangles") throw Error("expected 'triangles' in a mesh, got " + quoteInput(word), at(f));
     const uint32_t tris = count(f, "a triangle count");
     const bool hasN = !n.empty();
     for (uint32_t i = 0; i < tris; ++i) {
@@ -456,8 +478,9 @@ class Parser {
       const Token& w = next(f, "transl, rot, scale or '}'");
       if (w.text == "}") break;
       std::vector<Key>* keys = w.text == "transl" ? &tr.transl : w.text == "rot" ? &tr.rot : w.text == "scale" ? &tr.scale : nullptr;
-      if (!keys) throw Error("expected transl, rot, scale or '}' in keyframes '" + name + "', got '" + w.text + "'", at(f, w));
-      if (!keys->empty()) throw Error(w.text + " keys of '" + name + "' are given twice", at(f, w));
+      if (!keys)
+        throw Error("expected transl, rot, scale or '}' in keyframes " + quoteInput(name) + ", got " + quoteInput(w.text), at(f, w));
+      if (!keys->empty()) throw Error(w.text + " keys of " + quoteInput(name) + " are given twice", at(f, w));
       const uint32_t n = count(f, "a key count", 1, 1u << 20);
       for (uint32_t i = 0; i < n; ++i) {
         Key k;
@@ -620,7 +643,11 @@ AffAnimation::AffAnimation(const std::string& path, std::ostream& warn) : d_(std
   Data& d = *d_;
   d.name = fs::path(path).filename().string();
   Parser parser(d.parsed);
-  parser.parseFile(fs::path(path), d.parsed.root, 0, "");
+  try {
+    parser.parseFile(fs::path(path), d.parsed.root, 0, "");
+  } catch (const Error& e) {
+    throw clippedError(e);
+  }
   const Parsed& parsed = d.parsed;
   if (!parsed.unordered.empty()) {
     warn << d.name << ": keys not in time order, sorted by time in " << parsed.unordered.size() << " track(s):";
@@ -691,7 +718,8 @@ Scene AffAnimation::sceneAt(double t, std::ostream* warn) const {
   if (parsed.hasView) {
     Camera c = parsed.view;
     c.zfar = glm::length(c.eye - 0.5f * (scene.boundsMin + scene.boundsMax)) + diag;
-    c.znear = std::min(c.znear, 0.5f * c.zfar);
+    c.znear = std::min(c.znear > 0 ? c.znear : 1e-4f * c.zfar, 0.5f * c.zfar);
+    checkFileCamera(c, d_->name, "the view (v)");
     scene.cameras.push_back(c);
   }
   // BART's camera track: the camera at the origin looking down -z with +y up, moved by the track.
@@ -704,7 +732,9 @@ Scene AffAnimation::sceneAt(double t, std::ostream* warn) const {
     c.target = glm::vec3(m * glm::dvec4(0, 0, -1, 1));
     c.up = glm::vec3(glm::normalize(glm::dvec3(m * glm::dvec4(0, 1, 0, 0))));
     c.zfar = glm::length(c.eye - 0.5f * (scene.boundsMin + scene.boundsMax)) + diag;
-    c.znear = std::min(parsed.hasView ? parsed.view.znear : 1e-3f * diag, 0.5f * c.zfar);
+    const float hither = parsed.hasView ? parsed.view.znear : 0.0f;
+    c.znear = std::min(hither > 0 ? hither : 1e-4f * c.zfar, 0.5f * c.zfar);
+    checkFileCamera(c, d_->name, "the animated camera (k camera)");
     scene.cameras.push_back(c);
   }
   scene.lights = parsed.lights;

@@ -5,6 +5,11 @@
 // one warning line; normals come from the file, else flat per triangle. Lights: point lights as they are,
 // spot lights as point lights (the methods are omnidirectional; a warning says so), directional lights
 // kept aside as unusable (a frame that would need one is refused with the way out, --light). Cameras: every camera the file names, placed by its node.
+// Before assimp sees the file, checkAssimpInput refuses what it would crash on, allocate for or misread;
+// every file assimp opens (the scene, an OBJ's mtllib, ...) goes through GuardedFiles.
+#include <sys/stat.h>
+
+#include <assimp/DefaultIOSystem.h>
 #include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
@@ -14,12 +19,16 @@
 #include <cmath>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <ostream>
+#include <set>
 #include <string>
 
 #include <glm/glm.hpp>
+#include <glm/gtc/constants.hpp>
 
 #include "core/error.h"
+#include "core/input_guard.h"
 #include "core/scene.h"
 
 namespace cs {
@@ -41,6 +50,53 @@ std::string lowerExtension(const std::string& path) {
 }
 
 bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+// assimp's file access held to the scene file's rules: only regular files of bounded size, read only, at
+// most kMaxFiles distinct files and 2 x kMaxSceneFileBytes in all. assimp's own existence test opens the
+// file, which blocks on a FIFO: here it only asks whether the name exists, and Open refuses what is not
+// a regular file. The first refusal is kept: assimp reports a failed open vaguely, or not at all.
+class GuardedFiles : public Assimp::DefaultIOSystem {
+ public:
+  static constexpr size_t kMaxFiles = 1024;
+  explicit GuardedFiles(std::string scene) : scene_(std::move(scene)) {}
+  using Assimp::DefaultIOSystem::Exists;
+  using Assimp::DefaultIOSystem::Open;
+
+  bool Exists(const char* file) const override {
+    struct stat st {};
+    return file && ::stat(file, &st) == 0;
+  }
+
+  Assimp::IOStream* Open(const char* file, const char* mode) override {
+    if (!file) return nullptr;
+    try {
+      const std::string m = mode ? mode : "rb";
+      if (m.find_first_of("wa+") != std::string::npos)
+        throw Error("assimp asked to write " + quoteInput(file, 160), scene_, "coneshadow writes no scene files");
+      checkSceneInput(file, scene_);
+      std::error_code ec;
+      const std::string key = std::filesystem::weakly_canonical(file, ec).string();
+      if (seen_.insert(key).second) {
+        bytes_ += std::filesystem::file_size(file, ec);
+        if (seen_.size() > kMaxFiles || bytes_ > 2 * kMaxSceneFileBytes)
+          throw Error("the scene's side files pass " + std::to_string(kMaxFiles) + " files or " +
+                          std::to_string((2 * kMaxSceneFileBytes) >> 20) + " MiB",
+                      scene_, "split the scene");
+      }
+    } catch (const Error& e) {
+      if (!refused) refused = e;
+      return nullptr;
+    }
+    return Assimp::DefaultIOSystem::Open(file, mode);
+  }
+
+  std::optional<Error> refused;
+
+ private:
+  std::string scene_;
+  std::set<std::string> seen_;
+  uint64_t bytes_ = 0;
+};
 
 }  // namespace
 
@@ -66,16 +122,23 @@ std::string assimpFormats() {
   return out;
 }
 
-Scene loadAssimp(const std::string& path, std::ostream& warn) {
-  checkSceneInput(path);
+namespace {
+
+Scene readAssimp(const std::string& path, std::ostream& warn) {
+  checkAssimpInput(path, readSceneBytes(path));
   Assimp::Importer importer;
+  auto* files = new GuardedFiles(path);
+  importer.SetIOHandler(files);  // the importer owns it
   // Only triangles and normals matter: no materials, textures, animations or bones are read.
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  const unsigned flags = aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_ValidateDataStructure |
-                         aiProcess_FindDegenerates | aiProcess_FindInvalidData;
+  // Not aiProcess_FindInvalidData: it drops a mesh with a NaN or infinite position without a word; the
+  // loop below names it instead.
+  const unsigned flags =
+      aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_ValidateDataStructure | aiProcess_FindDegenerates;
   const aiScene* s = importer.ReadFile(path, flags);
+  if (files->refused) throw *files->refused;
   if (!s || !s->mRootNode) {
-    const std::string why = importer.GetErrorString();
+    const std::string why = oneLineClipped(importer.GetErrorString(), 160);
     // Points and lines are dropped on reading (SortByPType); a file of nothing else has no meshes left.
     if (why.find("No meshes remaining") != std::string::npos)
       throw Error("the file has no triangles (assimp: " + why + ")", path, "give a scene with triangle meshes");
@@ -103,8 +166,9 @@ Scene loadAssimp(const std::string& path, std::ostream& warn) {
         const aiVector3D& p = mesh->mVertices[v];
         const glm::dvec3 w = glm::dvec3(world * glm::dvec4(p.x, p.y, p.z, 1.0));
         if (!finite(w) || !finite(glm::dvec3(glm::vec3(w))))
-          throw Error("mesh '" + std::string(mesh->mName.C_Str()) + "' has a non-finite position at vertex " + std::to_string(v), path,
-                      "re-export it");
+          throw Error("mesh " + quoteInput(mesh->mName.C_Str()) + " has a position at infinity or not a number at vertex " +
+                          std::to_string(v) + " of " + std::to_string(mesh->mNumVertices),
+                      path, "re-export it");
         scene.positions.push_back(glm::vec3(w));
         glm::dvec3 n(0);
         if (mesh->HasNormals() && invertible) n = normalMatrix * glm::dvec3(mesh->mNormals[v].x, mesh->mNormals[v].y, mesh->mNormals[v].z);
@@ -119,7 +183,7 @@ Scene loadAssimp(const std::string& path, std::ostream& warn) {
         }
         for (int c = 0; c < 3; ++c) {
           if (face.mIndices[c] >= mesh->mNumVertices)
-            throw Error("mesh '" + std::string(mesh->mName.C_Str()) + "' face " + std::to_string(f) + " indexes vertex " +
+            throw Error("mesh " + quoteInput(mesh->mName.C_Str()) + " face " + std::to_string(f) + " indexes vertex " +
                             std::to_string(face.mIndices[c]) + " of " + std::to_string(mesh->mNumVertices),
                         path, "re-export it");
           scene.indices.push_back(base + face.mIndices[c]);
@@ -142,6 +206,7 @@ Scene loadAssimp(const std::string& path, std::ostream& warn) {
     if (n == glm::vec3(0)) n = glm::vec3(0, 1, 0);  // a vertex no triangle uses
   if (skipped) warn << "warning: " << path << ": " << skipped << " point or line primitive(s) skipped (triangles only)\n";
   if (scene.indices.empty()) throw Error("the file has no triangles", path, "give a scene with triangle meshes");
+  scene.computeBounds();
 
   // Cameras and lights are placed by the node of the same name.
   auto nodeWorld = [&](const aiString& name) {
@@ -155,22 +220,29 @@ Scene loadAssimp(const std::string& path, std::ostream& warn) {
     const glm::dmat4 w = nodeWorld(c->mName);
     Camera cam;
     cam.name = c->mName.length ? c->mName.C_Str() : "camera" + std::to_string(i);
+    const std::string what = "camera " + quoteInput(cam.name);
     const glm::dvec3 eye = glm::dvec3(w * glm::dvec4(c->mPosition.x, c->mPosition.y, c->mPosition.z, 1));
     const glm::dvec3 look = glm::dvec3(w * glm::dvec4(c->mLookAt.x, c->mLookAt.y, c->mLookAt.z, 0));
     const glm::dvec3 up = glm::dvec3(w * glm::dvec4(c->mUp.x, c->mUp.y, c->mUp.z, 0));
-    if (!finite(eye) || !(glm::length(look) > 0) || !finite(look)) {
-      warn << "warning: " << path << ": camera '" << cam.name << "' has no usable position or direction; skipped\n";
-      continue;
-    }
     cam.eye = glm::vec3(eye);
-    cam.target = glm::vec3(eye + glm::normalize(look));
+    cam.target = finite(look) && glm::length(look) > 0 ? glm::vec3(eye + glm::normalize(look)) : cam.eye;
     if (glm::length(up) > 0 && finite(up)) cam.up = glm::vec3(glm::normalize(up));
-    // assimp's horizontal half angle; the vertical field of view from the aspect.
-    const double aspect = c->mAspect > 0 ? c->mAspect : 1.0;
-    const double hfov = c->mHorizontalFOV > 0 && c->mHorizontalFOV < 3.1 ? 2.0 * c->mHorizontalFOV : 0.9;
-    cam.yfov = float(2.0 * std::atan(std::tan(0.5 * hfov) / aspect));
-    if (c->mClipPlaneNear > 0) cam.znear = c->mClipPlaneNear;
-    if (c->mClipPlaneFar > cam.znear) cam.zfar = c->mClipPlaneFar;
+    // assimp's horizontal half angle; the vertical field of view from the aspect (0: not given).
+    const double half = c->mHorizontalFOV;
+    if (!(half > 0 && half < 0.5 * glm::pi<double>()))
+      throw Error(what + " has a horizontal field of view of " + std::to_string(2 * half) + " radians, outside (0, pi)",
+                  path, "fix the camera in the file");
+    const double aspect = c->mAspect > 0 && std::isfinite(c->mAspect) ? c->mAspect : 1.0;
+    cam.yfov = float(2.0 * std::atan(std::tan(half) / aspect));
+    cam.znear = c->mClipPlaneNear;
+    cam.zfar = c->mClipPlaneFar;
+    double farthest = 0;  // the scene's farthest point from the eye: a corner of the bounds
+    for (int k = 0; k < 8; ++k) {
+      const glm::dvec3 corner((k & 1) ? scene.boundsMax.x : scene.boundsMin.x, (k & 2) ? scene.boundsMax.y : scene.boundsMin.y,
+                              (k & 4) ? scene.boundsMax.z : scene.boundsMin.z);
+      farthest = std::max(farthest, glm::length(corner - glm::dvec3(cam.eye)));
+    }
+    checkFileCamera(cam, path, what, farthest);
     scene.cameras.push_back(cam);
   }
   for (unsigned i = 0; i < s->mNumLights; ++i) {
@@ -181,14 +253,14 @@ Scene loadAssimp(const std::string& path, std::ostream& warn) {
       continue;
     }
     if (l->mType != aiLightSource_POINT && l->mType != aiLightSource_SPOT) {
-      warn << "warning: " << path << ": light '" << name << "' is neither point nor spot; skipped\n";
+      warn << "warning: " << path << ": light " << quoteInput(name) << " is neither point nor spot; skipped\n";
       continue;
     }
     if (l->mType == aiLightSource_SPOT)
-      warn << "warning: " << path << ": spot light '" << name
-           << "' is used as a point light (the methods are omnidirectional: its cone is ignored)\n";
+      warn << "warning: " << path << ": spot light " << quoteInput(name)
+           << " is used as a point light (the methods are omnidirectional: its cone is ignored)\n";
     const glm::dvec3 p = glm::dvec3(nodeWorld(l->mName) * glm::dvec4(l->mPosition.x, l->mPosition.y, l->mPosition.z, 1));
-    if (!finite(p)) throw Error("light '" + name + "' has a non-finite position", path, "re-export it");
+    if (!finite(p)) throw Error("light " + quoteInput(name) + " has a non-finite position", path, "re-export it");
     PointLight pl;
     pl.name = name;
     pl.position = glm::vec3(p);
@@ -196,6 +268,18 @@ Scene loadAssimp(const std::string& path, std::ostream& warn) {
   }
   scene.computeBounds();
   return scene;
+}
+
+}  // namespace
+
+Scene loadAssimp(const std::string& path, std::ostream& warn) {
+  try {
+    return readAssimp(path, warn);
+  } catch (const Error& e) {
+    throw clippedError(e);
+  } catch (const std::bad_alloc&) {
+    throw Error("out of memory while loading", path, "the file is too large or malformed");
+  }
 }
 
 }  // namespace cs

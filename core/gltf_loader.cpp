@@ -7,11 +7,12 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <map>
+#include <optional>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -22,6 +23,7 @@
 
 #include "core/animation.h"
 #include "core/error.h"
+#include "core/input_guard.h"
 #include "core/scene.h"
 
 namespace cs {
@@ -30,6 +32,9 @@ namespace {
 using json = nlohmann::json;
 
 constexpr const char* kMalformed = "the file is malformed; re-export it";
+
+// A JSON value in a message: its text, clipped (a string may be a 6 MB base64 payload).
+std::string shownJson(const json& v) { return clipInput(v.dump(-1, ' ', true, json::error_handler_t::replace)); }
 
 // Error and warning text from tinygltf or a JSON parser spans lines; our messages are one line.
 std::string oneLine(const std::string& text) {
@@ -192,19 +197,19 @@ class SchemaCheck {
 
   void uint(const json& o, const std::string& w, const char* key, bool required = false) const {
     if (const json* v = get(o, w, key, required); v && !isUint(*v))
-      bad(at(w, key), "must be a non-negative integer below 2^31, not " + v->dump());
+      bad(at(w, key), "must be a non-negative integer below 2^31, not " + shownJson(*v));
   }
   void number(const json& o, const std::string& w, const char* key, bool required = false) const {
     if (const json* v = get(o, w, key, required); v && !v->is_number())
-      bad(at(w, key), "must be a number, not " + v->dump());
+      bad(at(w, key), "must be a number, not " + shownJson(*v));
   }
   void string(const json& o, const std::string& w, const char* key, bool required = false) const {
     if (const json* v = get(o, w, key, required); v && !v->is_string())
-      bad(at(w, key), "must be a string, not " + v->dump());
+      bad(at(w, key), "must be a string, not " + shownJson(*v));
   }
   void boolean(const json& o, const std::string& w, const char* key) const {
     if (const json* v = get(o, w, key, false); v && !v->is_boolean())
-      bad(at(w, key), "must be true or false, not " + v->dump());
+      bad(at(w, key), "must be true or false, not " + shownJson(*v));
   }
   void oneOf(const json& o, const std::string& w, const char* key, std::initializer_list<const char*> values,
              bool required = false) const {
@@ -215,7 +220,7 @@ class SchemaCheck {
         if (*v == s) return;
     std::string list;
     for (const char* s : values) list += (list.empty() ? "\"" : ", \"") + std::string(s) + "\"";
-    bad(at(w, key), "must be one of " + list + ", not " + v->dump());
+    bad(at(w, key), "must be one of " + list + ", not " + shownJson(*v));
   }
   void uintOneOf(const json& o, const std::string& w, const char* key, std::initializer_list<int> values,
                  bool required = false) const {
@@ -226,7 +231,7 @@ class SchemaCheck {
         if (v->get<double>() == s) return;
     std::string list;
     for (int s : values) list += (list.empty() ? "" : ", ") + std::to_string(s);
-    bad(at(w, key), "must be one of " + list + ", not " + v->dump());
+    bad(at(w, key), "must be one of " + list + ", not " + shownJson(*v));
   }
   // `exact` = 0: any length of at least `minItems`.
   void numberArray(const json& o, const std::string& w, const char* key, size_t exact = 0, size_t minItems = 0,
@@ -260,7 +265,7 @@ class SchemaCheck {
   void object(const json& o, const std::string& w, const char* key, bool required, F&& fn) const {
     const json* v = get(o, w, key, required);
     if (!v) return;
-    if (!v->is_object()) bad(at(w, key), "must be a JSON object, not " + v->dump());
+    if (!v->is_object()) bad(at(w, key), "must be a JSON object, not " + shownJson(*v));
     fn(*v, at(w, key));
   }
   template <class F>
@@ -270,7 +275,7 @@ class SchemaCheck {
     if (!v->is_array()) bad(at(w, key), "must be an array");
     for (size_t i = 0; i < v->size(); ++i) {
       const std::string wi = at(w, key) + "[" + std::to_string(i) + "]";
-      if (!(*v)[i].is_object()) bad(wi, "must be a JSON object, not " + (*v)[i].dump());
+      if (!(*v)[i].is_object()) bad(wi, "must be a JSON object, not " + shownJson((*v)[i]));
       fn((*v)[i], wi);
     }
   }
@@ -279,7 +284,7 @@ class SchemaCheck {
     string(o, w, "name");
     object(o, w, "extensions", false, [&](const json& e, const std::string& we) {
       for (auto it = e.begin(); it != e.end(); ++it)
-        if (!it.value().is_object()) bad(we + "." + it.key(), "must be a JSON object, not " + it.value().dump());
+        if (!it.value().is_object()) bad(we + "." + clipInput(it.key()), "must be a JSON object, not " + shownJson(it.value()));
     });
   }
 
@@ -306,14 +311,14 @@ class SchemaCheck {
           common(p, wp);
           object(p, wp, "attributes", true, [&](const json& a, const std::string& wa) {
             for (auto it = a.begin(); it != a.end(); ++it)
-              if (!isUint(it.value())) bad(wa + "." + it.key(), "must be an accessor index, not " + it.value().dump());
+              if (!isUint(it.value())) bad(wa + "." + clipInput(it.key()), "must be an accessor index, not " + shownJson(it.value()));
           });
           uint(p, wp, "indices");
           uint(p, wp, "material");
           uintOneOf(p, wp, "mode", {0, 1, 2, 3, 4, 5, 6});
           objects(p, wp, "targets", [&](const json& t, const std::string& wt) {
             for (auto it = t.begin(); it != t.end(); ++it)
-              if (!isUint(it.value())) bad(wt + "." + it.key(), "must be an accessor index, not " + it.value().dump());
+              if (!isUint(it.value())) bad(wt + "." + clipInput(it.key()), "must be an accessor index, not " + shownJson(it.value()));
           });
         },
         true);
@@ -401,13 +406,45 @@ bool harmlessRequiredExtension(const std::string& name) {
 // The glTF file on disk: read, split (GLB), JSON-checked, then handed to tinygltf.
 
 std::vector<unsigned char> readFile(const std::string& path) {
-  checkSceneInput(path);
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error("cannot open the file", path, "check the path");
-  std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw Error("cannot read the file", path);
-  if (bytes.empty()) throw Error("the file is empty", path, kMalformed);
-  return bytes;
+  const std::string text = readSceneBytes(path);
+  if (text.empty()) throw Error("the file is empty", path, kMalformed);
+  return std::vector<unsigned char>(text.begin(), text.end());
+}
+
+// tinygltf's file access for external buffers and images, held to the scene file's rules (a regular file
+// of bounded size, never a FIFO: tinygltf's own existence check opens the file and would block on one).
+// The first refusal is kept and reported as it is.
+struct ExternalFiles {
+  std::string scene;  // the .gltf/.glb naming them
+  std::optional<Error> refused;
+  uint64_t bytes = 0;  // over every external file: no more than one scene file may hold
+};
+
+bool externalExists(const std::string& path, void*) {
+  std::error_code ec;
+  return std::filesystem::exists(std::filesystem::symlink_status(path, ec)) && !ec;
+}
+
+std::string externalPath(const std::string& path, void*) { return path; }  // no shell expansion
+
+bool externalRead(std::vector<unsigned char>* out, std::string* err, const std::string& path, void* user) {
+  auto& files = *static_cast<ExternalFiles*>(user);
+  try {
+    const std::string text =
+        readSceneBytes(path, files.scene, kMaxSceneFileBytes - std::min(files.bytes, kMaxSceneFileBytes));
+    files.bytes += text.size();
+    out->assign(text.begin(), text.end());
+    return true;
+  } catch (const Error& e) {
+    if (!files.refused) files.refused = e;
+    if (err) *err += "refused";
+    return false;
+  }
+}
+
+bool externalWrite(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+  if (err) *err += "coneshadow writes no glTF files";
+  return false;
 }
 
 uint32_t readU32(const unsigned char* p) {
@@ -420,10 +457,10 @@ std::string glbJson(const std::vector<unsigned char>& b, const std::string& path
     throw Error("not a binary glTF file (no 'glTF' magic)", path, kMalformed);
   if (readU32(&b[4]) != 2)
     throw Error("GLB container version " + std::to_string(readU32(&b[4])) + ", expected 2", path, kMalformed);
-  if (readU32(&b[8]) > b.size())
-    throw Error(
-        "GLB header says " + std::to_string(readU32(&b[8])) + " bytes, the file has " + std::to_string(b.size()), path,
-        kMalformed);
+  if (readU32(&b[8]) != b.size())  // shorter: bytes past the container; longer: a cut file
+    throw Error("GLB header length says " + std::to_string(readU32(&b[8])) + " bytes, the file has " +
+                    std::to_string(b.size()),
+                path, kMalformed);
   const uint32_t jsonLength = readU32(&b[12]);
   if (std::memcmp(&b[16], "JSON", 4) != 0) throw Error("the first GLB chunk is not JSON", path, kMalformed);
   if (jsonLength > b.size() - 20) throw Error("the GLB JSON chunk runs past the end of the file", path, kMalformed);
@@ -513,30 +550,36 @@ tinygltf::Model parseFile(const std::string& path, std::ostream& warn) {
   try {
     j = json::parse(text);
   } catch (const json::exception& e) {
-    throw Error("not valid JSON: " + oneLine(e.what()), path, kMalformed);
+    throw Error("not valid JSON: " + oneLineClipped(e.what(), 160), path, kMalformed);
   }
   // The version first: a glTF 1.0 file differs in structure, and would otherwise read as malformed.
   if (j.is_object() && j.contains("asset") && j["asset"].is_object() && j["asset"].contains("version") &&
       j["asset"]["version"].is_string()) {
     const std::string version = j["asset"]["version"].get<std::string>();
     if (version.rfind("1.", 0) == 0 || version == "1")
-      throw Error("this is a glTF " + version + " file; coneshadow reads glTF 2.0", path,
+      throw Error("this is a glTF " + clipInput(version) + " file; coneshadow reads glTF 2.0", path,
                   "convert it, e.g. `assimp export in.gltf out.glb`");
     if (version.rfind("2.", 0) != 0)
-      throw Error("glTF version '" + version + "' is not one coneshadow knows (it reads 2.x)", path,
+      throw Error("glTF version " + quoteInput(version) + " is not one coneshadow knows (it reads 2.x)", path,
                   "re-export it as glTF 2.0");
   }
+  // minVersion: the oldest reader the file allows; one newer than 2.0 uses what a 2.0 reader misreads.
+  if (j.is_object() && j.contains("asset") && j["asset"].is_object() && j["asset"].contains("minVersion") &&
+      j["asset"]["minVersion"].is_string() && j["asset"]["minVersion"] != "2.0")
+    throw Error("asset.minVersion is " + quoteInput(j["asset"]["minVersion"].get<std::string>()) +
+                    "; coneshadow reads glTF 2.0 only",
+                path, "re-export it for glTF 2.0");
   if (j.is_object())
     for (auto it = j.begin(); it != j.end(); ++it)
       if (jsonDepth(it.value(), kMaxJsonDepth - 1) > kMaxJsonDepth - 1)
-        throw Error("the JSON nests more than " + std::to_string(kMaxJsonDepth) + " levels deep (under \"" + it.key() +
-                        "\")",
+        throw Error("the JSON nests more than " + std::to_string(kMaxJsonDepth) + " levels deep (under \"" +
+                        clipInput(it.key()) + "\")",
                     path, "a glTF needs about 8 levels; remove the deeply nested extras or extensions");
   SchemaCheck(path).root(j);
   if (const auto it = j.find("extensionsRequired"); it != j.end())
     for (const json& e : *it)
       if (!harmlessRequiredExtension(e.get<std::string>()))
-        throw Error("requires the extension " + e.get<std::string>() + ", which coneshadow does not implement", path,
+        throw Error("requires the extension " + clipInput(e.get<std::string>()) + ", which coneshadow does not implement", path,
                     "re-export the file without it");
 
   if (integralNumbersAsIntegers(j)) {  // what tinygltf reads is what was validated
@@ -546,6 +589,9 @@ tinygltf::Model parseFile(const std::string& path, std::ostream& warn) {
 
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(noImageDecode, nullptr);
+  ExternalFiles external{path, std::nullopt, 0};
+  loader.SetFsCallbacks({externalExists, externalPath, externalRead, externalWrite, &external});
+  const std::optional<Error>& fileRefused = external.refused;
   tinygltf::Model model;
   std::string err, warnText;
   std::string baseDir = std::filesystem::path(path).parent_path().string();
@@ -555,8 +601,10 @@ tinygltf::Model parseFile(const std::string& path, std::ostream& warn) {
                          : loader.LoadASCIIFromString(&model, &err, &warnText, text.data(),
                                                       static_cast<unsigned int>(text.size()), baseDir);
   // tinygltf sometimes reports an error yet returns true; either way the file is not usable.
-  if (!ok || !err.empty()) throw Error(oneLine(err.empty() ? "tinygltf could not load it" : err), path, kMalformed);
-  if (!oneLine(warnText).empty()) warn << path << ": " << oneLine(warnText) << "\n";
+  if (fileRefused) throw *fileRefused;
+  if (!ok || !err.empty())
+    throw Error(oneLineClipped(oneLine(err.empty() ? "tinygltf could not load it" : err), 200), path, kMalformed);
+  if (!oneLine(warnText).empty()) warn << path << ": " << oneLineClipped(oneLine(warnText), 200) << "\n";
   return model;
 }
 
@@ -665,6 +713,10 @@ class Loader {
   void addCameras();
   void addLight(int light, const glm::dmat4& world);
   std::string uniqueName(std::string name, bool camera) const;
+  std::string nodeName(int n) const {
+    const std::string& name = model_.nodes[size_t(n)].name;
+    return name.empty() ? "" : " (" + quoteInput(name) + ")";
+  }
 };
 
 void Loader::validateBuffers() const {
@@ -803,6 +855,9 @@ std::vector<int> Loader::sceneRoots() const {
   }
   const size_t s = model_.defaultScene >= 0 ? size_t(model_.defaultScene) : 0;
   for (int r : model_.scenes[s].nodes) {
+    if (std::find(roots.begin(), roots.end(), r) != roots.end())
+      bad("scene " + std::to_string(s) + " lists node " + std::to_string(r) + nodeName(r) +
+          " twice among its roots (its geometry would be drawn twice)");
     if (parent[size_t(r)] != -1)
       bad("scene " + std::to_string(s) + " lists node " + std::to_string(r) + " as a root, but it is a child of node " +
           std::to_string(parent[size_t(r)]));
@@ -823,6 +878,15 @@ glm::dmat4 Loader::localMatrix(int n) const {
   glm::dmat4 m(1.0);
   if (node.matrix.size() == 16) {
     for (int i = 0; i < 16; ++i) m[i / 4][i % 4] = node.matrix[size_t(i)];  // column-major, as glTF
+    // An affine matrix (glTF wants one decomposable to TRS): a projective one or w = 0 maps points to
+    // infinity or divides by what the flattening ignores.
+    const glm::dvec4 row(m[0][3], m[1][3], m[2][3], m[3][3]);
+    if (std::abs(row.x) > 1e-6 || std::abs(row.y) > 1e-6 || std::abs(row.z) > 1e-6 || !(std::abs(row.w - 1) <= 1e-6)) {
+      char text[96];
+      std::snprintf(text, sizeof text, "(%g, %g, %g, %g)", row.x, row.y, row.z, row.w);
+      bad("node " + std::to_string(n) + nodeName(n) + " has a matrix whose last row is " + text +
+          ", not (0, 0, 0, 1): projective transforms are not glTF");
+    }
   } else {
     if (node.translation.size() == 3)
       m = glm::translate(m, glm::dvec3(node.translation[0], node.translation[1], node.translation[2]));
@@ -1131,7 +1195,7 @@ void Loader::readAnimations() {
       } else if (ch.target_path == "scale") {
         c.path = AnimationPath::Scale;
       } else {
-        bad(cname + " targets path '" + ch.target_path + "' (must be translation, rotation, scale or weights)");
+        bad(cname + " targets path " + quoteInput(ch.target_path) + " (must be translation, rotation, scale or weights)");
       }
       if (ch.target_node < 0) continue;  // no node: nothing this file animates (extensions may use it)
       if (size_t(ch.target_node) >= nodeCount)
@@ -1153,7 +1217,7 @@ void Loader::readAnimations() {
         cubicSpline = true;
         ++cubic;
       } else {
-        bad(sname + " has interpolation '" + s.interpolation + "' (must be LINEAR, STEP or CUBICSPLINE)");
+        bad(sname + " has interpolation " + quoteInput(s.interpolation) + " (must be LINEAR, STEP or CUBICSPLINE)");
       }
       c.times = readScalars(s.input, sname + " input");
       if (s.output < 0 || size_t(s.output) >= model_.accessors.size())
@@ -1270,6 +1334,14 @@ void Loader::addCameras() {
     cam.yfov = float(p.yfov);
     cam.znear = float(p.znear);
     cam.zfar = p.zfar != 0 ? float(p.zfar) : std::max(reach, cam.znear * 2);
+    // The scene's farthest point from the eye: a corner of the bounds.
+    double farthest = 0;
+    for (int k = 0; k < 8; ++k) {
+      const glm::dvec3 corner((k & 1) ? scene_.boundsMax.x : scene_.boundsMin.x, (k & 2) ? scene_.boundsMax.y : scene_.boundsMin.y,
+                              (k & 4) ? scene_.boundsMax.z : scene_.boundsMin.z);
+      farthest = std::max(farthest, glm::length(corner - glm::dvec3(cam.eye)));
+    }
+    checkFileCamera(cam, path_, name + (c.name.empty() ? "" : " (" + quoteInput(c.name) + ")"), farthest);
     scene_.cameras.push_back(cam);
   }
 }
@@ -1315,6 +1387,8 @@ Scene Loader::load() {
 AnimatedScene loadAnimatedGltf(const std::string& path, std::ostream& warn) {
   try {
     return Loader(path, warn).loadAnimated();
+  } catch (const Error& e) {
+    throw clippedError(e);
   } catch (const std::bad_alloc&) {
     throw Error("out of memory while loading", path, "the file is too large or malformed");
   }
@@ -1323,6 +1397,8 @@ AnimatedScene loadAnimatedGltf(const std::string& path, std::ostream& warn) {
 Scene loadGltf(const std::string& path, std::ostream& warn) {
   try {
     return Loader(path, warn).load();
+  } catch (const Error& e) {
+    throw clippedError(e);
   } catch (const std::bad_alloc&) {  // e.g. an accessor count of billions with no buffer behind it
     throw Error("out of memory while loading", path, "the file is too large or malformed");
   }

@@ -10,6 +10,7 @@
 #include <limits>
 
 #include "core/error.h"
+#include "core/input_guard.h"
 #include "core/scene.h"
 
 namespace cs {
@@ -142,17 +143,18 @@ namespace cs {
 void checkSceneInput(const std::string& path, const std::string& from) {
   namespace fs = std::filesystem;
   const std::string where = from.empty() ? path : from;
+  const std::string shown = quoteInput(path, 160);
   std::error_code ec;
   const fs::file_status st = fs::status(path, ec);
-  if (ec || !fs::exists(st)) throw Error("cannot open '" + path + "': no such file", where, "check the path");
+  if (ec || !fs::exists(st)) throw Error("cannot open " + shown + ": no such file", where, "check the path");
+  if (fs::is_directory(st)) throw Error(shown + " is a folder, not a file", where, "give the scene file itself");
   if (!fs::is_regular_file(st))
-    throw Error("'" + path + "' is not a regular file (" +
-                    std::string(fs::is_directory(st) ? "a folder" : fs::is_fifo(st) ? "a FIFO" : "a device or socket") + ")",
+    throw Error(shown + " is not a regular file (" + std::string(fs::is_fifo(st) ? "a FIFO" : "a device or socket") + ")",
                 where, "give the scene file itself");
   const uint64_t bytes = fs::file_size(path, ec);
-  if (ec) throw Error("cannot read the size of '" + path + "'", where, "check the permissions");
+  if (ec) throw Error("cannot read the size of " + shown, where, "check the permissions");
   if (bytes > kMaxSceneFileBytes)
-    throw Error("'" + path + "' is " + std::to_string(bytes >> 20) + " MiB, over the " +
+    throw Error(shown + " is " + std::to_string(bytes >> 20) + " MiB, over the " +
                     std::to_string(kMaxSceneFileBytes >> 20) + " MiB a scene file may have",
                 where, "split the scene or decimate it");
 }
@@ -179,20 +181,25 @@ Scene loadSceneFile(const std::string& path, std::ostream& warn, std::optional<d
   std::string ext = std::filesystem::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   Scene scene;
-  if (ext == ".aff") {
-    scene = loadAff(path, warn, time);
-  } else if (time) {
-    throw UsageError("--time places a BART (.aff) scene in time; " + path + " is not one (use compare --animate)");
-  } else if (ext == ".gltf" || ext == ".glb") {
-    scene = loadGltf(path, warn);
-  } else if (assimpReads(path)) {
-    scene = loadAssimp(path, warn);
-  } else {
-    throw Error("unknown file type '" + ext + "'", path,
-                "coneshadow reads glTF 2.0 (.gltf, .glb), BART (.aff) and, through assimp, " + assimpFormats());
+  try {
+    if (ext == ".aff") {
+      scene = loadAff(path, warn, time);
+    } else if (time) {
+      throw UsageError("--time places a BART (.aff) scene in time; " + oneLineClipped(path, 160) +
+                       " is not one (use compare --animate)");
+    } else if (ext == ".gltf" || ext == ".glb") {
+      scene = loadGltf(path, warn);
+    } else if (assimpReads(path)) {
+      scene = loadAssimp(path, warn);
+    } else {
+      throw Error("unknown file type " + quoteInput(ext, 20), path,
+                  "coneshadow reads glTF 2.0 (.gltf, .glb), BART (.aff) and, through assimp, " + assimpFormats());
+    }
+    scene.sourcePath = path;
+    scene.sourceHash = fileHash(path);
+  } catch (const Error& e) {
+    throw clippedError(e);  // every loader's message: one line, input quoted within bounds
   }
-  scene.sourcePath = path;
-  scene.sourceHash = fileHash(path);
   return scene;
 }
 

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# The scene loaders under libFuzzer (fuzz/): one fuzzer per loader (glTF, GLB, BART .aff) built with clang,
+# The scene loaders under libFuzzer (fuzz/): one fuzzer per loader (glTF, GLB, BART .aff, and assimp's OBJ,
+# PLY, STL, Collada and OFF) built with clang,
 # AddressSanitizer and UndefinedBehaviorSanitizer into build-fuzz/, seeded from fuzz/seeds and assimp's glTF
 # test models (broken ones included), each run for CONESHADOW_FUZZ_SECONDS (default 60). A crash, sanitizer
 # report, exception other than cs::Error, hang (over 25 s on one input) or memory blow-up (over 2 GiB) fails
@@ -29,7 +30,7 @@ cmake --build "$OUT" -j"${CONESHADOW_FUZZ_BUILD_JOBS:-$(nproc)}" >> "$OUT/build.
   grep -E "error|Error" "$OUT/build.log" | head -40 >&2; echo "fuzz: build failed; log in build-fuzz/build.log" >&2; exit 1; }
 
 # Seeds: glTF files from the repository and assimp's test models, external buffers inlined, each in both
-# containers; the BART seeds are fuzz/seeds/aff as they are.
+# containers; the BART and assimp seeds are fuzz/seeds/aff and fuzz/seeds/assimp as they are.
 rm -rf "$OUT/seeds"
 gltf_files=(fuzz/seeds/gltf/*.gltf)
 while IFS= read -r -d '' f; do gltf_files+=("$f"); done < <(find /usr/share/assimp/models/glTF2 \( -name '*.gltf' -o -name '*.glb' \) -print0 | sort -z)
@@ -39,16 +40,19 @@ export TMPDIR="$OUT/tmp"  # the fuzzers' input folders; one left by a crash stay
 mkdir -p "$TMPDIR"
 export UBSAN_OPTIONS=print_stacktrace=1
 failed=()
-for loader in gltf glb aff; do
+for loader in gltf glb aff assimp; do
   case $loader in
     aff) seeds=fuzz/seeds/aff dict=fuzz/aff.dict ;;
+    assimp) seeds=fuzz/seeds/assimp dict=fuzz/assimp.dict ;;
     *) seeds=$OUT/seeds/$loader dict=fuzz/gltf.dict ;;
   esac
   findings=$OUT/findings/$loader
   rm -rf "$findings"
   mkdir -p "$findings" "$OUT/corpus/$loader"
   echo "fuzz: $loader for ${SECONDS_EACH} s"
-  if "$OUT/${loader}_fuzzer" -max_total_time="$SECONDS_EACH" -timeout=25 -rss_limit_mb=2048 -max_len=65536 \
+  lsan=
+  [ "$loader" = assimp ] && lsan=suppressions=$PWD/fuzz/assimp.lsan
+  if LSAN_OPTIONS=$lsan "$OUT/${loader}_fuzzer" -max_total_time="$SECONDS_EACH" -timeout=25 -rss_limit_mb=2048 -max_len=65536 \
       -seed="$FUZZ_SEED" -dict="$dict" -artifact_prefix="$findings/" -print_final_stats=1 \
       "$OUT/corpus/$loader" "$seeds" > "$OUT/$loader.log" 2>&1; then
     echo "fuzz: $loader: $(grep -o 'stat::number_of_executed_units: *[0-9]*' "$OUT/$loader.log" | grep -o '[0-9]*$') inputs, no findings"
