@@ -36,7 +36,8 @@ glm::vec3 parseVec3(const std::string& flag, const std::string& v) {
     char* end = nullptr;
     errno = 0;
     const float x = std::strtof(part.c_str(), &end);
-    if (i >= 3 || part.empty() || *end != '\0' || errno || !std::isfinite(x))
+    // ERANGE with a finite result is an underflow to a denormal or zero: a finite number all the same.
+    if (i >= 3 || part.empty() || *end != '\0' || (errno && errno != ERANGE) || !std::isfinite(x))
       throw UsageError(flag + " wants three finite numbers X,Y,Z, got '" + v + "'");
     out[i++] = x;
   }
@@ -48,7 +49,7 @@ double parseNumber(const std::string& flag, const std::string& v, double lo, dou
   char* end = nullptr;
   errno = 0;
   const double x = std::strtod(v.c_str(), &end);
-  if (v.empty() || *end != '\0' || errno || !std::isfinite(x) || !(x >= lo && x <= hi))
+  if (v.empty() || *end != '\0' || (errno && errno != ERANGE) || !std::isfinite(x) || !(x >= lo && x <= hi))
     throw UsageError(flag + " wants " + what + ", got '" + v + "'");
   return x;
 }
@@ -330,6 +331,9 @@ Options parseArgs(int argc, char** argv) {
   }
   if (sub == render || sub == compare) refuseUnknown(sub->remaining(), *sub, sub == render ? *compare : *render);
   if (sub == info && o.scene.empty()) throw UsageError("info needs a SCENE (a .gltf/.glb file, or builtin)");
+  if ((sub == info || sub == devices) && !sub->remaining().empty())
+    throw UsageError(sub->get_name() + " takes " + (sub == info ? "one SCENE" : "no arguments") + "; '" +
+                     sub->remaining().front().substr(0, 60) + "' is one too many");
   if (sub == table && o.folders.empty()) throw UsageError("results-table needs one or more folders written by coneshadow compare");
   if (sub != render && sub != compare) return o;
 
@@ -337,6 +341,11 @@ Options parseArgs(int argc, char** argv) {
   if (!raw.light.empty()) o.light = parseVec3("--light", raw.light);
   if (!raw.time.empty()) o.sceneTime = parseNumber("--time", raw.time, -1e300, 1e300, "a finite number (scene time)");
   if (!raw.views.empty()) o.views = splitList("--views", raw.views);
+  // Given but empty (--method ''): a run of nothing is a mistake, not a request for the default.
+  for (const char* flag : {"--method", "--methods"})
+    if (const CLI::Option* opt = sub->get_option_no_throw(flag); opt && opt->count() > 0 &&
+        (std::string(flag) == "--method" ? raw.method : raw.methods).empty())
+      throw UsageError(std::string(flag) + " names no method: give one, e.g. " + flag + " cone (see `coneshadow help`)");
   if (!raw.method.empty()) o.methods.push_back(raw.method);
   if (!raw.methods.empty())
     for (const std::string& m : splitList("--methods", raw.methods)) o.methods.push_back(m);

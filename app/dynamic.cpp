@@ -246,13 +246,16 @@ int runDynamicCompare(const Options& o) {
   const Scene& rest = anim.rest;
   std::vector<Camera> cameras = selectViews(rest, o);
   const glm::vec3 light = chooseLight(rest, o);
+  // The device before the rows whose methods use it: on an error they are destroyed first, while the
+  // device they call into still exists.
+  std::unique_ptr<vk::Context> ctx;
   std::vector<std::vector<Track>> tracks;
   for (size_t v = 0; v < cameras.size(); ++v) tracks.push_back(makeTracks(o, !animated));
   log << "scene " << rest.name << ": " << rest.triangleCount() << " triangles, " << cameras.size() << " view(s), "
       << tracks.front().size() << " method row(s), " << n << " frame(s), " << o.width << "x" << o.height << "; "
       << motion << std::endl;
 
-  auto ctx = commandContext(o);
+  ctx = commandContext(o);
   const std::string device = ctx->driverDescription();
   log << "device: " << device << std::endl;
   // Rows this device cannot run (MethodInfo::unsupported) are left out, each said once.
@@ -286,6 +289,12 @@ int runDynamicCompare(const Options& o) {
       double uploadMs = 0;
       if (animated) {
         anim.pose(time, scene);
+        // An animation may carry the scene past what fp32 rays reach (a key of 1e37): refused per frame,
+        // by the rule a light is refused by, before any method or Embree traces it.
+        scene.computeBounds();
+        if (const std::string why = lightRangeProblem(light, scene.boundsMin, scene.boundsMax); !why.empty())
+          throw Error(why, anim.rest.name + " at t = " + num(time, 4),
+                      "the animation moves the scene out of range: check its keys");
         // A BART camera track moves the `animated` view (unless --moving-camera orbits it instead).
         if (anim.aff && !o.movingCamera && camera.name == "animated")
           if (const Camera* tracked = scene.findCamera("animated")) cam = *tracked;

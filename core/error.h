@@ -1,6 +1,7 @@
 // One error type for setup failures and bad input: what went wrong, where, and what to do.
 // The CLI prints it as one line and exits non-zero; it is never compiled out.
 #pragma once
+#include <cstdlib>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -28,13 +29,21 @@ struct UsageError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// Where an internal check or a Vulkan call failed, for a message: `what` ("internal check", "Vulkan"),
+// with the source file and line only under CONESHADOW_DEBUG=1 (a user's message names no source path).
+inline std::string sourceWhere(const char* what, const char* file, int line) {
+  const char* debug = std::getenv("CONESHADOW_DEBUG");
+  if (debug && *debug && std::string(debug) != "0") return std::string(what) + " at " + file + ":" + std::to_string(line);
+  return what;
+}
+
 // CHECK-style helper that prints both values; stays in release builds.
 #define CS_CHECK(cond, msg)                                                                  \
   do {                                                                                       \
     if (!(cond)) {                                                                           \
       std::ostringstream cs_check_os_;                                                       \
       cs_check_os_ << msg;                                                                   \
-      throw ::cs::Error(cs_check_os_.str(), std::string(__FILE__) + ":" + std::to_string(__LINE__)); \
+      throw ::cs::Error(cs_check_os_.str(), ::cs::sourceWhere("internal check", __FILE__, __LINE__)); \
     }                                                                                        \
   } while (0)
 

@@ -44,7 +44,10 @@ TEST(Cli, UsageErrorsExitWithTwo) {
                            "render --rmsm-analysis 32", "render --rmsm-analysis 0",
                            // size settings past their own limits, refused before any work (issue 17)
                            "render --traversal-memory 1", "render --traversal-memory 0.5", "render --rmsm-page 33",
-                           "render --rmsm-pool 1", "compare --rmsm-pool 1K", "compare --rmsm-max-res 100"}) {
+                           "render --rmsm-pool 1", "compare --rmsm-pool 1K", "compare --rmsm-max-res 100",
+                           // a flag given empty runs nothing; an extra argument is refused (issue 48)
+                           "render --method ''", "render --methods ''", "compare --methods ''",
+                           "info builtin extra", "devices extra"}) {
     CliRun r = cli(args);
     EXPECT_EQ(r.code, 2) << "args: " << args << "\n" << r.out;
     EXPECT_NE(r.out.find("coneshadow: "), std::string::npos) << args;
@@ -87,6 +90,14 @@ TEST(Cli, AFrameWhoseBandCoversItsSamplesIsUndecidedInEveryResult) {
   const std::string report((std::istreambuf_iterator<char>(md)), {});
   EXPECT_NE(report.find("| wall | undecided: the ambiguity band covers"), std::string::npos) << report.substr(0, 2000);
   EXPECT_EQ(report.find("| wall | cone"), std::string::npos) << "no method is called exact on an undecided view";
+  fs::remove_all(out);
+}
+
+TEST(Cli, ATinyLightCoordinateIsAFiniteNumber) {
+  // 1e-45 underflows fp32 to a denormal: finite, so a light like any other.
+  fs::path out = tempDir("tinylight");
+  CliRun r = cli("render --method cone --width 8 --height 8 --frames 1 --quiet --light 1e-45,3,1e-300 --out " + out.string());
+  EXPECT_EQ(r.code, 0) << r.out;
   fs::remove_all(out);
 }
 

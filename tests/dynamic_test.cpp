@@ -211,6 +211,28 @@ TEST(AnimatedGltf, HandWrittenTranslationAnimationMovesTheTriangle) {
   EXPECT_EQ(s.triangleCount(), 1u);
 }
 
+// An animation whose scale key carries the triangle to 1e37 (issue 48): past what fp32 rays reach from
+// the light. compare --animate stops with one line at the first such frame, before Embree or a method
+// traces it, and every owner dies in order (no abort, no output folder).
+TEST(AnimatedGltf, AnAnimationPastFp32RangeIsOneClearErrorNotACrash) {
+  TinyGltf g;
+  const float keys[9] = {1, 1, 1, 1, 1, 1, 1e37f, 1e37f, 1e37f};
+  std::fstream(g.dir / "tiny.bin", std::ios::binary | std::ios::in | std::ios::out)
+      .seekp(48)
+      .write(reinterpret_cast<const char*>(keys), sizeof keys);
+  g.doc["animations"][0]["channels"][0]["target"]["path"] = "scale";
+  const std::string path = g.write();
+  const fs::path out = g.dir / "out";
+  for (const std::string methods : {"cone", "cone,cubesm"}) {
+    const test::CliRun r = test::cli("compare " + path + " --animate 3 --methods " + methods +
+                                     " --light 0.3,2,0.5 --width 24 --height 24 --quiet --out " + out.string());
+    EXPECT_EQ(r.code, 1) << r.out;
+    EXPECT_NE(r.out.find("coneshadow: error: tiny at t = 2"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("check its keys"), std::string::npos) << r.out;
+    EXPECT_FALSE(fs::exists(out));
+  }
+}
+
 void expectLoadError(TinyGltf& g, const std::string& fragment) {
   const std::string path = g.write();
   std::ostringstream warn;

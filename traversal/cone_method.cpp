@@ -149,7 +149,7 @@ class ConeMethod : public ShadowMethod {
   // A light too far for fp32 ray lengths would give a silently wrong mask: refuse it (epsilon.h).
   void refuseUnreachableLight(glm::vec3 light) const {
     if (std::string why = lightRangeProblem(light, boundsLo_, boundsHi_); !why.empty())
-      throw Error(why, "cone path", "the limit is eval/epsilon.h's kMaxLightDistance");
+      throw Error(why, "cone path", "the limit is 2^62, documented in docs/LIMITS.md");
   }
 
   // The per-pixel buffers (the rays, the two-pass variant's update, the visibility words) for a G-buffer

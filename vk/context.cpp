@@ -47,7 +47,7 @@ void fail(VkResult r, const char* call, const char* file, int line) {
     hint = "the driver failed without saying why; drivers do when they cannot get memory or start their "
            "threads: raise the process's limits (ulimit -v, -u), or try another device with --device";
   throw Error(std::string(call) + " returned " + resultName(r),
-              std::string(file) + ":" + std::to_string(line), hint);
+              sourceWhere("Vulkan", file, line), hint);
 }
 
 namespace {
