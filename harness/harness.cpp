@@ -47,7 +47,7 @@ void RunRecorder::add(MethodOutput out) {
   t_.totals.push_back(out.totalMs);
   if (out.visibility != first_) t_.deterministic = false;
   if (outs_.empty() || lastFrame_) mask_ = std::move(out.visibility);
-  out.visibility = {};
+  std::vector<float>().swap(out.visibility);  // `= {}` would keep the mask's memory for every frame
   outs_.push_back(std::move(out));
 }
 
