@@ -242,53 +242,273 @@ bool count(std::string_view w, uint64_t& v) {
          "the header is wrong or the file is cut short; re-export it");
 }
 
-// PLY: each element's count against the bytes after the header (ASCII: at least 2 a value; binary: the
-// exact size of its scalar properties plus each list's count).
+// PLY, as assimp 5.2.5 reads it (code/AssetLib/Ply). The header must be lines of text (LF or CRLF, no
+// empty lines, no other control bytes) whose second line names a known format, with every property of an
+// element right below its element line: assimp ends an element's properties at the first other line and
+// then drops the properties after it (and a comment there makes it parse stale bytes as a property), so the
+// data would be read at the wrong offsets. Types must be ones assimp knows (an unknown one ends the
+// properties the same way) and a list's count type an integer. Then the data is walked element by element:
+// each element's count against the bytes that could hold it; every list count non-negative and within the
+// data (assimp allocates what it claims); every face with at least one vertex index (assimp makes a face of
+// none, which its triangulation aborts the process on) and as many as its texcoord list needs (assimp reads
+// the indices at half the texcoord positions); a binary body exactly as long as its elements, an ASCII one
+// an element a line. At most one vertex and one face element (assimp sizes its arrays by the first and
+// writes the second past them), and no tristrips (assimp keeps one triangle of each strip, leaves the other
+// faces empty and aborts on them).
+struct PlyType {
+  uint8_t bytes = 0;  // 0: unknown
+  bool isInteger = false, isSigned = false;
+};
+
+PlyType plyType(std::string_view t) {
+  if (t == "char" || t == "int8") return {1, true, true};
+  if (t == "uchar" || t == "uint8") return {1, true, false};
+  if (t == "short" || t == "int16") return {2, true, true};
+  if (t == "ushort" || t == "uint16") return {2, true, false};
+  if (t == "int" || t == "int32") return {4, true, true};
+  if (t == "uint" || t == "uint32") return {4, true, false};
+  if (t == "float" || t == "float32") return {4, false, false};
+  if (t == "double" || t == "float64" || t == "double64") return {8, false, false};
+  return {};
+}
+
+struct PlyProperty {
+  std::string name;
+  bool list = false;
+  PlyType countType, type;
+};
+
+struct PlyElement {
+  std::string name;
+  uint64_t count = 0;
+  std::vector<PlyProperty> properties;
+  int vertexIndices = -1, texcoords = -1;  // the list properties assimp reads a face's from (the last)
+  uint64_t minBytes() const {  // one instance, its lists empty (binary) or a value each (ASCII: 2 bytes)
+    uint64_t n = 0;
+    for (const PlyProperty& p : properties) n += p.list ? p.countType.bytes : p.type.bytes;
+    return n;
+  }
+};
+
 void checkPly(const std::string& path, std::string_view b) {
-  const size_t end = b.find("end_header");
-  // Without it assimp's PLY reader reads past the end of the file forever.
-  if (end == std::string_view::npos) refuse(path, "the PLY header has no end_header line", "re-export it");
-  const size_t bodyAt = b.find('\n', end);
-  const size_t body = bodyAt == std::string_view::npos ? 0 : b.size() - bodyAt - 1;
-  bool ascii = true;
-  struct Element {
-    std::string name;
-    uint64_t count = 0;
-    uint64_t bytes = 0;  // per element, at least
-  };
-  std::vector<Element> elements;
-  auto size = [](std::string_view type) -> uint64_t {
-    if (type == "char" || type == "uchar" || type == "int8" || type == "uint8") return 1;
-    if (type == "short" || type == "ushort" || type == "int16" || type == "uint16") return 2;
-    if (type == "double" || type == "float64") return 8;
-    return 4;
-  };
-  checkNumberLengths(path, b.substr(0, end));
-  for (std::string_view line : lines(b.substr(0, end))) {
-    const auto w = words(line);
-    if (w.empty()) continue;
-    if (w[0] == "format" && w.size() > 1) ascii = w[1] == "ascii";
-    if (w[0] == "element" && w.size() > 2) {
-      uint64_t n = 0;
-      if (!count(w[2], n))
-        refuse(path, "PLY element " + quoteInput(w[1]) + " has count " + quoteInput(w[2]) + ", not a whole number below 10^19",
-               "re-export it");
-      elements.push_back({std::string(w[1]), n, 0});
+  const char* const fix = "re-export it";
+  // The header's lines, each with where it starts.
+  std::vector<std::pair<std::string_view, size_t>> header;
+  size_t bodyAt = std::string_view::npos;
+  for (size_t at = 0; at < b.size();) {
+    size_t end = at;
+    while (end < b.size() && b[end] != '\n') {
+      const auto c = static_cast<unsigned char>(b[end]);
+      if ((c < 0x20 && c != '\t' && !(c == '\r' && end + 1 < b.size() && b[end + 1] == '\n')))
+        refuse(path, "the PLY header has a control byte (" + std::to_string(int(c)) + ") at byte " + std::to_string(end),
+               "a PLY header is lines of text; re-export it");
+      ++end;
     }
-    if (w[0] == "property" && !elements.empty()) {
-      Element& e = elements.back();
-      if (ascii) e.bytes += 2;
-      else if (w.size() > 2 && w[1] == "list") e.bytes += size(w[2]);
-      else if (w.size() > 1) e.bytes += size(w[1]);
+    std::string_view line = b.substr(at, end - at);
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    const auto w = words(line);
+    if (w.empty())
+      refuse(path, "the PLY header has an empty line at byte " + std::to_string(at), "assimp misreads the header after it; " + std::string(fix));
+    header.emplace_back(line, at);
+    if (w[0] == "end_header") {
+      bodyAt = std::min(end + 1, b.size());
+      break;
+    }
+    at = end + 1;
+  }
+  // Without it assimp's PLY reader reads past the end of the file forever.
+  if (bodyAt == std::string_view::npos) refuse(path, "the PLY header has no end_header line", fix);
+  checkNumberLengths(path, b.substr(0, bodyAt));
+  if (header.size() < 2 || words(header[1].first)[0] != "format" || words(header[1].first).size() < 2)
+    refuse(path, "the PLY header's second line is not its format line", fix);
+  const std::string_view format = words(header[1].first)[1];
+  const bool ascii = format == "ascii";
+  const bool bigEndian = format == "binary_big_endian";
+  if (!ascii && !bigEndian && format != "binary_little_endian")
+    refuse(path, "the PLY format " + quoteInput(format) + " is not ascii, binary_little_endian or binary_big_endian", fix);
+
+  std::vector<PlyElement> elements;
+  bool inProperties = false;  // the line before was an element or property line
+  int vertexElements = 0, faceElements = 0;
+  for (size_t i = 2; i + 1 < header.size(); ++i) {
+    const auto w = words(header[i].first);
+    const std::string where = " (header line " + std::to_string(i + 1) + ")";
+    if (w[0] == "element") {
+      uint64_t n = 0;
+      if (w.size() != 3) refuse(path, "a PLY element line is not 'element NAME COUNT'" + where, fix);
+      if (!count(w[2], n) || n > std::numeric_limits<uint32_t>::max())
+        refuse(path, "PLY element " + quoteInput(w[1]) + " has count " + quoteInput(w[2]) + ", not a whole number below 2^32",
+               fix);
+      if (w[1] == "tristrips")
+        refuse(path, "PLY element 'tristrips': assimp 5.2.5 reads one triangle of each strip and aborts on the rest",
+               "write the triangles as an element 'face'");
+      if (w[1] == "vertex" && ++vertexElements > 1)
+        refuse(path, "the PLY header has a second element 'vertex'" + where + " (assimp writes it past the first one's)", fix);
+      if (w[1] == "face" && ++faceElements > 1)
+        refuse(path, "the PLY header has a second element 'face'" + where + " (assimp writes it past the first one's)", fix);
+      elements.push_back({std::string(w[1]), n, {}});
+      inProperties = true;
+    } else if (w[0] == "property") {
+      if (!inProperties)
+        refuse(path,
+               "a PLY property line is not right below its element line or another property" + where +
+                   " (assimp drops it and misreads the data)",
+               "keep an element's properties together, comments above the first element; " + std::string(fix));
+      PlyProperty p;
+      const bool list = w.size() > 1 && w[1] == "list";
+      if (w.size() != (list ? 5u : 3u))
+        refuse(path, "a PLY property line is not 'property TYPE NAME' or 'property list COUNTTYPE TYPE NAME'" + where, fix);
+      p.list = list;
+      p.name = std::string(w.back());
+      p.type = plyType(w[list ? 3 : 1]);
+      if (list) p.countType = plyType(w[2]);
+      for (const std::string_view t : list ? std::vector{w[2], w[3]} : std::vector{w[1]})
+        if (plyType(t).bytes == 0)
+          refuse(path, "PLY property " + quoteInput(p.name) + " has the unknown type " + quoteInput(t) + where, fix);
+      if (list && !p.countType.isInteger)
+        refuse(path, "PLY list " + quoteInput(p.name) + " has a count of type " + quoteInput(w[2]) + ", not an integer type", fix);
+      PlyElement& e = elements.back();
+      if (e.name == "face" && list && (p.name == "vertex_indices" || p.name == "vertex_index"))
+        e.vertexIndices = int(e.properties.size());
+      if (e.name == "face" && list && p.name == "texcoord") e.texcoords = int(e.properties.size());
+      e.properties.push_back(std::move(p));
+    } else {
+      // comment, obj_info and lines assimp does not know: it ignores them, but between properties they end the
+      // element's (and a comment there makes it parse stale bytes), so none after the first element.
+      if (!elements.empty())
+        refuse(path, "the PLY header has " + quoteInput(w[0]) + " after an element" + where +
+                         " (assimp misreads the properties around it)",
+               "move comments above the first element line; " + std::string(fix));
+      inProperties = false;
     }
   }
+  for (const PlyElement& e : elements)
+    if (e.name == "face" && e.count > 0 && e.vertexIndices < 0)
+      refuse(path, "PLY element 'face' has no list property 'vertex_indices'", fix);
+
+  // Counts against the bytes (ASCII: at least 2 a value).
+  const size_t body = bodyAt <= b.size() ? b.size() - bodyAt : 0;
   long double needs = 0;
-  for (const Element& e : elements) {
-    needs += (long double)e.count * (long double)std::max<uint64_t>(e.bytes, 1);
-    if (needs > (long double)body)
-      tooMany(path, "PLY element " + quoteInput(e.name), e.count, needs, body);
+  for (const PlyElement& e : elements) {
+    const uint64_t each = ascii ? 2 * e.properties.size() : e.minBytes();
+    needs += (long double)e.count * (long double)std::max<uint64_t>(each, 1);
+    if (needs > (long double)body) tooMany(path, "PLY element " + quoteInput(e.name), e.count, needs, body);
   }
   if (ascii) checkNumberLengths(path, b);
+
+  // A face's vertex index and texcoord list counts: at least one index, and more than half the last texcoord
+  // position assimp reads when it reads them (6 to 8 texcoords).
+  auto checkFace = [&](uint64_t face, uint64_t indices, uint64_t texcoords) {
+    if (indices == 0)
+      refuse(path, "PLY face " + std::to_string(face) + " has no vertex indices (assimp 5.2.5 aborts on it)", fix);
+    if (texcoords >= 6 && texcoords <= 8 && indices <= (texcoords - 1) / 2)
+      refuse(path,
+             "PLY face " + std::to_string(face) + " has " + std::to_string(texcoords) + " texcoords for " +
+                 std::to_string(indices) + " vertex indices (assimp reads past them)",
+             fix);
+  };
+  auto listTooLong = [&](const PlyElement& e, uint64_t i, const PlyProperty& p, const std::string& n, const std::string& room) {
+    refuse(path,
+           "PLY " + quoteInput(e.name) + " " + std::to_string(i) + " has a list " + quoteInput(p.name) + " of " + n +
+               " values, " + room,
+           fix);
+  };
+
+  if (!ascii) {
+    // assimp drops one '\n' right after the end_header line's (for CRLF headers).
+    size_t at = bodyAt < b.size() && b[bodyAt] == '\n' ? bodyAt + 1 : bodyAt;
+    auto read = [&](const PlyType& t) -> int64_t {
+      uint64_t v = 0;
+      for (unsigned k = 0; k < t.bytes; ++k) {
+        const uint64_t byte = static_cast<unsigned char>(b[at + (bigEndian ? t.bytes - 1 - k : k)]);
+        v |= byte << (8 * k);
+      }
+      at += t.bytes;
+      if (t.isSigned && t.bytes < 8 && (v >> (8 * t.bytes - 1)) & 1) return int64_t(v) - (int64_t(1) << (8 * t.bytes));
+      return int64_t(v);
+    };
+    for (const PlyElement& e : elements) {
+      if (e.count > 0 && e.properties.empty())
+        refuse(path, "PLY element " + quoteInput(e.name) + " has " + std::to_string(e.count) + " instances and no properties",
+               fix);
+      for (uint64_t i = 0; i < e.count; ++i) {
+        uint64_t indices = 0, texcoords = 0;
+        for (size_t k = 0; k < e.properties.size(); ++k) {
+          const PlyProperty& p = e.properties[k];
+          if (b.size() - at < (p.list ? p.countType.bytes : p.type.bytes))
+            refuse(path, "the binary PLY data ends inside " + quoteInput(e.name) + " " + std::to_string(i) + " of " +
+                             std::to_string(e.count),
+                   "the file is cut short or its header is wrong; " + std::string(fix));
+          if (!p.list) {
+            at += p.type.bytes;
+            continue;
+          }
+          const int64_t n = read(p.countType);
+          if (n < 0) listTooLong(e, i, p, std::to_string(n), "a negative count");
+          if (uint64_t(n) * p.type.bytes > b.size() - at)
+            listTooLong(e, i, p, std::to_string(n), "more than the " + std::to_string(b.size() - at) + " bytes left hold");
+          at += uint64_t(n) * p.type.bytes;
+          if (int(k) == e.vertexIndices) indices = uint64_t(n);
+          if (int(k) == e.texcoords) texcoords = uint64_t(n);
+        }
+        if (e.name == "face") checkFace(i, indices, texcoords);
+      }
+    }
+    if (at != b.size())
+      refuse(path,
+             "the binary PLY data is " + std::to_string(b.size() - bodyAt) + " bytes, but its elements take " +
+                 std::to_string(at - bodyAt),
+             "the header does not describe the data; " + std::string(fix));
+    return;
+  }
+
+  // ASCII: an instance a line (assimp reads one a line and an empty line as an instance of default values),
+  // its values separated by blanks, each list's count a whole number with that many values after it.
+  size_t at = bodyAt;
+  for (const PlyElement& e : elements) {
+    for (uint64_t i = 0; i < e.count; ++i) {
+      if (at >= b.size())
+        refuse(path, "the PLY data ends before " + quoteInput(e.name) + " " + std::to_string(i) + " of " + std::to_string(e.count),
+               "the file is cut short or its header is wrong; " + std::string(fix));
+      size_t end = b.find('\n', at);
+      if (end == std::string_view::npos) end = b.size();
+      std::string_view line = b.substr(at, end - at);
+      if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+      for (const char c : line)
+        if (static_cast<unsigned char>(c) < 0x20 && c != '\t')
+          refuse(path, "the PLY data has a control byte (" + std::to_string(int(c)) + ") in " + quoteInput(e.name) + " " +
+                           std::to_string(i), fix);
+      const auto w = words(line);
+      if (w.empty())
+        refuse(path, "the PLY data has an empty line where " + quoteInput(e.name) + " " + std::to_string(i) + " should be",
+               "one line an element; " + std::string(fix));
+      size_t next = 0;
+      uint64_t indices = 0, texcoords = 0;
+      for (size_t k = 0; k < e.properties.size(); ++k) {
+        const PlyProperty& p = e.properties[k];
+        if (!p.list) {
+          ++next;
+          continue;
+        }
+        uint64_t n = 0;
+        if (next >= w.size())
+          refuse(path, "PLY " + quoteInput(e.name) + " " + std::to_string(i) + " has no count for its list " + quoteInput(p.name),
+                 fix);
+        if (!count(w[next], n)) listTooLong(e, i, p, quoteInput(w[next]), "not a whole number");
+        ++next;
+        if (n > w.size() - std::min(next, w.size()))
+          listTooLong(e, i, p, std::to_string(n), "more than its line holds");
+        next += n;
+        if (int(k) == e.vertexIndices) indices = n;
+        if (int(k) == e.texcoords) texcoords = n;
+      }
+      if (next > w.size())
+        refuse(path, "PLY " + quoteInput(e.name) + " " + std::to_string(i) + " has " + std::to_string(w.size()) +
+                         " values, fewer than its " + std::to_string(next) + " properties", fix);
+      if (e.name == "face") checkFace(i, indices, texcoords);
+      at = end + 1;
+    }
+  }
 }
 
 // OFF: the counts against the file (a vertex needs at least 6 bytes, a face 2), then every face's indices
@@ -383,7 +603,9 @@ void checkXml(const std::string& path, std::string_view b) {
 
 void checkAssimpInput(const std::string& path, std::string_view b) {
   const std::string ext = lowerExtension(path);
-  if (b.substr(0, 3) == "ply") return checkPly(path, b);
+  if (b.size() >= 3 && std::tolower(static_cast<unsigned char>(b[0])) == 'p' &&
+      std::tolower(static_cast<unsigned char>(b[1])) == 'l' && std::tolower(static_cast<unsigned char>(b[2])) == 'y')
+    return checkPly(path, b);  // assimp takes any case
   if (ext == ".off") return checkOff(path, b);
   if (ext == ".stl") return checkStl(path, b);
   if (!looksText(b)) return;

@@ -252,6 +252,69 @@ TEST_F(LoaderHostile, AssimpNaNVerticesBadIndicesAndHugeNumbersAreErrors) {
             3u);
 }
 
+// A binary little-endian PLY's header and its 3 float vertices, for `faces` faces read by `listLine`.
+std::string plyVertices(size_t faces, const std::string& listLine = "property list uchar int vertex_indices") {
+  std::string s = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                  "property float z\nelement face " + std::to_string(faces) + "\n" + listLine + "\nend_header\n";
+  const float v[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  return s.append(reinterpret_cast<const char*>(v), sizeof v);
+}
+
+// The same with its faces, each a uchar count and int indices.
+std::string binaryPly(const std::vector<std::vector<int32_t>>& faces, const std::string& tail = {}) {
+  std::string s = plyVertices(faces.size());
+  for (const auto& f : faces) {
+    s += char(uint8_t(f.size()));
+    s.append(reinterpret_cast<const char*>(f.data()), f.size() * 4);
+  }
+  return s + tail;
+}
+
+TEST_F(LoaderHostile, PlyLayoutIsWalkedBeforeAssimp) {
+  std::ostringstream warn;
+  EXPECT_EQ(loadSceneFile(write("ok.ply", binaryPly({{0, 1, 2}})), warn).indices.size(), 3u);
+  // A face of no indices: assimp 5.2.5 takes it for a polygon and its triangulation aborts the process on
+  // an ai_assert (found by the assimp fuzzer), binary or ASCII.
+  refused(write("empty.ply", binaryPly({{}})), "PLY face 0 has no vertex indices");
+  refused(write("empty2.ply", binaryPly({{0, 1, 2}, {}})), "PLY face 1 has no vertex indices");
+  refused(write("empty.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                             "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n0\n"),
+          "PLY face 0 has no vertex indices");
+  // The binary data must be exactly what the header describes.
+  refused(write("tail.ply", binaryPly({{0, 1, 2}}, std::string(16, '\0'))), "its elements take 49");
+  refused(write("short.ply", plyVertices(2) + "\3" + std::string(12, '\0')), "ends inside 'face' 1 of 2");
+  refused(write("cut.ply", plyVertices(1) + "\3" + std::string(8, '\0')), "more than the 8 bytes left hold");
+  // List counts assimp would allocate: past the data, negative.
+  refused(write("long.ply", plyVertices(1, "property list uint int vertex_indices") + std::string("\xff\xff\xff\x7f", 4) +
+                                std::string(12, '\0')),
+          "of 2147483647 values, more than the 12 bytes left hold");
+  refused(write("negative.ply", plyVertices(1, "property list char int vertex_indices") + std::string("\xff", 1) +
+                                    std::string(12, '\0')),
+          "a negative count");
+  refused(write("ascii.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                             "element face 1\nproperty list uint int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n4000000000 0 1 2\n"),
+          "more than its line holds");
+  // Header lines assimp would misread: unknown types, float list counts, properties cut off from their element,
+  // a second vertex element (assimp writes it past the first's), triangle strips.
+  refused(write("type.ply", plyVertices(1, "property list uchar int128 vertex_indices") + std::string(13, '\3')), "unknown type 'int128'");
+  refused(write("fcount.ply", plyVertices(1, "property list float int vertex_indices") + std::string(16, '\0')), "not an integer type");
+  std::string comment = binaryPly({{0, 1, 2}});
+  comment.insert(comment.find("property float y"), "comment here\n");
+  refused(write("comment.ply", comment), "'comment' after an element");
+  std::string twice = binaryPly({{0, 1, 2}});
+  twice.insert(twice.find("element face"), "element vertex 0\nproperty float x\n");
+  refused(write("twice.ply", twice), "a second element 'vertex'");
+  refused(write("strips.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                              "element tristrips 1\nproperty list int int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n2 0 1\n"),
+          "tristrips");
+  refused(write("nul.ply", std::string("ply\nformat ascii 1.0\nelement vertex 3\0\nend_header\n", 50)), "control byte (0)");
+  // assimp's own PLY test models that it reads still load.
+  for (const char* name : {"cube.ply", "cube_binary.ply", "cube_uv.ply", "Wuson.ply", "float-color.ply"}) {
+    const std::string model = std::string("/usr/share/assimp/models/PLY/") + name;
+    if (fs::exists(model)) EXPECT_GT(loadSceneFile(model, warn).indices.size(), 0u) << name;
+  }
+}
+
 // ---- glTF -------------------------------------------------------------------------------------------
 
 json oneTriangle() {
