@@ -1,5 +1,6 @@
 // The cone path as a ShadowMethod (see cone_method.h).
 #include "traversal/cone_method.h"
+#include "traversal/cone_engine.h"
 
 #include <algorithm>
 #include <chrono>
@@ -15,6 +16,7 @@
 #include "rays/rays.h"
 #include "traversal/frame_triangles.comp.h"
 #include "traversal/order_choice.comp.h"
+#include "traversal/sample_light.comp.h"
 #include "traversal/unfinished_rays.comp.h"
 #include "vk/context.h"
 
@@ -70,13 +72,13 @@ traversal::TraversalStats combine(const traversal::TraversalStats& a, const trav
   return c;
 }
 
-class ConeMethod : public ShadowMethod {
+class ConeMethod : public ShadowMethod, public ConeEngine {
  public:
   ConeMethod(vk::Context& ctx, const ConeOptions& options)
       : ctx_(ctx),
         options_(options),
         tree_(ctx),
-        timer_(vk::createTimer(ctx, 64)) {
+        timer_(ctx.adopted ? vk::Timer{} : vk::createTimer(ctx, 64)) {  // the engine times nothing on the caller's device
     // Under a memory budget the arena is what the frame's other buffers leave of it (ensureTraversal).
     if (options.arena.pairCapacity > 0) traversal_ = std::make_unique<traversal::Traversal>(ctx, options.arena);
     else if (options.memoryBudgetBytes == 0)
@@ -92,6 +94,107 @@ class ConeMethod : public ShadowMethod {
   }
 
   std::string name() const override { return "cone"; }
+
+  // ---- the engine (cone_engine.h) ----
+
+  // Sets up the engine's frames: framesInFlight stats slots and sphere sets of maxLights each.
+  void enableEngine(uint32_t framesInFlight, uint32_t maxLights) {
+    CS_CHECK(!options_.twoPass, "the two-pass variants decide their update on the host between the passes: the engine "
+                                "records one-pass variants only (PreciseEA, PreciseSEA and the others)");
+    CS_CHECK(framesInFlight >= 1 && framesInFlight <= 4, "frames in flight " << framesInFlight << ", not 1..4");
+    CS_CHECK(maxLights >= 1 && maxLights <= 64, "lights a frame " << maxLights << ", not 1..64");
+    framesInFlight_ = framesInFlight;
+    maxLights_ = maxLights;
+    sampleLight_ = vk::createKernel(ctx_, "sample light", spv_sample_light_comp, 4, sizeof(traversal::SampleLightPush));
+    statsRing_ = vk::createBuffer(ctx_, uint64_t(framesInFlight) * maxLights * kStatsWords * 4, vk::Memory::HostVisible);
+    std::memset(statsRing_.mapped, 0, statsRing_.size);
+    slots_.clear();
+    slots_.resize(framesInFlight);
+    sphereSets_.resize(size_t(framesInFlight) * maxLights);
+  }
+
+  void setGeometry(const Scene& scene, const GeometryRevision& revision) override {
+    FrameInput frame;
+    frame.scene = &scene;
+    frame.revision = revision;
+    uploadTriangles(frame);
+  }
+
+  void record(vk::Commands& cmd, const DeviceGBuffer& g, std::span<const glm::vec3> lights, float eps, uint64_t frame,
+              const std::function<void(uint32_t, const vk::Buffer&)>& deliver) override {
+    CS_CHECK(maxLights_ > 0, "cone: the engine was not set up (enableEngine)");
+    CS_CHECK(!lights.empty() && lights.size() <= maxLights_,
+             lights.size() << " lights in a frame; this context takes 1 to " << maxLights_);
+    CS_CHECK(!triangles_.empty(), "a frame recorded before any geometry was set");
+    for (glm::vec3 light : lights) refuseUnreachableLight(light);  // before anything is recorded
+    const uint32_t slot = uint32_t(frame % framesInFlight_);
+    learnFromSlot(slot);  // the frame that held the slot has completed (the contract)
+    EngineSlot& es = slots_[slot];
+    es.staged = vk::recordPendingUploads(ctx_, cmd);  // kept until the slot is reused
+    const uint32_t pixels = g.width * g.height;
+    sizeFrameBuffers(g.width, g.height);
+    ensureTraversal(pixels);
+    es.frame = frame;
+    es.lights.assign(lights.size(), EngineSlot::Light{});
+    es.learned = false;
+    auto noBoundary = [](const char*) {};
+    const vk::Grid grid = vk::gridFor(std::max(pixels, 1u), TRAVERSE_THREADS, ctx_.maxWorkgroups());
+    for (uint32_t l = 0; l < lights.size(); ++l) {
+      const glm::vec3 light = lights[l];
+      cmd.barrier();  // the previous light's reads of every buffer reused below are done
+      frame_ = cone::chooseFrame(light, boundsLo_, boundsHi_);
+      const traversal::TraversalInput in = traversalInput(light, eps);
+      traversal::SampleLightPush push{};
+      push.light = glm::vec4(light, 1.0f);
+      push.count = pixels;
+      push.mode = SAMPLE_LIGHT_TERM;
+      cmd.dispatch(sampleLight_, {g.position, g.normal, visibility_, visibility_}, push, grid.x, grid.y);
+      cmd.barrier();
+      const RecordedLight rec = recordLight(cmd, g, in, light, options_.sorted && options_.adaptiveOrder,
+                                            slot * maxLights_ + l, noBoundary);
+      if (!rec.onDevice)
+        throw Error("the traversal's memory holds too few pairs to record the frame (" + std::to_string(rec.batches) +
+                        " batches of " + std::to_string(rec.batch) + " triangles; one frame records at most " +
+                        std::to_string(kMaxBatches) + ")",
+                    "cone engine", "give a larger memory budget");
+      cmd.barrier();
+      push.mode = SAMPLE_UNDECIDED;
+      cmd.dispatch(sampleLight_, {g.position, g.normal, visibility_, traversal_->stateBuffer()}, push, grid.x, grid.y);
+      cmd.barrier();
+      deliver(l, visibility_);
+      const uint64_t at = (uint64_t(slot) * maxLights_ + l) * kStatsWords * 4;
+      cmd.copy(traversal_->stateBuffer(), statsRing_, STATE_WORDS * 4, 0, at);
+      cmd.copy(tree_.shapeBuffer(), statsRing_, SHAPE_WORDS * 4, 0, at + STATE_WORDS * 4);
+      es.lights[l].clusters = rec.clusters;
+    }
+    cmd.barrier();  // the stats words visible to the host once the caller's submission completes
+  }
+
+  std::vector<EngineLightStats> stats(uint64_t frame) override {
+    std::vector<EngineLightStats> out;
+    if (framesInFlight_ == 0) return out;
+    const uint32_t slot = uint32_t(frame % framesInFlight_);
+    const EngineSlot& es = slots_[slot];
+    if (es.frame != frame) return out;
+    for (uint32_t l = 0; l < es.lights.size(); ++l) {
+      const uint32_t* state = statsWords(slot, l);
+      const uint32_t* shape = state + STATE_WORDS;
+      const bool overflow = traversal::Traversal::overflowed(state);
+      const traversal::TraversalStats ts = traversal_->statsFromState(state, shape[SHAPE_DEPTH], overflow);
+      EngineLightStats st;
+      st.litSamples = shape[SHAPE_LEAVES];
+      st.treeDepth = shape[SHAPE_DEPTH];
+      st.treeNodes = shape[SHAPE_NODES];
+      st.pairsTested = ts.pairsTested();
+      st.pairsSurvived = ts.pairsSurvived();
+      st.leafTests = ts.leafTests;
+      st.complete = !overflow;
+      out.push_back(st);
+    }
+    return out;
+  }
+
+  uint64_t bytesAllocated() const override { return heldBytes() + statsRing_.size; }
 
   // One frame, as named steps: the scene's triangles (uploaded when they changed), the light checked, the
   // frame's buffers sized, the cones' frame chosen; then the frame itself -- one submission, or the
@@ -248,7 +351,7 @@ class ConeMethod : public ShadowMethod {
     out.work = std::to_string(ts.pairsTested()) + " nodes visited, " + std::to_string(ts.leafTests) + " leaf tests";
     out.stages = std::move(stages);
     out.stats = std::move(stats);
-    out.bytesAllocated = bytesAllocated();
+    out.bytesAllocated = heldBytes();
     // Working set: everything resident for the frame, with the traversal's share at its measured peak.
     out.peakBytes = out.bytesAllocated - (traversal_ ? traversal_->bytesAllocated() : 0) + ts.peakBytes;
     // The budget (--memory-budget) holds the device buffers as allocated (the arena whole, not its peak)
@@ -261,6 +364,99 @@ class ConeMethod : public ShadowMethod {
       CS_CHECK(used <= options_.memoryBudgetBytes, "cone: the frame held " << used << " bytes, over its --memory-budget of "
                                                                           << options_.memoryBudgetBytes);
     }
+  }
+
+  // What recordLight recorded: the ray order's choice, whether the traversal is in the recording (an arena so
+  // small that the batches would number in the hundreds is traversed chunked after it), the batches.
+  struct RecordedLight {
+    bool adaptive = false, clusters = false, onDevice = true;
+    std::vector<uint32_t> batchStarts;
+    uint64_t batches = 0;
+    uint32_t batch = 0;
+  };
+
+  // One light's frame into `cmd`: the visibility words set to lit, the lit samples' compaction, the ray
+  // order (sorted, screen, or measured on the GPU when `adaptive`), keys, sort, the tree, the far frame's
+  // triangles, the traversal and the leaves (the mask in visibility_). boundary(name) ends each stage.
+  template <class Boundary>
+  RecordedLight recordLight(vk::Commands& cmd, const DeviceGBuffer& g, const traversal::TraversalInput& in,
+                            glm::vec3 light, bool adaptive, uint32_t sphereSlot, Boundary&& boundary) {
+    const uint32_t pixels = g.width * g.height;
+    const rays::RayOrder order =
+        options_.sorted && !adaptive ? rays::RayOrder::Hilbert : rays::RayOrder::ScreenMorton;
+    const uint32_t maxRays = std::max(pixels, 1u);
+    cmd.fill(visibility_, kOne, 0, uint64_t(pixels) * 4);
+    // Sorted without measuring: compaction and keys fused (LitRays::recordCompactionWithKeys), one stage.
+    const bool fused = order == rays::RayOrder::Hilbert && rays_->fusedKeys();
+    if (fused) {
+      rays_->recordCompactionWithKeys(cmd, g, keysPush(light));
+      boundary("compact + keys");
+    } else {
+      rays_->recordCompaction(cmd, g, order);
+      boundary("compact");
+    }
+    sort::Count sortCount = rays_->count();
+    if (adaptive) {
+      tree_.recordDevice(cmd, g.position, rays_->samples(), rays_->countBuffer(), 0, maxRays, light,
+                         2.0f * in.eps, &frame_);
+      cmd.fill(orderWords_, 0);
+      cmd.barrier();
+      tree_.recordSpread(cmd, orderWords_, ORDER_SPREAD, frame_.scale);
+      cmd.dispatch(orderChoice_, {tree_.shapeBuffer(), orderWords_}, static_cast<const void*>(nullptr), 0u, 1u, 1u, 1u);
+      cmd.barrier();
+      boundary("order");
+      sortCount = sort::Count::device(sort::GpuWord(orderWords_, ORDER_SORT_COUNT), maxRays);
+    }
+    bool recordsGiven = false;
+    if (options_.sorted) {
+      if (!fused) {
+        rays_->recordKeys(cmd, g, keysPush(light), sortCount);
+        boundary("keys");
+      }
+      // The fused path's sort also writes the sorted rays' records for the build (the positions read in
+      // pixel order there, not gathered in the sorted order by the build).
+      recordsGiven = fused ? rays_->recordSort(cmd, sortCount, &tree_.rayRecords(maxRays), &g.position)
+                           : rays_->recordSort(cmd, sortCount);
+      boundary("sort");
+    }
+    if (adaptive)
+      tree_.recordDevice(cmd, g.position, rays_->samples(), orderWords_, ORDER_SORT_COUNT, maxRays, light,
+                         2.0f * in.eps, &frame_, /*keepWhenZero=*/true);
+    else
+      tree_.recordDevice(cmd, g.position, rays_->samples(), rays_->countBuffer(), 0, maxRays, light,
+                         2.0f * in.eps, &frame_, /*keepWhenZero=*/false, recordsGiven);
+    if (frame_.far && frameTrianglesStale()) recordFrameTriangles(cmd);
+    boundary("build");
+    ensureTraversal(pixels);
+    const bool clusters = options_.clusters && traversal_->clustersFit() && chunkTriangles_ >= CLUSTER_SIZE;
+    if (clusters) updateClusterSpheres(light, sphereSlot);
+    traversal_->recordBegin(cmd, in);
+    RecordedLight rec;
+    rec.adaptive = adaptive;
+    rec.clusters = clusters;
+    std::vector<uint32_t>& batchStarts = rec.batchStarts;  // scene index of each batch's first triangle, in order
+    const uint32_t batch = traversal_->batchTriangles();
+    uint64_t& batches = rec.batches;
+    rec.batch = batch;
+    forEachTriangleBuffer(in, 0, triangleCount_, [&](const traversal::TraversalInput& part) {
+      batches += (uint64_t(part.triangleCount) + batch - 1) / batch;
+    });
+    // An arena so small that the batches would number in the hundreds (each ~10 dispatches a depth) is
+    // traversed chunked instead, after the submission.
+    const bool onDevice = rec.onDevice = batches <= kMaxBatches;
+    if (onDevice)
+      forEachTriangleBuffer(in, 0, triangleCount_, [&](traversal::TraversalInput part) {
+        const size_t b = size_t(part.triangles - triangles_.data());
+        if (clusters) part.clusterSpheres = &sphereSets_[sphereSlot].buffers[b];
+        for (uint32_t first : traversal_->record(cmd, part, boundary)) batchStarts.push_back(uint32_t(b) * chunkTriangles_ + first);
+      });
+    if (onDevice) {
+      // The hits of the batches that completed (all of them but after an overflow, which the chunked
+      // traversal below resumes) into the visibility.
+      traversal_->recordEnd(cmd, in);
+      boundary("leaves");
+    }
+    return rec;
   }
 
   // The frame as one recording (traversal.h, "One submission"): compaction, keys, sort, the tree's shape
@@ -306,76 +502,11 @@ class ConeMethod : public ShadowMethod {
     // build, and the sort is slower on screen-ordered input than on row-major input.
     const bool adaptive = options_.sorted && options_.adaptiveOrder &&
                           !(orderLoose_ && framesSinceOrderCheck_ + 1 < kOrderRecheckFrames);
-    const rays::RayOrder order =
-        options_.sorted && !adaptive ? rays::RayOrder::Hilbert : rays::RayOrder::ScreenMorton;
-    const uint32_t maxRays = std::max(pixels, 1u);
-    cmd.fill(visibility_, kOne, 0, uint64_t(pixels) * 4);
-    // Sorted without measuring: compaction and keys fused (LitRays::recordCompactionWithKeys), one stage.
-    const bool fused = order == rays::RayOrder::Hilbert && rays_->fusedKeys();
-    if (fused) {
-      rays_->recordCompactionWithKeys(cmd, g, keysPush(frame.light));
-      boundary("compact + keys");
-    } else {
-      rays_->recordCompaction(cmd, g, order);
-      boundary("compact");
-    }
-    sort::Count sortCount = rays_->count();
-    if (adaptive) {
-      tree_.recordDevice(cmd, g.position, rays_->samples(), rays_->countBuffer(), 0, maxRays, frame.light,
-                         2.0f * in.eps, &frame_);
-      cmd.fill(orderWords_, 0);
-      cmd.barrier();
-      tree_.recordSpread(cmd, orderWords_, ORDER_SPREAD, frame_.scale);
-      cmd.dispatch(orderChoice_, {tree_.shapeBuffer(), orderWords_}, static_cast<const void*>(nullptr), 0u, 1u, 1u, 1u);
-      cmd.barrier();
-      boundary("order");
-      sortCount = sort::Count::device(sort::GpuWord(orderWords_, ORDER_SORT_COUNT), maxRays);
-    }
-    bool recordsGiven = false;
-    if (options_.sorted) {
-      if (!fused) {
-        rays_->recordKeys(cmd, g, keysPush(frame.light), sortCount);
-        boundary("keys");
-      }
-      // The fused path's sort also writes the sorted rays' records for the build (the positions read in
-      // pixel order there, not gathered in the sorted order by the build).
-      recordsGiven = fused ? rays_->recordSort(cmd, sortCount, &tree_.rayRecords(maxRays), &g.position)
-                           : rays_->recordSort(cmd, sortCount);
-      boundary("sort");
-    }
-    if (adaptive)
-      tree_.recordDevice(cmd, g.position, rays_->samples(), orderWords_, ORDER_SORT_COUNT, maxRays, frame.light,
-                         2.0f * in.eps, &frame_, /*keepWhenZero=*/true);
-    else
-      tree_.recordDevice(cmd, g.position, rays_->samples(), rays_->countBuffer(), 0, maxRays, frame.light,
-                         2.0f * in.eps, &frame_, /*keepWhenZero=*/false, recordsGiven);
-    if (frame_.far && frameTrianglesStale()) recordFrameTriangles(cmd);
-    boundary("build");
-    ensureTraversal(pixels);
-    const bool clusters = options_.clusters && traversal_->clustersFit() && chunkTriangles_ >= CLUSTER_SIZE;
-    if (clusters) updateClusterSpheres(frame.light);
-    traversal_->recordBegin(cmd, in);
-    std::vector<uint32_t> batchStarts;  // scene index of each batch's first triangle, in order
-    const uint32_t batch = traversal_->batchTriangles();
-    uint64_t batches = 0;
-    forEachTriangleBuffer(in, 0, triangleCount_, [&](const traversal::TraversalInput& part) {
-      batches += (uint64_t(part.triangleCount) + batch - 1) / batch;
-    });
-    // An arena so small that the batches would number in the hundreds (each ~10 dispatches a depth) is
-    // traversed chunked instead, after the submission.
-    const bool onDevice = batches <= kMaxBatches;
-    if (onDevice)
-      forEachTriangleBuffer(in, 0, triangleCount_, [&](traversal::TraversalInput part) {
-        const size_t b = size_t(part.triangles - triangles_.data());
-        if (clusters) part.clusterSpheres = &clusterSpheres_[b];
-        for (uint32_t first : traversal_->record(cmd, part, boundary)) batchStarts.push_back(uint32_t(b) * chunkTriangles_ + first);
-      });
-    if (onDevice) {
-      // The hits of the batches that completed (all of them but after an overflow, which the chunked
-      // traversal below resumes) into the visibility.
-      traversal_->recordEnd(cmd, in);
-      boundary("leaves");
-    }
+    const RecordedLight rec = recordLight(cmd, g, in, frame.light, adaptive, 0, boundary);
+    const bool clusters = rec.clusters, onDevice = rec.onDevice;
+    const std::vector<uint32_t>& batchStarts = rec.batchStarts;
+    const uint32_t batch = rec.batch;
+    const uint64_t batches = rec.batches;
     stats["clusters"] = clusters && onDevice;
     stats["last_expansion_test"] = options_.sphereLastExpansion && options_.test == ConeTest::Precise ? "sphere" : "precise";
     // a lane per cluster pair or per triangle pair, where that expansion runs in the sphere-test kernel
@@ -563,7 +694,7 @@ class ConeMethod : public ShadowMethod {
     return ts;
   }
 
-  uint64_t bytesAllocated() const {
+  uint64_t heldBytes() const {
     uint64_t triangleBytes = 0;
     for (const vk::Buffer& b : triangles_) triangleBytes += b.size;
     for (const vk::Buffer& b : frameTriangles_) triangleBytes += b.size;
@@ -586,12 +717,13 @@ class ConeMethod : public ShadowMethod {
       return;
     }
     const uint64_t budget = options_.memoryBudgetBytes;
-    uint64_t others = bytesAllocated() - (traversal_ ? traversal_->bytesAllocated() + traversal_->flagBytes() +
+    uint64_t others = heldBytes() - (traversal_ ? traversal_->bytesAllocated() + traversal_->flagBytes() +
                                                           traversal_->shadowedBytes()
                                                     : 0);
     // The leaves' hint, made at the first traversal for the rays the tree's buffer holds.
     others += traversal::Traversal::shadowedBytes(std::max<uint64_t>(tree_.rays().size / 16, pixels));
-    others += expectedClusterSphereBytes() - std::min(expectedClusterSphereBytes(), clusterSphereBytes());
+    const uint64_t spheres = expectedClusterSphereBytes() * sphereSets_.size();
+    others += spheres - std::min(spheres, clusterSphereBytes());
     if (!ctx_.hostVisibleDeviceLocal) {  // the mask and the counters copied for the readback (once allocated: in `others`)
       const uint64_t readback = uint64_t(pixels) * 4 + (STATE_WORDS + SHAPE_WORDS + ORDER_WORDS) * 4 + 64;
       others += readback - std::min(readback, readback_.bytesAllocated());
@@ -630,7 +762,8 @@ class ConeMethod : public ShadowMethod {
 
   uint64_t clusterSphereBytes() const {
     uint64_t n = 0;
-    for (const vk::Buffer& b : clusterSpheres_) n += b.size;
+    for (const SphereSet& set : sphereSets_)
+      for (const vk::Buffer& b : set.buffers) n += b.size;
     return n;
   }
 
@@ -912,15 +1045,17 @@ class ConeMethod : public ShadowMethod {
   // frame through its fp32 rows), written to host-visible buffers when the triangles or the frame
   // changed. Padded by 2^-16 of the magnitudes: the GPU's vertices are fp32 differences of up to those
   // magnitudes (v - light, or S R (v - C) - S R (light - C)), a few ulp off the exact ones.
-  void updateClusterSpheres(glm::vec3 light) {
+  void updateClusterSpheres(glm::vec3 light, uint32_t slot) {
     const cone::ConeFrame& f = frame_.frame;
-    if (clusterSpheresUpload_ == uploads_ && clusterSpheresLight_ == light && clusterSpheresFar_ == frame_.far &&
-        clusterSpheresOf_.rowX == f.rowX && clusterSpheresOf_.rowY == f.rowY && clusterSpheresOf_.rowZ == f.rowZ &&
-        clusterSpheresOf_.centre == f.centre && clusterSpheresOf_.lightFrame == f.lightFrame)
+    if (sphereSets_.size() <= slot) sphereSets_.resize(slot + 1);
+    SphereSet& set = sphereSets_[slot];
+    if (set.upload == uploads_ && set.light == light && set.far == frame_.far && set.of.rowX == f.rowX &&
+        set.of.rowY == f.rowY && set.of.rowZ == f.rowZ && set.of.centre == f.centre && set.of.lightFrame == f.lightFrame)
       return;
-    clusterSpheresUpload_ = uploads_, clusterSpheresLight_ = light, clusterSpheresFar_ = frame_.far;
-    clusterSpheresOf_ = f;
+    set.upload = uploads_, set.light = light, set.far = frame_.far;
+    set.of = f;
     const size_t perBuffer = chunkTriangles_ / CLUSTER_SIZE;
+    std::vector<vk::Buffer>& clusterSpheres_ = set.buffers;
     clusterSpheres_.resize(triangles_.size());
     const glm::dvec3 C(glm::vec3(f.centre)), LF(glm::vec3(f.lightFrame)), L(light);
     auto sphere = [&](glm::dvec3 c, double r) {
@@ -1012,6 +1147,38 @@ class ConeMethod : public ShadowMethod {
     blockerCount_ = uint32_t(candidates);
   }
 
+  // The engine's frames: a slot per frame in flight, its stats words (the traversal's state and the tree's
+  // shape a light, copied at the light's end) and the staging buffers of the uploads it carried.
+  static constexpr uint32_t kStatsWords = STATE_WORDS + SHAPE_WORDS;
+  struct EngineSlot {
+    uint64_t frame = ~uint64_t(0);
+    bool learned = true;
+    struct Light {
+      bool clusters = false;
+    };
+    std::vector<Light> lights;
+    std::vector<std::unique_ptr<vk::Buffer>> staged;
+  };
+  const uint32_t* statsWords(uint32_t slot, uint32_t light) const {
+    return static_cast<const uint32_t*>(statsRing_.mapped) + (uint64_t(slot) * maxLights_ + light) * kStatsWords;
+  }
+  // The batch size learnt from a completed frame's lights (Traversal::learnBatch), once.
+  void learnFromSlot(uint32_t slot) {
+    EngineSlot& es = slots_[slot];
+    if (es.learned) return;
+    es.learned = true;
+    for (uint32_t l = 0; l < es.lights.size(); ++l) {
+      const uint32_t* state = statsWords(slot, l);
+      const uint32_t depth = state[STATE_WORDS + SHAPE_DEPTH];
+      traversal_->learnBatch(state, traversal_->statsFromState(state, depth, traversal::Traversal::overflowed(state)),
+                             triangleCount_);
+    }
+  }
+  uint32_t framesInFlight_ = 0, maxLights_ = 0;
+  vk::Kernel sampleLight_;
+  vk::Buffer statsRing_;
+  std::vector<EngineSlot> slots_;
+
   vk::Context& ctx_;
   ConeOptions options_;
   cone::ConeTree tree_;
@@ -1037,11 +1204,16 @@ class ConeMethod : public ShadowMethod {
   uint64_t uploads_ = 0;                    // triangle uploads so far
   // clusters (traversal.h, "Clusters")
   std::vector<traversal::ClusterWorld> clusterWorld_;  // per cluster: its world bound and its groups'
-  std::vector<vk::Buffer> clusterSpheres_;   // per triangle buffer: its clusters' spheres for this frame
-  uint64_t clusterSpheresUpload_ = ~uint64_t(0);
-  glm::vec3 clusterSpheresLight_{0};
-  bool clusterSpheresFar_ = false;
-  cone::ConeFrame clusterSpheresOf_{};
+  // The clusters' spheres of one light of one frame (per triangle buffer), host written when the frame is
+  // recorded: one set a (frame in flight, light) so that no set is rewritten while a frame reads it.
+  struct SphereSet {
+    std::vector<vk::Buffer> buffers;
+    uint64_t upload = ~uint64_t(0);  // the triangles, the light and the frame they were made for
+    glm::vec3 light{0};
+    bool far = false;
+    cone::ConeFrame of{};
+  };
+  std::vector<SphereSet> sphereSets_ = std::vector<SphereSet>(1);
   uint64_t frameTrianglesUpload_ = ~uint64_t(0);  // the upload and the frame frameTriangles_ were made for
   cone::ConeFrame frameTrianglesOf_{};
   vk::Kernel frameTris_;
@@ -1094,6 +1266,13 @@ std::string coneVariantName(const ConeOptions& o) {
   std::string name = o.test == ConeTest::Sphere ? "Spheres" : "Precise";
   if (!early && !o.twoPass) return name + (o.sorted ? "Sorted" : "");
   return name + (o.sorted ? "S" : "") + (early ? "EA" : "") + (o.twoPass ? "TP" : "");
+}
+
+std::unique_ptr<ConeEngine> makeConeEngine(vk::Context& ctx, const ConeOptions& options, uint32_t framesInFlight,
+                                           uint32_t maxLights) {
+  auto engine = std::make_unique<ConeMethod>(ctx, options);
+  engine->enableEngine(framesInFlight, maxLights);
+  return engine;
 }
 
 std::unique_ptr<ShadowMethod> makeConeMethod(vk::Context& ctx, const ConeOptions& options) {

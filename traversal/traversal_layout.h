@@ -198,7 +198,19 @@ struct FrameTrianglesPush {
   uint pad0, pad1, pad2;
 };
 
+// sample_light.comp (the engine's samples): the light term of each sample for one light, and the mask's
+// undecided samples after a frame whose pairs passed the arena.
+struct SampleLightPush {
+  vec4 light;  // xyz: the light
+  uint count;  // pixels
+  uint mode;   // SAMPLE_LIGHT_TERM or SAMPLE_UNDECIDED
+  uint pad0, pad1;
+};
+#define SAMPLE_LIGHT_TERM 0u
+#define SAMPLE_UNDECIDED 1u
+
 #ifdef __cplusplus
+static_assert(sizeof(SampleLightPush) == 32, "SampleLightPush layout");
 static_assert(sizeof(FrameTrianglesPush) == 96, "FrameTrianglesPush layout");
 static_assert(sizeof(AdvancePush) == 36, "AdvancePush layout");
 static_assert(sizeof(LeafHitsPush) == 16, "LeafHitsPush layout");

@@ -147,6 +147,11 @@ HostCost operator-(const HostCost& a, const HostCost& b) {
 }
 
 Context::~Context() {
+  if (adopted) {  // the caller's device: only what this context made, and no wait
+    pendingUploads.clear();
+    staging.reset();
+    return;
+  }
   if (device) {
     vkDeviceWaitIdle(device);
     staging.reset();
@@ -255,6 +260,32 @@ void checkAddressSpaceLimit() {
                                    std::to_string(kMinAddressSpace >> 10));
 }
 
+// The physical device's properties, memory and subgroup size into ctx; cs::Error when it lacks the
+// subgroup operations the kernels use.
+static void describeDevice(Context& ctx) {
+  vkGetPhysicalDeviceProperties(ctx.physical, &ctx.properties);
+  vkGetPhysicalDeviceMemoryProperties(ctx.physical, &ctx.memory);
+  VkPhysicalDeviceSubgroupProperties sub{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES};
+  VkPhysicalDeviceProperties2 p2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
+  p2.pNext = &sub;
+  vkGetPhysicalDeviceProperties2(ctx.physical, &p2);
+  ctx.subgroupSize = sub.subgroupSize;
+  // The traversal appends its survivors with subgroup sums and one atomic per subgroup (traverse_test.comp).
+  const VkSubgroupFeatureFlags subgroupOps =
+      VK_SUBGROUP_FEATURE_BASIC_BIT | VK_SUBGROUP_FEATURE_ARITHMETIC_BIT | VK_SUBGROUP_FEATURE_BALLOT_BIT;
+  if (!(sub.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) || (sub.supportedOperations & subgroupOps) != subgroupOps)
+    throw Error("the device lacks subgroup basic, arithmetic or ballot operations in compute shaders", ctx.deviceName(),
+                "use a Vulkan 1.2 driver that supports them (lavapipe and desktop GPUs do)");
+  for (uint32_t i = 0; i < ctx.memory.memoryTypeCount; ++i) {
+    auto f = ctx.memory.memoryTypes[i].propertyFlags;
+    if ((f & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT) && (f & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT) &&
+        (f & VK_MEMORY_PROPERTY_HOST_COHERENT_BIT) &&
+        ctx.memory.memoryHeaps[ctx.memory.memoryTypes[i].heapIndex].size >= (VkDeviceSize(1) << 30) &&
+        ctx.properties.deviceType != VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU)
+      ctx.hostVisibleDeviceLocal = true;
+  }
+}
+
 std::unique_ptr<Context> createContext(const ContextOptions& options) {
   checkAddressSpaceLimit();
   DriverCall guard("the driver's start (vkCreateInstance, vkCreateDevice)");
@@ -325,27 +356,7 @@ std::unique_ptr<Context> createContext(const ContextOptions& options) {
   }
   ctx->physical = devs[best];
   ctx->queueFamily = bestFamily;
-  vkGetPhysicalDeviceProperties(ctx->physical, &ctx->properties);
-  vkGetPhysicalDeviceMemoryProperties(ctx->physical, &ctx->memory);
-  VkPhysicalDeviceSubgroupProperties sub{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES};
-  VkPhysicalDeviceProperties2 p2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
-  p2.pNext = &sub;
-  vkGetPhysicalDeviceProperties2(ctx->physical, &p2);
-  ctx->subgroupSize = sub.subgroupSize;
-  // The traversal appends its survivors with subgroup sums and one atomic per subgroup (traverse_test.comp).
-  const VkSubgroupFeatureFlags subgroupOps =
-      VK_SUBGROUP_FEATURE_BASIC_BIT | VK_SUBGROUP_FEATURE_ARITHMETIC_BIT | VK_SUBGROUP_FEATURE_BALLOT_BIT;
-  if (!(sub.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) || (sub.supportedOperations & subgroupOps) != subgroupOps)
-    throw Error("the device lacks subgroup basic, arithmetic or ballot operations in compute shaders", ctx->deviceName(),
-                "use a Vulkan 1.1+ driver that supports them (lavapipe and desktop GPUs do)");
-  for (uint32_t i = 0; i < ctx->memory.memoryTypeCount; ++i) {
-    auto f = ctx->memory.memoryTypes[i].propertyFlags;
-    if ((f & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT) && (f & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT) &&
-        (f & VK_MEMORY_PROPERTY_HOST_COHERENT_BIT) &&
-        ctx->memory.memoryHeaps[ctx->memory.memoryTypes[i].heapIndex].size >= (VkDeviceSize(1) << 30) &&
-        ctx->properties.deviceType != VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU)
-      ctx->hostVisibleDeviceLocal = true;
-  }
+  describeDevice(*ctx);
 
   // Features we rely on; each is checked so a device without it fails with a clear line.
   VkPhysicalDeviceVulkan12Features have12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
@@ -409,6 +420,70 @@ std::unique_ptr<Context> createContext(const ContextOptions& options) {
 
   if (!options.quiet) std::cout << "device: " << ctx->driverDescription() << "\n";
   return ctx;
+}
+
+DeviceRequirements deviceRequirements() {
+  DeviceRequirements r;
+  r.extensions = {VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME};
+  return r;
+}
+
+std::unique_ptr<Context> adoptDevice(const AdoptedDevice& d) {
+  if (!d.instance || !d.physical || !d.device || !d.getInstanceProcAddr)
+    throw Error("the instance, physical device, device and vkGetInstanceProcAddr must all be given", "coneshadow context",
+                "pass the handles your renderer created");
+  auto ctx = std::make_unique<Context>();
+  ctx->adopted = true;
+  ctx->instance = d.instance;
+  ctx->physical = d.physical;
+  ctx->device = d.device;
+  ctx->queueFamily = d.queueFamily;
+  describeDevice(*ctx);
+  const std::string name = ctx->deviceName();
+  if (VK_API_VERSION_MINOR(ctx->properties.apiVersion) < 2 && VK_API_VERSION_MAJOR(ctx->properties.apiVersion) == 1)
+    throw Error("the device supports Vulkan " + std::to_string(VK_API_VERSION_MAJOR(ctx->properties.apiVersion)) + "." +
+                    std::to_string(VK_API_VERSION_MINOR(ctx->properties.apiVersion)) + ", the library needs 1.2",
+                name, "use a Vulkan 1.2 driver");
+  uint32_t n = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(ctx->physical, &n, nullptr);
+  std::vector<VkQueueFamilyProperties> q(n);
+  vkGetPhysicalDeviceQueueFamilyProperties(ctx->physical, &n, q.data());
+  if (d.queueFamily >= n || !(q[d.queueFamily].queueFlags & VK_QUEUE_COMPUTE_BIT))
+    throw Error("queue family " + std::to_string(d.queueFamily) + " has no compute queues (the device has " +
+                    std::to_string(n) + " families)",
+                name, "record the frames on a compute or graphics+compute family");
+  for (const char* ext : deviceRequirements().extensions)
+    if (!hasDeviceExtension(ctx->physical, ext))
+      throw Error(std::string("the device lacks ") + ext, name, "the library needs it enabled at vkCreateDevice");
+  VkPhysicalDeviceVulkan12Features have12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
+  VkPhysicalDeviceFeatures2 have{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+  have.pNext = &have12;
+  vkGetPhysicalDeviceFeatures2(ctx->physical, &have);
+  if (!have.features.shaderInt64 || !have12.shaderBufferInt64Atomics)
+    throw Error("the device lacks shaderInt64 or 64-bit buffer atomics", name,
+                "the library needs both enabled at vkCreateDevice (coneshadow::deviceRequirements)");
+  auto getDeviceProcAddr =
+      reinterpret_cast<PFN_vkGetDeviceProcAddr>(d.getInstanceProcAddr(d.instance, "vkGetDeviceProcAddr"));
+  if (!getDeviceProcAddr) throw Error("vkGetDeviceProcAddr is unavailable", name);
+  ctx->cmdPushDescriptorSet =
+      reinterpret_cast<PFN_vkCmdPushDescriptorSetKHR>(getDeviceProcAddr(d.device, "vkCmdPushDescriptorSetKHR"));
+  if (!ctx->cmdPushDescriptorSet)
+    throw Error("vkCmdPushDescriptorSetKHR is unavailable", name,
+                "enable VK_KHR_push_descriptor at vkCreateDevice (coneshadow::deviceRequirements)");
+  return ctx;
+}
+
+std::vector<std::unique_ptr<Buffer>> recordPendingUploads(Context& ctx, Commands& cmd) {
+  std::vector<std::unique_ptr<Buffer>> staged;
+  if (ctx.pendingUploads.empty()) return staged;
+  for (Context::PendingUpload& u : ctx.pendingUploads) {
+    VkBufferCopy region{0, u.offset, u.bytes};
+    vkCmdCopyBuffer(cmd.handle(), u.staging->buffer, u.dst, 1, &region);
+    staged.push_back(std::move(u.staging));
+  }
+  ctx.pendingUploads.clear();
+  cmd.barrier();
+  return staged;
 }
 
 // ---- buffers ------------------------------------------------------------------------------------
@@ -546,6 +621,12 @@ void uploadInPlace(Context& ctx, Buffer& dst, VkDeviceSize bytes, VkDeviceSize o
     fill(static_cast<char*>(dst.mapped) + offset);
     return;
   }
+  if (ctx.adopted) {  // no submit on the caller's device: staged for the next recorded frame
+    auto staged = std::make_unique<Buffer>(createBuffer(ctx, bytes, Memory::HostVisible));
+    fill(staged->mapped);
+    ctx.pendingUploads.push_back({std::move(staged), dst.buffer, offset, bytes});
+    return;
+  }
   Buffer& staging = stagingFor(ctx, bytes);
   fill(staging.mapped);
   Commands cmd(ctx);
@@ -561,6 +642,8 @@ void download(Context& ctx, const Buffer& src, void* data, VkDeviceSize bytes, V
     std::memcpy(data, static_cast<const char*>(src.mapped) + offset, bytes);
     return;
   }
+  CS_CHECK(!ctx.adopted, "a download from device memory on the caller's device (the library reads back nothing "
+                         "it cannot map)");
   Buffer& staging = stagingFor(ctx, bytes);
   Commands cmd(ctx);
   cmd.copy(src, staging, bytes, offset, 0);
@@ -973,7 +1056,13 @@ Commands::Commands(Context& ctx, Timer* timer) : ctx_(ctx), timer_(timer) {
   begin();
 }
 
+Commands::Commands(Context& ctx, VkCommandBuffer recordInto)
+    : ctx_(ctx), timer_(nullptr), cb_(recordInto), recording_(true), external_(true) {
+  CS_CHECK(recordInto != VK_NULL_HANDLE, "no command buffer to record into");
+}
+
 Commands::~Commands() {
+  if (external_) return;
   if (recording_) vkEndCommandBuffer(cb_);
   vkFreeCommandBuffers(ctx_.device, ctx_.commandPool, 1, &cb_);
 }
@@ -1082,6 +1171,7 @@ void Commands::mark(const std::string& name) {
 }
 
 void Commands::submit() {
+  CS_CHECK(!external_, "a submit while recording into the caller's command buffer (the library submits nothing)");
   VK_CHECK(vkEndCommandBuffer(cb_));
   recording_ = false;
   VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};

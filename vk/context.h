@@ -84,6 +84,17 @@ struct Context {
                                          // another buffer on a GPU; lavapipe bounds-checks either way)
   PFN_vkCmdPushDescriptorSetKHR cmdPushDescriptorSet = nullptr;
 
+  // A device adopted from the caller (adoptDevice): the context destroys only what it made, never waits
+  // for the device, and never submits (Commands record into the caller's command buffer). Uploads into
+  // memory the host cannot map are staged and queued in pendingUploads for the next recorded frame.
+  bool adopted = false;
+  struct PendingUpload {
+    std::unique_ptr<Buffer> staging;
+    VkBuffer dst = VK_NULL_HANDLE;
+    VkDeviceSize offset = 0, bytes = 0;
+  };
+  std::vector<PendingUpload> pendingUploads;
+
   HostCost cost;                    // see HostCost
   std::unique_ptr<Buffer> staging;  // discrete GPUs: the one staging buffer upload/download reuse (grown as needed)
 
@@ -113,6 +124,31 @@ struct Context {
 };
 
 std::unique_ptr<Context> createContext(const ContextOptions& options);
+
+// The caller's Vulkan objects, adopted by a context that then records into the caller's command buffers
+// and owns nothing of the caller's. The device must have been created with what deviceRequirements() lists.
+struct AdoptedDevice {
+  VkInstance instance = VK_NULL_HANDLE;
+  VkPhysicalDevice physical = VK_NULL_HANDLE;
+  VkDevice device = VK_NULL_HANDLE;
+  uint32_t queueFamily = 0;  // the family whose command buffers the frames are recorded into (compute)
+  PFN_vkGetInstanceProcAddr getInstanceProcAddr = nullptr;
+};
+// What a device needs for the cone path: the extensions and the features to enable at vkCreateDevice.
+struct DeviceRequirements {
+  uint32_t apiVersion = VK_API_VERSION_1_2;
+  std::vector<const char*> extensions;
+  // Vulkan 1.0 and 1.2 features that must be VK_TRUE
+  bool shaderInt64 = true, shaderBufferInt64Atomics = true;
+};
+DeviceRequirements deviceRequirements();
+// cs::Error naming what the device lacks (an extension, a feature, subgroup operations, a queue family
+// without compute) -- checked before anything is made.
+std::unique_ptr<Context> adoptDevice(const AdoptedDevice& device);
+// Records the copies of ctx.pendingUploads into `cmd` (then a barrier) and returns their staging buffers,
+// which the caller keeps until the command buffer has executed.
+class Commands;
+std::vector<std::unique_ptr<Buffer>> recordPendingUploads(Context& ctx, Commands& cmd);
 // One line per physical device, for --device listing.
 std::vector<std::string> listDevices();
 
@@ -345,7 +381,11 @@ Timer createTimer(Context& ctx, uint32_t capacity = 256);
 class Commands {
  public:
   explicit Commands(Context& ctx, Timer* timer = nullptr);
+  // Records into a command buffer of the caller's, already begun: nothing is allocated, begun, ended or
+  // submitted; submit() is an error.
+  Commands(Context& ctx, VkCommandBuffer recordInto);
   ~Commands();
+  bool external() const { return external_; }
   Commands(const Commands&) = delete;
   Commands& operator=(const Commands&) = delete;
 
@@ -381,6 +421,7 @@ class Commands {
   Timer* timer_;
   VkCommandBuffer cb_ = VK_NULL_HANDLE;
   bool recording_ = false;
+  bool external_ = false;
 };
 
 // 1-D dispatch maths: workgroups for `count` items of `groupSize`, split into (x, y) so neither exceeds

@@ -1,0 +1,470 @@
+// The public API (include/coneshadow/coneshadow.h) as a renderer uses it: on a Vulkan device the test
+// creates itself (validation with synchronization validation on), a frame recorded into the test's own
+// command buffer beside the test's own copies, submitted by the test. The masks must be bit-identical to
+// the bench's cone method (what `coneshadow render --methods cone` runs) on the same samples; several
+// lights in one frame bit-identical to one-light frames; the library submits nothing, waits for nothing
+// and, once warm, allocates nothing.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstring>
+#include <filesystem>
+#include <sstream>
+
+#include "api/internal.h"
+#include "coneshadow/coneshadow.h"
+#include "cone_test_support.h"
+#include "core/scene.h"
+#include "test_context.h"
+#include "traversal/cone_method.h"
+
+namespace cs::test {
+namespace {
+
+// A Vulkan instance and device of the test's own, as a renderer makes them.
+class OwnDevice {
+ public:
+  OwnDevice() {
+    bool validation = false;
+    uint32_t n = 0;
+    vkEnumerateInstanceLayerProperties(&n, nullptr);
+    std::vector<VkLayerProperties> layers(n);
+    vkEnumerateInstanceLayerProperties(&n, layers.data());
+    for (auto& l : layers) validation |= std::strcmp(l.layerName, "VK_LAYER_KHRONOS_validation") == 0;
+    VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
+    app.apiVersion = coneshadow::deviceRequirements().apiVersion;
+    const char* layer = "VK_LAYER_KHRONOS_validation";
+    const char* exts[] = {VK_EXT_DEBUG_UTILS_EXTENSION_NAME, VK_EXT_VALIDATION_FEATURES_EXTENSION_NAME};
+    VkValidationFeatureEnableEXT enables[] = {VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT};
+    VkValidationFeaturesEXT features{VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT};
+    features.enabledValidationFeatureCount = 1;
+    features.pEnabledValidationFeatures = enables;
+    VkInstanceCreateInfo ii{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
+    ii.pApplicationInfo = &app;
+    if (validation) {
+      ii.pNext = &features;
+      ii.enabledLayerCount = 1;
+      ii.ppEnabledLayerNames = &layer;
+      ii.enabledExtensionCount = 2;
+      ii.ppEnabledExtensionNames = exts;
+    }
+    check(vkCreateInstance(&ii, nullptr, &instance), "vkCreateInstance");
+    validated = validation;
+    if (validation) {
+      auto create = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
+          vkGetInstanceProcAddr(instance, "vkCreateDebugUtilsMessengerEXT"));
+      VkDebugUtilsMessengerCreateInfoEXT mi{VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
+      mi.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+      mi.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT;
+      mi.pfnUserCallback = [](VkDebugUtilsMessageSeverityFlagBitsEXT, VkDebugUtilsMessageTypeFlagsEXT,
+                              const VkDebugUtilsMessengerCallbackDataEXT* data, void* self) -> VkBool32 {
+        auto* d = static_cast<OwnDevice*>(self);
+        if (d->messages++ < 5) std::fprintf(stderr, "validation: %s\n", data->pMessage);
+        return VK_FALSE;
+      };
+      mi.pUserData = this;
+      check(create(instance, &mi, nullptr, &messenger), "vkCreateDebugUtilsMessengerEXT");
+    }
+    n = 0;
+    vkEnumeratePhysicalDevices(instance, &n, nullptr);
+    std::vector<VkPhysicalDevice> devs(n);
+    vkEnumeratePhysicalDevices(instance, &n, devs.data());
+    if (devs.empty()) throw std::runtime_error("no Vulkan device");
+    physical = devs[0];
+    for (VkPhysicalDevice d : devs) {  // the device the shared test context runs on
+      VkPhysicalDeviceProperties p;
+      vkGetPhysicalDeviceProperties(d, &p);
+      if (std::string(p.deviceName) == context().deviceName()) physical = d;
+    }
+    vkGetPhysicalDeviceQueueFamilyProperties(physical, &n, nullptr);
+    std::vector<VkQueueFamilyProperties> q(n);
+    vkGetPhysicalDeviceQueueFamilyProperties(physical, &n, q.data());
+    for (uint32_t i = 0; i < n; ++i)
+      if (q[i].queueFlags & VK_QUEUE_COMPUTE_BIT) {
+        family = i;
+        break;
+      }
+    const coneshadow::DeviceRequirements req = coneshadow::deviceRequirements();
+    VkPhysicalDeviceVulkan12Features f12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
+    f12.shaderBufferInt64Atomics = req.shaderBufferInt64Atomics;
+    VkPhysicalDeviceFeatures2 f{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+    f.pNext = &f12;
+    f.features.shaderInt64 = req.shaderInt64;
+    float priority = 1;
+    VkDeviceQueueCreateInfo qi{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
+    qi.queueFamilyIndex = family;
+    qi.queueCount = 1;
+    qi.pQueuePriorities = &priority;
+    VkDeviceCreateInfo di{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
+    di.pNext = &f;
+    di.queueCreateInfoCount = 1;
+    di.pQueueCreateInfos = &qi;
+    di.enabledExtensionCount = uint32_t(req.extensions.size());
+    di.ppEnabledExtensionNames = req.extensions.data();
+    check(vkCreateDevice(physical, &di, nullptr, &device), "vkCreateDevice");
+    vkGetDeviceQueue(device, family, 0, &queue);
+    VkCommandPoolCreateInfo pi{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+    pi.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+    pi.queueFamilyIndex = family;
+    check(vkCreateCommandPool(device, &pi, nullptr, &pool), "vkCreateCommandPool");
+    VkCommandBufferAllocateInfo ai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+    ai.commandPool = pool;
+    ai.commandBufferCount = 1;
+    check(vkAllocateCommandBuffers(device, &ai, &cb), "vkAllocateCommandBuffers");
+    VkFenceCreateInfo fi{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+    check(vkCreateFence(device, &fi, nullptr, &fence), "vkCreateFence");
+  }
+  ~OwnDevice() {
+    vkDeviceWaitIdle(device);
+    for (auto& [h, m] : owned) {
+      if (h.image) vkDestroyImage(device, h.image, nullptr);
+      if (h.buffer) vkDestroyBuffer(device, h.buffer, nullptr);
+      vkFreeMemory(device, m, nullptr);
+    }
+    vkDestroyFence(device, fence, nullptr);
+    vkDestroyCommandPool(device, pool, nullptr);
+    vkDestroyDevice(device, nullptr);
+    if (messenger) {
+      auto destroy = reinterpret_cast<PFN_vkDestroyDebugUtilsMessengerEXT>(
+          vkGetInstanceProcAddr(instance, "vkDestroyDebugUtilsMessengerEXT"));
+      destroy(instance, messenger, nullptr);
+    }
+    vkDestroyInstance(instance, nullptr);
+  }
+
+  coneshadow::DeviceDesc desc() const { return {instance, physical, device, family, vkGetInstanceProcAddr}; }
+
+  VkImage image(VkFormat format, uint32_t w, uint32_t h, uint32_t layers) {
+    VkImageCreateInfo ci{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+    ci.imageType = VK_IMAGE_TYPE_2D;
+    ci.format = format;
+    ci.extent = {w, h, 1};
+    ci.mipLevels = 1;
+    ci.arrayLayers = layers;
+    ci.samples = VK_SAMPLE_COUNT_1_BIT;
+    ci.tiling = VK_IMAGE_TILING_OPTIMAL;
+    ci.usage = VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+    VkImage img;
+    check(vkCreateImage(device, &ci, nullptr, &img), "vkCreateImage");
+    VkMemoryRequirements r;
+    vkGetImageMemoryRequirements(device, img, &r);
+    VkDeviceMemory mem = allocate(r, 0);
+    check(vkBindImageMemory(device, img, mem, 0), "vkBindImageMemory");
+    owned.push_back({{img, VK_NULL_HANDLE}, mem});
+    return img;
+  }
+  // A host-visible buffer and its mapping.
+  std::pair<VkBuffer, void*> hostBuffer(VkDeviceSize bytes) {
+    VkBufferCreateInfo ci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+    ci.size = bytes;
+    ci.usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    VkBuffer b;
+    check(vkCreateBuffer(device, &ci, nullptr, &b), "vkCreateBuffer");
+    VkMemoryRequirements r;
+    vkGetBufferMemoryRequirements(device, b, &r);
+    VkDeviceMemory mem = allocate(r, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT);
+    check(vkBindBufferMemory(device, b, mem, 0), "vkBindBufferMemory");
+    void* p;
+    check(vkMapMemory(device, mem, 0, bytes, 0, &p), "vkMapMemory");
+    owned.push_back({{VK_NULL_HANDLE, b}, mem});
+    return {b, p};
+  }
+  void begin() {
+    VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    check(vkBeginCommandBuffer(cb, &bi), "vkBeginCommandBuffer");
+  }
+  void submitAndWait() {
+    check(vkEndCommandBuffer(cb), "vkEndCommandBuffer");
+    VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+    si.commandBufferCount = 1;
+    si.pCommandBuffers = &cb;
+    check(vkResetFences(device, 1, &fence), "vkResetFences");
+    check(vkQueueSubmit(queue, 1, &si, fence), "vkQueueSubmit");
+    check(vkWaitForFences(device, 1, &fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+    check(vkResetCommandBuffer(cb, 0), "vkResetCommandBuffer");
+  }
+  // A barrier between the test's transfers and the library's (and back).
+  void transferBarrier() {
+    VkMemoryBarrier mb{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+    mb.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_TRANSFER_READ_BIT;
+    mb.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
+                         0, 1, &mb, 0, nullptr, 0, nullptr);
+  }
+  void toGeneral(VkImage img, uint32_t layers) {
+    VkImageMemoryBarrier b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER};
+    b.srcAccessMask = 0;
+    b.dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_TRANSFER_READ_BIT;
+    b.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+    b.newLayout = VK_IMAGE_LAYOUT_GENERAL;
+    b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.image = img;
+    b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, layers};
+    vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr,
+                         1, &b);
+  }
+
+  VkInstance instance = VK_NULL_HANDLE;
+  VkDebugUtilsMessengerEXT messenger = VK_NULL_HANDLE;
+  VkPhysicalDevice physical = VK_NULL_HANDLE;
+  VkDevice device = VK_NULL_HANDLE;
+  VkQueue queue = VK_NULL_HANDLE;
+  uint32_t family = 0;
+  VkCommandPool pool = VK_NULL_HANDLE;
+  VkCommandBuffer cb = VK_NULL_HANDLE;
+  VkFence fence = VK_NULL_HANDLE;
+  bool validated = false;
+  std::atomic<int> messages{0};
+
+ private:
+  struct Handle {
+    VkImage image;
+    VkBuffer buffer;
+  };
+  std::vector<std::pair<Handle, VkDeviceMemory>> owned;
+  static void check(VkResult r, const char* call) {
+    if (r != VK_SUCCESS) throw std::runtime_error(std::string(call) + " failed: " + std::to_string(int(r)));
+  }
+  VkDeviceMemory allocate(const VkMemoryRequirements& r, VkMemoryPropertyFlags want) {
+    VkPhysicalDeviceMemoryProperties mp;
+    vkGetPhysicalDeviceMemoryProperties(physical, &mp);
+    for (uint32_t i = 0; i < mp.memoryTypeCount; ++i)
+      if ((r.memoryTypeBits & (1u << i)) && (mp.memoryTypes[i].propertyFlags & want) == want) {
+        VkMemoryAllocateInfo ai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+        ai.allocationSize = r.size;
+        ai.memoryTypeIndex = i;
+        VkDeviceMemory m;
+        check(vkAllocateMemory(device, &ai, nullptr, &m), "vkAllocateMemory");
+        return m;
+      }
+    throw std::runtime_error("no memory type");
+  }
+};
+
+// The renderer's side of a frame: its G-buffer images filled from host samples, the library's frame,
+// the visibility layers read back -- one command buffer, one submission, by the test.
+class Renderer {
+ public:
+  Renderer(OwnDevice& d, uint32_t w, uint32_t h, uint32_t maxLights) : d_(d), w_(w), h_(h), layers_(maxLights) {
+    position_ = d.image(VK_FORMAT_R32G32B32A32_SFLOAT, w, h, 1);
+    normal_ = d.image(VK_FORMAT_R32G32B32A32_SFLOAT, w, h, 1);
+    visibility_ = d.image(VK_FORMAT_R32_SFLOAT, w, h, maxLights);
+    std::tie(upload_, uploadMap_) = d.hostBuffer(uint64_t(w) * h * 32);
+    std::tie(readback_, readbackMap_) = d.hostBuffer(uint64_t(w) * h * 4 * maxLights);
+    d.begin();
+    d.toGeneral(position_, 1);
+    d.toGeneral(normal_, 1);
+    d.toGeneral(visibility_, maxLights);
+    d.submitAndWait();
+  }
+
+  // One frame of `lights` on the samples; returns a mask per light.
+  std::vector<std::vector<float>> frame(coneshadow::Context& cs, const GBuffer& g, const std::vector<glm::vec3>& lights) {
+    const size_t n = size_t(w_) * h_;
+    std::memcpy(uploadMap_, g.position.data(), n * 16);
+    std::memcpy(static_cast<char*>(uploadMap_) + n * 16, g.normal.data(), n * 16);
+    d_.begin();
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageExtent = {w_, h_, 1};
+    vkCmdCopyBufferToImage(d_.cb, upload_, position_, VK_IMAGE_LAYOUT_GENERAL, 1, &region);
+    region.bufferOffset = n * 16;
+    vkCmdCopyBufferToImage(d_.cb, upload_, normal_, VK_IMAGE_LAYOUT_GENERAL, 1, &region);
+    d_.transferBarrier();
+    coneshadow::FrameDesc f;
+    f.commandBuffer = d_.cb;
+    f.frame = frame_++;
+    f.positionImage = position_;
+    f.normalImage = normal_;
+    f.width = w_;
+    f.height = h_;
+    f.lights = &lights[0].x;
+    f.lightCount = uint32_t(lights.size());
+    f.visibilityImage = visibility_;
+    cs.recordFrame(f);
+    d_.transferBarrier();
+    VkBufferImageCopy out{};
+    out.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, uint32_t(lights.size())};
+    out.imageExtent = {w_, h_, 1};
+    vkCmdCopyImageToBuffer(d_.cb, visibility_, VK_IMAGE_LAYOUT_GENERAL, readback_, 1, &out);
+    d_.transferBarrier();
+    d_.submitAndWait();
+    std::vector<std::vector<float>> masks(lights.size(), std::vector<float>(n));
+    for (size_t l = 0; l < lights.size(); ++l)
+      std::memcpy(masks[l].data(), static_cast<const float*>(readbackMap_) + l * n, n * 4);
+    lastFrame = f.frame;
+    return masks;
+  }
+  uint64_t lastFrame = 0;
+
+ private:
+  OwnDevice& d_;
+  uint32_t w_, h_, layers_;
+  VkImage position_, normal_, visibility_;
+  VkBuffer upload_, readback_;
+  void *uploadMap_, *readbackMap_;
+  uint64_t frame_ = 0;
+};
+
+uint32_t addScene(coneshadow::Context& cs, const Scene& s) {
+  return cs.createInstance(cs.createMesh(&s.positions[0].x, s.positions.size(), s.indices.data(), s.indices.size()),
+                           coneshadow::kIdentity);
+}
+
+// The bench's cone method on a prepared frame (the mask `render --methods cone` writes).
+std::vector<float> benchMask(ReferenceFrame& f, const ConeOptions& o) {
+  return makeConeMethod(context(), o)->run(f.input).visibility;
+}
+
+struct Variant {
+  const char* name;
+  coneshadow::Options options;
+};
+std::vector<Variant> oneVariants() {
+  std::vector<Variant> v;
+  for (const char* name : {"PreciseSorted", "Precise", "SpheresSorted", "Spheres", "PreciseSEA"}) {
+    ConeOptions o;
+    EXPECT_TRUE(applyConeVariant(name, o));
+    coneshadow::Options a;
+    a.sortRays = o.sorted;
+    a.sphereTest = o.test == ConeTest::Sphere;
+    a.earlyAccept = o.earlyAccept;
+    v.push_back({name, a});
+  }
+  return v;
+}
+
+TEST(Api, AFrameInTheCallersCommandBufferEqualsTheBenchsConeMaskAndCostsTheHostNothing) {
+  OwnDevice device;
+  Scene scene = builtinScene();
+  const Camera* cam = scene.findCamera(builtinViewNames()[0]);
+  ASSERT_NE(cam, nullptr);
+  const glm::vec3 light = scene.lights[0].position;
+  const uint32_t size = 64;
+  ReferenceFrame f(scene, *cam, light, size);
+  const std::vector<float> bench = benchMask(f, ConeOptions{});
+
+  coneshadow::Options options;
+  options.framesInFlight = 1;
+  auto cs = coneshadow::Context::create(device.desc(), options);
+  addScene(*cs, scene);
+  Renderer renderer(device, size, size, options.maxLights);
+  vk::Context& inner = coneshadow::ContextAccess::vulkan(*cs);
+  const vk::HostCost start = inner.cost;
+  std::vector<float> first = renderer.frame(*cs, f.host, {light})[0];
+  EXPECT_TRUE(sameBits(first, bench)) << "the library's mask differs from the bench's cone mask";
+  const vk::HostCost warm = inner.cost;
+  for (int k = 0; k < 3; ++k) EXPECT_TRUE(sameBits(renderer.frame(*cs, f.host, {light})[0], bench)) << "frame " << k + 1;
+  const vk::HostCost after = inner.cost;
+  EXPECT_EQ((after - start).submits, 0u);
+  EXPECT_EQ((after - start).hostSyncs, 0u);
+  EXPECT_EQ((after - start).readbackBytes, 0u);
+  EXPECT_EQ((after - warm).allocations, 0u) << "allocations after the first frame";
+  const coneshadow::FrameStats st = cs->frameStats(renderer.lastFrame);
+  ASSERT_TRUE(st.available);
+  ASSERT_EQ(st.lights.size(), 1u);
+  EXPECT_EQ(st.lights[0].litSamples, f.host.litCount());
+  EXPECT_GT(st.lights[0].pairsTested, 0u);
+  EXPECT_TRUE(st.lights[0].complete);
+  EXPECT_FALSE(cs->frameStats(renderer.lastFrame + 5).available);
+  cs.reset();
+  EXPECT_TRUE(device.validated) << "VK_LAYER_KHRONOS_validation is not installed";
+  EXPECT_EQ(device.messages.load(), 0) << "validation (synchronization validation on) reported messages";
+}
+
+// Several lights of one frame against one-light frames, and one-light frames against the bench.
+void expectLightsMatch(const Scene& scene, const Camera& cam, const std::vector<glm::vec3>& lights, uint32_t size,
+                       const std::string& what) {
+  OwnDevice device;
+  std::vector<std::unique_ptr<ReferenceFrame>> frames;
+  for (glm::vec3 l : lights) frames.push_back(std::make_unique<ReferenceFrame>(scene, cam, l, size));
+  for (const Variant& v : oneVariants()) {
+    ConeOptions o;
+    applyConeVariant(v.name, o);
+    coneshadow::Options options = v.options;
+    options.maxLights = 8;
+    auto cs = coneshadow::Context::create(device.desc(), options);
+    addScene(*cs, scene);
+    Renderer renderer(device, size, size, 8);
+    auto bench = makeConeMethod(context(), o);  // one method for every light: its geometry uploaded once
+    std::vector<std::vector<float>> single;
+    for (size_t l = 0; l < lights.size(); ++l) {
+      single.push_back(renderer.frame(*cs, frames[l]->host, {lights[l]})[0]);
+      EXPECT_TRUE(sameBits(single.back(), bench->run(frames[l]->input).visibility))
+          << what << " " << v.name << " light " << l << ": library vs bench";
+    }
+    for (size_t count : {size_t(2), size_t(4), size_t(8)}) {
+      if (count > lights.size()) break;
+      const std::vector<glm::vec3> some(lights.begin(), lights.begin() + count);
+      const auto masks = renderer.frame(*cs, frames[0]->host, some);
+      for (size_t l = 0; l < count; ++l)
+        EXPECT_TRUE(sameBits(masks[l], single[l])) << what << " " << v.name << ": light " << l << " of " << count;
+    }
+    cs.reset();
+  }
+  EXPECT_EQ(device.messages.load(), 0) << what << ": validation reported messages";
+}
+
+std::vector<glm::vec3> eightLights(const Scene& s) {
+  const glm::vec3 lo = s.boundsMin, hi = s.boundsMax, c = 0.5f * (lo + hi), e = hi - lo;
+  std::vector<glm::vec3> out;
+  for (const PointLight& l : s.lights) out.push_back(l.position);
+  const glm::vec3 offsets[] = {{0.3f, 0.35f, 0.2f}, {-0.3f, 0.4f, 0.1f}, {0.1f, 0.45f, -0.3f}, {-0.2f, 0.3f, -0.25f},
+                               {0.0f, 0.2f, 0.0f},  {0.35f, 0.1f, 0.35f}, {-0.35f, 0.25f, 0.3f}, {0.2f, 0.4f, 0.0f}};
+  for (glm::vec3 o : offsets) {
+    if (out.size() == 8) break;
+    out.push_back(c + o * e);
+  }
+  return out;
+}
+
+TEST(Api, EightLightsInOneFrameEqualOneLightFramesOnTheBuiltinScene) {
+  Scene scene = builtinScene();
+  const Camera* cam = scene.findCamera(builtinViewNames()[0]);
+  ASSERT_NE(cam, nullptr);
+  expectLightsMatch(scene, *cam, eightLights(scene), 40, "builtin");
+}
+
+TEST(Api, EightLightsInOneFrameEqualOneLightFramesOnTheBartMuseum) {
+  const std::string bart = CONESHADOW_BART_SCENES;
+  if (!std::filesystem::exists(bart + "/museum/museum5.aff")) GTEST_SKIP() << "no BART scenes at " << bart;
+  std::ostringstream warn;
+  Scene scene = loadAff(bart + "/museum/museum5.aff", warn, 2.0);
+  ASSERT_FALSE(scene.cameras.empty());
+  expectLightsMatch(scene, scene.cameras[0], eightLights(scene), 40, "museum");
+}
+
+TEST(Api, HostileCallsAreOneClearErrorAndRecordNothing) {
+  OwnDevice device;
+  auto cs = coneshadow::Context::create(device.desc());
+  const float p[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  const uint32_t bad[3] = {0, 1, 3};
+  auto expectError = [](auto&& call, const std::string& needle) {
+    try {
+      call();
+      ADD_FAILURE() << "no error; expected one naming " << needle;
+    } catch (const coneshadow::Error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(needle), std::string::npos) << what;
+      EXPECT_EQ(what.find('\n'), std::string::npos) << "one line: " << what;
+    }
+  };
+  expectError([&] { cs->createMesh(p, 3, bad, 3); }, "past the 3 vertices");
+  expectError([&] { cs->createMesh(p, 3, bad, 2); }, "whole number of triangles");
+  expectError([&] { cs->createInstance(7, coneshadow::kIdentity); }, "no mesh 7");
+  const uint32_t ok[3] = {0, 1, 2};
+  const uint32_t mesh = cs->createMesh(p, 3, ok, 3);
+  float nan[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, std::nanf("")};
+  expectError([&] { cs->createInstance(mesh, nan); }, "not finite");
+  coneshadow::FrameDesc f;
+  expectError([&] { cs->recordFrame(f); }, "commandBuffer is null");
+  coneshadow::Options o;
+  o.framesInFlight = 9;
+  expectError([&] { coneshadow::Context::create(device.desc(), o); }, "framesInFlight");
+  coneshadow::DeviceDesc none;
+  expectError([&] { coneshadow::Context::create(none); }, "must all be given");
+}
+
+}  // namespace
+}  // namespace cs::test

@@ -1,0 +1,59 @@
+// The cone path as an engine: a frame of 1..N lights recorded into a command buffer the caller submits
+// (the public API, include/coneshadow/coneshadow.h, is a thin layer over this; the bench's "cone" method
+// runs the same recorder). docs/ARCHITECTURE.md, "The engine".
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "core/scene.h"
+#include "traversal/cone_method.h"
+
+namespace cs {
+namespace vk {
+struct Context;
+struct Buffer;
+class Commands;
+}  // namespace vk
+struct DeviceGBuffer;
+
+// One light's counts of a recorded frame, read a frame or more later from the stats ring.
+struct EngineLightStats {
+  uint32_t litSamples = 0;
+  uint32_t treeDepth = 0, treeNodes = 0;
+  uint64_t pairsTested = 0, pairsSurvived = 0, leafTests = 0;
+  bool complete = true;  // false: the traversal's pairs passed its arena; the lit samples not shadowed by then
+                         // are written as 0.5 (undecided), the next frames use smaller batches
+};
+
+class ConeEngine {
+ public:
+  virtual ~ConeEngine() = default;
+  // The scene's triangles (world space), uploaded when `revision` differs from the one held. Host work and
+  // allocations only; on a device whose memory the host cannot map, the copies go into the next frame.
+  virtual void setGeometry(const Scene& scene, const GeometryRevision& revision) = 0;
+  // Records a frame into `cmd` (which records into the caller's command buffer): for each light l, the light
+  // term of `g` for l (g.normal.w rewritten from g.position and g.normal.xyz), the cone path, the undecided
+  // samples of an overflowed traversal, then deliver(l, visibility) records what the caller does with the
+  // mask (one uint a pixel: the bits of 1.0f lit, 0.0f shadowed, 0.5f undecided; 1.0f where not lit).
+  // `frame` numbers the frames from 0; the frame `frame - framesInFlight` must have completed on the
+  // device (its stats slot and host-written buffers are reused). Submits nothing, waits for nothing.
+  virtual void record(vk::Commands& cmd, const DeviceGBuffer& g, std::span<const glm::vec3> lights, float eps,
+                      uint64_t frame, const std::function<void(uint32_t light, const vk::Buffer& mask)>& deliver) = 0;
+  // The stats of a recorded frame that has completed on the device, one per light (empty for a frame that
+  // is not among the last framesInFlight recorded).
+  virtual std::vector<EngineLightStats> stats(uint64_t frame) = 0;
+  // Bytes of device memory held.
+  virtual uint64_t bytesAllocated() const = 0;
+};
+
+// framesInFlight: frames recorded before the oldest must have completed (1..4); maxLights: lights a frame
+// (1..64). The options' two-pass variants need a host decision between the passes and are refused.
+std::unique_ptr<ConeEngine> makeConeEngine(vk::Context& ctx, const ConeOptions& options, uint32_t framesInFlight,
+                                           uint32_t maxLights);
+
+}  // namespace cs
