@@ -93,7 +93,7 @@ struct SortShape {
 };
 inline constexpr SortShape kCpuSortShape{SORT_THREADS_CPU, SORT_ITEMS_CPU};
 inline constexpr SortShape kGpuSortShape{SORT_THREADS_GPU, SORT_ITEMS_GPU};
-// A CPU device (lavapipe) gets kCpuSortShape, as measured there (README, "GPU sort primitives"); any
+// A CPU device (lavapipe) gets kCpuSortShape, as measured there (docs/RESULTS.md, "GPU sort primitives"); any
 // other device kGpuSortShape when its shared memory and workgroup limits hold it, else kCpuSortShape.
 SortShape sortShapeFor(const vk::Context& ctx);
 // How the sort learns where a tile's keys of a digit start (radix_scatter.comp): ReduceThenScan, a count
