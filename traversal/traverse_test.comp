@@ -48,7 +48,8 @@
 layout(local_size_x = TRAVERSE_THREADS) in;
 // Triangles and nodes are read as uniform texel buffers (RGBA32F, three texels a triangle, two a node):
 // the gathers this kernel makes per pair are its cost, and texel fetches of 16-byte texels are the fast
-// gather path on lavapipe and read through the texture cache on a GPU (TOOLCHAIN.md).
+// gather path on lavapipe and read through the texture cache on a GPU (docs/ARCHITECTURE.md, "Memory
+// access").
 layout(binding = 0) uniform samplerBuffer tris;
 layout(binding = 1) uniform samplerBuffer nodeTexels;
 // The input pairs as RGBA32UI texels, two a texel: a texel fetch costs lavapipe next to nothing, a storage
