@@ -16,8 +16,10 @@
 // leaf pair (LeafRays below) -- one invocation per pair, reading the triangle once for the (up to) four,
 // 16 or 64 rays under the node; it rebuilds each ray from the light and the sample's
 // position (conetree/cone_math.h) and runs the watertight ray/triangle test with hits counted at distances in (eps, L - eps) from the light
-// (the reference's interval, measured from the other end). A hit ANDs the sample's visibility word with
-// 0: idempotent, so the mask does not depend on order, races or how the work was split.
+// (the reference's interval, measured from the other end). A hit sets the ray's bit in the shadowed words
+// (atomicOr); once the traversal's leaves have all run, leaf_hits.comp stores 0 into the visibility word
+// of each marked ray's pixel. Both are idempotent, so the mask does not depend on order, races or how the
+// work was split.
 //
 // Bounded memory (002 §4.2). All pairs live in one fixed arena of `pairCapacity` pairs, used as a stack of
 // depths: depth d+1's pairs sit right after what is left of depth d's. Depth d is processed from its tail:
@@ -72,8 +74,9 @@
 //
 // Early accept (002 §3.3; TraversalInput::earlyAccept, precise test only). The test kernel also checks
 // each surviving child with preciseConeCovered (precise_test.h: every ray under the node hits the
-// triangle within (eps, L - eps), conservatively): a covered child shadows its leaf range at once (the
-// same AND of the visibility word as the leaves; degenerate rays skipped as there) and writes no pair;
+// triangle within (eps, L - eps), conservatively): a covered child shadows its leaf range at once (an
+// atomicAnd of each ray's visibility word with 0, not the leaves' bits; degenerate rays skipped as
+// there) and writes no pair;
 // the node is flagged (one word per interior node, cleared per frame) and every later pair at a flagged
 // node is dropped when it is next tested. The mask is unchanged (tests/early_accept_test.cpp): an accepted
 // node's samples are exactly what its leaves would shadow, and a dropped pair's samples are all 0 already.
