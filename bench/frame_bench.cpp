@@ -4,7 +4,7 @@
 // warm-up, medians of --frames; the view's methods a frame each in turn, `compare --interleave`, so the
 // ratios below are of times taken side by side) into OUT/<scene>_<size>/, then prints, from those
 // results.json files,
-//   1. per size, every method setting's median ms and misclassified % outside the band (the README's
+//   1. per size, every method setting's median ms and misclassified % outside the band (docs/RESULTS.md's
 //      table: `coneshadow results-table`);
 //   2. the cone path's time over Embree's build + rays, the 2048² cube map's and rmsm@16M's from the same
 //      run, and what each method's default setting cost the host a frame (submissions, host syncs, KiB

@@ -2,7 +2,7 @@
 // visited ((triangle, node) pairs tested, the measure paper 002 plots), early-accepted nodes, rays
 // finished in two-pass's first pass, the median time of its whole shadow frame over PreciseSorted's
 // (the default; same frames, same run), and the misclassified samples outside the band against Embree
-// (0: every variant is exact). Prints a markdown table (the README's variants table); the absolute times
+// (0: every variant is exact). Prints a markdown table (docs/RESULTS.md's variants table); the absolute times
 // of the default and of Embree are the frame bench's (bench/frame_bench.cpp), not printed twice.
 //   variants_bench [--size 1024] [--frames 3] [--scenes builtin,engine,museum] [--variants A,B,...] [--device D]
 //                  [--slow-ms 5000]
@@ -81,7 +81,7 @@ int main(int argc, char** argv) {
                 "%.0f ms is the one timed frame); nodes visited = (triangle, node) pairs tested\n\n",
                 ctx->driverDescription().c_str(), size, size, frames, slowMs);
     // Times as ratios to PreciseSorted's (the cone path's default) from the same frames: its own time, and
-    // Embree's, are the frame bench's figures (README), not printed twice.
+    // Embree's, are the frame bench's figures (docs/RESULTS.md), not printed twice.
     std::printf("| view | variant | nodes visited | early accepted | finished in pass one | time / PreciseSorted | "
                 "misclassified outside band |\n|---|---|---:|---:|---:|---:|---:|\n");
     std::fflush(stdout);

@@ -23,7 +23,7 @@ layout(std430, binding = 2) writeonly buffer Nodes { ConeNode nodes[]; };
 // The shape words every invocation reads (binding 3), and binding 2's nodes again for the children an
 // upper depth reads (binding 5), as uniform texel buffers (RGBA32UI; RGBA32F, two texels a node): a
 // storage load is a loop over the lanes on lavapipe, a texel fetch a gather (docs/ARCHITECTURE.md,
-// "Memory access"; the build 13.7-14.5 -> 12.1-12.5 ms on the ceiling and the museum at 1024²).
+// "Memory access", has what it saved the build).
 layout(binding = 3) uniform usamplerBuffer shapeTexels;
 layout(std430, binding = 4) writeonly buffer Rays { uvec4 rays[]; };
 layout(binding = 5) uniform samplerBuffer nodeTexels;

@@ -394,8 +394,9 @@ class SchemaCheck {
 };
 
 // Required extensions we may accept: the one we implement, and those that only change appearance
-// (we model no materials or textures, DESIGN.md). Anything else in extensionsRequired may change the
-// geometry (Draco, meshopt, quantization, instancing), and the spec says a loader must then refuse.
+// (we model no materials or textures: docs/ARCHITECTURE.md, "Contracts"). Anything else in
+// extensionsRequired may change the geometry (Draco, meshopt, quantization, instancing), and the spec
+// says a loader must then refuse.
 bool harmlessRequiredExtension(const std::string& name) {
   for (const char* prefix : {"KHR_materials_", "KHR_texture_", "EXT_texture_", "KHR_technique"})
     if (name.starts_with(prefix)) return true;

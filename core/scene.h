@@ -1,6 +1,6 @@
 // The scene as every stage sees it: one flat, world-space triangle soup (node instances flattened),
-// plus the cameras and point lights it carries. Only what shadows need (DESIGN.md: model only what a
-// scene needs): no materials, no textures.
+// plus the cameras and point lights it carries. Only what shadows need (docs/ARCHITECTURE.md,
+// "Contracts": model only what a scene needs): no materials, no textures.
 #pragma once
 #include <cmath>
 #include <cstdint>

@@ -1,5 +1,5 @@
 // The raster pass's output on the host: one sample per pixel, shared by every shadow method
-// (DESIGN.md: one sample set). Row-major, row 0 at the top of the image.
+// (docs/ARCHITECTURE.md, "Contracts": one sample set). Row-major, row 0 at the top of the image.
 #pragma once
 #include <cstdint>
 #include <vector>

@@ -17,10 +17,9 @@
 //   it, still holds the box of the subset's face coordinates there. Samples outside the box (the subset
 //   missed them) go to the square's edge cells; a face none of the subset reached sends its rays to
 //   RAY_KEY_LAST (rare: fewer than about one lit pixel in RAY_BOUNDS_SAMPLES). A zoomed view or a distant
-//   light, whose rays span a sliver of a face, still gets cells as fine as its rays. Measured against the
-//   2^12 grid on every face of 27 bits and three passes it replaced (docs/ARCHITECTURE.md, "rays/"):
-//   pairs tested within +2 % on the views and scenes measured (+4.2 % on a model over a ground plane),
-//   with a radix pass of three saved.
+//   light, whose rays span a sliver of a face, still gets cells as fine as its rays. Against the 2^12 grid
+//   on every face of 27 bits and three passes it replaced, about the same pairs tested for a radix pass
+//   saved (docs/ARCHITECTURE.md, "rays/", has the measurements).
 // Degenerate rays (zero length: a sample at the light; or a non-finite direction) get
 // RAY_KEY_DEGENERATE = 2^18 - 1, so they sort after all others: a real key is at most RAY_KEY_LAST (the
 // last cell of runs that fill the key space shares the key of the cell before it, its neighbour on the
@@ -172,7 +171,7 @@ CS_FN float zoomOrigin(float lo, float hi, float s) {
 // zoomed in by halves while a square of half the side still holds the box, each axis's start on the face's
 // own grid of that square's side or half a side off it (RAY_KEY_MAX_ZOOM halvings at most). The cells stay
 // square and the squares stay on the face's grid: a grid placed at the box's own corner, or stretched to
-// its sides, was measured to cost up to a fifth more pairs on the museum than the whole face's. The whole
+// its sides, costs more pairs than the whole face's (docs/ARCHITECTURE.md, "rays/"). The whole
 // face when the subset had no sample there.
 CS_FN vec4 fittedFaceGrid(uvec4 box, uint order) {
   vec4 grid = wholeFaceGrid(order);
@@ -217,9 +216,9 @@ CS_FN uint faceKeyOrder(uint face, uint counts[6]) {
   return order;
 }
 // The run of keys `face` gets, (order, first key): the runs of the faces with a count back to back in face
-// order (ranked order was measured to cost the fur 7 % more pairs: where one face's curve ends and the next
-// begins changes the nodes that straddle them). Order 0 and RAY_KEY_LAST for a face with no count, whose
-// rays all take that key. The same on every device: integer arithmetic on the same counts.
+// order (ranked order costs more pairs, docs/ARCHITECTURE.md, "rays/": where one face's curve ends and
+// the next begins changes the nodes that straddle them). Order 0 and RAY_KEY_LAST for a face with no
+// count, whose rays all take that key. The same on every device: integer arithmetic on the same counts.
 CS_FN uvec2 faceKeySlot(uint face, uint counts[6]) {
   if (counts[face] == 0u) return uvec2(0u, uint(RAY_KEY_LAST));
   uint first = 0u;

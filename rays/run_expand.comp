@@ -7,8 +7,8 @@
 // sorted ray's record instead of its pixel, uvec4(the float bits of its position, its pixel) (conetree/
 // ConeTree::rays()): the positions read here a run's consecutive pixels at a time, where the cone tree's
 // build would gather them in the sorted order, and stored once (the build reads them, the leaves after
-// it). The fur at 1024²: the build 13.3-14.3 -> 6.6-8.6 ms, the sort 10.6 -> 14.7-16.4 (the position
-// fetches ~3.5 ms of it: their cache misses moved here, the records' stores off the build).
+// it): the gathers' cache misses move here and the records' stores off the build, which then reads its
+// rays in order; a net gain (docs/ARCHITECTURE.md, "rays/", has the measurements).
 // bindings: 0 = order (uniform texel buffer, R32UI: the sorted items, pixel | (length - 1) <<
 //           RUN_PIXEL_BITS), 1 = starts (uniform texel buffer, R32UI), 2 = samples (uint[]), 3 = keys
 //           (uint[]), 4 = sortedKeys (uniform texel buffer, R32UI), 5 = countWords, 6 = positions (the

@@ -1,5 +1,6 @@
-// The ray-traced ground truth (DESIGN.md "ground truth"): Embree 3, one occlusion ray per lit sample
-// under the shared epsilon policy (eval/epsilon.h), and the ambiguity band traced on the same BVH.
+// The ray-traced ground truth (docs/ARCHITECTURE.md, "Contracts": ground truth): Embree 3, one occlusion
+// ray per lit sample under the shared epsilon policy (eval/epsilon.h), and the ambiguity band traced on
+// the same BVH.
 #pragma once
 #include <atomic>
 #include <cstdint>
@@ -51,9 +52,9 @@ class EmbreeDevice {
 };
 
 struct EmbreeOptions {
-  // MEDIUM: Embree's binned-SAH build. DESIGN.md times Embree as build + rays because a dynamic scene
-  // rebuilds every frame; HIGH adds spatial splits, which build several times slower and only pay off
-  // when far more rays than one frame's ~1M shadow rays are traced per build.
+  // MEDIUM: Embree's binned-SAH build. Embree is timed as build + rays because a dynamic scene rebuilds
+  // every frame (docs/ARCHITECTURE.md, "Contracts"); HIGH adds spatial splits, which build several times
+  // slower and only pay off when far more rays than one frame's ~1M shadow rays are traced per build.
   RTCBuildQuality quality = RTC_BUILD_QUALITY_MEDIUM;
   unsigned threads = 0;   // ray-tracing threads, 0 = all hardware threads (the build uses Embree's TBB)
   size_t grain = 4096;    // pixels per work item: a few scanlines, so packets stay coherent

@@ -1,25 +1,8 @@
 // shadowmaps/: adaptive shadow maps (ASM, paper 001) for an omnidirectional light. CLI name "asm".
-//
-// Per cube face a tree of shadow-map nodes, every node N x N texels (--asm-node-res) split into C x C
-// cells (--asm-cells); a cell may hold a child node over its region at C times the resolution. The six
-// roots (one per face, the whole face at N² texels) are always resident; children come and go within a
-// memory limit (--asm-memory), kept by the host as the paper's CPU keeps them. Per frame:
-//   1. analysis (§3.1, GPU, asm_frame.comp): every analysed sample (--asm-analysis K: every K-th pixel in
-//      x and y) walks to its finest resident node; if its 2x2 taps disagree there (it straddles a depth
-//      discontinuity) and the node's texel covers more of the surface than its pixel does, the cell whose
-//      child would hold it gains one unit of benefit;
-//   2. refinement (host): cells by benefit over cost, cost = a·N² + b per node with a and b calibrated on
-//      the device at the first frame (every node renders N² texels, so the order is the benefit's);
-//      nodes are created for the best cells until the frame's time budget (--asm-budget-ms) is spent.
-//      When the pool is full, the least recently used leaf not used in the last frame is evicted;
-//      when every node is in use, one is replaced only by a more beneficial cell (§3.2);
-//   3. the new nodes rendered with the shared depth pass (a window of the face at the node's depth,
-//      frustum-culled per node) into the pool; the lookup (§4.4): the finest resident node, the shared
-//      bias, 2x2 PCF.
-// ASM is progressive: the tree persists across run() calls, so a static view converges over frames. A
-// change of geometry or light flushes it (the roots are rendered again, every child is dropped).
-// Faces: a sample belongs to its direction's major-axis face, whose root covers the whole face: no sample
-// falls between faces.
+// Per cube face a tree of shadow-map nodes, refined frame by frame where samples straddle shadow edges at
+// texels coarser than their pixels, within a memory limit (--asm-memory); progressive: the tree persists
+// across run() calls, so a static view converges over frames. The analysis, refinement, nodes and lookup
+// and the ID + depth test: shadowmaps/README.md, "ASM (paper 001) per cube face".
 #pragma once
 #include <cstdint>
 #include <memory>

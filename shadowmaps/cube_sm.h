@@ -13,8 +13,9 @@
 // far light's shadows to a handful of texels and a slope bias of L·2/R, wider than the scene: with the
 // fit, the error comes from the resolution the window has. The bias's texel is the fitted one (2/res).
 //
-// Bias policy (both shadow maps share it; sm_shared.h slopeScaledBias): a sample at distance L is lit by
-// a tap when  stored >= L - bias,  bias = constantBias·eps + slopeBias · L·(2/res) · min(tanθ, maxSlope),
+// Bias policy (every shadow map here shares it; sm_shared.h slopeScaledBias; shadowmaps/README.md): a
+// sample at distance L is lit by a tap when  stored >= L - bias,
+//   bias = constantBias·eps + slopeBias · L·(2/res) · min(tanθ, maxSlope),
 // where eps is the shared epsilon policy's along-ray epsilon (eval/epsilon.h: the reference ignores
 // hits within eps of either end, so no map can resolve closer), θ the angle between the sample's normal
 // and the direction to the light, and L·2/R the widest a texel gets sideways at that distance. The

@@ -1,7 +1,10 @@
-// shadowmaps/: the geometry pass both shadow maps share. Renders the scene as seen from the light into a
-// texel window of one cube face — a whole face for the cube shadow map, a superpage for RMSM — storing
-// the linear distance to the light (R32F; a D32 reversed-Z buffer with an infinite far plane picks the
-// nearest fragment), then copies rectangles of it into storage buffers.
+// shadowmaps/: the geometry pass the four shadow maps share (cube_sm, rmsm, asm, rtw). Renders the scene
+// as seen from the light into a texel window of one cube face — a whole face for the cube shadow map, a
+// superpage for RMSM, a node's window for ASM (and, with --asm-id-test, the triangle nearest the light
+// per texel), for RTW the light's low-resolution depth image its forward and hybrid analyses read and a
+// whole face through the warp maps (recordWarped) — storing the linear distance to the light (R32F; a
+// D32 reversed-Z buffer with an infinite far plane picks the nearest fragment), then copies rectangles
+// of it into storage buffers. The long form: docs/ARCHITECTURE.md, "Stage notes", shadowmaps/.
 //
 // Why linear distance: for an omnidirectional light the six faces must agree where they meet, and a
 // distance is the same number whichever face (or level) stored it, so one bias rule serves every face

@@ -1,4 +1,5 @@
-// Resolution-matched shadow maps over six cube faces: see rmsm.h for the algorithm and its steps.
+// Resolution-matched shadow maps over six cube faces: the algorithm and its steps are shadowmaps/README.md,
+// "RMSM (paper 000) per cube face".
 #include "shadowmaps/rmsm.h"
 
 #include "shadowmaps/rmsm_inspect.h"

@@ -1,57 +1,9 @@
 // shadowmaps/: resolution-matched shadow maps (RMSM, paper 000: Lefohn, Sengupta, Owens 2007) for an
-// omnidirectional point light. CLI name "rmsm".
-//
-// The omnidirectional adaptation. The paper's RMSM serves one spot-light frustum; here each of the six
-// cube faces (sm_shared.h conventions) is its own virtual quadtree shadow map of up to maxResolution²
-// texels: level L of face f holds (P·2^L)² texels in P x P pages (P = pageSize), L = 0..maxLevel with
-// P·2^maxLevel = maxResolution. Each face has its own mip hierarchy of page tables; all six share ONE
-// physical page pool. A sample picks its face by the major axis of its direction from the light, so the
-// faces never overlap and a page key (face, level, page x, page y) names a page once.
-// Fitted faces (RmsmOptions::fitFaces): a face's quadtree covers the window of the face that the scene's
-// bounding box projects to -- a square of side 1/zoom, zoom a power of two up to 2^22 / maxResolution
-// (fp32 (s, t)) -- and (s, t) are taken in that window (sm_shared.h windowST); with the light inside or
-// beside the box every window is the whole face, as before. A far light's scene spans a few texels of a
-// whole face: its finest level would be resolution-limited at once, and the slope bias (a texel of the
-// whole face) wider than the scene.
-//
-// One frame, Algorithm 2 of the paper (every step on the GPU except 8 and 10, as in the paper):
-//   1-3  rmsm_requests.comp  per lit sample: face, (s, t), LOD ℓ = log2 sqrt|dX × dY| (eq. 1) from the
-//                            (s, t) of neighbouring samples of the raster output; λ = -ℓ - log2 P, the
-//                            continuous quadtree level; page requests at floor(λ) and floor(λ) + 1 (the
-//                            two levels the lookup blends)
-//   4    rmsm_prune.comp     connected components: drop a request when the left or lower neighbour asks
-//                            for the same page
-//   5    sort::Compact       drop invalid and pruned requests; the kept count is read back (one word) so
-//                            the next steps run on exactly that many keys, not on the 2-per-pixel bound
-//   6    sort::RadixSort     sort the page keys (31 bits: face, level, Morton order of the page)
-//   7    rmsm_unique.comp + sort::Compact  keep keys unlike their predecessor: the unique pages
-//   8    host                read back the unique pages (the count, then the keys)
-//        host                fallback (§3.3.5): when they exceed the pool, coarsen the finest level until
-//                            they fit (coarsenToFit: exact, pages map to their ancestors); the frame's
-//                            stats say so (fallback, fallback_levels, effective_resolution)
-//   9    rmsm_tables.comp    page allocation: pool slots, a scatter into the page tables
-//   10   host                superpage binning (binSuperpages): one linear pass over the sorted keys, since
-//                            Morton order makes each superpage's pages consecutive; each bin renders only
-//                            the bounding box of its pages (plus the apron), split into quadrants while
-//                            the pages fill less than half of it — a pass costs its area, not its pages
-//   11-12 depth_pass.h       one geometry pass per bin (triangle clusters outside its frustum culled),
-//                            then a copy of each page's (P+1)² texels (one-texel apron on the high sides,
-//                            so a 2x2 footprint never leaves its page) into its pool slot
-//   lookup rmsm_lookup.comp  PCF of 4 texels at the two nearest levels, blended (§3.3.1)
-// Analysis resolution (§3.3.5, the paper's first quality knob): with analysisStep = k > 1 only every k-th
-// pixel in x and y requests pages (k² fewer requests to prune, sort and uniquify; the LOD is still each
-// pixel's own), so pages only unanalysed pixels need can be missing. The lookup then uses the finest
-// resident page below the level it wants — a neighbour's, usually — and, as the paper's "backup"
-// standard shadow map, the host adds every page of one coarse level (backupResolution² texels a face) on
-// each face that holds a lit sample (the request kernel ORs the faces into one counter word), so every
-// lookup finds a page (lookup_misses stays 0).
-// Page tables store each page at its own level; the lookup walks toward coarser levels (rmsm.glsl),
-// which answers exactly what the paper's filled hierarchy answers while updating O(pages) entries a
-// frame (and only when that finds nothing, at a reduced analysis resolution, toward finer ones). Cached mode (§3.3.4; static scenes): pages and tables persist across frames, the request kernel
-// drops requests for resident pages, new pages take free slots; when they do not fit, or the light or
-// the geometry changes, the cache is flushed (all pages dropped) and the frame is built afresh.
-//
-// Bias: the cube map's slope-scaled rule (cube_sm.h), with the texel size of the level each lookup reads.
+// omnidirectional point light. CLI name "rmsm". Each cube face is a virtual quadtree shadow map, all six
+// sharing one physical page pool, and a frame renders only the pages its samples ask for, at the
+// resolution they need. The adaptation to six faces, fitted faces, the frame's steps (Algorithm 2, one
+// kernel or host function each), the analysis resolution, the page tables and cached mode:
+// shadowmaps/README.md, "RMSM (paper 000) per cube face".
 #pragma once
 #include <cstdint>
 #include <memory>

@@ -3,9 +3,9 @@
 // RMSM lookup (paper 000 §3.3.1): per lit sample, two percentage-closer lookups of 4 texels at the two
 // quadtree levels around its λ (after the frame's fallback: frameLevel), blended by fract(λ). A footprint
 // with no resident page at any level counts as a miss and is lit (never with full-resolution analysis;
-// at a reduced one the backup level makes it rare: rmsm.h).
+// at a reduced one the backup level makes it rare: shadowmaps/README.md, RMSM).
 // bindings: 0 = position, 1 = normal, 2 = lod (float per pixel), 3 = tables, 4 = pool (float per texel),
-//           5 = visibility (float per pixel), 6 = counters, 7 = the faces' windows (vec4, rmsm.h)
+//           5 = visibility (float per pixel), 6 = counters, 7 = the faces' windows (vec4, fitWindows)
 #include "shadowmaps/sm_shared.h"
 layout(local_size_x = SM_PIXEL_THREADS) in;
 layout(std430, binding = 0) readonly buffer Position { vec4 position[]; };

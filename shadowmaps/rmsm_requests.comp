@@ -18,7 +18,7 @@
 //   analysisStep grid request pages, and the others find their neighbours' pages or coarser ones.
 // bindings: 0 = position (vec4 per pixel), 1 = normal (vec4 per pixel), 2 = tables (uint per entry),
 //           3 = lod (float per pixel: λ, -1 where none), 4 = requests (2 uint per pixel),
-//           5 = counters (uint[SM_COUNT_WORDS]), 6 = the faces' windows (vec4, rmsm.h: fitted faces)
+//           5 = counters (uint[SM_COUNT_WORDS]), 6 = the faces' windows (vec4, fitWindows)
 #include "shadowmaps/sm_shared.h"
 layout(local_size_x = SM_PIXEL_THREADS) in;
 layout(std430, binding = 0) readonly buffer Position { vec4 position[]; };
@@ -124,7 +124,7 @@ void main() {
   if (gl_LocalInvocationIndex == 0u) groupFaces = 0u;
   barrier();
   int face = analyse(CS_FLAT_INDEX(SM_PIXEL_THREADS));
-  // The faces in use: only a reduced analysis needs them (its backup level, rmsm.h).
+  // The faces in use: only a reduced analysis needs them (its backup level, shadowmaps/README.md, RMSM).
   if (pc.analysisStep > 1u && face >= 0) atomicOr(groupFaces, 1u << uint(face));
   barrier();
   if (gl_LocalInvocationIndex == 0u && groupFaces != 0u) atomicOr(counters[SM_COUNT_FACES], groupFaces);

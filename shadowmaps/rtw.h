@@ -1,32 +1,9 @@
 // shadowmaps/: rectilinear texture warping (RTW, paper 004) for an omnidirectional light. CLI name "rtw".
-//
 // One warped shadow map of R x R texels per cube face (--rtw-resolution), each with two 1-D warp maps of
-// n super-cells (--rtw-cells): the face's unwarped (s, t) in [0, 1]² maps cell by cell, linearly within a
-// cell, onto the map, so texels gather where the analysis says shadows need them. Per frame, on the GPU
-// and in one submission:
-//   1. importance map, n x n cells per face (§4.1, §5): backward (every lit sample raises its cell to the
-//      product of the enabled functions: desired view, distance to the eye, surface normal), forward (a
-//      low-resolution depth image of each face, m x m: desired view by the view frustum, distance,
-//      normal from neighbouring texels, shadow edges by depth discontinuities; then every lit sample
-//      raises its cell to alpha times its own importance, so no sample lies in a culled cell), or hybrid
-//      (backward, times the forward image's edge function at the sample's texel);
-//   2. warp maps (§4.2): rows and columns collapsed by the maximum, a Gaussian blur of sigma cells that
-//      leaves culled cells culled, knots from the cumulative importance (rtw_warp.comp);
-//   3. the warped geometry pass per face (§4.3; depth_pass.h recordWarped): each triangle clipped to the
-//      face in face space, its vertices warped; optional subdivision (--rtw-tessellation) bounds how
-//      far a straight edge in the warped map strays from the warped curve it stands for;
-//   4. the lookup (§4.4): the sample's face coordinates warped the same way, 2x2 PCF in the warped map.
-// Faces: a sample belongs to the face of its direction's major axis, as in the cube map; each face's
-// warp covers the whole face (culled cells aside), so no sample falls between faces.
-//
-// Bias: the shared slope-scaled policy (cube_sm.h) with the texel of the sample's own neighbourhood: the
-// largest unwarped texel among its cell and the adjacent cells (2 / (R·n·width) of face coordinate for a
-// cell of warped width `width`), times warpBias (> 1 widens it to cover the warp's non-linearity, see
-// docs). Receiver-plane bias (--plane-bias) per tap along the tap's unwarped ray.
-//
-// Limits: R at least 16 and one face of R² floats within one storage binding; 2 <= n <= min(R,
-// RTW_MAX_CELLS); forward and hybrid depth images m >= n; the device's geometryShader feature. Each
-// violation is an Error naming the setting.
+// n super-cells (--rtw-cells): the face's unwarped (s, t) maps cell by cell, linearly within a cell, onto
+// the map, so texels gather where the analysis says shadows need them. The frame's steps (importance,
+// warp maps, the warped geometry pass, the lookup), the bias and the limits: shadowmaps/README.md, "RTW
+// (paper 004) per cube face".
 #pragma once
 #include <cstdint>
 #include <memory>
@@ -53,8 +30,7 @@ struct RtwOptions {
   uint32_t forwardResolution = 0;  // texels a side of the forward depth image per face; 0: = cells
   // Longest warped edge a sub-triangle keeps, % of the map's side (paper 004 §6.1: 2.5; 0: off). Off, a
   // straight warped edge stands for a curve across every cell it crosses, and on a zoomed view the
-  // misplaced shadow edges cost more than the warp gains (builtin "edge", 512²: 1.1 % misclassified
-  // off, 0.077 % at 2.5 %, the 2048² cube map 0.57 %).
+  // misplaced shadow edges cost more than the warp gains (measured: shadowmaps/README.md, RTW).
   float tessellation = 2.5f;
   float warpBias = 1.0f;       // scale on the bias's texel
   float constantBias = 2.0f;   // in units of the epsilon policy's eps (as cube_sm.h)

@@ -57,7 +57,7 @@ CS_FN vec3 faceSpace(uint face, vec3 d) {
 CS_FN vec2 faceST(vec3 f) { return vec2(0.5f + 0.5f * f.x / f.z, 0.5f + 0.5f * f.y / f.z); }
 
 // RMSM's fitted faces: window w = (s0, t0, zoom, 0) maps the part [s0, s0 + 1/zoom] x [t0, t0 + 1/zoom]
-// of a face onto the quadtree's [0, 1]² (rmsm.h); (0, 0, 1, 0) is the whole face.
+// of a face onto the quadtree's [0, 1]² (shadowmaps/README.md, RMSM); (0, 0, 1, 0) is the whole face.
 CS_FN vec2 windowST(vec2 st, vec4 w) { return (st - vec2(w.x, w.y)) * w.z; }
 // The face coordinate (u, v in [-1, 1]) of window coordinate x (texels of a level with `res` a side).
 CS_FN vec2 windowFaceUV(vec2 x, float res, vec4 w) { return 2.0f * (vec2(w.x, w.y) + x / (res * w.z)) - 1.0f; }

@@ -93,7 +93,7 @@ struct SortShape {
 };
 inline constexpr SortShape kCpuSortShape{SORT_THREADS_CPU, SORT_ITEMS_CPU};
 inline constexpr SortShape kGpuSortShape{SORT_THREADS_GPU, SORT_ITEMS_GPU};
-// A CPU device (lavapipe) gets kCpuSortShape, as measured there (README, "GPU sort primitives"); any
+// A CPU device (lavapipe) gets kCpuSortShape, as measured there (docs/RESULTS.md, "GPU sort primitives"); any
 // other device kGpuSortShape when its shared memory and workgroup limits hold it, else kCpuSortShape.
 SortShape sortShapeFor(const vk::Context& ctx);
 // How the sort learns where a tile's keys of a digit start (radix_scatter.comp): ReduceThenScan, a count
@@ -107,8 +107,8 @@ const char* sortSchemeName(SortScheme scheme);
 // LookBack on NVIDIA and AMD GPUs (which keep resident workgroups running; GPU sorts rely on it there);
 // ReduceThenScan elsewhere, lavapipe included: there a tile often waits on the one running on the other
 // core until its reads run out and counts that tile itself, and lavapipe ends all of an invocation's loops
-// after 65535 iterations in total, which a long walk of counted tiles would pass (a wrong sort, silently).
-// Measured there, 1 M random pairs: reduce-then-scan 74-77 ms, look-back 89-105 ms (sort_bench).
+// after 65535 iterations in total, which a long walk of counted tiles would pass (a wrong sort, silently);
+// and reduce-then-scan is the faster there (docs/ARCHITECTURE.md, "sort/").
 SortScheme sortSchemeFor(const vk::Context& ctx);
 // uint32 words of the look-back workspace (sort_layout.h) for `count` keys.
 uint64_t lookBackWords(uint32_t count, SortShape shape = {});

@@ -7,9 +7,9 @@
 
 // ---- workgroup shapes ---------------------------------------------------------------------------
 // Chosen for lavapipe, where the primitives run in CI and in the benchmark, and kept legal and correct
-// everywhere. Measured there (2 threads): a barrier costs one coroutine switch per 8-wide subgroup, so
-// few invocations per workgroup with many elements each beat wide workgroups (a 4M scan: 64x32 ~2x
-// faster than 256x8); a uvec4 buffer access costs about what a scalar one does, so kernels read and
+// everywhere. There (2 threads) a barrier costs one coroutine switch per 8-wide subgroup, so few
+// invocations per workgroup with many elements each beat wide workgroups (docs/ARCHITECTURE.md, "sort/",
+// has the measurements); a uvec4 buffer access costs about what a scalar one does, so kernels read and
 // write four consecutive elements at a time; and indexed shared-memory access is the dominant cost of
 // the sort's ranking, so tiles are long (fewer counters to clear and scan per key). A discrete GPU
 // would prefer wider workgroups and shorter tiles; the numbers are all here.
@@ -31,8 +31,9 @@
 // in the kernels) and SORT_ITEMS (constant_id 1). The defaults below are the CPU device's (lavapipe):
 // few invocations, each with a long run of keys, because every invocation pays for its own counters.
 // Nine bits a digit, not eight: the ray key's 18 bits (rays/hilbert.h) take two passes instead of three
-// (and the 27 bits it had three instead of four), for the same counters per key (16 invocations x 256 words where eight bits took 32 x 128); measured on
-// lavapipe, 1 M random 32-bit pairs (four passes either way) sort in 74-77 ms, 8-bit digits 78-97 ms.
+// (and the 27 bits it had three instead of four), for the same counters per key (16 invocations x 256
+// words where eight bits took 32 x 128); faster on lavapipe for 32-bit keys too (docs/ARCHITECTURE.md,
+// "sort/").
 #define RADIX_BITS 9
 #define RADIX_BINS (1 << RADIX_BITS)
 #define RADIX_WORDS (RADIX_BINS / 2)

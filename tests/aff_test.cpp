@@ -291,7 +291,7 @@ TEST(AffBart, TheThreeScenesLoadWithTheirTriangleCountsViewsAndLights) {
     size_t lights;
   };
   // Museum: 10,143 polygons (fans), 8 cones of 32 triangles and 1,024 animated triangles; robots:
-  // paper 002 reports 71,706 triangles; kitchen: about 110k (scenes/README.md).
+  // paper 002 reports 71,706 triangles; kitchen: about 110k (docs/ARCHITECTURE.md, "Scenes", has the counts).
   for (const Expect& e : {Expect{"museum/museum5.aff", 11564, 2}, Expect{"robot/Robot.aff", 71708, 1},
                           Expect{"kitchen/kitchen.aff", 110561, 6}}) {
     std::ostringstream warn;

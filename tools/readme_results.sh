@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Regenerates every measured figure of the README from one run of the commands below, on one machine,
-# and rewrites each section between its <!-- NAME:begin --> and <!-- NAME:end --> markers, every one
+# Regenerates every measured figure of docs/RESULTS.md (the README's verdict reads them) from one run of
+# the commands below, on one machine, and rewrites each section between its <!-- NAME:begin --> and
+# <!-- NAME:end --> markers, every one
 # stamped with this run's date and device. No figure is written twice: the frame bench's settings table
 # holds the times, its host-cost table the ratios from those times, and the other benchmarks measure
 # what that table does not (variants as ratios to the default, the sort primitives, dynamic scenes,
@@ -14,16 +15,17 @@
 #   scaling    resolution and triangle count (`coneshadow compare --scaling`)
 #   scale      height fields to 10 M triangles (bench/scale_bench)
 #   far        the light's distance (`coneshadow compare --light-distances`)
-# and copies the plots the README shows into docs/img/.
+# and copies the plots docs/RESULTS.md shows into docs/img/.
 # Environment: SIZE (default 1024) and SMALL (512), the frame bench's sizes; FRAMES (default 3); OUT
-# (default build/readme-results); README (default README.md) and IMG (default docs/img); SKIP_BUILD=1
+# (default build/readme-results); RESULTS, the page written (default docs/RESULTS.md, with TAG=gpu
+# docs/RESULTS_GPU.md), and IMG (default docs/img); SKIP_BUILD=1
 # to use the current build/ as is; BUILD (default build) to run another build's binaries while this one
 # changes; QUICK=1 (a check of the script: the scale bench on one small field); ONLY=far,sort (a comma
 # list of run names: frames (the results and host-cost sections), variants, sort, access, dynamic,
 # scaling, scale, far) reruns those alone and leaves the other sections as they are; TAG=gpu writes
-# each section NAME into the README's NAME-gpu markers instead (the README keeps a GPU's figures beside
-# lavapipe's: `TAG=gpu ONLY=frames,variants,sort,scale tools/readme_results.sh` on a machine whose
-# Vulkan device is that GPU) and copies no plots. About 20 minutes on 2 CPU cores with lavapipe for
+# each section NAME into the NAME-gpu markers of docs/RESULTS_GPU.md instead (a GPU's figures on a page
+# of their own beside lavapipe's: `TAG=gpu ONLY=frames,variants,sort,scale tools/readme_results.sh` on a
+# machine whose Vulkan device is that GPU) and copies no plots. About 20 minutes on 2 CPU cores with lavapipe for
 # everything; about 5 on a GPU with 16 cores.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -32,7 +34,6 @@ SIZE=${SIZE:-1024}
 SMALL=${SMALL:-512}
 FRAMES=${FRAMES:-3}
 OUT=${OUT:-build/readme-results}
-README=${README:-README.md}
 IMG=${IMG:-docs/img}
 BUILD=${BUILD:-build}
 CLI=$BUILD/app/coneshadow
@@ -47,7 +48,11 @@ done
 [ -f "$ENGINE" ] || { echo "readme_results: $ENGINE not found (Debian package assimp-testmodels)" >&2; exit 1; }
 [ -f "$MUSEUM" ] || { echo "readme_results: $MUSEUM not found (the BART scenes, ../shared/scenes/bart)" >&2; exit 1; }
 TAG=${TAG:-}
-# marker NAME: the README markers section NAME goes between (NAME, or NAME-TAG).
+# The page the sections go into: docs/RESULTS.md, or docs/RESULTS_<TAG in capitals>.md for a tagged run.
+if [ -n "$TAG" ]; then RESULTS=${RESULTS:-docs/RESULTS_$(echo "$TAG" | tr '[:lower:]' '[:upper:]').md}; fi
+RESULTS=${RESULTS:-docs/RESULTS.md}
+[ -f "$RESULTS" ] || { echo "readme_results: $RESULTS not found" >&2; exit 1; }
+# marker NAME: the markers section NAME goes between in $RESULTS (NAME, or NAME-TAG).
 marker() { echo "$1${TAG:+-$TAG}"; }
 # want NAME: whether this run of the script reruns NAME (ONLY unset: every one).
 want() { [ -z "${ONLY:-}" ] || [[ ",$ONLY," == *",$1,"* ]]; }
@@ -56,8 +61,8 @@ for name in results host-cost variants sort access dynamic scaling scale far; do
   case $name in results | host-cost) run_name=frames ;; esac
   [ -z "$TAG" ] || want "$run_name" || continue  # a tagged run needs the markers of what it reruns only
   m=$(marker "$name")
-  grep -q "^<!-- $m:begin -->\$" "$README" && grep -q "^<!-- $m:end -->\$" "$README" || {
-    echo "readme_results: $README lacks the <!-- $m:begin --> / <!-- $m:end --> lines" >&2; exit 1; }
+  grep -q "^<!-- $m:begin -->\$" "$RESULTS" && grep -q "^<!-- $m:end -->\$" "$RESULTS" || {
+    echo "readme_results: $RESULTS lacks the <!-- $m:begin --> / <!-- $m:end --> lines" >&2; exit 1; }
 done
 
 work=$(mktemp -d)
@@ -72,13 +77,13 @@ run() {
   local name=$1
   shift
   local shown="$*"
-  shown=${shown//"$BUILD/"/build/}  # the README names the build a newcomer makes, whichever copy ran
+  shown=${shown//"$BUILD/"/build/}  # the page names the build a newcomer makes, whichever copy ran
   echo "readme_results: $*" >&2
   echo "$shown" >> "$work/$name.cmd"
   "$@" >> "$work/$name.out"
 }
-# plot FILE NAME: copies a plot the README shows into $IMG as NAME (not for a TAG run: the README
-# shows lavapipe's).
+# plot FILE NAME: copies a plot docs/RESULTS.md shows into $IMG as NAME (not for a TAG run: the pages
+# show lavapipe's).
 plot() { [ -n "$TAG" ] || { mkdir -p "$IMG"; cp "$1" "$IMG/$2"; }; }
 # tables FILE: the markdown tables of a report, its "## view" headings as bold lines.
 tables() { awk '/^## / { sub(/^## /, ""); print ""; print "**" $0 "**"; print ""; next } /^\|/ { print }' "$1"; }
@@ -173,13 +178,13 @@ if want far; then
   plot "$OUT/far/light_distances.png" light_distances_engine.png
 fi
 
-# ---- every section into the README at once --------------------------------------------------------
+# ---- every section into the results page at once ------------------------------------------------
 awk -v dir="$work" '
   /^<!-- [a-z-]+:begin -->$/ { name = $2; sub(/:begin$/, "", name); file = dir "/" name ".section"
                                if ((getline line < file) <= 0) { print; next }  # not rerun (ONLY): kept
                                print line; while ((getline line < file) > 0) print line; skip = 1; next }
   /^<!-- [a-z-]+:end -->$/ { if (!skip) print; skip = 0; next }  # a kept section keeps its end line
   !skip { print }
-' "$README" > "$work/readme"
-mv "$work/readme" "$README"
-echo "readme_results: ${ONLY:-every} results section(s) of $README rewritten ($date, $device)"
+' "$RESULTS" > "$work/results"
+mv "$work/results" "$RESULTS"
+echo "readme_results: ${ONLY:-every} results section(s) of $RESULTS rewritten ($date, $device)"

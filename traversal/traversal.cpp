@@ -1,4 +1,4 @@
-// traversal/: the bounded breadth-first traversal (see traversal.h for the scheme).
+// traversal/: the bounded breadth-first traversal (the scheme: docs/ARCHITECTURE.md, "The traversal").
 #include "traversal/traversal.h"
 
 #include <algorithm>

@@ -79,10 +79,10 @@
 // one invocation tests the cluster's sphere against the node's children, then its groups' spheres against
 // the children the cluster kept, then every triangle against the children its group kept (the step's
 // inputs are still counted per triangle pair, its tests as made: the cluster's, the groups' and the
-// triangles'). On lavapipe a lane of the test kernel costs about 20 ns before it does anything (the
-// step's lanes running a kernel that returned at once took 120 ms of the 1 M height field's 170 ms
-// traversal), so sixteen triangles a lane, with the node's children read once, cost a fraction of
-// sixteen lanes; on a GPU the step keeps a lane per triangle pair.
+// triangles'). On lavapipe a lane of the test kernel costs more before it does anything than the tests
+// it makes (docs/ARCHITECTURE.md, "Clusters", has the measurement), so sixteen triangles a lane, with the
+// node's children read once, cost a fraction of sixteen lanes; on a GPU the step keeps a lane per
+// triangle pair.
 #define STEP_EXPAND_WHOLE 3u
 // (super cluster, node) pairs, tested with the super cluster's sphere in the cluster kernel; pass 0 of a
 // batch that starts from super clusters (AdvancePush::clusters = 2).
@@ -98,8 +98,8 @@
 // reach one depth above the leaves are not split two depths above: they expand there whole.
 #define STEP_EXPAND_SUPER 6u
 // The expansion rule's K (traverse_advance.comp): cluster pairs expand at the first depth with more than
-// 1/K as many nodes as pass 0 kept clusters. Measured (bench/scale_bench, K = 4, 8, 16, 32): 8 and 16
-// test the fewest pairs on the height fields, the BART scenes, 2CylinderEngine x8 and the built-in views.
+// 1/K as many nodes as pass 0 kept clusters. 16 because it tests the fewest pairs over the scenes
+// bench/scale_bench measures (docs/ARCHITECTURE.md, "Clusters": K = 4, 8, 16, 32).
 #define EXPAND_NODES_PER_CLUSTER 16u
 
 // The cone method's choice of ray order (cone_method.h, ConeOptions::adaptiveOrder; order_choice.comp):
@@ -178,8 +178,8 @@ struct AdvancePush {
 };
 
 // leaf_hits.comp: the leaves' hits into the visibility, LEAF_HITS_RAYS sorted rays an invocation (a
-// power of two, at most 32: the bits of one word). Measured on lavapipe, the fur at 1024² (739 k rays):
-// 4 rays 3.1-3.4 ms, 16 2.4-2.7, 32 3.0-3.2.
+// power of two, at most 32: the bits of one word). 16, the fastest of 4, 16 and 32 on lavapipe
+// (docs/ARCHITECTURE.md, "The leaves' hits as bits, a hint to the leaves too").
 #define LEAF_HITS_SHIFT 4u
 #define LEAF_HITS_RAYS (1u << LEAF_HITS_SHIFT)
 #define LEAF_HITS_MASK (LEAF_HITS_RAYS == 32u ? 0xFFFFFFFFu : (1u << LEAF_HITS_RAYS) - 1u)

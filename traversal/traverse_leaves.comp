@@ -80,9 +80,8 @@ void main() {
   // Four rays an iteration (the lowest four left of the pair's up to 64, over both words; the last again
   // when fewer are left, a ray tested twice being harmless): a loop iteration costs every lavapipe lane
   // about what the tests in it do, and one loop over the 64 runs as often as the busiest lane's rays
-  // need, where a loop per word ran as often as each word's busiest. (Fur at 1024², the leaves in
-  // interleaved runs: two an iteration 27.3-33.8 ms, four 26.7-29.7, eight 30.2-31.1; the four written
-  // through helper functions, 29.8-32.0.)
+  // need, where a loop per word ran as often as each word's busiest. Four beat two and eight, and written
+  // out beat helper functions (docs/ARCHITECTURE.md, "The leaves' hits as bits, a hint to the leaves too").
   for (uint lo = live, hi = live2; (lo | hi) != 0u;) {
     uint k0 = uint(findLSB(lo != 0u ? lo : hi)) + (lo != 0u ? 0u : 32u);
     if (lo != 0u) lo &= lo - 1u; else hi &= hi - 1u;

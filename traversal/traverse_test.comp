@@ -48,7 +48,8 @@
 layout(local_size_x = TRAVERSE_THREADS) in;
 // Triangles and nodes are read as uniform texel buffers (RGBA32F, three texels a triangle, two a node):
 // the gathers this kernel makes per pair are its cost, and texel fetches of 16-byte texels are the fast
-// gather path on lavapipe and read through the texture cache on a GPU (TOOLCHAIN.md).
+// gather path on lavapipe and read through the texture cache on a GPU (docs/ARCHITECTURE.md, "Memory
+// access").
 layout(binding = 0) uniform samplerBuffer tris;
 layout(binding = 1) uniform samplerBuffer nodeTexels;
 // The input pairs as RGBA32UI texels, two a texel: a texel fetch costs lavapipe next to nothing, a storage
@@ -71,8 +72,8 @@ layout(std430, binding = 8) readonly buffer Clusters { vec4 clusterSpheres[]; };
 layout(std140, binding = 9) uniform StateWords { uvec4 stateWords[STATE_WORDS / 4]; };
 layout(push_constant) uniform Push { TraversePush p; };
 // The switches of a frame, as specialisation constants (Traversal::testKernel): the kernel holds only the
-// code its switches run. Measured on lavapipe: code a uniform branch never enters still costs every
-// invocation (the precise test's code in a sphere-test frame took a third of the 1 M height field's frame).
+// code its switches run: on lavapipe, code a uniform branch never enters still costs every invocation
+// (docs/ARCHITECTURE.md, "Kernels that hold only the code they run").
 layout(constant_id = 0) const uint SPEC_TEST = TRAVERSE_TEST_PRECISE;  // = p.test
 layout(constant_id = 1) const uint SPEC_EARLY_ACCEPT = 0u;             // = p.earlyAccept
 layout(constant_id = 2) const uint SPEC_FRONT_FACE_CULLING = 0u;       // = p.frontFaceCulling
