@@ -25,6 +25,7 @@ struct Context::Impl {
     bool alive = false;
     std::vector<glm::vec3> positions;
     std::vector<uint32_t> indices;
+    glm::vec3 lo{INFINITY}, hi{-INFINITY};  // of every vertex (the epsilon policy's box)
   };
   struct Instance {
     bool alive = false;
@@ -33,7 +34,9 @@ struct Context::Impl {
   };
   std::vector<Mesh> meshes;
   std::vector<Instance> instances;
-  bool dirty = true;
+  bool layoutDirty = true;      // a mesh or the set of instances changed: the engine's layout again
+  bool transformsDirty = false;  // only transforms changed: the engine keeps its triangles
+  std::vector<cs::EngineInstance> engineInstances;
   float eps = 0;  // the along-ray epsilon of the scene's policy (eval/epsilon.h), as the bench's harness uses
   cs::DeviceGBuffer samples;
   std::vector<float> lights;
@@ -159,8 +162,9 @@ void Context::updateMesh(uint32_t mesh, const float* positions, size_t vertexCou
     m.positions.resize(vertexCount);
     if (vertexCount) std::memcpy(m.positions.data(), positions, vertexCount * 3 * sizeof(float));
     m.indices.assign(indices, indices + indexCount);
+    for (const glm::vec3& v : m.positions) m.lo = glm::min(m.lo, v), m.hi = glm::max(m.hi, v);
     impl_->meshes[mesh] = std::move(m);
-    impl_->dirty = true;
+    impl_->layoutDirty = true;
   });
 }
 
@@ -171,7 +175,7 @@ void Context::destroyMesh(uint32_t mesh) {
     impl_->meshes[mesh] = {};
     for (Impl::Instance& i : impl_->instances)
       if (i.alive && i.mesh == mesh) i.alive = false;
-    impl_->dirty = true;
+    impl_->layoutDirty = true;
   });
 }
 
@@ -185,7 +189,7 @@ uint32_t Context::createInstance(uint32_t mesh, const float transform[12]) {
     i.mesh = mesh;
     std::memcpy(i.m, transform, sizeof(i.m));
     impl_->instances.push_back(i);
-    impl_->dirty = true;
+    impl_->layoutDirty = true;
     return uint32_t(impl_->instances.size() - 1);
   });
 }
@@ -197,7 +201,7 @@ void Context::setTransform(uint32_t instance, const float transform[12]) {
     checkTransform("setTransform", transform);
     if (std::memcmp(impl_->instances[instance].m, transform, sizeof(float) * 12) == 0) return;
     std::memcpy(impl_->instances[instance].m, transform, sizeof(float) * 12);
-    impl_->dirty = true;
+    impl_->transformsDirty = true;
   });
 }
 
@@ -206,7 +210,7 @@ void Context::destroyInstance(uint32_t instance) {
     if (instance >= impl_->instances.size() || !impl_->instances[instance].alive)
       refuse("destroyInstance", "no instance " + std::to_string(instance), "pass a handle createInstance returned");
     impl_->instances[instance].alive = false;
-    impl_->dirty = true;
+    impl_->layoutDirty = true;
   });
 }
 
@@ -226,28 +230,41 @@ void Context::recordFrame(const FrameDesc& d) {
     for (uint32_t i = 0; i < 3 * d.lightCount; ++i)
       if (!std::isfinite(d.lights[i])) refuse(where, "light " + std::to_string(i / 3) + " is not finite", "pass finite positions");
 
-    if (s.dirty) {  // the world-space triangles of every instance
-      cs::Scene scene;
-      scene.name = "coneshadow";
+    if (s.layoutDirty || s.transformsDirty) {
+      // The live meshes and instances, compacted; the engine uploads the meshes once and transforms them.
+      std::vector<cs::EngineMesh> meshes;
+      std::vector<uint32_t> meshIndex(s.meshes.size(), UINT32_MAX);
+      s.engineInstances.clear();
+      glm::dvec3 lo(INFINITY), hi(-INFINITY);
       for (const Impl::Instance& inst : s.instances) {
         if (!inst.alive) continue;
         const Impl::Mesh& m = s.meshes[inst.mesh];
-        const uint64_t base = scene.positions.size();
-        if (base + m.positions.size() > UINT32_MAX) refuse(where, "the instances hold more than 2^32 vertices", "use fewer or smaller instances");
-        if (isIdentity(inst.m)) {
-          scene.positions.insert(scene.positions.end(), m.positions.begin(), m.positions.end());
-        } else {
-          const float* t = inst.m;
-          for (const glm::vec3& p : m.positions)
-            scene.positions.push_back({t[0] * p.x + t[1] * p.y + t[2] * p.z + t[3], t[4] * p.x + t[5] * p.y + t[6] * p.z + t[7],
-                                       t[8] * p.x + t[9] * p.y + t[10] * p.z + t[11]});
+        if (meshIndex[inst.mesh] == UINT32_MAX) {
+          meshIndex[inst.mesh] = uint32_t(meshes.size());
+          meshes.push_back({m.positions.data(), m.positions.size(), m.indices.data(), m.indices.size()});
         }
-        for (uint32_t i : m.indices) scene.indices.push_back(uint32_t(base + i));
+        cs::EngineInstance e;
+        e.mesh = meshIndex[inst.mesh];
+        std::memcpy(e.transform, inst.m, sizeof(e.transform));
+        s.engineInstances.push_back(e);
+        if (m.positions.empty()) continue;
+        for (int corner = 0; corner < 8; ++corner) {  // the epsilon policy's box: every vertex, transformed
+          const glm::dvec3 p((corner & 1) ? m.lo.x : m.hi.x, (corner & 2) ? m.lo.y : m.hi.y, (corner & 4) ? m.lo.z : m.hi.z);
+          const float* t = inst.m;
+          const glm::dvec3 w = isIdentity(t) ? p
+                                             : glm::dvec3(t[0] * p.x + t[1] * p.y + t[2] * p.z + t[3], t[4] * p.x + t[5] * p.y + t[6] * p.z + t[7],
+                                                          t[8] * p.x + t[9] * p.y + t[10] * p.z + t[11]);
+          lo = glm::min(lo, w), hi = glm::max(hi, w);
+        }
       }
-      scene.computeBounds();
-      s.engine->setGeometry(scene, cs::geometryRevision(scene));
-      s.eps = cs::EpsilonPolicy::forScene(scene).eps;
-      s.dirty = false;
+      for (int k = 0; k < 3; ++k)
+        if (std::fabs(lo[k]) > 1e30 || std::fabs(hi[k]) > 1e30)
+          refuse(where, "the instances reach coordinates past 1e30", "keep the scene within fp32 range");
+      if (s.layoutDirty) s.engine->setInstances(meshes, s.engineInstances);
+      else s.engine->setTransforms(s.engineInstances);
+      s.eps = lo.x <= hi.x ? cs::EpsilonPolicy::forBounds(glm::vec3(lo), glm::vec3(hi)).eps
+                           : cs::EpsilonPolicy::forBounds(glm::vec3(0), glm::vec3(0)).eps;
+      s.layoutDirty = s.transformsDirty = false;
     }
 
     const uint64_t bytes = uint64_t(d.width) * d.height * 16;

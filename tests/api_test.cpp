@@ -6,6 +6,7 @@
 // and, once warm, allocates nothing.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <atomic>
 #include <cstring>
 #include <filesystem>
@@ -433,6 +434,62 @@ TEST(Api, EightLightsInOneFrameEqualOneLightFramesOnTheBartMuseum) {
   Scene scene = loadAff(bart + "/museum/museum5.aff", warn, 2.0);
   ASSERT_FALSE(scene.cameras.empty());
   expectLightsMatch(scene, scene.cameras[0], eightLights(scene), 40, "museum");
+}
+
+// A box moved by setTransform: no triangle uploaded again (no allocation at all), and the mask is the
+// bench's on the scene with the box already there (translations by exact binary fractions, so the
+// device's transform and the host's flattening round alike).
+TEST(Api, MovingAnInstanceUpdatesItsTransformOnlyAndGivesTheMovedScenesMask) {
+  OwnDevice device;
+  Scene room = builtinScene();
+  Scene box;
+  addQuad(box, {-0.5f, 0.0f, -0.5f}, {1, 0, 0}, {0, 1, 0});
+  addQuad(box, {-0.5f, 0.0f, 0.5f}, {0, 1, 0}, {1, 0, 0});
+  addQuad(box, {-0.5f, 0.0f, -0.5f}, {0, 1, 0}, {0, 0, 1});
+  addQuad(box, {0.5f, 0.0f, -0.5f}, {0, 0, 1}, {0, 1, 0});
+  addQuad(box, {-0.5f, 1.0f, -0.5f}, {0, 0, 1}, {1, 0, 0});
+  const glm::vec3 light = room.lights[0].position;
+  const Camera* view = room.findCamera(builtinViewNames()[0]);
+  ASSERT_NE(view, nullptr);
+  // between the light and what the camera looks at, then moved across that line
+  const glm::vec3 from = light + 0.4f * (view->target - light), to = from + glm::vec3(0.75f, 0.0f, -0.5f);
+  auto placed = [&](glm::vec3 at) {
+    Scene s = room;
+    const uint32_t base = uint32_t(s.positions.size());
+    for (glm::vec3 p : box.positions) s.positions.push_back(p + at);
+    for (glm::vec3 n : box.normals) s.normals.push_back(n);
+    for (uint32_t i : box.indices) s.indices.push_back(base + i);
+    s.computeBounds();
+    return s;
+  };
+  auto translation = [](glm::vec3 t) {
+    std::array<float, 12> m = {1, 0, 0, t.x, 0, 1, 0, t.y, 0, 0, 1, t.z};
+    return m;
+  };
+  const Scene moved = placed(to);
+  ReferenceFrame f(moved, *view, light, 48);
+  const std::vector<float> bench = benchMask(f, ConeOptions{});
+
+  coneshadow::Options options;
+  options.framesInFlight = 2;
+  auto cs = coneshadow::Context::create(device.desc(), options);
+  addScene(*cs, room);
+  const uint32_t boxMesh = cs->createMesh(&box.positions[0].x, box.positions.size(), box.indices.data(), box.indices.size());
+  const uint32_t boxInstance = cs->createInstance(boxMesh, translation(from).data());
+  Renderer renderer(device, 48, 48, options.maxLights);
+  const std::vector<float> before = renderer.frame(*cs, f.host, {light})[0];
+  renderer.frame(*cs, f.host, {light});  // both frame slots warm
+  vk::Context& inner = coneshadow::ContextAccess::vulkan(*cs);
+  const vk::HostCost warm = inner.cost;
+  const uint64_t bytes = cs->deviceBytes();
+  cs->setTransform(boxInstance, translation(to).data());
+  const std::vector<float> after = renderer.frame(*cs, f.host, {light})[0];
+  EXPECT_TRUE(sameBits(after, bench)) << "the moved box's mask differs from the bench's on the scene with it there";
+  EXPECT_FALSE(sameBits(before, after)) << "moving the box changed nothing: the test proves nothing";
+  EXPECT_EQ((inner.cost - warm).allocations, 0u) << "moving an instance allocated (its triangles were uploaded again)";
+  EXPECT_EQ(cs->deviceBytes(), bytes);
+  cs.reset();
+  EXPECT_EQ(device.messages.load(), 0) << "validation reported messages";
 }
 
 TEST(Api, HostileCallsAreOneClearErrorAndRecordNothing) {

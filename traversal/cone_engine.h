@@ -30,12 +30,33 @@ struct EngineLightStats {
                          // are written as 0.5 (undecided), the next frames use smaller batches
 };
 
+// A mesh in its own space and an instance of it (row-major 3x4: world = M (x, y, z, 1)).
+struct EngineMesh {
+  const glm::vec3* positions = nullptr;
+  size_t vertexCount = 0;
+  const uint32_t* indices = nullptr;  // three a triangle, each < vertexCount (checked by the caller)
+  size_t indexCount = 0;
+};
+struct EngineInstance {
+  uint32_t mesh = 0;
+  float transform[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+};
+
 class ConeEngine {
  public:
   virtual ~ConeEngine() = default;
   // The scene's triangles (world space), uploaded when `revision` differs from the one held. Host work and
   // allocations only; on a device whose memory the host cannot map, the copies go into the next frame.
   virtual void setGeometry(const Scene& scene, const GeometryRevision& revision) = 0;
+  // The geometry as meshes and instances: every mesh's kept triangles in its own space, uploaded once
+  // (in Hilbert order of their centroids, each instance's run padded to whole super clusters so no
+  // cluster mixes instances), then transformed on the device. Host work and allocations only.
+  virtual void setInstances(std::span<const EngineMesh> meshes, std::span<const EngineInstance> instances) = 0;
+  // New transforms for the instances of the last setInstances (same count and order): no triangle is
+  // uploaded again; the clusters' bounds are transformed on the host, the triangles at the next frame.
+  virtual void setTransforms(std::span<const EngineInstance> instances) = 0;
+  // The bounds of every instance's triangles as the device holds them (lo > hi when there are none).
+  virtual void bounds(glm::vec3& lo, glm::vec3& hi) const = 0;
   // Records a frame into `cmd` (which records into the caller's command buffer): for each light l, the light
   // term of `g` for l (g.normal.w rewritten from g.position and g.normal.xyz), the cone path, the undecided
   // samples of an overflowed traversal, then deliver(l, visibility) records what the caller does with the

@@ -17,6 +17,7 @@
 #include "traversal/frame_triangles.comp.h"
 #include "traversal/order_choice.comp.h"
 #include "traversal/sample_light.comp.h"
+#include "traversal/instance_triangles.comp.h"
 #include "traversal/unfinished_rays.comp.h"
 #include "vk/context.h"
 
@@ -72,6 +73,43 @@ traversal::TraversalStats combine(const traversal::TraversalStats& a, const trav
   return c;
 }
 
+// A cluster's bounds, in its mesh's space, taken to the world by the row-major 3x4 `m` (centres in double,
+// radii scaled by the Frobenius norm of the linear part, which bounds its stretch), padded by 2^-20 of the
+// magnitudes so each sphere holds the vertices as the device's fp32 transform rounds them. The identity
+// leaves it as it is.
+bool identityTransform(const float* m) {
+  static const float kId[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+  return std::equal(m, m + 12, kId);
+}
+double stretchOf(const float* m) {
+  double s = 0;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) s += double(m[4 * r + c]) * double(m[4 * r + c]);
+  return std::sqrt(s);
+}
+glm::dvec3 transformPoint(const float* m, glm::dvec3 p) {
+  return {m[0] * p.x + m[1] * p.y + m[2] * p.z + m[3], m[4] * p.x + m[5] * p.y + m[6] * p.z + m[7],
+          m[8] * p.x + m[9] * p.y + m[10] * p.z + m[11]};
+}
+traversal::ClusterWorld transformCluster(const traversal::ClusterWorld& o, const float* m) {
+  if (identityTransform(m)) return o;
+  const double s = stretchOf(m), t = glm::length(glm::dvec3(m[3], m[7], m[11]));
+  auto sphere = [&](glm::dvec3 c, double r) {
+    const double pad = std::ldexp(s * (glm::length(c) + r) + t, -20);
+    return glm::dvec4(transformPoint(m, c), r * s + pad);
+  };
+  traversal::ClusterWorld w;
+  w.whole = sphere(glm::dvec3(o.whole), o.whole.w);
+  for (uint32_t g = 0; g < CLUSTER_GROUPS; ++g) {
+    const glm::dvec4 d = sphere(glm::dvec3(glm::vec3(o.groups[g])), double(o.groups[g].w));
+    // fp32 storage: the centre rounds by half an ulp of its magnitude, the radius rounds up past that
+    const glm::vec3 c(d);
+    const double moved = glm::length(glm::dvec3(c) - glm::dvec3(d));
+    w.groups[g] = glm::vec4(c, std::nextafter(float(d.w + moved), INFINITY));
+  }
+  return w;
+}
+
 class ConeMethod : public ShadowMethod, public ConeEngine {
  public:
   ConeMethod(vk::Context& ctx, const ConeOptions& options)
@@ -106,6 +144,8 @@ class ConeMethod : public ShadowMethod, public ConeEngine {
     framesInFlight_ = framesInFlight;
     maxLights_ = maxLights;
     sampleLight_ = vk::createKernel(ctx_, "sample light", spv_sample_light_comp, 4, sizeof(traversal::SampleLightPush));
+    instanceTriangles_ = vk::createKernel(ctx_, "instance triangles", spv_instance_triangles_comp, 4,
+                                          sizeof(traversal::TraversePush));
     statsRing_ = vk::createBuffer(ctx_, uint64_t(framesInFlight) * maxLights * kStatsWords * 4, vk::Memory::HostVisible);
     std::memset(statsRing_.mapped, 0, statsRing_.size);
     slots_.clear();
@@ -131,6 +171,9 @@ class ConeMethod : public ShadowMethod, public ConeEngine {
     learnFromSlot(slot);  // the frame that held the slot has completed (the contract)
     EngineSlot& es = slots_[slot];
     es.staged = vk::recordPendingUploads(ctx_, cmd);  // kept until the slot is reused
+    es.retired = std::move(retiring_);                 // buffers a replaced geometry left: freed with the slot
+    retiring_.clear();
+    if (transformsDirty_) recordTransforms(cmd, slot);
     const uint32_t pixels = g.width * g.height;
     sizeFrameBuffers(g.width, g.height);
     ensureTraversal(pixels);
@@ -195,6 +238,135 @@ class ConeMethod : public ShadowMethod, public ConeEngine {
   }
 
   uint64_t bytesAllocated() const override { return heldBytes() + statsRing_.size; }
+
+  // ---- the engine's meshes and instances (cone_engine.h) ----
+
+  void setInstances(std::span<const EngineMesh> meshes, std::span<const EngineInstance> instances) override {
+    // Each used mesh's kept triangles (finite) in Hilbert order of their centroids over its own bounds.
+    std::vector<std::vector<uint32_t>> order(meshes.size());
+    std::vector<glm::vec3> meshLo(meshes.size(), glm::vec3(INFINITY)), meshHi(meshes.size(), glm::vec3(-INFINITY));
+    std::vector<uint8_t> used(meshes.size(), 0);
+    for (const EngineInstance& inst : instances) {
+      CS_CHECK(inst.mesh < meshes.size(), "instance of mesh " << inst.mesh << " of " << meshes.size());
+      used[inst.mesh] = 1;
+    }
+    uint64_t dropped = 0;
+    for (size_t m = 0; m < meshes.size(); ++m) {
+      if (!used[m]) continue;
+      const EngineMesh& mesh = meshes[m];
+      auto vertex = [&](uint32_t t, int k) { return mesh.positions[mesh.indices[3 * size_t(t) + k]]; };
+      std::vector<uint32_t>& kept = order[m];
+      for (size_t t = 0; t < mesh.indexCount / 3; ++t) {
+        const glm::vec3 a = vertex(uint32_t(t), 0), b = vertex(uint32_t(t), 1), c = vertex(uint32_t(t), 2);
+        auto finite = [](glm::vec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); };
+        if (!(finite(a) && finite(b) && finite(c))) {
+          ++dropped;
+          continue;
+        }
+        kept.push_back(uint32_t(t));
+        meshLo[m] = glm::min(meshLo[m], glm::min(a, glm::min(b, c)));
+        meshHi[m] = glm::max(meshHi[m], glm::max(a, glm::max(b, c)));
+      }
+      if (kept.empty()) continue;
+      boundsLo_ = meshLo[m], boundsHi_ = meshHi[m];  // orderForClusters reads the bounds
+      std::vector<uint32_t> none;
+      orderForClusters(kept, none, vertex);
+    }
+    // Slots: each instance's run, padded to whole super clusters (with its last triangle again) but the last.
+    std::vector<InstanceRun> runs;
+    uint64_t total = 0;
+    for (size_t i = 0; i < instances.size(); ++i) {
+      const uint64_t count = order[instances[i].mesh].size();
+      const bool last = i + 1 == instances.size();
+      const uint64_t padded = last || count == 0 ? count : (count + SUPER_SIZE - 1) / SUPER_SIZE * SUPER_SIZE;
+      runs.push_back({instances[i].mesh, total, count, padded, meshLo[instances[i].mesh], meshHi[instances[i].mesh]});
+      total += padded;
+    }
+    if (total > UINT32_MAX)
+      throw Error(std::to_string(total) + " triangle slots in the instances", "cone engine", "at most 2^32 - 1 a scene");
+    retireGeometry();
+    triangleCount_ = uint32_t(total);
+    droppedTriangles_ = dropped;
+    planChunks();
+    const size_t chunks = std::max<size_t>(1, (total + chunkTriangles_ - 1) / chunkTriangles_);
+    objectClusters_.assign((total + CLUSTER_SIZE - 1) / CLUSTER_SIZE, traversal::ClusterWorld{});
+    clusterInstance_.assign(objectClusters_.size(), 0);
+    triangles_.resize(chunks);
+    objectTriangles_.resize(chunks);
+    slotInstance_.resize(chunks);
+    // The slot's mesh triangle, in order: instance by instance, padding repeating the run's last one.
+    size_t run = 0;
+    auto slotSource = [&](uint64_t slot, uint32_t& inst) -> const EngineMesh* {
+      while (run < runs.size() && slot >= runs[run].first + runs[run].padded) ++run;
+      inst = uint32_t(run);
+      return &meshes[runs[run].mesh];
+    };
+    for (size_t c = 0; c < chunks; ++c) {
+      const uint64_t first = uint64_t(c) * chunkTriangles_;
+      const uint64_t count = std::min<uint64_t>(chunkTriangles_, total - std::min<uint64_t>(first, total));
+      const uint64_t bytes = std::max<uint64_t>(count * 48, 16);
+      triangles_[c] = vk::createBuffer(ctx_, bytes);
+      objectTriangles_[c] = vk::createBuffer(ctx_, bytes);
+      slotInstance_[c] = vk::createBuffer(ctx_, std::max<uint64_t>(count * 4, 16));
+      if (count == 0) continue;
+      std::vector<uint32_t> ids(count);
+      vk::uploadInPlace(ctx_, objectTriangles_[c], count * 48, 0, [&](void* out) {
+        glm::vec4 cluster[3 * CLUSTER_SIZE];
+        for (uint64_t t = 0; t < count; t += CLUSTER_SIZE) {
+          const uint64_t k = std::min<uint64_t>(CLUSTER_SIZE, count - t);
+          uint32_t inst = 0;
+          for (uint64_t j = 0; j < k; ++j) {
+            const EngineMesh* mesh = slotSource(first + t + j, inst);
+            const InstanceRun& r = runs[inst];
+            const uint64_t within = std::min(first + t + j - r.first, r.count - 1);
+            const uint32_t tri = order[r.mesh][within];
+            for (int v = 0; v < 3; ++v) cluster[3 * j + v] = glm::vec4(mesh->positions[mesh->indices[3 * size_t(tri) + v]], 1.0f);
+            ids[t + j] = inst;
+          }
+          const uint64_t index = (first + t) / CLUSTER_SIZE;
+          objectClusters_[index] = traversal::clusterWorld(cluster, k);
+          clusterInstance_[index] = inst;  // a cluster never mixes instances (runs are padded)
+          std::memcpy(static_cast<glm::vec4*>(out) + 3 * t, cluster, 3 * k * sizeof(glm::vec4));
+        }
+      });
+      vk::upload(ctx_, slotInstance_[c], ids.data(), count * 4);
+    }
+    runs_ = std::move(runs);
+    transformRing_ = vk::createBuffer(ctx_, std::max<uint64_t>(uint64_t(framesInFlight_) * runs_.size() * 64, 16),
+                                      vk::Memory::HostVisible);
+    revision_ = {};
+    hostPeakBytes_ = objectClusters_.size() * (sizeof(traversal::ClusterWorld) * 2 + 4);
+    setTransforms(instances);
+  }
+
+  void setTransforms(std::span<const EngineInstance> instances) override {
+    CS_CHECK(instances.size() == runs_.size(), "cone engine: " << instances.size() << " transforms for "
+                                                               << runs_.size() << " instances");
+    glm::dvec3 lo(INFINITY), hi(-INFINITY);
+    for (size_t i = 0; i < runs_.size(); ++i) {
+      std::memcpy(runs_[i].transform, instances[i].transform, sizeof(runs_[i].transform));
+      const InstanceRun& r = runs_[i];
+      if (r.count == 0) continue;
+      for (int corner = 0; corner < 8; ++corner) {
+        const glm::dvec3 p((corner & 1) ? r.lo.x : r.hi.x, (corner & 2) ? r.lo.y : r.hi.y, (corner & 4) ? r.lo.z : r.hi.z);
+        const glm::dvec3 w = identityTransform(r.transform) ? p : transformPoint(r.transform, p);
+        const double pad = identityTransform(r.transform) ? 0 : std::ldexp(glm::length(w) + stretchOf(r.transform), -20);
+        lo = glm::min(lo, w - pad), hi = glm::max(hi, w + pad);
+      }
+    }
+    const bool any = lo.x <= hi.x;
+    const auto down = [](double v) { const float f = float(v); return double(f) > v ? std::nextafter(f, -INFINITY) : f; };
+    const auto up = [](double v) { const float f = float(v); return double(f) < v ? std::nextafter(f, INFINITY) : f; };
+    boundsLo_ = any ? glm::vec3(down(lo.x), down(lo.y), down(lo.z)) : glm::vec3(0);
+    boundsHi_ = any ? glm::vec3(up(hi.x), up(hi.y), up(hi.z)) : glm::vec3(0);
+    clusterWorld_.resize(objectClusters_.size());
+    for (size_t c = 0; c < objectClusters_.size(); ++c)
+      clusterWorld_[c] = transformCluster(objectClusters_[c], runs_[clusterInstance_[c]].transform);
+    transformsDirty_ = true;
+    uploads_++;  // the spheres and far-frame triangles made for the old triangles are stale
+  }
+
+  void bounds(glm::vec3& lo, glm::vec3& hi) const override { lo = boundsLo_, hi = boundsHi_; }
 
   // One frame, as named steps: the scene's triangles (uploaded when they changed), the light checked, the
   // frame's buffers sized, the cones' frame chosen; then the frame itself -- one submission, or the
@@ -698,6 +870,9 @@ class ConeMethod : public ShadowMethod, public ConeEngine {
     uint64_t triangleBytes = 0;
     for (const vk::Buffer& b : triangles_) triangleBytes += b.size;
     for (const vk::Buffer& b : frameTriangles_) triangleBytes += b.size;
+    for (const vk::Buffer& b : objectTriangles_) triangleBytes += b.size;
+    for (const vk::Buffer& b : slotInstance_) triangleBytes += b.size;
+    triangleBytes += transformRing_.size;
     return triangleBytes + (rays_ ? rays_->bytesAllocated() : 0) + visibility_.size + tree_.bytesAllocated() +
            (traversal_ ? traversal_->bytesAllocated() + traversal_->flagBytes() + traversal_->shadowedBytes() : 0) +
            readback_.bytesAllocated() +
@@ -890,6 +1065,20 @@ class ConeMethod : public ShadowMethod, public ConeEngine {
     return combine(one, two);
   }
 
+  // One buffer per `perBinding` triangles: a scene larger than one storage binding of the device
+  // (128 MiB on lavapipe: 2.8 M triangles) is traversed binding by binding (traverse()), and within one
+  // texel buffer's maxTexelBufferElements (the traversal reads them as texels, three a triangle).
+  void planChunks() {
+    const uint64_t perBinding =
+        options_.trianglesPerBinding
+            ? options_.trianglesPerBinding
+            : std::min<uint64_t>(ctx_.maxStorageBufferRange() / 48, ctx_.properties.limits.maxTexelBufferElements / 3);
+    CS_CHECK(perBinding >= 1, "cone: a storage binding of this device cannot hold one triangle");
+    chunkTriangles_ = uint32_t(std::min<uint64_t>(perBinding, UINT32_MAX));
+    if (chunkTriangles_ >= SUPER_SIZE) chunkTriangles_ -= chunkTriangles_ % SUPER_SIZE;  // whole super clusters a buffer
+    else if (chunkTriangles_ >= CLUSTER_SIZE) chunkTriangles_ -= chunkTriangles_ % CLUSTER_SIZE;  // whole clusters
+  }
+
   // Uploads the scene's triangles (vec4 x 3, world space) when they changed (with two-pass, also when the
   // light moved: the blockers, first in the buffer, depend on it). Triangles with a non-finite coordinate
   // are dropped, as Embree drops them. Returns the wall ms, 0 if cached.
@@ -928,19 +1117,8 @@ class ConeMethod : public ShadowMethod, public ConeEngine {
     triangleCount_ = uint32_t(kept.size());
     auto vertex = [&](uint32_t t, int k) { return scene.positions[scene.indices[3 * size_t(t) + k]]; };
 
-    // One buffer per `perBinding` triangles: a scene larger than one storage binding of the device
-    // (128 MiB on lavapipe: 2.8 M triangles) is traversed binding by binding (traverse()).
     constexpr uint64_t kTriangleBytes = 3 * sizeof(glm::vec4);
-    // (and within one texel buffer's maxTexelBufferElements: the traversal reads them as texels, three a
-    // triangle)
-    const uint64_t perBinding =
-        options_.trianglesPerBinding
-            ? options_.trianglesPerBinding
-            : std::min<uint64_t>(ctx_.maxStorageBufferRange() / kTriangleBytes, ctx_.properties.limits.maxTexelBufferElements / 3);
-    CS_CHECK(perBinding >= 1, "cone: a storage binding of this device cannot hold one triangle");
-    chunkTriangles_ = uint32_t(std::min<uint64_t>(perBinding, UINT32_MAX));
-    if (chunkTriangles_ >= SUPER_SIZE) chunkTriangles_ -= chunkTriangles_ % SUPER_SIZE;  // whole super clusters a buffer
-    else if (chunkTriangles_ >= CLUSTER_SIZE) chunkTriangles_ -= chunkTriangles_ % CLUSTER_SIZE;  // whole clusters
+    planChunks();
     const size_t chunks = std::max<size_t>(1, (triangleCount_ + uint64_t(chunkTriangles_) - 1) / chunkTriangles_);
     const bool clusters = options_.clusters && !options_.twoPass;
 
@@ -1158,6 +1336,7 @@ class ConeMethod : public ShadowMethod, public ConeEngine {
     };
     std::vector<Light> lights;
     std::vector<std::unique_ptr<vk::Buffer>> staged;
+    std::vector<vk::Buffer> retired;
   };
   const uint32_t* statsWords(uint32_t slot, uint32_t light) const {
     return static_cast<const uint32_t*>(statsRing_.mapped) + (uint64_t(slot) * maxLights_ + light) * kStatsWords;
@@ -1174,6 +1353,64 @@ class ConeMethod : public ShadowMethod, public ConeEngine {
                              triangleCount_);
     }
   }
+  // An instance's run of triangle slots: its mesh's kept triangles (count), padded to whole super clusters,
+  // the mesh's bounds of them and the instance's transform.
+  struct InstanceRun {
+    uint32_t mesh = 0;
+    uint64_t first = 0, count = 0, padded = 0;
+    glm::vec3 lo{0}, hi{0};
+    float transform[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+  };
+  std::vector<InstanceRun> runs_;
+  std::vector<vk::Buffer> objectTriangles_, slotInstance_;  // per triangle buffer: the mesh-space vertices, the instances
+  std::vector<traversal::ClusterWorld> objectClusters_;    // per cluster, in its mesh's space
+  std::vector<uint32_t> clusterInstance_;                   // per cluster, its instance
+  vk::Buffer transformRing_;                                // per frame in flight: 4 vec4 an instance
+  bool transformsDirty_ = false;
+  std::vector<vk::Buffer> retiring_;                        // replaced buffers, until the next frame's slot holds them
+  vk::Kernel instanceTriangles_;
+
+  // The buffers of the geometry being replaced, kept until no frame in flight can read them.
+  void retireGeometry() {
+    for (std::vector<vk::Buffer>* list : {&triangles_, &objectTriangles_, &slotInstance_, &frameTriangles_})
+      for (vk::Buffer& b : *list)
+        if (b) retiring_.push_back(std::move(b));
+    triangles_.clear(), objectTriangles_.clear(), slotInstance_.clear(), frameTriangles_.clear();
+    if (transformRing_) retiring_.push_back(std::move(transformRing_));
+    for (SphereSet& set : sphereSets_) {
+      for (vk::Buffer& b : set.buffers)
+        if (b) retiring_.push_back(std::move(b));
+      set = SphereSet{};
+    }
+  }
+
+  // The instances' transforms into this frame's ring slot, and every slot's world vertices from them.
+  void recordTransforms(vk::Commands& cmd, uint32_t slot) {
+    glm::vec4* rows = static_cast<glm::vec4*>(transformRing_.mapped) + uint64_t(slot) * runs_.size() * 4;
+    for (size_t i = 0; i < runs_.size(); ++i) {
+      const float* m = runs_[i].transform;
+      rows[4 * i] = {m[0], m[1], m[2], m[3]};
+      rows[4 * i + 1] = {m[4], m[5], m[6], m[7]};
+      rows[4 * i + 2] = {m[8], m[9], m[10], m[11]};
+      rows[4 * i + 3] = {identityTransform(m) ? 1.0f : 0.0f, 0, 0, 0};
+    }
+    const uint64_t ringBytes = std::max<uint64_t>(runs_.size() * 64, 16);
+    for (size_t c = 0; c < triangles_.size(); ++c) {
+      const uint64_t first = uint64_t(c) * chunkTriangles_;
+      const uint32_t count = uint32_t(std::min<uint64_t>(chunkTriangles_, triangleCount_ - std::min<uint64_t>(first, triangleCount_)));
+      if (count == 0) continue;
+      traversal::TraversePush p{};
+      p.count = count;
+      const vk::Grid grid = vk::gridFor(count, TRAVERSE_THREADS, ctx_.maxWorkgroups());
+      cmd.dispatch(instanceTriangles_,
+                   {objectTriangles_[c], slotInstance_[c],
+                    vk::BufferRange(transformRing_, uint64_t(slot) * runs_.size() * 64, ringBytes), triangles_[c]},
+                   p, grid.x, grid.y);
+    }
+    cmd.barrier();
+    transformsDirty_ = false;
+  }
+
   uint32_t framesInFlight_ = 0, maxLights_ = 0;
   vk::Kernel sampleLight_;
   vk::Buffer statsRing_;
