@@ -369,8 +369,8 @@ Options parseArgs(int argc, char** argv) {
   if (!o.lightDistances.empty() && (o.animateFrames || o.scaling))
     throw UsageError("--light-distances is a run of its own; give it without --animate and --scaling");
 
-  // Methods: render runs Embree alone when none is named.
-  if (sub == render && o.methods.empty()) o.methods = {"embree"};
+  // Methods: render runs the reference alone when none is named.
+  if (sub == render && o.methods.empty()) o.methods = {referenceMethod().name};
   std::vector<const MethodInfo*> chosen = chosenMethods(o);
   o.methods.clear();
   for (const MethodInfo* m : chosen) o.methods.push_back(m->name);

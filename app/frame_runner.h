@@ -1,5 +1,5 @@
 // Internal helpers shared by the commands: progress, the device, output staging, the light and the views.
-// (Frames are prepared and methods judged by the frame harness, harness/harness.h.)
+// (Every run goes through the one run entry, harness/run.h.)
 #pragma once
 #include <algorithm>
 #include <ctime>

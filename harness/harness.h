@@ -98,6 +98,7 @@ struct PreparedFrame {
   EpsilonPolicy policy;
   FrameInput input;
   std::string deviceName;  // the Vulkan device, as reports print it
+  std::shared_ptr<Raster> raster;  // the camera pass that drew it, when harness::run kept it (input.deviceScene is its)
   double rasterMs = 0, readbackMs = 0;  // median GPU time of the camera pass; its last readback
   size_t litSamples = 0;
   std::unique_ptr<EmbreeReference> embree;
