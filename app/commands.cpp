@@ -14,11 +14,11 @@
 
 #include "app/frame_runner.h"
 #include "core/image_io.h"
-#include "eval/frame_output.h"
-#include "eval/metrics.h"
+#include "judge/frame_output.h"
+#include "judge/metrics.h"
 #include "harness/harness.h"
 #include "harness/run.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "vk/context.h"
 
 namespace fs = std::filesystem;

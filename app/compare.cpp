@@ -16,11 +16,11 @@
 #include "app/scaling.h"
 #include "app/svg_plot.h"
 #include "core/image_io.h"
-#include "eval/frame_output.h"
-#include "eval/metrics.h"
+#include "judge/frame_output.h"
+#include "judge/metrics.h"
 #include "harness/harness.h"
 #include "harness/run.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "vk/context.h"
 
 namespace fs = std::filesystem;
@@ -119,7 +119,7 @@ std::string num(double v, int prec) {
 
 std::string pct(double fraction) { return num(fraction * 100.0, 4) + "%"; }
 
-// Report thumbnails: images with a longer side above this are shown shrunk (eval's shrinkKeepingErrors).
+// Report thumbnails: images with a longer side above this are shown shrunk (judge/frame_output.h: shrinkKeepingErrors).
 constexpr uint32_t kThumbnailSide = 256;
 
 std::string imageName(const Row& r, const std::string& kind) {

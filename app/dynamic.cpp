@@ -17,11 +17,11 @@
 #include "app/frame_runner.h"
 #include "core/animation.h"
 #include "core/image_io.h"
-#include "eval/frame_output.h"
+#include "judge/frame_output.h"
 #include "harness/harness.h"
 #include "harness/run.h"
-#include "eval/metrics.h"
-#include "eval/epsilon.h"
+#include "judge/metrics.h"
+#include "method/epsilon.h"
 #include "vk/context.h"
 
 namespace fs = std::filesystem;

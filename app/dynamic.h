@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "app/cli.h"
-#include "eval/method.h"
+#include "method/method.h"
 #include "harness/run.h"  // orbitCamera
 
 namespace cs {

@@ -13,11 +13,11 @@
 
 #include "core/error.h"
 #include "core/scene.h"
-#include "eval/method.h"
+#include "method/method.h"
 #include "harness/harness.h"
 #include "harness/run.h"
 #include "raster/raster.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "vk/context.h"
 
 namespace cs::bench {

@@ -21,7 +21,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "bench/bench_scenes.h"
-#include "eval/registry.h"
+#include "method/registry.h"
 #include "harness/harness.h"
 #include "vk/context.h"
 

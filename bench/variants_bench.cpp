@@ -22,10 +22,10 @@
 #include <vector>
 
 #include "bench/bench_scenes.h"
-#include "eval/metrics.h"
+#include "judge/metrics.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "traversal/cone_method.h"
 #include "vk/context.h"
 

@@ -15,14 +15,14 @@
 #include <vector>
 
 #include "core/scene.h"
-#include "eval/frame_output.h"
-#include "eval/method.h"
-#include "eval/metrics.h"
-#include "eval/registry.h"
+#include "judge/frame_output.h"
+#include "method/method.h"
+#include "judge/metrics.h"
+#include "method/registry.h"
 #include "raster/gbuffer.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 
 namespace cs {
 

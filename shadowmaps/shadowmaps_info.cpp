@@ -1,7 +1,7 @@
 // The cube shadow map, RMSM, RTW and ASM in the method registry: their settings, compare's sweeps (face
 // resolution; page pool, finest level, matching and analysis resolution; map resolution, analysis,
 // importance functions, tessellation; memory, node resolution, analysis fraction) and the factories.
-#include "eval/registry.h"
+#include "method/registry.h"
 #include "shadowmaps/asm.h"
 #include "shadowmaps/asm_shared.h"
 #include "shadowmaps/cube_sm.h"

@@ -102,7 +102,7 @@ TEST(Cli, ATinyLightCoordinateIsAFiniteNumber) {
 }
 
 TEST(Cli, ALightTooFarForFp32RayLengthsIsAUsageErrorBeforeAnyOutput) {
-  // 2^62 is the limit (eval/epsilon.h); 4e18 from the built-in scene is inside it, 5e18 past it.
+  // 2^62 is the limit (method/epsilon.h); 4e18 from the built-in scene is inside it, 5e18 past it.
   fs::path out = tempDir("farlight");
   CliRun r = cli("render --method cone --width 8 --height 8 --frames 1 --light 5e18,0,0 --out " + out.string());
   EXPECT_EQ(r.code, 2) << r.out;

@@ -10,12 +10,12 @@
 
 #include <gtest/gtest.h>
 
-#include "eval/metrics.h"
+#include "judge/metrics.h"
 #include "harness/harness.h"
 #include "harness/run.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "tests/test_context.h"
 #include "traversal/cone_method.h"
 

@@ -2,7 +2,7 @@
 // memory bound, the ray order), compare's sweep over the memory bound, and the factory.
 #include <algorithm>
 
-#include "eval/registry.h"
+#include "method/registry.h"
 #include "traversal/cone_method.h"
 #include "traversal/traversal.h"
 

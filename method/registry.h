@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "eval/method.h"
-#include "eval/settings.h"
+#include "method/method.h"
+#include "method/settings.h"
 
 namespace cs {
 
