@@ -16,7 +16,8 @@ namespace {
 
 const SettingSpec kPlaneBias = {"plane-bias", "", "receiver-plane depth bias instead of slope-scaled", {}};
 const SettingSpec kCull = {"sm-cull", "on|off",
-                           "frustum culling of triangle clusters per face or superpage (default on; the same result)", {}};
+                           "frustum culling of triangle clusters per face or superpage (default on; the same result)", {},
+                           /*tuning=*/true};
 
 CubeSmOptions cubeOptions(const Settings& s) {
   CubeSmOptions sm;
