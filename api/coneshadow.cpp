@@ -10,7 +10,7 @@
 #include "api/internal.h"
 #include "core/error.h"
 #include "core/scene.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "raster/raster.h"
 #include "traversal/cone_engine.h"
 #include "vk/context.h"

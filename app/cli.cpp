@@ -100,12 +100,17 @@ void addFrameOptions(CLI::App& sub, Options& o, Raw& raw) {
   sub.add_option("--methods", raw.methods, "shadow methods A,B,... (see `coneshadow help`)")->type_name("A,B");
 }
 
+// Every registered setting, grouped by method; the tuning knobs last, in a group of their own.
 void addMethodSettings(CLI::App& sub, Options& o) {
-  for (const SettingEntry& e : settingEntries()) {
+  std::vector<SettingEntry> entries = settingEntries();
+  std::stable_partition(entries.begin(), entries.end(), [](const SettingEntry& e) { return !e.spec.tuning; });
+  for (const SettingEntry& e : entries) {
     const std::string name = e.spec.name;
     std::string help = joined(e.methods) + ": " + e.spec.help;
     if (!e.spec.choices.empty()) help += " {" + joined(e.spec.choices, ", ") + "}";
-    const std::string group = e.methods.size() == 1 ? e.methods.front() + " settings" : "shared method settings";
+    const std::string group = e.spec.tuning             ? kTuningGroup
+                              : e.methods.size() == 1 ? e.methods.front() + " settings"
+                                                      : "shared method settings";
     if (e.spec.value.empty()) {
       sub.add_flag_callback("--" + name, [&o, name] { o.settings.emplace_back(name, ""); }, help)->group(group);
     } else {
@@ -181,7 +186,8 @@ std::string usageText() {
          "room with clutter and a furball; views: wall, fur, room, ceiling); `info builtin` describes it.\n"
          "A single model has nothing to cast its shadow on: --ground-plane adds a floor under it.\n"
          "\n"
-         "methods (--methods A,B; each method's settings are listed in `coneshadow render --help`):\n" +
+         "methods (--methods A,B; each method's settings are listed in `coneshadow render --help`, the knobs\n"
+         "that never change a mask apart, under \"Tuning\"):\n" +
          methodsText() +
          "\n"
          "Options take their value as --opt V or --opt=V; method names and enumerated values are matched\n"
@@ -267,7 +273,8 @@ Options parseArgs(int argc, char** argv) {
   compare->add_flag("--interleave", o.interleave,
                     "time the view's methods round-robin, a frame of each in turn after all their warm-ups, so a slow "
                     "spell of a shared machine falls on every method alike (every setting's method, and two masks of each, "
-                    "are held at once)");
+                    "are held at once)")
+      ->group(kTuningGroup);
   compare->add_flag("--moving-camera", o.movingCamera, "with --animate: the camera orbits its target");
   compare->add_flag("--scaling", o.scaling,
                     "scaling runs instead: one view at 256², 512², 1024², 2048², then the scene as 1, 4, 16, ... "
@@ -369,8 +376,8 @@ Options parseArgs(int argc, char** argv) {
   if (!o.lightDistances.empty() && (o.animateFrames || o.scaling))
     throw UsageError("--light-distances is a run of its own; give it without --animate and --scaling");
 
-  // Methods: render runs Embree alone when none is named.
-  if (sub == render && o.methods.empty()) o.methods = {"embree"};
+  // Methods: render runs the reference alone when none is named.
+  if (sub == render && o.methods.empty()) o.methods = {referenceMethod().name};
   std::vector<const MethodInfo*> chosen = chosenMethods(o);
   o.methods.clear();
   for (const MethodInfo* m : chosen) o.methods.push_back(m->name);

@@ -1,5 +1,5 @@
 // Command-line parsing for the coneshadow CLI (CLI11): plain data in, a usage error (exit 2) out. The
-// methods' own settings come from the method registry (eval/registry.h): the CLI offers every registered
+// methods' own settings come from the method registry (method/registry.h): the CLI offers every registered
 // setting on render and compare, refuses one no chosen method takes, and lets each chosen method check
 // its own before any work.
 #pragma once
@@ -12,7 +12,7 @@
 #include <glm/glm.hpp>
 
 #include "core/error.h"
-#include "eval/registry.h"
+#include "method/registry.h"
 
 namespace cs {
 

@@ -16,12 +16,11 @@
 #include "app/scaling.h"
 #include "app/svg_plot.h"
 #include "core/image_io.h"
-#include "eval/frame_output.h"
-#include "eval/metrics.h"
+#include "judge/frame_output.h"
+#include "judge/metrics.h"
 #include "harness/harness.h"
-#include "raster/raster.h"
-#include "reference/embree_reference.h"
-#include "eval/epsilon.h"
+#include "harness/run.h"
+#include "method/epsilon.h"
 #include "vk/context.h"
 
 namespace fs = std::filesystem;
@@ -120,7 +119,7 @@ std::string num(double v, int prec) {
 
 std::string pct(double fraction) { return num(fraction * 100.0, 4) + "%"; }
 
-// Report thumbnails: images with a longer side above this are shown shrunk (eval's shrinkKeepingErrors).
+// Report thumbnails: images with a longer side above this are shown shrunk (judge/frame_output.h: shrinkKeepingErrors).
 constexpr uint32_t kThumbnailSide = 256;
 
 std::string imageName(const Row& r, const std::string& kind) {
@@ -572,99 +571,86 @@ int runCompare(const Options& o) {
   StagedDir out(o.out, runInputs(o));
   std::vector<Row> rows;
   std::vector<Closeup> closeups;
-  std::vector<std::string> stems;
-  Raster raster(*ctx, scene);
   uint32_t thumbFactor = 1;
   Eta eta(cameras.size() * (settings.size() + 1));  // per view: the reference, then each setting
-  for (size_t vi = 0; vi < cameras.size(); ++vi) {
-    FrameSpec spec;
-    spec.camera = cameras[vi];
-    spec.view = spec.camera.name.empty() ? "auto" : spec.camera.name;
-    spec.light = light;
-    spec.width = o.width;
-    spec.height = o.height;
-    spec.frames = o.frames;
-    const std::string& view = spec.view;
-    // File names from the view's name, made safe (a camera named "../../x" writes nothing outside --out)
-    // and unique (two views that differ only in unsafe characters do not overwrite each other).
-    std::string stem = fileStem(view);
+
+  harness::RunSpec spec;
+  spec.scene = &scene;
+  spec.views = harness::viewsOf(cameras);
+  spec.lights = {light};
+  spec.width = o.width;
+  spec.height = o.height;
+  spec.frames = o.frames;
+  spec.interleave = o.interleave;  // every setting's method made first, then their frames round-robin
+  for (const CompareSetting& s : settings) spec.methods.push_back({s.method, s.label, s.settings, s.defaults});
+
+  // File names from the view's name, made safe (a camera named "../../x" writes nothing outside --out)
+  // and unique (two views that differ only in unsafe characters do not overwrite each other).
+  std::vector<std::string> stems;
+  for (const harness::RunView& v : spec.views) {
+    std::string stem = fileStem(v.name);
     for (int k = 2; std::find(stems.begin(), stems.end(), stem) != stems.end(); ++k)
-      stem = fileStem(view) + "-" + std::to_string(k);
+      stem = fileStem(v.name) + "-" + std::to_string(k);
     stems.push_back(stem);
-    std::string tag = "[view " + std::to_string(vi + 1) + "/" + std::to_string(cameras.size()) + "] " + view + ": ";
-
-    // Progress: the step, and from the second step on the estimated time left (the mean step so far).
-    auto progress = [&](const std::string& label) {
-      return [&log, &eta, tag, label](uint32_t f, uint32_t n) {
-        if (f == 0) log << tag << label << " warm-up" << eta.text() << std::endl;
-        else log << tag << label << " frame " << f << "/" << n << std::endl;
-      };
+  }
+  auto tagOf = [&](const harness::Frame& f) {
+    return "[view " + std::to_string(f.view + 1) + "/" + std::to_string(cameras.size()) + "] " + f.viewName + ": ";
+  };
+  const std::string referenceName = referenceMethod().name;
+  harness::Events events;
+  events.step = [&](const harness::Frame& f, const std::string& step) {
+    if (step == "raster" || step == "band") log << tagOf(f) << (step == "band" ? "ambiguity band" : step) << std::endl;
+    if (step == "methods") eta.step();  // the reference is done
+  };
+  // Progress: the step, and from the second step on the estimated time left (the mean step so far).
+  events.progress = [&](const harness::Frame& f, size_t k) -> FrameProgress {
+    const std::string label = k == harness::kReferenceRuns ? referenceName + " (reference)" : settings[k].label;
+    return [&log, &eta, tag = tagOf(f), label](uint32_t fr, uint32_t n) {
+      if (fr == 0) log << tag << label << " warm-up" << eta.text() << std::endl;
+      else log << tag << label << " frame " << fr << "/" << n << std::endl;
     };
-    const std::string referenceName = referenceMethod().name;
-    std::unique_ptr<PreparedFrame> frame = prepareFrame(
-        *ctx, raster, scene, spec,
-        [&](const std::string& step) {
-          if (step != "reference") log << tag << (step == "band" ? "ambiguity band" : step) << std::endl;
-        },
-        progress(referenceName + " (reference)"));
-    eta.step();
-    const std::vector<float>& reference = frame->reference.output.visibility;
-    const nlohmann::json provenance = runProvenance(o, scene, light, spec.camera);
-
+  };
+  events.judged = [&](const harness::Frame&, const harness::Row&) { eta.step(); };
+  // Each view's rows, images and close-up strip, while its frame is held.
+  events.done = [&](const harness::Frame& f) {
+    const PreparedFrame& frame = *f.prepared;
+    const std::string& stem = stems[f.view];
+    const std::vector<float>& reference = frame.reference.output.visibility;
+    const nlohmann::json provenance = runProvenance(o, scene, f.lightPosition, f.camera);
     Closeup closeup;
-    closeup.view = view;
+    closeup.view = f.viewName;
     closeup.file = stem + "_closeups.png";
     std::vector<std::vector<uint8_t>> shaded;
     auto show = [&](const std::string& label, const std::vector<float>& visibility) {
-      shaded.push_back(shadedImage(frame->gbuffer, visibility));
+      shaded.push_back(shadedImage(frame.gbuffer, visibility));
       closeup.order.push_back(label);
     };
     show(referenceName, reference);
-    std::vector<Judged> judged;
-    if (o.interleave) {
-      // Every setting's method made first, then their frames round-robin (judgeInterleaved).
-      std::vector<std::unique_ptr<ShadowMethod>> owned;
-      std::vector<const MethodInfo*> infos;
-      std::vector<ShadowMethod*> methods;
-      for (const CompareSetting& s : settings) {
-        infos.push_back(s.method);
-        owned.push_back(s.method->reference ? nullptr
-                                            : s.method->make(s.method->usesDevice ? ctx.get() : nullptr, s.settings));
-        methods.push_back(owned.back().get());
-      }
-      judged = judgeInterleaved(infos, methods, *frame, o.frames,
-                                [&](size_t k) { return progress(settings[k].label); });
-      for (size_t k = 0; k < settings.size(); ++k) eta.step();
-    } else {
-      for (const CompareSetting& s : settings) {
-        judged.push_back(judge(*s.method, s.settings, *ctx, *frame, o.frames, progress(s.label)));
-        eta.step();
-      }
-    }
-    for (size_t k = 0; k < settings.size(); ++k) {
-      const CompareSetting& s = settings[k];
-      Judged& j = judged[k];
-      if (!s.method->reference) show(s.label, j.runs.output.visibility);
+    for (const harness::Row& j : f.rows) {
+      const CompareSetting& s = settings[j.method];
+      const std::vector<float>& mask = j.judged.runs.output.visibility;
+      if (!s.method->reference) show(s.label, mask);
       Row row;
       row.setting = s.label;
       row.stem = stem;
-      row.result = resultRow(*s.method, s.label, *frame, j, s.defaults);
+      row.result = j.result;
       row.result.stats["timing"] = o.interleave ? "interleaved" : "sequential";
       row.result.provenance = provenance;
-      row.msMin = j.runs.minMs;
-      row.msMax = j.runs.maxMs;
-      thumbFactor = writeFrameImages(out.path(), stem + "_" + s.label, frame->gbuffer, j.runs.output.visibility, reference,
-                                     frame->band, kThumbnailSide);
+      row.msMin = j.judged.runs.minMs;
+      row.msMax = j.judged.runs.maxMs;
+      thumbFactor = writeFrameImages(out.path(), stem + "_" + s.label, frame.gbuffer, mask, reference, frame.band,
+                                     kThumbnailSide);
       rows.push_back(std::move(row));
     }
     // Enlarged to about 256 pixels a tile, at least 2x, so single-pixel aliasing is visible.
-    closeup.crop = boundaryWindow(frame->gbuffer, reference);
+    closeup.crop = boundaryWindow(frame.gbuffer, reference);
     closeup.scale = std::max(2u, (256 + closeup.crop.width - 1) / closeup.crop.width);
     uint32_t sw = 0, sh = 0;
-    std::vector<uint8_t> strip = closeupStrip(shaded, frame->gbuffer.width, closeup.crop, closeup.scale, 4, sw, sh);
+    std::vector<uint8_t> strip = closeupStrip(shaded, frame.gbuffer.width, closeup.crop, closeup.scale, 4, sw, sh);
     writePng((fs::path(out.path()) / closeup.file).string(), sw, sh, strip);
     closeups.push_back(std::move(closeup));
-  }
+  };
+  harness::run(*ctx, spec, events);
 
   log << "writing reports" << std::endl;
   std::vector<FrameResult> results;

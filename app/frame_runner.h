@@ -1,5 +1,5 @@
 // Internal helpers shared by the commands: progress, the device, output staging, the light and the views.
-// (Frames are prepared and methods judged by the frame harness, harness/harness.h.)
+// (Every run goes through the one run entry, harness/run.h.)
 #pragma once
 #include <algorithm>
 #include <ctime>
@@ -20,10 +20,10 @@
 #include "app/cli.h"
 #include "app/staged_dir.h"
 #include "core/scene.h"
-#include "eval/frame_output.h"
-#include "eval/method.h"
+#include "judge/frame_output.h"
+#include "method/method.h"
 #include "harness/harness.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "vk/context.h"
 
 namespace cs {
@@ -62,7 +62,7 @@ inline std::string stageText(const MethodOutput& out) {
 
 // The frame's light: --light, else the scene's first point light, else an automatic one (a warning on
 // stderr, shown under --quiet too).
-// A light too far from the scene for fp32 ray lengths (eval/epsilon.h) is refused here, before any
+// A light too far from the scene for fp32 ray lengths (method/epsilon.h) is refused here, before any
 // work: a usage error for --light, a data error for the scene's own light.
 inline glm::vec3 chooseLight(const Scene& scene, const Options& o) {
   if (o.light) {

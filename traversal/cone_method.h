@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "eval/method.h"
+#include "method/method.h"
 #include "traversal/traversal.h"
 
 namespace cs {

@@ -22,10 +22,10 @@
 #include <nlohmann/json.hpp>
 
 #include "core/scene.h"
-#include "eval/method.h"
-#include "eval/metrics.h"
+#include "method/method.h"
+#include "judge/metrics.h"
 #include "raster/gbuffer.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 
 namespace cs {
 
