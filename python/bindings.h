@@ -57,4 +57,7 @@ py::object toPython(const nlohmann::json& j);
 // Python warnings (UserWarning), one per non-empty line of `text` (the loaders' and the CLI's warnings).
 void warnLines(const std::string& text);
 
+// The parts of the module.
+void bindScenes(py::module_& m);
+
 }  // namespace cs::python

@@ -1,6 +1,6 @@
 // The extension coneshadow._coneshadow (python/: `import coneshadow`): the module, its errors, the one
 // Vulkan context of the process, and the argument checks and numpy conversions its parts share
-// (bindings.h).
+// (bindings.h). The parts: scenes.cpp (Scene, Camera, Light).
 #include "python/bindings.h"
 
 #include <cmath>
@@ -169,4 +169,6 @@ PYBIND11_MODULE(_coneshadow, m) {
   m.def("devices", [] { return cs::vk::listDevices(); }, "One line per Vulkan device, as `coneshadow devices` prints them.");
   m.def("methods", [] { return cs::registeredMethodNames(); }, "The registered shadow methods, in the registry's order.");
   m.def("_release_device", &releaseDevice, "Ends the Vulkan context (the package calls it at exit).");
+
+  bindScenes(m);
 }

@@ -1,0 +1,40 @@
+# Usage errors are ValueError (naming the expected dtype and shape), scene and device errors RuntimeError,
+# each with the CLI's one-line message.
+import numpy as np
+import pytest
+
+import coneshadow
+
+
+def test_bad_arrays():
+    tri = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
+    with pytest.raises(ValueError, match=r"indices: expected a uint32 array of shape \(M, 3\), got int64 array"):
+        coneshadow.Scene.from_arrays(tri, np.array([[0, 1, 2]]))
+    with pytest.raises(ValueError, match=r"positions: expected a float32 array of shape \(N, 3\), got float32 array of shape \(9,\)"):
+        coneshadow.Scene.from_arrays(tri.ravel(), np.array([[0, 1, 2]], np.uint32))
+    with pytest.raises(ValueError, match=r"triangle 0 names vertex 3, past the 3 positions"):
+        coneshadow.Scene.from_arrays(tri, np.array([[0, 1, 3]], np.uint32))
+    with pytest.raises(ValueError, match=r"at least one triangle"):
+        coneshadow.Scene.from_arrays(tri, np.zeros((0, 3), np.uint32))
+
+
+def test_bad_cameras():
+    with pytest.raises(ValueError, match=r"yfov"):
+        coneshadow.Camera((0, 0, 5), (0, 0, 0), yfov=4.0)
+    with pytest.raises(ValueError, match=r"target equals eye"):
+        coneshadow.Camera((0, 0, 5), (0, 0, 5))
+    with pytest.raises(ValueError, match=r"parallel to the view"):
+        coneshadow.Camera((0, 5, 0), (0, 0, 0), up=(0, 1, 0))
+    with pytest.raises(ValueError, match=r"Camera eye: expected three numbers"):
+        coneshadow.Camera((0, 5), (0, 0, 0))
+
+
+def test_scene_errors(tmp_path):
+    with pytest.raises(RuntimeError, match=r"no such file"):
+        coneshadow.Scene.load(str(tmp_path / "missing.gltf"))
+    bad = tmp_path / "bad.gltf"
+    bad.write_text("{ not json")
+    with pytest.raises(RuntimeError, match=r"bad.gltf"):
+        coneshadow.Scene.load(str(bad))
+    with pytest.raises(ValueError, match=r"heightfield"):
+        coneshadow.Scene.load("heightfield:x")
