@@ -30,12 +30,15 @@ class FlushToZero {
   unsigned saved_;
 };
 
-// Sets FTZ/DAZ on every worker that enters the arena (a worker thread's mode is its own).
+// Sets FTZ/DAZ on every worker that enters the arena (a worker thread's mode is its own). Not on the
+// thread that calls parallelFor, which enters too: its mode is the caller's (a Python interpreter's
+// numpy, say), set only while it works a chunk (FlushToZero) and given back after.
 class FlushToZeroObserver : public tbb::task_scheduler_observer {
  public:
   explicit FlushToZeroObserver(tbb::task_arena& arena) : tbb::task_scheduler_observer(arena) { observe(true); }
   ~FlushToZeroObserver() override { observe(false); }
-  void on_scheduler_entry(bool) override {
+  void on_scheduler_entry(bool isWorker) override {
+    if (!isWorker) return;
     _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
     _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
   }
