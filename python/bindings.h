@@ -18,6 +18,7 @@
 #include "core/error.h"
 
 namespace cs {
+class ConeEngine;
 namespace vk {
 struct Context;
 }
@@ -32,6 +33,13 @@ namespace py = pybind11;
 // context is used: one frame at a time, whichever Python thread asks.
 std::unique_lock<std::mutex> lockDevice();
 vk::Context& device();
+// The cone engine visibility() records with (samples.cpp makes it on first use), and the number of the next
+// frame it records; made on the context of device(), ended with it. Hold the lock.
+struct EngineSlot {
+  std::unique_ptr<ConeEngine> engine;
+  uint64_t frame = 0;
+};
+EngineSlot& engineSlot();
 // set_device(): the next device() makes a context on `device` (index or name substring).
 void chooseDevice(const std::string& device, bool validation);
 // The context's driver description (making it if needed).
@@ -59,5 +67,6 @@ void warnLines(const std::string& text);
 
 // The parts of the module.
 void bindScenes(py::module_& m);
+void bindSamples(py::module_& m);
 
 }  // namespace cs::python

@@ -1,12 +1,14 @@
 // The extension coneshadow._coneshadow (python/: `import coneshadow`): the module, its errors, the one
 // Vulkan context of the process, and the argument checks and numpy conversions its parts share
-// (bindings.h). The parts: scenes.cpp (Scene, Camera, Light).
+// (bindings.h). The parts: scenes.cpp (Scene, Camera, Light), samples.cpp (visibility of samples of the
+// caller's own, on the engine).
 #include "python/bindings.h"
 
 #include <cmath>
 #include <sstream>
 
 #include "method/registry.h"
+#include "traversal/cone_engine.h"
 #include "vk/context.h"
 
 namespace cs::python {
@@ -16,6 +18,7 @@ namespace {
 struct DeviceState {
   std::mutex mutex;
   std::unique_ptr<vk::Context> ctx;
+  EngineSlot engine;  // ended before ctx
   std::string device;
   bool validation = false;
 };
@@ -68,6 +71,7 @@ void chooseDevice(const std::string& name, bool validation) {
   py::gil_scoped_release release;
   auto lock = lockDevice();
   DeviceState& s = state();
+  s.engine = {};
   s.ctx.reset();
   s.device = name;
   s.validation = validation;
@@ -82,8 +86,11 @@ std::string deviceDescription() {
 void releaseDevice() {
   py::gil_scoped_release release;
   auto lock = lockDevice();
+  state().engine = {};
   state().ctx.reset();
 }
+
+EngineSlot& engineSlot() { return state().engine; }
 
 void usage(const std::string& message) { throw UsageError(message); }
 
@@ -171,4 +178,5 @@ PYBIND11_MODULE(_coneshadow, m) {
   m.def("_release_device", &releaseDevice, "Ends the Vulkan context (the package calls it at exit).");
 
   bindScenes(m);
+  bindSamples(m);
 }

@@ -1,5 +1,5 @@
 # Type stubs of the coneshadow package (python/coneshadow/__init__.py and its extension _coneshadow).
-from typing import List, Optional, Sequence, Tuple, Union
+from typing import List, Literal, Optional, Sequence, Tuple, Union, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -67,6 +67,12 @@ class Scene:
     @property
     def lights(self) -> List[Light]: ...
 
+@overload
+def visibility(scene: Scene, points: npt.NDArray[np.float32], normals: npt.NDArray[np.float32], lights: Lights,
+               reference: Literal[False] = ...) -> npt.NDArray[np.bool_]: ...
+@overload
+def visibility(scene: Scene, points: npt.NDArray[np.float32], normals: npt.NDArray[np.float32], lights: Lights,
+               reference: Literal[True]) -> Tuple[npt.NDArray[np.bool_], npt.NDArray[np.bool_], npt.NDArray[np.bool_]]: ...
 def set_device(device: str = "", validation: bool = False) -> None: ...
 def device() -> str: ...
 def devices() -> List[str]: ...

@@ -5,6 +5,40 @@ import pytest
 
 import coneshadow
 
+P = np.zeros((4, 3), np.float32)
+N = np.tile(np.float32([0, 1, 0]), (4, 1))
+
+
+@pytest.fixture(scope="module")
+def quad():
+    positions = np.array([[-1, 0, -1], [1, 0, -1], [1, 0, 1], [-1, 0, 1]], np.float32)
+    return coneshadow.Scene.from_arrays(positions, np.array([[0, 1, 2], [0, 2, 3]], np.uint32))
+
+
+@pytest.mark.parametrize("points, expected", [
+    (P.astype(np.float64), r"points: expected a float32 array of shape \(N, 3\), got float64 array of shape \(4, 3\)"),
+    (P[:, :2], r"shape \(N, 3\), got float32 array of shape \(4, 2\)"),
+    (P.tolist(), r"shape \(N, 3\), got list"),
+    (P[:0], r"at least one sample"),
+    (np.full((4, 3), np.nan, np.float32), r"sample 0 is not finite"),
+])
+def test_bad_points(quad, points, expected):
+    with pytest.raises(ValueError, match=expected):
+        coneshadow.visibility(quad, points, N[:len(points)] if len(points) else N[:0], (0, 2, 0))
+
+
+def test_bad_normals_and_lights(quad):
+    with pytest.raises(ValueError, match=r"normals: .*N = 4 of points, got \(3, 3\)"):
+        coneshadow.visibility(quad, P, N[:3], (0, 2, 0))
+    with pytest.raises(ValueError, match=r"normal 0 is zero"):
+        coneshadow.visibility(quad, P, np.zeros((4, 3), np.float32), (0, 2, 0))
+    with pytest.raises(ValueError, match=r"lights: expected one light \(x, y, z\) or several, shape \(L, 3\)"):
+        coneshadow.visibility(quad, P, N, [[0, 1], [2, 3]])
+    with pytest.raises(ValueError, match=r"lights: light 0 is not three finite numbers"):
+        coneshadow.visibility(quad, P, N, (0, np.inf, 0))
+    with pytest.raises(ValueError, match=r"lights: light 0: "):
+        coneshadow.visibility(quad, P, N, (0, 1e30, 0))
+
 
 def test_bad_arrays():
     tri = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
