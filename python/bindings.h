@@ -18,6 +18,8 @@
 #include "core/error.h"
 
 namespace cs {
+struct Scene;
+struct Camera;
 class ConeEngine;
 namespace vk {
 struct Context;
@@ -67,6 +69,15 @@ void warnLines(const std::string& text);
 
 // The parts of the module.
 void bindScenes(py::module_& m);
+void bindFrames(py::module_& m);
 void bindSamples(py::module_& m);
+
+// The light a frame takes when none is given, and the check of one that is, as the CLI's chooseLight
+// (app/frame_runner.h): the scene's first point light, else an automatic one (a warning); a given light
+// too far for fp32 ray lengths is a ValueError, the scene's own a RuntimeError.
+std::vector<glm::vec3> framesLights(const Scene& scene, py::handle lights);
+// The camera of a frame: a Camera, a view name of the scene, or None (the scene's first camera, else an
+// automatic one, with a warning).
+Camera frameCamera(const Scene& scene, py::handle camera);
 
 }  // namespace cs::python

@@ -1,12 +1,14 @@
 // The extension coneshadow._coneshadow (python/: `import coneshadow`): the module, its errors, the one
 // Vulkan context of the process, and the argument checks and numpy conversions its parts share
-// (bindings.h). The parts: scenes.cpp (Scene, Camera, Light), samples.cpp (visibility of samples of the
-// caller's own, on the engine).
+// (bindings.h). The parts: scenes.cpp (Scene, Camera, Light), frames.cpp (render, compare on the
+// harness's one run entry), samples.cpp (visibility of samples of the caller's own, on the engine).
 #include "python/bindings.h"
 
 #include <cmath>
 #include <sstream>
 
+#include "core/scene.h"
+#include "method/epsilon.h"
 #include "method/registry.h"
 #include "traversal/cone_engine.h"
 #include "vk/context.h"
@@ -150,6 +152,49 @@ void warnLines(const std::string& text) {
     if (!line.empty() && PyErr_WarnEx(PyExc_UserWarning, line.c_str(), 2) != 0) throw py::error_already_set();
 }
 
+std::vector<glm::vec3> framesLights(const Scene& scene, py::handle lights) {
+  if (!lights.is_none()) {
+    std::vector<glm::vec3> out = lightsOf(lights, "lights");
+    for (size_t l = 0; l < out.size(); ++l)
+      if (std::string why = lightRangeProblem(out[l], scene.boundsMin, scene.boundsMax); !why.empty())
+        usage("lights: light " + std::to_string(l) + ": " + why);
+    return out;
+  }
+  if (!scene.lights.empty()) {
+    const glm::vec3 l = scene.lights.front().position;
+    if (std::string why = lightRangeProblem(l, scene.boundsMin, scene.boundsMax); !why.empty())
+      throw Error(why, "scene " + scene.name + ", light '" + scene.lights.front().name + "'", "give a closer one with lights=");
+    return {l};
+  }
+  if (!scene.unusableLights.empty())
+    throw Error("the scene's light " + scene.unusableLights.front() + " is not a point light; the methods shadow point lights",
+                "scene " + scene.name, "give one with lights=");
+  const glm::vec3 l = automaticLight(scene).position;
+  std::ostringstream os;
+  os << "no point light in the scene: using an automatic one at " << l.x << "," << l.y << "," << l.z
+     << " (give one with lights=)";
+  warnLines(os.str());
+  return {l};
+}
+
+Camera frameCamera(const Scene& scene, py::handle camera) {
+  if (py::isinstance<Camera>(camera)) return camera.cast<Camera>();
+  if (py::isinstance<py::str>(camera)) {
+    const std::string name = camera.cast<std::string>();
+    if (const Camera* c = scene.findCamera(name)) return *c;
+    std::string all;
+    for (const Camera& c : scene.cameras) all += (all.empty() ? "" : ", ") + c.name;
+    usage("scene " + scene.name + " has no view '" + name + "'" + (all.empty() ? " (it has no cameras)" : " (views: " + all + ")"));
+  }
+  if (!camera.is_none()) usage("camera: expected a Camera, a view name or None, got " + described(camera));
+  if (!scene.cameras.empty()) return scene.cameras.front();
+  Camera c = automaticCamera(scene);
+  std::ostringstream os;
+  os << "no camera in the scene: using an automatic one (eye " << c.eye.x << "," << c.eye.y << "," << c.eye.z << ")";
+  warnLines(os.str());
+  return c;
+}
+
 }  // namespace cs::python
 
 PYBIND11_MODULE(_coneshadow, m) {
@@ -178,5 +223,6 @@ PYBIND11_MODULE(_coneshadow, m) {
   m.def("_release_device", &releaseDevice, "Ends the Vulkan context (the package calls it at exit).");
 
   bindScenes(m);
+  bindFrames(m);
   bindSamples(m);
 }

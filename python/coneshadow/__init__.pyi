@@ -1,11 +1,13 @@
 # Type stubs of the coneshadow package (python/coneshadow/__init__.py and its extension _coneshadow).
-from typing import List, Literal, Optional, Sequence, Tuple, Union, overload
+from os import PathLike
+from typing import Any, Dict, List, Literal, Optional, Sequence, Tuple, Union, overload
 
 import numpy as np
 import numpy.typing as npt
 
 Vec3 = Union[Tuple[float, float, float], Sequence[float], npt.ArrayLike]
 Lights = Union[Vec3, Sequence[Vec3], npt.ArrayLike]
+Row = Dict[str, Any]
 
 class Camera:
     def __init__(self, eye: Vec3, target: Vec3, up: Vec3 = (0.0, 1.0, 0.0), yfov: float = 0.8, name: str = "",
@@ -67,6 +69,30 @@ class Scene:
     @property
     def lights(self) -> List[Light]: ...
 
+class Frame:
+    device: str
+    camera: Camera
+    view: str
+    lights: npt.NDArray[np.float32]
+    visibility: Dict[str, npt.NDArray[np.float32]]
+    results: Dict[str, Union[Row, List[Row]]]
+    rows: List[Row]
+    position: npt.NDArray[np.float32]
+    normal: npt.NDArray[np.float32]
+    lit: npt.NDArray[np.bool_]
+    reference: npt.NDArray[np.float32]
+    band: npt.NDArray[np.bool_]
+    @property
+    def methods(self) -> List[str]: ...
+    def error(self, method: str) -> Union[Row, List[Row]]: ...
+
+def render(scene: Scene, camera: Union[Camera, str, None] = None, lights: Optional[Lights] = None, width: int = 512,
+           height: int = 512, methods: Union[str, Sequence[str], None] = None,
+           settings: Optional[Dict[str, Union[str, int, float, bool]]] = None, frames: int = 3) -> Frame: ...
+def compare(scene: Scene, views: Optional[Sequence[Union[Camera, str]]] = None, lights: Optional[Lights] = None,
+            width: int = 256, height: int = 256, methods: Union[str, Sequence[str], None] = None,
+            settings: Optional[Dict[str, Union[str, int, float, bool]]] = None, frames: int = 3,
+            interleave: bool = False, out: Union[str, PathLike[str], None] = None) -> List[Row]: ...
 @overload
 def visibility(scene: Scene, points: npt.NDArray[np.float32], normals: npt.NDArray[np.float32], lights: Lights,
                reference: Literal[False] = ...) -> npt.NDArray[np.bool_]: ...

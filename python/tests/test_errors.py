@@ -63,6 +63,23 @@ def test_bad_cameras():
         coneshadow.Camera((0, 5), (0, 0, 0))
 
 
+def test_bad_frames(builtin):
+    with pytest.raises(ValueError, match=r"unknown method 'cnoe'.*did you mean"):
+        coneshadow.render(builtin, methods=["cnoe"])
+    with pytest.raises(ValueError, match=r"no method takes a setting 'no-such-setting'"):
+        coneshadow.render(builtin, methods=["cone"], settings={"no-such-setting": 1})
+    with pytest.raises(ValueError, match=r"'sm-resolution' is a setting of .*which this run does not use"):
+        coneshadow.render(builtin, methods=["cone"], settings={"sm-resolution": 1024})
+    with pytest.raises(ValueError, match=r"sm-resolution"):
+        coneshadow.render(builtin, methods=["cubesm"], settings={"sm-resolution": "lots"})
+    with pytest.raises(ValueError, match=r"width: expected 1 to 16384 pixels, got 0"):
+        coneshadow.render(builtin, width=0)
+    with pytest.raises(ValueError, match=r"has no view 'nowhere' \(views: "):
+        coneshadow.render(builtin, camera="nowhere")
+    with pytest.raises(ValueError, match=r"methods: the list names no method"):
+        coneshadow.render(builtin, methods=[])
+
+
 def test_scene_errors(tmp_path):
     with pytest.raises(RuntimeError, match=r"no such file"):
         coneshadow.Scene.load(str(tmp_path / "missing.gltf"))

@@ -1,5 +1,5 @@
 # visibility() on samples of the caller's own, and a two-triangle scene whose shadow is known in closed
-# form.
+# form (through visibility() and through render()).
 import numpy as np
 import pytest
 
@@ -47,6 +47,20 @@ def test_the_two_triangle_shadow_in_closed_form():
     assert (~visible[0]).sum() > 1000  # the shadow is there
     # The same samples facing down are not visible (they face away from the light).
     assert not coneshadow.visibility(scene, points, -normals, LIGHT).any()
+
+
+def test_the_two_triangle_shadow_rendered():
+    scene = two_triangles()
+    camera = coneshadow.Camera(eye=(0, 2.5, 0.01), target=(0, 0, 0), up=(0, 0, -1), yfov=1.2)
+    frame = coneshadow.render(scene, camera=camera, methods=["cone", "cubesm"], width=96, height=96, frames=1)
+    on_receiver = frame.lit & (np.abs(frame.position[..., 1]) < 1e-4)
+    inside = signed_distances(frame.position[..., [0, 2]].reshape(-1, 2)).reshape(96, 96)
+    clear = on_receiver & (np.abs(inside) > 0.02)
+    assert clear.sum() > 2000
+    for name in ("embree", "cone"):
+        lit = frame.visibility[name] >= 0.5
+        np.testing.assert_array_equal(lit[clear], inside[clear] < 0, err_msg=name)
+    assert frame.results["cone"]["error"]["misclassified_outside_band"] == 0
 
 
 def test_random_samples_against_embree(builtin):
