@@ -116,6 +116,8 @@ set(cs_gpu_cli_tests
   TinyGltf.CameraNamesNeverBecomePathsOutsideTheOutputFolder)
 
 set(cs_slow_tests
+  Api.EightLightsInOneFrameEqualOneLightFramesOnTheBartMuseum
+  Api.EightLightsInOneFrameEqualOneLightFramesOnTheBuiltinScene
   Cli.EveryMemoryLimitGivesACompleteResultOrOneClearLineAndNoOutput
   Compare.SkipsWhatTheDeviceCannotRunAndSaysWhy
   Compare.TinyBuiltinRunWritesConsistentReports

@@ -14,8 +14,9 @@
 #   frames), the variant, leaf-ray, budget and arena sweeps (each variant, the chunked path, its overflow
 #   and two-pass at the least arena are in quick tests), the look-back sort's spin count (a shader
 #   constant), the method contract, the default compare report and its screenshot (the report is written
-#   by quick compare runs too). KEEP holds the slow tests that reach host code no quick test does.
-#   Cli.EveryMemoryLimit... skips itself under ASan in any case. Left out: ~430 of the suite's ~1000
+#   by quick compare runs too), the engine's eight lights on the museum (KEEP has them on the built-in
+#   scene). KEEP holds the slow tests that reach host code no quick test does.
+#   Cli.EveryMemoryLimit... skips itself under ASan in any case. Left out: ~440 of the suite's ~1030
 #   test-seconds in Release (~1300 s under the sanitizers, ~11 min of CI on 2 cores).
 # - RelWithDebInfo with -g1: line tables only. The reports' stacks keep every function and file:line,
 #   inlined frames included (only a debugger's local variables go), and the sanitized files compile
@@ -34,6 +35,7 @@ KEEP=(
   ConeHardCases.NonFiniteTrianglesAreDroppedAsEmbreeDropsThem # the cone method dropping non-finite triangles
   Compare.SkipsWhatTheDeviceCannotRunAndSaysWhy               # CONESHADOW_HIDE_FEATURES; skipped sweep points
   TinyGltf.CameraNamesNeverBecomePathsOutsideTheOutputFolder  # camera names made file names
+  Api.EightLightsInOneFrameEqualOneLightFramesOnTheBuiltinScene # the engine's frames of 2..8 lights
 )
 
 cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" \
