@@ -16,12 +16,11 @@
 #include "app/scaling.h"
 #include "app/svg_plot.h"
 #include "core/image_io.h"
-#include "eval/frame_output.h"
-#include "eval/metrics.h"
+#include "judge/frame_output.h"
+#include "judge/metrics.h"
 #include "harness/harness.h"
-#include "raster/raster.h"
-#include "reference/embree_reference.h"
-#include "eval/epsilon.h"
+#include "harness/run.h"
+#include "method/epsilon.h"
 #include "vk/context.h"
 
 namespace fs = std::filesystem;
@@ -91,6 +90,7 @@ namespace {
 
 struct Row {
   FrameResult result;
+  std::string view;  // the report's view: the camera's name, and its light when the run has several ("wall, light 1")
   std::string setting;
   std::string stem;  // the view's file-name stem (fileStem, unique in the run)
   double msMin = 0, msMax = 0;
@@ -120,7 +120,7 @@ std::string num(double v, int prec) {
 
 std::string pct(double fraction) { return num(fraction * 100.0, 4) + "%"; }
 
-// Report thumbnails: images with a longer side above this are shown shrunk (eval's shrinkKeepingErrors).
+// Report thumbnails: images with a longer side above this are shown shrunk (judge/frame_output.h: shrinkKeepingErrors).
 constexpr uint32_t kThumbnailSide = 256;
 
 std::string imageName(const Row& r, const std::string& kind) {
@@ -166,7 +166,7 @@ const std::vector<std::string> kHeader = {"method/setting",
 std::vector<std::string> viewOrder(const std::vector<Row>& rows) {
   std::vector<std::string> views;
   for (auto& r : rows)
-    if (std::find(views.begin(), views.end(), r.result.view) == views.end()) views.push_back(r.result.view);
+    if (std::find(views.begin(), views.end(), r.view) == views.end()) views.push_back(r.view);
   return views;
 }
 
@@ -184,7 +184,7 @@ struct Verdict {
 Verdict verdictOf(const std::vector<Row>& rows, const std::string& view) {
   Verdict v;
   for (const Row& r : rows) {
-    if (r.result.view != view || r.result.method == referenceMethod().name) continue;
+    if (r.view != view || r.result.method == referenceMethod().name) continue;
     if (r.result.error.undecided) {  // the band swallowed the answer: no row is exact or good here
       v.undecided = r.result.error.undecidedReason();
       continue;
@@ -216,7 +216,7 @@ std::vector<std::string> verdictCells(const std::vector<Row>& rows, const std::s
   const Verdict v = verdictOf(rows, view);
   std::string reference = "—";
   for (const Row& r : rows)
-    if (r.result.view == view && r.result.method == referenceMethod().name) reference = num(r.result.totalMs, 1);
+    if (r.view == view && r.result.method == referenceMethod().name) reference = num(r.result.totalMs, 1);
   if (!v.undecided.empty()) {
     const std::string cell = "undecided: " + v.undecided;
     return {view, cell, cell, cell, reference};
@@ -254,7 +254,7 @@ std::string convergenceMd(const std::vector<Row>& rows) {
         "them in the plot at frame 1.\n\n![convergence](convergence.png)\n\n(vector: convergence.svg)\n";
   for (const Row& r : rows) {
     if (!r.result.stats.contains("per_frame")) continue;
-    os << "\n" << r.result.view << " / " << r.setting << ":";
+    os << "\n" << r.view << " / " << r.setting << ":";
     for (const auto& f : r.result.stats["per_frame"])
       os << " " << f["frame"].get<int>() + 1 << ": " << pct(f["misclassified_fraction"].get<double>()) << " ("
          << num(f["cumulative_ms"].get<double>(), 4) << " ms);";
@@ -281,7 +281,7 @@ std::string convergenceSvg(const std::vector<Row>& rows) {
     }
     PlotSeries oneFrame{"one-frame methods", {}, false}, oneFrameTime{"one-frame methods", {}, false};
     for (const Row& r : rows) {
-      if (r.result.view != view || r.result.method == referenceMethod().name) continue;
+      if (r.view != view || r.result.method == referenceMethod().name) continue;
       if (!r.result.stats.contains("per_frame")) {
         const double e = r.result.error.misclassifiedFraction;
         oneFrame.points.push_back({1.0, e, r.setting + ": " + pct(e)});
@@ -346,11 +346,11 @@ std::string reportMd(const std::string& sceneName, const std::string& device, ui
     os << "\n## " << v << "\n\n";
     table(kHeader);
     for (auto& r : rows)
-      if (r.result.view == v) row(cells(r));
+      if (r.view == v) row(cells(r));
     os << "\nStages:\n\n";
     table(stageHeader());
     for (auto& r : rows)
-      if (r.result.view == v) row({r.setting, stagesCell(r)});
+      if (r.view == v) row({r.setting, stagesCell(r)});
     for (auto& c : closeups)
       if (c.view == v) os << "\n" << closeupText(c) << "\n\n![" << v << " close-ups](" << c.file << ")\n";
   }
@@ -426,15 +426,15 @@ std::string reportHtml(const std::string& sceneName, const std::string& device, 
     os << "<h2>" << htmlEscape(v) << "</h2>\n";
     table(kHeader, "results");
     for (auto& r : rows)
-      if (r.result.view == v) row(cells(r));
+      if (r.view == v) row(cells(r));
     os << "</table>\n<h3>Stages</h3>\n";
     table(stageHeader(), "stages");
     for (auto& r : rows)
-      if (r.result.view == v) row({r.setting, stagesCell(r)});
+      if (r.view == v) row({r.setting, stagesCell(r)});
     os << "</table>\n<h3>Images</h3>\n<table class=\"images\">\n<tr><th>method/setting</th><th>shaded</th><th>mask</th>"
           "<th>diff</th></tr>\n";
     for (auto& r : rows) {
-      if (r.result.view != v) continue;
+      if (r.view != v) continue;
       os << "<tr><td>" << htmlEscape(r.setting) << "</td>";
       for (const char* kind : {"shaded", "mask", "diff"}) {
         const std::string file = imageName(r, kind), thumb = thumbFactor > 1 ? imageName(r, std::string(kind) + "_thumb") : file;
@@ -479,10 +479,10 @@ std::string tradeOffSvg(const std::vector<Row>& rows, bool memory) {
     panel.yLabel = "misclassified outside the band (log)";
     std::vector<double> errors;
     for (const Row& r : rows)
-      if (r.result.view == view) errors.push_back(r.result.error.misclassifiedFractionOutsideBand);
+      if (r.view == view) errors.push_back(r.result.error.misclassifiedFractionOutsideBand);
     panel.yFloor = floorFor(errors);
     for (const Row& r : rows) {
-      if (r.result.view != view) continue;
+      if (r.view != view) continue;
       if (memory && r.result.bytes == 0) continue;
       auto it = std::find_if(panel.series.begin(), panel.series.end(),
                              [&](const PlotSeries& s) { return s.name == r.result.method; });
@@ -560,7 +560,10 @@ int runCompare(const Options& o) {
 
   Scene scene = loadSceneArg(o, std::cerr);
   std::vector<Camera> cameras = selectViews(scene, o);
-  glm::vec3 light = chooseLight(scene, o);
+  const std::vector<glm::vec3> lights = chooseLights(scene, o);
+  // Several lights: each view under each, a frame of its own; its files and report section named by the
+  // light's index.
+  const bool several = lights.size() > 1;
   log << "scene " << scene.name << ": " << scene.triangleCount() << " triangles, " << cameras.size() << " view(s), "
       << settings.size() << " method setting(s), " << o.width << "x" << o.height << std::endl;
 
@@ -572,99 +575,90 @@ int runCompare(const Options& o) {
   StagedDir out(o.out, runInputs(o));
   std::vector<Row> rows;
   std::vector<Closeup> closeups;
-  std::vector<std::string> stems;
-  Raster raster(*ctx, scene);
   uint32_t thumbFactor = 1;
-  Eta eta(cameras.size() * (settings.size() + 1));  // per view: the reference, then each setting
-  for (size_t vi = 0; vi < cameras.size(); ++vi) {
-    FrameSpec spec;
-    spec.camera = cameras[vi];
-    spec.view = spec.camera.name.empty() ? "auto" : spec.camera.name;
-    spec.light = light;
-    spec.width = o.width;
-    spec.height = o.height;
-    spec.frames = o.frames;
-    const std::string& view = spec.view;
-    // File names from the view's name, made safe (a camera named "../../x" writes nothing outside --out)
-    // and unique (two views that differ only in unsafe characters do not overwrite each other).
-    std::string stem = fileStem(view);
+  Eta eta(cameras.size() * lights.size() * (settings.size() + 1));  // per frame: the reference, then each setting
+
+  harness::RunSpec spec;
+  spec.scene = &scene;
+  spec.views = harness::viewsOf(cameras);
+  spec.lights = lights;
+  spec.width = o.width;
+  spec.height = o.height;
+  spec.frames = o.frames;
+  spec.interleave = o.interleave;  // every setting's method made first, then their frames round-robin
+  for (const CompareSetting& s : settings) spec.methods.push_back({s.method, s.label, s.settings, s.defaults});
+
+  // File names from the view's name, made safe (a camera named "../../x" writes nothing outside --out)
+  // and unique (two views that differ only in unsafe characters do not overwrite each other).
+  std::vector<std::string> stems;
+  for (const harness::RunView& v : spec.views) {
+    std::string stem = fileStem(v.name);
     for (int k = 2; std::find(stems.begin(), stems.end(), stem) != stems.end(); ++k)
-      stem = fileStem(view) + "-" + std::to_string(k);
+      stem = fileStem(v.name) + "-" + std::to_string(k);
     stems.push_back(stem);
-    std::string tag = "[view " + std::to_string(vi + 1) + "/" + std::to_string(cameras.size()) + "] " + view + ": ";
-
-    // Progress: the step, and from the second step on the estimated time left (the mean step so far).
-    auto progress = [&](const std::string& label) {
-      return [&log, &eta, tag, label](uint32_t f, uint32_t n) {
-        if (f == 0) log << tag << label << " warm-up" << eta.text() << std::endl;
-        else log << tag << label << " frame " << f << "/" << n << std::endl;
-      };
+  }
+  auto viewOf = [&](const harness::Frame& f) {
+    return several ? f.viewName + ", light " + std::to_string(f.light) : f.viewName;
+  };
+  auto tagOf = [&](const harness::Frame& f) {
+    return "[view " + std::to_string(f.view + 1) + "/" + std::to_string(cameras.size()) + "] " + viewOf(f) + ": ";
+  };
+  const std::string referenceName = referenceMethod().name;
+  harness::Events events;
+  events.step = [&](const harness::Frame& f, const std::string& step) {
+    if (step == "raster" || step == "band") log << tagOf(f) << (step == "band" ? "ambiguity band" : step) << std::endl;
+    if (step == "methods") eta.step();  // the reference is done
+  };
+  // Progress: the step, and from the second step on the estimated time left (the mean step so far).
+  events.progress = [&](const harness::Frame& f, size_t k) -> FrameProgress {
+    const std::string label = k == harness::kReferenceRuns ? referenceName + " (reference)" : settings[k].label;
+    return [&log, &eta, tag = tagOf(f), label](uint32_t fr, uint32_t n) {
+      if (fr == 0) log << tag << label << " warm-up" << eta.text() << std::endl;
+      else log << tag << label << " frame " << fr << "/" << n << std::endl;
     };
-    const std::string referenceName = referenceMethod().name;
-    std::unique_ptr<PreparedFrame> frame = prepareFrame(
-        *ctx, raster, scene, spec,
-        [&](const std::string& step) {
-          if (step != "reference") log << tag << (step == "band" ? "ambiguity band" : step) << std::endl;
-        },
-        progress(referenceName + " (reference)"));
-    eta.step();
-    const std::vector<float>& reference = frame->reference.output.visibility;
-    const nlohmann::json provenance = runProvenance(o, scene, light, spec.camera);
-
+  };
+  events.judged = [&](const harness::Frame&, const harness::Row&) { eta.step(); };
+  // Each view's rows, images and close-up strip, while its frame is held.
+  events.done = [&](const harness::Frame& f) {
+    const PreparedFrame& frame = *f.prepared;
+    const std::string stem = stems[f.view] + (several ? "_light" + std::to_string(f.light) : std::string());
+    const std::vector<float>& reference = frame.reference.output.visibility;
+    const nlohmann::json provenance = runProvenance(o, scene, f.lightPosition, f.camera);
     Closeup closeup;
-    closeup.view = view;
+    closeup.view = viewOf(f);
     closeup.file = stem + "_closeups.png";
     std::vector<std::vector<uint8_t>> shaded;
     auto show = [&](const std::string& label, const std::vector<float>& visibility) {
-      shaded.push_back(shadedImage(frame->gbuffer, visibility));
+      shaded.push_back(shadedImage(frame.gbuffer, visibility));
       closeup.order.push_back(label);
     };
     show(referenceName, reference);
-    std::vector<Judged> judged;
-    if (o.interleave) {
-      // Every setting's method made first, then their frames round-robin (judgeInterleaved).
-      std::vector<std::unique_ptr<ShadowMethod>> owned;
-      std::vector<const MethodInfo*> infos;
-      std::vector<ShadowMethod*> methods;
-      for (const CompareSetting& s : settings) {
-        infos.push_back(s.method);
-        owned.push_back(s.method->reference ? nullptr
-                                            : s.method->make(s.method->usesDevice ? ctx.get() : nullptr, s.settings));
-        methods.push_back(owned.back().get());
-      }
-      judged = judgeInterleaved(infos, methods, *frame, o.frames,
-                                [&](size_t k) { return progress(settings[k].label); });
-      for (size_t k = 0; k < settings.size(); ++k) eta.step();
-    } else {
-      for (const CompareSetting& s : settings) {
-        judged.push_back(judge(*s.method, s.settings, *ctx, *frame, o.frames, progress(s.label)));
-        eta.step();
-      }
-    }
-    for (size_t k = 0; k < settings.size(); ++k) {
-      const CompareSetting& s = settings[k];
-      Judged& j = judged[k];
-      if (!s.method->reference) show(s.label, j.runs.output.visibility);
+    for (const harness::Row& j : f.rows) {
+      const CompareSetting& s = settings[j.method];
+      const std::vector<float>& mask = j.judged.runs.output.visibility;
+      if (!s.method->reference) show(s.label, mask);
       Row row;
+      row.view = viewOf(f);
       row.setting = s.label;
       row.stem = stem;
-      row.result = resultRow(*s.method, s.label, *frame, j, s.defaults);
+      row.result = j.result;
       row.result.stats["timing"] = o.interleave ? "interleaved" : "sequential";
       row.result.provenance = provenance;
-      row.msMin = j.runs.minMs;
-      row.msMax = j.runs.maxMs;
-      thumbFactor = writeFrameImages(out.path(), stem + "_" + s.label, frame->gbuffer, j.runs.output.visibility, reference,
-                                     frame->band, kThumbnailSide);
+      row.msMin = j.judged.runs.minMs;
+      row.msMax = j.judged.runs.maxMs;
+      thumbFactor = writeFrameImages(out.path(), stem + "_" + s.label, frame.gbuffer, mask, reference, frame.band,
+                                     kThumbnailSide);
       rows.push_back(std::move(row));
     }
     // Enlarged to about 256 pixels a tile, at least 2x, so single-pixel aliasing is visible.
-    closeup.crop = boundaryWindow(frame->gbuffer, reference);
+    closeup.crop = boundaryWindow(frame.gbuffer, reference);
     closeup.scale = std::max(2u, (256 + closeup.crop.width - 1) / closeup.crop.width);
     uint32_t sw = 0, sh = 0;
-    std::vector<uint8_t> strip = closeupStrip(shaded, frame->gbuffer.width, closeup.crop, closeup.scale, 4, sw, sh);
+    std::vector<uint8_t> strip = closeupStrip(shaded, frame.gbuffer.width, closeup.crop, closeup.scale, 4, sw, sh);
     writePng((fs::path(out.path()) / closeup.file).string(), sw, sh, strip);
     closeups.push_back(std::move(closeup));
-  }
+  };
+  harness::run(*ctx, spec, events);
 
   log << "writing reports" << std::endl;
   std::vector<FrameResult> results;
@@ -687,7 +681,7 @@ int runCompare(const Options& o) {
   out.commit();
 
   std::cout << "result: compared " << settings.size() << " method setting(s) on " << cameras.size() << " view(s) of "
-            << scene.name << " at " << o.width << "x" << o.height << "; wrote " << o.out << "/ (report.md, report.html, "
+            << scene.name << (several ? " under " + std::to_string(lights.size()) + " lights" : std::string()) << " at " << o.width << "x" << o.height << "; wrote " << o.out << "/ (report.md, report.html, "
             << "speed_vs_error.svg/.png, error_vs_bytes.svg/.png, results.json, results.csv, " << rows.size() * 3 << " images, "
             << closeups.size() << " close-up strip(s))\n";
   return kExitOk;

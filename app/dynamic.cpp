@@ -13,35 +13,20 @@
 #include <optional>
 #include <sstream>
 
-#include <glm/gtc/matrix_transform.hpp>
-
 #include "app/commands.h"
 #include "app/frame_runner.h"
 #include "core/animation.h"
 #include "core/image_io.h"
-#include "eval/frame_output.h"
+#include "judge/frame_output.h"
 #include "harness/harness.h"
-#include "eval/metrics.h"
-#include "raster/raster.h"
-#include "reference/embree_reference.h"
-#include "eval/epsilon.h"
+#include "harness/run.h"
+#include "judge/metrics.h"
+#include "method/epsilon.h"
 #include "vk/context.h"
 
 namespace fs = std::filesystem;
 
 namespace cs {
-
-Camera orbitCamera(const Camera& camera, uint32_t k, uint32_t n, bool enclosed) {
-  if (n == 0) return camera;
-  const double phase = double(k) / double(n), twoPi = 2 * glm::pi<double>();
-  const double angle = enclosed ? 0.5 * std::sin(twoPi * phase) : twoPi * phase;
-  glm::dvec3 up(camera.up);
-  if (!(glm::length(up) > 0)) up = {0, 1, 0};
-  const glm::dvec3 target(camera.target), offset = glm::dvec3(camera.eye) - target;
-  Camera out = camera;
-  out.eye = glm::vec3(target + glm::dvec3(glm::rotate(glm::dmat4(1), angle, glm::normalize(up)) * glm::dvec4(offset, 0)));
-  return out;
-}
 
 namespace {
 
@@ -116,9 +101,6 @@ Motion loadMotion(const Options& o) {
   return m;
 }
 
-using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
-
 std::string num(double v, int prec) {
   std::ostringstream os;
   os << std::fixed << std::setprecision(prec) << v;
@@ -130,7 +112,6 @@ struct Track {
   const MethodInfo* info = nullptr;
   std::string label;
   Settings settings;
-  std::unique_ptr<ShadowMethod> object;  // null for the reference: the reference's own run is its row
   std::vector<FrameResult> frames;
 };
 
@@ -144,7 +125,7 @@ std::vector<Track> makeTracks(const Options& o, bool staticGeometry) {
   std::vector<Track> tracks;
   for (const MethodInfo* m : chosenMethods(o))
     for (SweepPoint& p : dynamicRowsOf(*m, settingsFor(o, *m), staticGeometry))
-      tracks.push_back({m, p.label, std::move(p.settings), nullptr, {}});
+      tracks.push_back({m, p.label, std::move(p.settings), {}});
   return tracks;
 }
 
@@ -267,97 +248,50 @@ int runDynamicCompare(const Options& o) {
     });
 
   StagedDir out(o.out, runInputs(o));
-  Raster raster(*ctx, rest);
-  Scene scene = rest;
-  std::vector<ViewLog> viewLogs;
-  for (size_t vi = 0; vi < cameras.size(); ++vi) {
-    const Camera& camera = cameras[vi];
-    ViewLog vl;
-    vl.view = camera.name.empty() ? "auto" : camera.name;
-    const std::string tag = "[view " + std::to_string(vi + 1) + "/" + std::to_string(cameras.size()) + "] " + vl.view;
-    EmbreeReference reference;
-    const nlohmann::json provenance = runProvenance(o, rest, light, camera);
-    for (Track& t : tracks[vi])
-      if (!t.info->reference) t.object = t.info->make(t.info->usesDevice ? ctx.get() : nullptr, t.settings);
+  harness::RunSpec spec;
+  spec.scene = &rest;
+  spec.views = harness::viewsOf(cameras);
+  spec.lights = {light};
+  spec.width = o.width;
+  spec.height = o.height;
+  for (const Track& t : tracks.front()) spec.methods.push_back({t.info, t.label, t.settings});
+  harness::Motion& moving = spec.motion.emplace();
+  moving.frames = n;
+  moving.animated = animated;
+  moving.movingCamera = o.movingCamera;
+  moving.enclosed = enclosed;
+  moving.cameraTrack = anim.aff && !o.movingCamera;  // a BART camera track moves the `animated` view
+  moving.pose = [&anim](double t, Scene& s) { anim.pose(t, s); };
+  moving.frameTime = [&anim](uint32_t k, uint32_t frames) { return anim.frameTime(k, frames); };
 
-    DeviceGBuffer dev;
-    GBuffer gb;
-    // One frame's scene state, samples, reference and band.
-    Camera current = camera;  // the view of the frame frameAt rendered last
-    auto frameAt = [&](double time, Camera cam) {
-      current = cam;
-      double uploadMs = 0;
-      if (animated) {
-        anim.pose(time, scene);
-        // An animation may carry the scene past what fp32 rays reach (a key of 1e37): refused per frame,
-        // by the rule a light is refused by, before any method or Embree traces it.
-        scene.computeBounds();
-        if (const std::string why = lightRangeProblem(light, scene.boundsMin, scene.boundsMax); !why.empty())
-          throw Error(why, anim.rest.name + " at t = " + num(time, 4),
-                      "the animation moves the scene out of range: check its keys");
-        // A BART camera track moves the `animated` view (unless --moving-camera orbits it instead).
-        if (anim.aff && !o.movingCamera && camera.name == "animated")
-          if (const Camera* tracked = scene.findCamera("animated")) cam = *tracked;
-        const auto t0 = Clock::now();
-        raster.setGeometry(scene);
-        uploadMs = msSince(t0);
-      }
-      const RasterTiming rt = raster.render(cam, light, o.width, o.height, dev, &gb);
-      return std::make_pair(rt.gpuMs, uploadMs);
-    };
-
-    log << tag << ": warm-up" << std::endl;
-    {
-      const double tw = animated ? 0.5 * (anim.frameTime(0, n) + anim.frameTime(std::min(1u, n - 1), n)) : 0.0;
-      frameAt(tw, o.movingCamera ? orbitCamera(camera, 1, 2 * n, enclosed) : camera);
-      const EpsilonPolicy policy = EpsilonPolicy::forScene(scene);
-      const FrameInput frame = frameInputOf(scene, gb, dev, *ctx, light, policy.eps, &current, &raster.deviceScene());
-      reference.run(frame);
-      for (Track& t : tracks[vi])
-        if (t.object) t.object->run(frame);
+  std::vector<ViewLog> viewLogs(cameras.size());
+  for (size_t v = 0; v < cameras.size(); ++v) viewLogs[v].view = spec.views[v].name;
+  auto tagOf = [&](const harness::Frame& f) {
+    return "[view " + std::to_string(f.view + 1) + "/" + std::to_string(cameras.size()) + "] " + f.viewName;
+  };
+  harness::Events events;
+  events.step = [&](const harness::Frame& f, const std::string& step) {
+    if (step == "warm-up") log << tagOf(f) << ": warm-up" << std::endl;
+  };
+  // Each animation frame's rows into their tracks, and its line in the log.
+  events.done = [&](const harness::Frame& f) {
+    ViewLog& vl = viewLogs[f.view];
+    vl.rasterMs.push_back(f.rasterMs);
+    if (animated) vl.uploadMs.push_back(f.uploadMs);
+    const nlohmann::json provenance = runProvenance(o, rest, light, cameras[f.view]);
+    std::ostringstream line;
+    line << tagOf(f) << ": frame " << (f.step + 1) << "/" << n << " (t " << num(f.time, 3) << "):";
+    for (const harness::Row& row : f.rows) {
+      Track& t = tracks[f.view][row.method];
+      FrameResult r = row.result;
+      r.provenance = provenance;
+      t.frames.push_back(std::move(r));
+      line << " " << t.label << " " << num(row.result.totalMs, 1) << " ms (" << row.judged.error.misclassifiedOutsideBand
+           << " outside band)";
     }
-
-    for (uint32_t k = 0; k < n; ++k) {
-      const double time = animated ? anim.frameTime(k, n) : 0.0;
-      const auto [rasterMs, uploadMs] = frameAt(time, o.movingCamera ? orbitCamera(camera, k, n, enclosed) : camera);
-      vl.rasterMs.push_back(rasterMs);
-      if (animated) vl.uploadMs.push_back(uploadMs);
-      const EpsilonPolicy policy = EpsilonPolicy::forScene(scene);
-      const FrameInput frame = frameInputOf(scene, gb, dev, *ctx, light, policy.eps, &current, &raster.deviceScene());
-      const MethodOutput ref = reference.run(frame);
-      const std::vector<uint8_t> band = reference.ambiguityBand(scene, gb, light, policy);
-      const size_t lit = gb.litCount();
-      std::ostringstream line;
-      line << tag << ": frame " << (k + 1) << "/" << n << " (t " << num(time, 3) << "):";
-      for (Track& t : tracks[vi]) {
-        const MethodOutput mo = t.object ? runCounted(*t.object, frame) : ref;
-        const ErrorStats err = compareVisibility(gb, mo.visibility, ref.visibility, band);
-        FrameResult r = makeFrameResult(rest.name, vl.view, t.info->name, gb, methodDevice(*t.info, device), mo, err);
-        double rebuildMs = 0;
-        for (const StageTime& s : mo.stages)
-          if (s.kind == StageKind::Rebuild) rebuildMs += s.ms;
-        nlohmann::json& st = r.stats;
-        st["frame"] = k;
-        st["time"] = time;
-        st["frames"] = n;
-        st["setting"] = t.label;
-        st["animated"] = animated;
-        st["moving_camera"] = o.movingCamera;
-        st["rebuild_ms"] = rebuildMs;
-        st["raster_ms"] = rasterMs;
-        st["geometry_upload_ms"] = uploadMs;
-        st["lit_samples"] = lit;
-        st["band_samples"] = err.bandSamples;
-        r.provenance = provenance;
-        if (!mo.work.empty()) st["work"] = mo.work;
-        t.frames.push_back(std::move(r));
-        line << " " << t.label << " " << num(mo.totalMs, 1) << " ms (" << err.misclassifiedOutsideBand << " outside band)";
-      }
-      log << line.str() << std::endl;
-    }
-    for (Track& t : tracks[vi]) t.object.reset();  // free the view's GPU memory before the next one
-    viewLogs.push_back(std::move(vl));
-  }
+    log << line.str() << std::endl;
+  };
+  harness::run(*ctx, spec, events);
 
   std::vector<FrameResult> results;
   for (auto& view : tracks)

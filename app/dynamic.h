@@ -9,14 +9,11 @@
 #include <vector>
 
 #include "app/cli.h"
-#include "eval/method.h"
+#include "method/method.h"
+#include "harness/run.h"  // orbitCamera
 
 namespace cs {
 
 int runDynamicCompare(const Options& options);
-
-// The camera of frame k of n: orbiting its target about `up` by 2π·k/n, or, when `enclosed` (a camera
-// inside a room), swinging by ±0.5 rad so that it stays inside.
-Camera orbitCamera(const Camera& camera, uint32_t k, uint32_t n, bool enclosed);
 
 }  // namespace cs

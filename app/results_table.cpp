@@ -10,7 +10,7 @@
 
 #include "app/cli.h"
 #include "core/error.h"
-#include "eval/registry.h"
+#include "method/registry.h"
 
 namespace cs {
 

@@ -15,12 +15,11 @@
 #include "app/frame_runner.h"
 #include "app/svg_plot.h"
 #include "core/image_io.h"
-#include "eval/frame_output.h"
-#include "eval/metrics.h"
+#include "judge/frame_output.h"
+#include "judge/metrics.h"
 #include "harness/harness.h"
-#include "raster/raster.h"
-#include "reference/embree_reference.h"
-#include "eval/epsilon.h"
+#include "harness/run.h"
+#include "method/epsilon.h"
 #include "vk/context.h"
 
 namespace fs = std::filesystem;
@@ -308,56 +307,56 @@ int runScaling(const Options& base) {
                             std::to_string(proto.triangles) + " triangles" +
                             (sweep == "light_distance" ? ", light " + fixed(lightDiagonals, 0) + " diagonals" : "") +
                             "] ";
-    // The shared part: raster, Embree reference, band. If it fails, every method fails at this point.
-    std::unique_ptr<Raster> raster;
-    std::unique_ptr<PreparedFrame> frame;
-    try {
-      log << tag << "raster, reference, band" << std::endl;
-      raster = std::make_unique<Raster>(*ctx, s);
-      FrameSpec spec;
-      spec.camera = camera;
-      spec.view = view;
-      spec.light = pointLight;
-      spec.width = w;
-      spec.height = h;
-      spec.frames = o.frames;
-      spec.policy = policy;
-      frame = prepareFrame(*ctx, *raster, s, spec);
-    } catch (const std::exception& e) {
-      failAll(proto, tag, e.what());
-      return;
-    }
-    for (const MethodInfo* m : methods) {
+    // The shared part: raster, reference, band. If it fails, every method fails at this point; a method
+    // that fails fails alone.
+    harness::RunSpec spec;
+    spec.scene = &s;
+    spec.views = {{camera, view}};
+    spec.lights = {pointLight};
+    spec.width = w;
+    spec.height = h;
+    spec.frames = o.frames;
+    spec.policy = policy;
+    spec.catchFailures = true;
+    for (const MethodInfo* m : methods) spec.methods.push_back({m, m->name, settingsFor(o, *m)});
+    harness::Events events;
+    events.step = [&](const harness::Frame&, const std::string& step) {
+      if (step == "raster") log << tag << "raster, reference, band" << std::endl;
+    };
+    events.judged = [&](const harness::Frame&, const harness::Row& row) {
       ScalingRow r = proto;
-      r.method = m->name;
-      try {
-        const Judged j = judge(*m, settingsFor(o, *m), *ctx, *frame, o.frames);
-        const ErrorStats& err = j.error;
-        r.msMedian = j.runs.medianMs;
-        r.msMin = j.runs.minMs;
-        r.msMax = j.runs.maxMs;
-        r.bytes = j.runs.output.bytesAllocated;
-        r.peakBytes = j.runs.output.peakBytes;
-        r.lit = err.litSamples;
-        r.band = err.bandSamples;
-        r.misclassified = err.misclassified;
-        r.misclassifiedPct = err.misclassifiedFraction * 100.0;
-        r.misclassifiedOutsideBand = err.misclassifiedOutsideBand;
-        r.misclassifiedOutsideBandPct = err.misclassifiedFractionOutsideBand * 100.0;
-        r.bandFraction = err.bandFraction;
-        r.undecided = err.undecided;
-        const auto& stats = j.runs.output.stats;
-        if (stats.contains("pairs_tested") && stats["pairs_tested"].is_number_integer())
-          r.pairsTested = stats["pairs_tested"].get<uint64_t>();
-        log << tag << m->name << ": " << fixed(r.msMedian, 2) << " ms, " << mib(r.bytes) << " MiB, "
-            << r.misclassifiedOutsideBand << " misclassified outside band"
-            << (r.undecided ? ", UNDECIDED: " + err.undecidedReason() : std::string()) << std::endl;
-      } catch (const std::exception& e) {
-        r.status = std::string("failed: ") + e.what();
-        log << tag << m->name << " " << r.status << std::endl;
+      r.method = spec.methods[row.method].info->name;
+      if (!row.failure.empty()) {
+        r.status = "failed: " + row.failure;
+        log << tag << r.method << " " << r.status << std::endl;
+        rows.push_back(r);
+        return;
       }
+      const Judged& j = row.judged;
+      const ErrorStats& err = j.error;
+      r.msMedian = j.runs.medianMs;
+      r.msMin = j.runs.minMs;
+      r.msMax = j.runs.maxMs;
+      r.bytes = j.runs.output.bytesAllocated;
+      r.peakBytes = j.runs.output.peakBytes;
+      r.lit = err.litSamples;
+      r.band = err.bandSamples;
+      r.misclassified = err.misclassified;
+      r.misclassifiedPct = err.misclassifiedFraction * 100.0;
+      r.misclassifiedOutsideBand = err.misclassifiedOutsideBand;
+      r.misclassifiedOutsideBandPct = err.misclassifiedFractionOutsideBand * 100.0;
+      r.bandFraction = err.bandFraction;
+      r.undecided = err.undecided;
+      const auto& stats = j.runs.output.stats;
+      if (stats.contains("pairs_tested") && stats["pairs_tested"].is_number_integer())
+        r.pairsTested = stats["pairs_tested"].get<uint64_t>();
+      log << tag << r.method << ": " << fixed(r.msMedian, 2) << " ms, " << mib(r.bytes) << " MiB, "
+          << r.misclassifiedOutsideBand << " misclassified outside band"
+          << (r.undecided ? ", UNDECIDED: " + err.undecidedReason() : std::string()) << std::endl;
       rows.push_back(r);
-    }
+    };
+    const harness::Results point = harness::run(*ctx, spec, events);
+    if (!point.frames.front().failure.empty()) failAll(proto, tag, point.frames.front().failure);
   };
 
   for (double d : o.lightDistances) {
@@ -415,7 +414,7 @@ int runScaling(const Options& base) {
   doc["view"] = view;
   doc["device"] = device;
   doc["frames"] = o.frames;
-  doc["provenance"] = runProvenance(o, scene, light, camera);  // the run's (docs/RESULTS.md); each point's light is in its row
+  doc["provenance"] = runProvenance(o, scene, light, camera);  // the run's (docs/RESULTS_FORMAT.md); each point's light is in its row
   doc["rows"] = json;
   if (distances) {
     doc["light_direction"] = {away.x, away.y, away.z};

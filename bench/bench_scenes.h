@@ -2,8 +2,7 @@
 // built-in scene; "engine": assimp's 2CylinderEngine with its automatic camera and light; "museum": the
 // BART museum paper 002 measured on, its view and its camera track at t = 0 and 2.5 with the scene at
 // that time, lit by its first light; "heightfield:N": the generated height field of N triangles; or a
-// .gltf/.glb/.aff path), a view prepared by the frame harness, and
-// list parsing.
+// .gltf/.glb/.aff path), a view's run (the one run entry, harness/run.h), and list parsing.
 #pragma once
 #include <algorithm>
 #include <iostream>
@@ -14,10 +13,11 @@
 
 #include "core/error.h"
 #include "core/scene.h"
-#include "eval/method.h"
+#include "method/method.h"
 #include "harness/harness.h"
+#include "harness/run.h"
 #include "raster/raster.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "vk/context.h"
 
 namespace cs::bench {
@@ -93,22 +93,19 @@ inline std::unique_ptr<vk::Context> benchContext(const std::string& device) {
   return vk::createContext(co);
 }
 
-// A view prepared at size x size by the frame harness (samples, epsilon, the Embree reference timed over
-// `frames`, the band): what every method of a benchmark is judged on.
-struct ViewFrame {
-  std::unique_ptr<Raster> raster;
-  std::unique_ptr<PreparedFrame> frame;
-  ViewFrame(vk::Context& ctx, const View& v, uint32_t size, uint32_t frames, double slowMs = kAlwaysTimeEveryFrame)
-      : raster(std::make_unique<Raster>(ctx, *v.scene)) {
-    FrameSpec spec;
-    spec.camera = v.camera;
-    spec.view = v.name;
-    spec.light = v.light;
-    spec.width = spec.height = size;
-    spec.frames = frames;
-    spec.singleFrameAboveMs = slowMs;
-    frame = prepareFrame(ctx, *raster, *v.scene, spec);
-  }
-};
+// The run of a view at size x size (harness/run.h: samples, epsilon, the Embree reference timed over
+// `frames`, the band; slowMs as timeRuns takes it), for a benchmark to add its methods to. The frame is
+// kept, for the reference's time and the lit samples.
+inline harness::RunSpec viewRun(const View& v, uint32_t size, uint32_t frames, double slowMs = kAlwaysTimeEveryFrame) {
+  harness::RunSpec spec;
+  spec.scene = v.scene;
+  spec.views = {{v.camera, v.name}};
+  spec.lights = {v.light};
+  spec.width = spec.height = size;
+  spec.frames = frames;
+  spec.singleFrameAboveMs = slowMs;
+  spec.keepFrames = true;
+  return spec;
+}
 
 }  // namespace cs::bench

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "bench/bench_scenes.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "raster/raster.h"
 #include "traversal/cone_engine.h"
 #include "vk/context.h"

@@ -21,7 +21,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "bench/bench_scenes.h"
-#include "eval/registry.h"
+#include "method/registry.h"
 #include "harness/harness.h"
 #include "vk/context.h"
 
@@ -121,9 +121,11 @@ int main(int argc, char** argv) {
       if (!loadScaleView(entry, scenes, views)) views = bench::loadViews(entry, scenes);
       for (const bench::View& v : views)
         for (uint32_t size : sizes) {
-          bench::ViewFrame vf(*ctx, v, size, uint32_t(frames));
-          const PreparedFrame& frame = *vf.frame;
-          const Judged j = judge(cone, settings, *ctx, frame, uint32_t(frames));
+          harness::RunSpec spec = bench::viewRun(v, size, uint32_t(frames));
+          spec.methods = {{&cone, cone.name, settings}};
+          const harness::Results ran = harness::run(*ctx, spec);
+          const PreparedFrame& frame = *ran.frames.front().prepared;
+          const Judged& j = ran.frames.front().rows.front().judged;
           const nlohmann::json& s = j.runs.output.stats;
           const uint64_t pairs = u64(s, "pairs_tested"), lit = u64(s, "lit_samples");
           const uint64_t tris = v.scene->triangleCount();

@@ -22,10 +22,10 @@
 #include <vector>
 
 #include "bench/bench_scenes.h"
-#include "eval/metrics.h"
+#include "judge/metrics.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "traversal/cone_method.h"
 #include "vk/context.h"
 
@@ -86,8 +86,10 @@ int main(int argc, char** argv) {
                 "misclassified outside band |\n|---|---|---:|---:|---:|---:|---:|\n");
     std::fflush(stdout);
     for (const bench::View& v : views) {
-      bench::ViewFrame vf(*ctx, v, size, uint32_t(frames), slowMs);
-      const PreparedFrame& frame = *vf.frame;
+      harness::RunSpec spec = bench::viewRun(v, size, uint32_t(frames), slowMs);
+      for (const std::string& name : variants) spec.methods.push_back({&cone, name, Settings("cone").with("variant", name), false});
+      const harness::Results ran = harness::run(*ctx, spec);
+      const PreparedFrame& frame = *ran.frames.front().prepared;
       struct Line {
         std::string name, finished;
         nlohmann::json stats;
@@ -97,8 +99,9 @@ int main(int argc, char** argv) {
       };
       std::vector<Line> lines;
       double sortedMs = 0;
-      for (const std::string& name : variants) {
-        const Judged j = judge(cone, Settings("cone").with("variant", name), *ctx, frame, uint32_t(frames), {}, slowMs);
+      for (const harness::Row& row : ran.frames.front().rows) {
+        const std::string& name = spec.methods[row.method].label;
+        const Judged& j = row.judged;
         const nlohmann::json& s = j.runs.output.stats;
         std::string finished = "–";
         if (s.contains("two_pass") && s["two_pass"].is_object()) {

@@ -15,14 +15,14 @@
 #include <vector>
 
 #include "core/scene.h"
-#include "eval/frame_output.h"
-#include "eval/method.h"
-#include "eval/metrics.h"
-#include "eval/registry.h"
+#include "judge/frame_output.h"
+#include "method/method.h"
+#include "judge/metrics.h"
+#include "method/registry.h"
 #include "raster/gbuffer.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 
 namespace cs {
 
@@ -98,6 +98,7 @@ struct PreparedFrame {
   EpsilonPolicy policy;
   FrameInput input;
   std::string deviceName;  // the Vulkan device, as reports print it
+  std::shared_ptr<Raster> raster;  // the camera pass that drew it, when harness::run kept it (input.deviceScene is its)
   double rasterMs = 0, readbackMs = 0;  // median GPU time of the camera pass; its last readback
   size_t litSamples = 0;
   std::unique_ptr<EmbreeReference> embree;

@@ -1,6 +1,6 @@
 // Embree in the method registry: the judge's reference, also a method a report lists (its row is the
 // reference run itself).
-#include "eval/registry.h"
+#include "method/registry.h"
 #include "reference/embree_reference.h"
 
 namespace cs {

@@ -1,5 +1,5 @@
 // The ray-traced ground truth (docs/ARCHITECTURE.md, "Contracts": ground truth): Embree 3, one occlusion
-// ray per lit sample under the shared epsilon policy (eval/epsilon.h), and the ambiguity band traced on
+// ray per lit sample under the shared epsilon policy (method/epsilon.h), and the ambiguity band traced on
 // the same BVH.
 #pragma once
 #include <atomic>
@@ -12,8 +12,8 @@
 #include <embree3/rtcore.h>
 #include <glm/glm.hpp>
 
-#include "eval/method.h"
-#include "eval/epsilon.h"
+#include "method/method.h"
+#include "method/epsilon.h"
 
 namespace cs {
 
@@ -74,7 +74,7 @@ class EmbreeReference : public ShadowMethod {
   // The BVH stays alive for ambiguityBand() and traceOccluded() until the next run()/build().
   MethodOutput run(const FrameInput& frame) override;
 
-  // The ambiguity band (eval/epsilon.h): 1 for each lit sample where any family member disagrees
+  // The ambiguity band (method/epsilon.h): 1 for each lit sample where any family member disagrees
   // with the base answer, 0 elsewhere. Reuses the BVH of the last run() when it was built from a scene
   // with exactly these positions and indices (checked against Embree's copy), else builds one. The time
   // (including any build) goes to *timing as stage "band"; it is not part of run()'s totalMs.

@@ -7,7 +7,7 @@
 #include <cstring>
 
 #include "core/error.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "raster/raster.h"
 #include "shadowmaps/asm_frame.comp.h"
 #include "shadowmaps/asm_shared.h"

@@ -8,7 +8,7 @@
 #include <memory>
 #include <vector>
 
-#include "eval/method.h"
+#include "method/method.h"
 
 namespace cs {
 namespace vk { struct Context; }

@@ -8,7 +8,7 @@
 
 #include "core/error.h"
 #include "raster/raster.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "shadowmaps/cube_lookup.comp.h"
 #include "shadowmaps/depth_pass.h"
 #include "shadowmaps/sm_shared.h"

@@ -16,7 +16,7 @@
 // Bias policy (every shadow map here shares it; sm_shared.h slopeScaledBias; shadowmaps/README.md): a
 // sample at distance L is lit by a tap when  stored >= L - bias,
 //   bias = constantBias·eps + slopeBias · L·(2/res) · min(tanθ, maxSlope),
-// where eps is the shared epsilon policy's along-ray epsilon (eval/epsilon.h: the reference ignores
+// where eps is the shared epsilon policy's along-ray epsilon (method/epsilon.h: the reference ignores
 // hits within eps of either end, so no map can resolve closer), θ the angle between the sample's normal
 // and the direction to the light, and L·2/R the widest a texel gets sideways at that distance. The
 // constant term covers fp32 rounding of the two distances; the slope term covers the receiver's own
@@ -27,7 +27,7 @@
 #include <cstdint>
 #include <memory>
 
-#include "eval/method.h"
+#include "method/method.h"
 
 namespace cs {
 namespace vk { struct Context; }

@@ -19,7 +19,7 @@
 #include <glm/glm.hpp>
 
 #include "core/scene.h"
-#include "eval/method.h"
+#include "method/method.h"
 #include "raster/raster.h"
 #include "vk/context.h"
 

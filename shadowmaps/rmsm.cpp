@@ -12,7 +12,7 @@
 
 #include "core/error.h"
 #include "raster/raster.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "shadowmaps/depth_pass.h"
 #include "shadowmaps/rmsm_lookup.comp.h"
 #include "shadowmaps/rmsm_prune.comp.h"

@@ -12,7 +12,7 @@
 
 #include <glm/glm.hpp>
 
-#include "eval/method.h"
+#include "method/method.h"
 
 namespace cs {
 namespace vk { struct Context; }

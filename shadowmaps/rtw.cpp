@@ -9,7 +9,7 @@
 #include <sstream>
 
 #include "core/error.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "raster/raster.h"
 #include "shadowmaps/depth_pass.h"
 #include "shadowmaps/rtw_forward.comp.h"

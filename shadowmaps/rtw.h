@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "eval/method.h"
+#include "method/method.h"
 
 namespace cs {
 namespace vk { struct Context; }

@@ -1,7 +1,7 @@
 // The cube shadow map, RMSM, RTW and ASM in the method registry: their settings, compare's sweeps (face
 // resolution; page pool, finest level, matching and analysis resolution; map resolution, analysis,
 // importance functions, tessellation; memory, node resolution, analysis fraction) and the factories.
-#include "eval/registry.h"
+#include "method/registry.h"
 #include "shadowmaps/asm.h"
 #include "shadowmaps/asm_shared.h"
 #include "shadowmaps/cube_sm.h"
@@ -16,7 +16,8 @@ namespace {
 
 const SettingSpec kPlaneBias = {"plane-bias", "", "receiver-plane depth bias instead of slope-scaled", {}};
 const SettingSpec kCull = {"sm-cull", "on|off",
-                           "frustum culling of triangle clusters per face or superpage (default on; the same result)", {}};
+                           "frustum culling of triangle clusters per face or superpage (default on; the same result)", {},
+                           /*tuning=*/true};
 
 CubeSmOptions cubeOptions(const Settings& s) {
   CubeSmOptions sm;

@@ -102,7 +102,7 @@ TEST(Cli, ATinyLightCoordinateIsAFiniteNumber) {
 }
 
 TEST(Cli, ALightTooFarForFp32RayLengthsIsAUsageErrorBeforeAnyOutput) {
-  // 2^62 is the limit (eval/epsilon.h); 4e18 from the built-in scene is inside it, 5e18 past it.
+  // 2^62 is the limit (method/epsilon.h); 4e18 from the built-in scene is inside it, 5e18 past it.
   fs::path out = tempDir("farlight");
   CliRun r = cli("render --method cone --width 8 --height 8 --frames 1 --light 5e18,0,0 --out " + out.string());
   EXPECT_EQ(r.code, 2) << r.out;
@@ -225,6 +225,44 @@ TEST(Cli, VersionAndPerCommandHelp) {
   EXPECT_NE(compare.out.find("--animate"), std::string::npos) << compare.out;
   EXPECT_EQ(cli("info --help").code, 0);
   EXPECT_EQ(cli("help nosuch").code, 2);
+}
+
+// Knobs that never change the mask (issue 52) are listed apart, in one group after every setting users
+// choose; the ones that change the answer or the memory stay with their method. They keep their names
+// and still work.
+TEST(Cli, KnobsThatNeverChangeTheMaskAreListedApartUnderTuning) {
+  const std::string tuning = "Tuning (benchmarks and tests; never changes the mask):";
+  for (const char* command : {"render", "compare"}) {
+    CliRun r = cli(std::string(command) + " --help");
+    ASSERT_EQ(r.code, 0) << r.out;
+    const size_t group = r.out.find(tuning);
+    ASSERT_NE(group, std::string::npos) << command << "\n" << r.out;
+    EXPECT_EQ(r.out.find(tuning, group + 1), std::string::npos) << command << ": one tuning group";
+    for (const char* knob : {"--leaf-rays", "--last-expansion-lanes", "--last-expansion-test", "--super-clusters",
+                             "--clusters", "--ray-order", "--profile-stages", "--test", "--early-accept", "--two-pass",
+                             "--blocker-solid-angle", "--update-min-finished", "--sm-cull"}) {
+      const size_t at = r.out.find(std::string("  ") + knob + " ");
+      ASSERT_NE(at, std::string::npos) << command << ": " << knob;
+      EXPECT_GT(at, group) << command << ": " << knob << " is a tuning knob";
+    }
+    for (const char* user : {"--variant", "--memory-budget", "--traversal-memory", "--front-face-culling", "--leaf-test",
+                             "--sm-resolution", "--rmsm-pool", "--width", "--light", "--frames"}) {
+      const size_t at = r.out.find(std::string("  ") + user + " ");
+      ASSERT_NE(at, std::string::npos) << command << ": " << user;
+      EXPECT_LT(at, group) << command << ": " << user << " changes results or memory: not a tuning knob";
+    }
+  }
+  EXPECT_GT(cli("compare --help").out.find("  --interleave "), cli("compare --help").out.find(tuning));
+  fs::path a = tempDir("tuning_a"), b = tempDir("tuning_b");
+  CliRun ra = cli("render --methods cone --view wall --width 24 --height 16 --frames 1 --quiet --out " + a.string());
+  CliRun rb = cli("render --methods cone --leaf-rays 16 --clusters off --ray-order hilbert --view wall --width 24 --height 16 "
+                  "--frames 1 --quiet --out " + b.string());
+  ASSERT_EQ(ra.code, 0) << ra.out;
+  ASSERT_EQ(rb.code, 0) << rb.out;
+  auto ja = nlohmann::json::parse(std::ifstream(a / "results.json")), jb = nlohmann::json::parse(std::ifstream(b / "results.json"));
+  EXPECT_EQ(ja[1]["error"], jb[1]["error"]) << "the same mask, judged the same";
+  fs::remove_all(a);
+  fs::remove_all(b);
 }
 
 TEST(Cli, ASettingNoChosenMethodTakesIsAUsageErrorNamingIt) {

@@ -21,7 +21,7 @@
 #include "app/scaling.h"
 #include "app/svg_plot.h"
 #include "core/error.h"
-#include "eval/registry.h"
+#include "method/registry.h"
 #include "tests/cli_support.h"
 
 namespace fs = std::filesystem;
@@ -80,7 +80,7 @@ std::vector<std::vector<std::string>> parseCsv(const std::string& text) {
   return rows;
 }
 
-// The JSON row flattened to the CSV's column names, written independently of eval/frame_output.cpp.
+// The JSON row flattened to the CSV's column names, written independently of judge/frame_output.cpp.
 void flattenJson(const nlohmann::json& v, const std::string& key, std::map<std::string, nlohmann::json>& out) {
   if (v.is_object()) {
     for (auto it = v.begin(); it != v.end(); ++it) flattenJson(it.value(), key + "." + it.key(), out);

@@ -17,10 +17,10 @@
 
 #include "harness/harness.h"
 
-#include "eval/metrics.h"
+#include "judge/metrics.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "tests/cone_test_support.h"
 #include "tests/test_context.h"
 #include "traversal/cone_method.h"
@@ -176,7 +176,7 @@ struct Harness {
 
 using test::lookAt;
 
-// Within a test: the frames whose labels hold one of `labels` may be undecided (eval/metrics.h), each
+// Within a test: the frames whose labels hold one of `labels` may be undecided (judge/metrics.h), each
 // for the reason the test gives where it makes one.
 struct UndecidedAllowed {
   explicit UndecidedAllowed(std::vector<std::string> labels) { Harness::get().undecidedLabels = std::move(labels); }
@@ -492,7 +492,7 @@ TEST(ConeHardCases, FarLightsFromTenToATenThousandThousandDiagonals) {
 TEST(ConeHardCases, FarLightsUpToTheDocumentedLimitAndAClearErrorPastIt) {
   // At 2^62 the light nudge's floor (4 ulp of the light) is a visible angle.
   UndecidedAllowed ambiguous({"4.5e18"});
-  // Up to 2^62 from the scene (eval/epsilon.h, kMaxLightDistance): exact outside the band, however
+  // Up to 2^62 from the scene (method/epsilon.h, kMaxLightDistance): exact outside the band, however
   // wide the band grows; past it, the cone path refuses the frame instead of a silently lit mask.
   Scene scene = soup(floorAndCasters(), "far-light limit");
   const vec3 c = 0.5f * (scene.boundsMin + scene.boundsMax);
@@ -546,7 +546,7 @@ TEST(ConeHardCases, FarLightsGrazingTheWallsOfTheClosedRoom) {
   // rejected such pairs while the frame's rotation left the light D 2^-24 off its axis (coordinates
   // relative to it rounded to 0.004 at 10^13; ConeFrame's shear); a sample the raster left an ulp
   // behind the back wall threads the crack at the edge, which only a start behind the surface shows to
-  // be rounding's choice (eval/epsilon.h). The work stays that of the nearest of these lights: at 10^9 and
+  // be rounding's choice (method/epsilon.h). The work stays that of the nearest of these lights: at 10^9 and
   // 10^11 the triangles' bounding spheres had grown to an ulp of the distance (sphere_test.h) and the
   // pairs eightfold.
   Scene scene = builtinScene();

@@ -10,7 +10,7 @@
 
 #include <glm/glm.hpp>
 
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "traversal/precise_test.h"
 
 namespace cs::test {

@@ -10,11 +10,12 @@
 
 #include <gtest/gtest.h>
 
-#include "eval/metrics.h"
+#include "judge/metrics.h"
 #include "harness/harness.h"
+#include "harness/run.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "tests/test_context.h"
 #include "traversal/cone_method.h"
 
@@ -45,10 +46,9 @@ inline void addQuad(Scene& s, glm::vec3 o, glm::vec3 du, glm::vec3 dv) {
   s.indices.insert(s.indices.end(), {b, b + 1, b + 2, b, b + 2, b + 3});
 }
 
-// One frame prepared by the frame harness (harness/harness.h: samples, epsilon, the Embree reference,
-// the band), untimed; the names the cone tests read it by.
+// One frame prepared by the run entry (harness/run.h: samples, epsilon, the Embree reference, the band),
+// untimed and with no method judged; the names the cone tests read it by.
 struct ReferenceFrame {
-  Raster raster;
   std::unique_ptr<PreparedFrame> prepared;
   GBuffer& host;
   DeviceGBuffer& dev;
@@ -57,8 +57,7 @@ struct ReferenceFrame {
   std::vector<float>& reference;
   std::vector<uint8_t>& band;
   ReferenceFrame(const Scene& scene, const Camera& camera, glm::vec3 light, uint32_t size)
-      : raster(context(), scene),
-        prepared(prepareFrame(context(), raster, scene, spec(camera, light, size))),
+      : prepared(prepare(scene, camera, light, size)),
         host(prepared->gbuffer),
         dev(prepared->device),
         policy(prepared->policy),
@@ -67,14 +66,15 @@ struct ReferenceFrame {
         band(prepared->band) {}
 
  private:
-  static FrameSpec spec(const Camera& camera, glm::vec3 light, uint32_t size) {
-    FrameSpec s;
-    s.camera = camera;
-    s.view = camera.name;
-    s.light = light;
+  static std::unique_ptr<PreparedFrame> prepare(const Scene& scene, const Camera& camera, glm::vec3 light, uint32_t size) {
+    harness::RunSpec s;
+    s.scene = &scene;
+    s.views = {{camera, camera.name}};
+    s.lights = {light};
     s.width = s.height = size;
     s.frames = 0;  // one run each, untimed
-    return s;
+    s.keepFrames = true;
+    return std::move(harness::run(context(), s).frames.front().prepared);
   }
 };
 

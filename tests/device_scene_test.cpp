@@ -9,7 +9,7 @@
 
 #include "core/error.h"
 #include "core/scene.h"
-#include "eval/registry.h"
+#include "method/registry.h"
 #include "harness/harness.h"
 #include "raster/raster.h"
 #include "tests/test_context.h"

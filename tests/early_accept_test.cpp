@@ -15,10 +15,10 @@
 
 #include "tests/cone_property_support.h"
 
-#include "eval/metrics.h"
+#include "judge/metrics.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "tests/cone_test_support.h"
 #include "tests/test_context.h"
 #include "traversal/cone_method.h"

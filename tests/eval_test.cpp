@@ -20,8 +20,8 @@
 
 #include "core/error.h"
 #include "core/image_io.h"
-#include "eval/frame_output.h"
-#include "eval/metrics.h"
+#include "judge/frame_output.h"
+#include "judge/metrics.h"
 
 namespace cs {
 namespace {

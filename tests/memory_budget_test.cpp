@@ -11,7 +11,7 @@
 
 #include "core/error.h"
 #include "core/scene.h"
-#include "eval/settings.h"
+#include "method/settings.h"
 #include "harness/harness.h"
 #include "tests/cli_support.h"
 #include "tests/cone_test_support.h"

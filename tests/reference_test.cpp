@@ -15,7 +15,7 @@
 #include "core/scene.h"
 #include "raster/gbuffer.h"
 #include "reference/embree_reference.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "reference/parallel.h"
 
 namespace cs {

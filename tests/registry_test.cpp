@@ -13,7 +13,7 @@
 #include <unistd.h>
 
 #include "app/commands.h"
-#include "eval/registry.h"
+#include "method/registry.h"
 #include "tests/cli_support.h"
 #include "harness/harness.h"
 #include "raster/gbuffer.h"

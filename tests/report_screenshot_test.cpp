@@ -12,7 +12,7 @@
 #include <stb_image.h>  // implementation compiled once, in core/tinygltf_impl.cpp
 #include <unistd.h>
 
-#include "eval/frame_output.h"
+#include "judge/frame_output.h"
 #include "tests/cli_support.h"
 
 namespace fs = std::filesystem;

@@ -8,9 +8,9 @@
 #include <gtest/gtest.h>
 
 #include "core/scene.h"
-#include "eval/epsilon.h"
-#include "eval/method.h"
-#include "eval/metrics.h"
+#include "method/epsilon.h"
+#include "method/method.h"
+#include "judge/metrics.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
 #include "tests/test_context.h"

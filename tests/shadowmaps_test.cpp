@@ -13,10 +13,10 @@
 
 #include <gtest/gtest.h>
 
-#include "eval/metrics.h"
+#include "judge/metrics.h"
 #include "raster/raster.h"
 #include "reference/embree_reference.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "shadowmaps/cube_sm.h"
 #include "shadowmaps/depth_pass.h"
 #include "shadowmaps/rmsm.h"

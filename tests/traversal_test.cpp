@@ -15,7 +15,7 @@
 #include "harness/harness.h"
 
 #include "raster/raster.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "tests/precise_probe.comp.h"
 #include "tests/test_context.h"
 #include "traversal/cone_method.h"

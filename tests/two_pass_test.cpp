@@ -8,7 +8,7 @@
 
 #include <gtest/gtest.h>
 
-#include "eval/metrics.h"
+#include "judge/metrics.h"
 #include "tests/cone_test_support.h"
 #include "tests/test_context.h"
 #include "traversal/cone_method.h"

@@ -13,13 +13,13 @@
 #include <gtest/gtest.h>
 
 #include "app/cli.h"
-#include "eval/registry.h"
-#include "eval/metrics.h"
+#include "method/registry.h"
+#include "judge/metrics.h"
 #include "raster/raster.h"
 #include "rays/hilbert.h"
 #include "reference/embree_reference.h"
 #include "sort/sort.h"
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 #include "tests/cone_test_support.h"
 #include "tests/test_context.h"
 #include "traversal/cone_method.h"

@@ -2,7 +2,7 @@
 // memory bound, the ray order), compare's sweep over the memory bound, and the factory.
 #include <algorithm>
 
-#include "eval/registry.h"
+#include "method/registry.h"
 #include "traversal/cone_method.h"
 #include "traversal/traversal.h"
 
@@ -134,6 +134,16 @@ MethodInfo coneMethodInfo() {
        "instead of the frame's single submission (the same mask)",
        {}},
   };
+  // Knobs that never change the mask: every variant and switch of paper 002 gives the same mask (the
+  // exactness tests hold them to it bit for bit), as do the ray order, the clusters, the leaves' width
+  // and the profiling. --variant names the paper's configurations for users; the switches that amend it
+  // are tuning. What stays with users changes the answer (front-face culling; the leaf test, within
+  // the band) or the memory (--traversal-memory, --memory-budget).
+  for (SettingSpec& spec : m.settings)
+    for (const char* name : {"test", "early-accept", "two-pass", "blocker-solid-angle", "blocker-max-fraction",
+                             "update-min-finished", "ray-order", "clusters", "super-clusters", "last-expansion-test",
+                             "last-expansion-lanes", "leaf-rays", "profile-stages"})
+      if (spec.name == name) spec.tuning = true;
   m.check = [](const Settings& s) { (void)coneOptions(s); };
   m.make = [](vk::Context* ctx, const Settings& s) -> std::unique_ptr<ShadowMethod> {
     CS_CHECK(ctx, "the cone method needs a Vulkan device");

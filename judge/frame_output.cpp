@@ -1,5 +1,5 @@
 // Frame images, the PFM dump with meta.json, and the results table (JSON + CSV from one flattening).
-#include "eval/frame_output.h"
+#include "judge/frame_output.h"
 
 #include <algorithm>
 #include <cctype>

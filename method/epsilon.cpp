@@ -1,5 +1,5 @@
 // The epsilon policy's numbers and its ray family (definitions and reasons in epsilon.h).
-#include "eval/epsilon.h"
+#include "method/epsilon.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,5 +1,5 @@
 // Method settings: see settings.h.
-#include "eval/settings.h"
+#include "method/settings.h"
 
 #include <algorithm>
 #include <cctype>

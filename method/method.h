@@ -23,7 +23,7 @@ struct FrameInput {
   const DeviceGBuffer* device = nullptr;     // the same samples, resident on the GPU (GPU methods)
   vk::Context* vk = nullptr;                 // null for CPU-only runs
   glm::vec3 light{0};
-  float epsilon = 0;                         // along-ray epsilon of the shared policy (eval/epsilon.h)
+  float epsilon = 0;                         // along-ray epsilon of the shared policy (method/epsilon.h)
   // The view the samples were rendered from (methods whose analysis weighs samples by their distance to
   // the eye or the view frustum: RTW); null when the caller has none.
   const Camera* camera = nullptr;

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "eval/method.h"
-#include "eval/settings.h"
+#include "method/method.h"
+#include "method/settings.h"
 
 namespace cs {
 
@@ -21,7 +21,13 @@ struct SettingSpec {
   std::string value;                 // what the value looks like in help ("N", "BYTES", "on|off"); "" = a switch
   std::string help;
   std::vector<std::string> choices;  // an enumeration (matched without regard to case), shown in help
+  // A knob that never changes the mask (speed, work split, profiling): for benchmarks and tests. Help
+  // lists it apart, under the tuning group (kTuningGroup), not among the settings users choose.
+  bool tuning = false;
 };
+
+// The help group of every setting and option that never changes a mask.
+inline constexpr const char* kTuningGroup = "Tuning (benchmarks and tests; never changes the mask)";
 
 // One point of a method's sweep (compare) or one row of a dynamic run: a label and the settings for it.
 struct SweepPoint {

@@ -1,5 +1,5 @@
 // The method registry: see registry.h.
-#include "eval/registry.h"
+#include "method/registry.h"
 
 #include <algorithm>
 

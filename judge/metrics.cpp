@@ -1,5 +1,5 @@
-// compareVisibility: one pass over the pixels, counting over lit samples only (DESIGN.md "Error").
-#include "eval/metrics.h"
+// compareVisibility: one pass over the pixels, counting over lit samples only (docs/ARCHITECTURE.md, "Error metric and ambiguity band").
+#include "judge/metrics.h"
 
 #include <cmath>
 #include <cstdio>

@@ -1,0 +1,284 @@
+// The one run entry: see run.h.
+#include "harness/run.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+#include <utility>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "raster/raster.h"
+#include "reference/embree_reference.h"
+#include "vk/context.h"
+
+namespace cs {
+
+Camera orbitCamera(const Camera& camera, uint32_t k, uint32_t n, bool enclosed) {
+  if (n == 0) return camera;
+  const double phase = double(k) / double(n), twoPi = 2 * glm::pi<double>();
+  const double angle = enclosed ? 0.5 * std::sin(twoPi * phase) : twoPi * phase;
+  glm::dvec3 up(camera.up);
+  if (!(glm::length(up) > 0)) up = {0, 1, 0};
+  const glm::dvec3 target(camera.target), offset = glm::dvec3(camera.eye) - target;
+  Camera out = camera;
+  out.eye = glm::vec3(target + glm::dvec3(glm::rotate(glm::dmat4(1), angle, glm::normalize(up)) * glm::dvec4(offset, 0)));
+  return out;
+}
+
+namespace harness {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+std::string num(double v, int prec) {
+  std::ostringstream os;
+  os << std::fixed << std::setprecision(prec) << v;
+  return os.str();
+}
+
+std::unique_ptr<ShadowMethod> makeMethod(const RunMethod& m, vk::Context& ctx) {
+  if (m.info->reference) return nullptr;  // the reference's row is the frame's own reference run
+  return m.info->make(m.info->usesDevice ? &ctx : nullptr, m.settings);
+}
+
+// A row's mask is dropped once its frame is done, unless the caller keeps the frames.
+void dropMasks(Frame& f) {
+  f.prepared.reset();
+  for (Row& r : f.rows) std::vector<float>().swap(r.judged.runs.output.visibility);
+}
+
+void finish(Frame& f, const RunSpec& spec, const Events& ev, Results& res) {
+  if (ev.done) ev.done(f);
+  if (!spec.keepFrames) dropMasks(f);
+  res.frames.push_back(std::move(f));
+}
+
+// One view under one light: prepared (samples, reference, band), then every method judged on it.
+void runFrame(vk::Context& ctx, const RunSpec& spec, const Events& ev, std::shared_ptr<Raster>& raster, Frame& f) {
+  auto step = [&](const std::string& s) {
+    if (ev.step) ev.step(f, s);
+  };
+  try {
+    step("raster");
+    if (!raster) raster = std::make_shared<Raster>(ctx, *spec.scene);
+    FrameSpec fs;
+    fs.camera = f.camera;
+    fs.view = f.viewName;
+    fs.light = f.lightPosition;
+    fs.width = spec.width;
+    fs.height = spec.height;
+    fs.frames = spec.frames;
+    fs.singleFrameAboveMs = spec.singleFrameAboveMs;
+    fs.policy = spec.policy;
+    f.prepared = prepareFrame(
+        ctx, *raster, *spec.scene, fs,
+        [&](const std::string& s) {
+          if (s != "raster") step(s);  // said above, before the camera pass was made
+        },
+        ev.progress ? ev.progress(f, kReferenceRuns) : FrameProgress{});
+    f.prepared->raster = raster;
+  } catch (const std::exception& e) {
+    if (!spec.catchFailures) throw;
+    f.prepared.reset();
+    f.failure = e.what();
+    return;
+  }
+  step("methods");
+  const PreparedFrame& frame = *f.prepared;
+  auto progressOf = [&](size_t k) { return ev.progress ? ev.progress(f, k) : FrameProgress{}; };
+  auto row = [&](size_t k, Judged j) {
+    const RunMethod& m = spec.methods[k];
+    Row r;
+    r.method = k;
+    r.result = resultRow(*m.info, m.label, frame, j, m.defaults);
+    r.result.stats["light_index"] = f.light;  // which of the run's lights (RunSpec::lights), and where
+    r.result.stats["light"] = {f.lightPosition.x, f.lightPosition.y, f.lightPosition.z};
+    r.judged = std::move(j);
+    return r;
+  };
+  if (spec.interleave) {
+    // Every row's method made first, then their frames round-robin.
+    std::vector<std::unique_ptr<ShadowMethod>> owned;
+    std::vector<const MethodInfo*> infos;
+    std::vector<ShadowMethod*> methods;
+    for (const RunMethod& m : spec.methods) {
+      infos.push_back(m.info);
+      owned.push_back(makeMethod(m, ctx));
+      methods.push_back(owned.back().get());
+    }
+    std::vector<Judged> judged = judgeInterleaved(infos, methods, frame, spec.frames, progressOf);
+    owned.clear();
+    for (size_t k = 0; k < judged.size(); ++k) f.rows.push_back(row(k, std::move(judged[k])));
+    if (ev.judged)
+      for (const Row& r : f.rows) ev.judged(f, r);
+    return;
+  }
+  for (size_t k = 0; k < spec.methods.size(); ++k) {
+    const RunMethod& m = spec.methods[k];
+    Row r;
+    r.method = k;
+    try {
+      r = row(k, judge(*m.info, m.settings, ctx, frame, spec.frames, progressOf(k), spec.singleFrameAboveMs));
+    } catch (const std::exception& e) {
+      if (!spec.catchFailures) throw;
+      r.failure = e.what();
+    }
+    f.rows.push_back(std::move(r));
+    if (ev.judged) ev.judged(f, f.rows.back());
+  }
+}
+
+// A motion's results row: the method's output on one animation frame against that frame's reference.
+FrameResult dynamicRow(const RunMethod& m, const Scene& rest, const Frame& f, const GBuffer& gb, const std::string& device,
+                       const MethodOutput& out, const ErrorStats& err, const Motion& motion, size_t lit) {
+  FrameResult r = makeFrameResult(rest.name, f.viewName, m.info->name, gb, methodDevice(*m.info, device), out, err);
+  double rebuildMs = 0;
+  for (const StageTime& s : out.stages)
+    if (s.kind == StageKind::Rebuild) rebuildMs += s.ms;
+  nlohmann::json& st = r.stats;
+  st["frame"] = f.step;
+  st["time"] = f.time;
+  st["frames"] = motion.frames;
+  st["setting"] = m.label;
+  st["animated"] = motion.animated;
+  st["moving_camera"] = motion.movingCamera;
+  st["rebuild_ms"] = rebuildMs;
+  st["raster_ms"] = f.rasterMs;
+  st["geometry_upload_ms"] = f.uploadMs;
+  st["lit_samples"] = lit;
+  st["band_samples"] = err.bandSamples;
+  if (!out.work.empty()) st["work"] = out.work;
+  return r;
+}
+
+// compare --animate: per view, every method object made once and run on each animation frame's own
+// scene state and samples; each frame's reference and band from that frame.
+void runMotion(vk::Context& ctx, const RunSpec& spec, const Events& ev, Results& res) {
+  const Motion& motion = *spec.motion;
+  CS_CHECK(spec.lights.size() == 1, "harness::run: a motion runs under one light, not " << spec.lights.size());
+  const Scene& rest = *spec.scene;
+  const glm::vec3 light = spec.lights.front();
+  const uint32_t n = motion.frames;
+  Raster raster(ctx, rest);
+  Scene scene = rest;
+  for (size_t vi = 0; vi < spec.views.size(); ++vi) {
+    const Camera& camera = spec.views[vi].camera;
+    EmbreeReference reference;
+    std::vector<std::unique_ptr<ShadowMethod>> objects;
+    for (const RunMethod& m : spec.methods) objects.push_back(makeMethod(m, ctx));
+
+    DeviceGBuffer dev;
+    GBuffer gb;
+    // One frame's scene state and samples.
+    Camera current = camera;  // the view of the frame frameAt rendered last
+    auto frameAt = [&](double time, Camera cam) {
+      current = cam;
+      double uploadMs = 0;
+      if (motion.animated) {
+        motion.pose(time, scene);
+        // An animation may carry the scene past what fp32 rays reach (a key of 1e37): refused per frame,
+        // by the rule a light is refused by, before any method or Embree traces it.
+        scene.computeBounds();
+        if (const std::string why = lightRangeProblem(light, scene.boundsMin, scene.boundsMax); !why.empty())
+          throw Error(why, rest.name + " at t = " + num(time, 4), "the animation moves the scene out of range: check its keys");
+        // A BART camera track moves the `animated` view (unless the camera orbits instead); the frame's
+        // input keeps the camera the view asked for (as compare --animate always has).
+        if (motion.cameraTrack && camera.name == "animated")
+          if (const Camera* tracked = scene.findCamera("animated")) cam = *tracked;
+        const auto t0 = Clock::now();
+        raster.setGeometry(scene);
+        uploadMs = msSince(t0);
+      }
+      const RasterTiming rt = raster.render(cam, light, spec.width, spec.height, dev, &gb);
+      return std::make_pair(rt.gpuMs, uploadMs);
+    };
+
+    Frame warm;
+    warm.view = vi;
+    warm.viewName = spec.views[vi].name;
+    warm.camera = camera;
+    warm.lightPosition = light;
+    if (ev.step) ev.step(warm, "warm-up");
+    {
+      const double tw = motion.animated ? 0.5 * (motion.frameTime(0, n) + motion.frameTime(std::min(1u, n - 1), n)) : 0.0;
+      frameAt(tw, motion.movingCamera ? orbitCamera(camera, 1, 2 * n, motion.enclosed) : camera);
+      const EpsilonPolicy policy = EpsilonPolicy::forScene(scene);
+      const FrameInput frame = frameInputOf(scene, gb, dev, ctx, light, policy.eps, &current, &raster.deviceScene());
+      reference.run(frame);
+      for (auto& o : objects)
+        if (o) o->run(frame);
+    }
+
+    for (uint32_t k = 0; k < n; ++k) {
+      Frame f;
+      f.view = vi;
+      f.viewName = spec.views[vi].name;
+      f.lightPosition = light;
+      f.step = k;
+      f.time = motion.animated ? motion.frameTime(k, n) : 0.0;
+      std::tie(f.rasterMs, f.uploadMs) =
+          frameAt(f.time, motion.movingCamera ? orbitCamera(camera, k, n, motion.enclosed) : camera);
+      f.camera = current;
+      const EpsilonPolicy policy = EpsilonPolicy::forScene(scene);
+      const FrameInput frame = frameInputOf(scene, gb, dev, ctx, light, policy.eps, &current, &raster.deviceScene());
+      const MethodOutput ref = reference.run(frame);
+      const std::vector<uint8_t> band = reference.ambiguityBand(scene, gb, light, policy);
+      const size_t lit = gb.litCount();
+      for (size_t t = 0; t < spec.methods.size(); ++t) {
+        Row r;
+        r.method = t;
+        MethodOutput out = objects[t] ? runCounted(*objects[t], frame) : ref;
+        r.judged.error = compareVisibility(gb, out.visibility, ref.visibility, band);
+        r.result = dynamicRow(spec.methods[t], rest, f, gb, res.device, out, r.judged.error, motion, lit);
+        r.judged.runs.totals = {out.totalMs};
+        r.judged.runs.medianMs = r.judged.runs.minMs = r.judged.runs.maxMs = out.totalMs;
+        if (!spec.keepFrames) std::vector<float>().swap(out.visibility);
+        r.judged.runs.output = std::move(out);
+        f.rows.push_back(std::move(r));
+        if (ev.judged) ev.judged(f, f.rows.back());
+      }
+      finish(f, spec, ev, res);
+    }
+    objects.clear();  // free the view's GPU memory before the next one
+  }
+}
+
+}  // namespace
+
+std::vector<RunView> viewsOf(const std::vector<Camera>& cameras) {
+  std::vector<RunView> views;
+  for (const Camera& c : cameras) views.push_back({c, c.name.empty() ? "auto" : c.name});
+  return views;
+}
+
+Results run(vk::Context& ctx, const RunSpec& spec, const Events& ev) {
+  CS_CHECK(spec.scene, "harness::run: no scene");
+  for (const RunMethod& m : spec.methods) CS_CHECK(m.info, "harness::run: a row without its registry entry");
+  Results res;
+  res.device = ctx.driverDescription();
+  if (spec.motion) {
+    runMotion(ctx, spec, ev, res);
+    return res;
+  }
+  std::shared_ptr<Raster> raster;  // one camera pass for every frame: the scene's geometry uploaded once
+  for (size_t v = 0; v < spec.views.size(); ++v)
+    for (size_t l = 0; l < spec.lights.size(); ++l) {
+      Frame f;
+      f.view = v;
+      f.light = l;
+      f.viewName = spec.views[v].name;
+      f.camera = spec.views[v].camera;
+      f.lightPosition = spec.lights[l];
+      runFrame(ctx, spec, ev, raster, f);
+      finish(f, spec, ev, res);
+    }
+  return res;
+}
+
+}  // namespace harness
+}  // namespace cs
