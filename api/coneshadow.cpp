@@ -37,7 +37,7 @@ struct Context::Impl {
   bool layoutDirty = true;      // a mesh or the set of instances changed: the engine's layout again
   bool transformsDirty = false;  // only transforms changed: the engine keeps its triangles
   std::vector<cs::EngineInstance> engineInstances;
-  float eps = 0;  // the along-ray epsilon of the scene's policy (eval/epsilon.h), as the bench's harness uses
+  float eps = 0;  // the along-ray epsilon of the scene's policy (method/epsilon.h), as the bench's harness uses
   cs::DeviceGBuffer samples;
   std::vector<float> lights;
 

@@ -79,14 +79,23 @@ std::string joined(const std::vector<std::string>& items, const std::string& sep
 
 // The raw text of the options converted after parsing (so a bad value is our one-line error).
 struct Raw {
-  std::string light, time, lightDistances, scalingSizes, methods, views, method;
+  std::string time, lightDistances, scalingSizes, methods, views, method;
+  std::vector<std::string> lights;
   std::vector<std::string> extras;  // what CLI11 did not recognise
 };
 
 void addFrameOptions(CLI::App& sub, Options& o, Raw& raw) {
   sub.add_option("--width", o.width, "camera pass width (render default 512, compare 256)")->type_name("W")->check(CLI::Range(1u, 16384u));
   sub.add_option("--height", o.height, "camera pass height (render default 512, compare 256)")->type_name("H")->check(CLI::Range(1u, 16384u));
-  sub.add_option("--light", raw.light, "point light position X,Y,Z (default: the scene's first point light; automatic if none)")->type_name("X,Y,Z");
+  sub.add_option("--light", raw.lights,
+                 "point light position X,Y,Z; given again, one more light, each judged on its own (default: the scene's "
+                 "first point light; automatic if none)")
+      ->type_name("X,Y,Z")
+      ->expected(1)
+      ->allow_extra_args(false)  // one value each time: the next word is SCENE or another option
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  sub.add_flag("--all-lights", o.allLights,
+               "every point light of the scene, each judged on its own: one result per method and light");
   sub.add_option("--time", raw.time, "a BART .aff scene at scene time T (default: the start of its animation range)")->type_name("T");
   sub.add_option("--out", o.out, "output folder")->type_name("DIR");
   sub.add_option("--frames", o.frames, "timed frames after one warm-up; medians are reported (default 3)")
@@ -175,7 +184,7 @@ std::string usageText() {
          "                                        --scaling, --light-distances D1,D2: separate runs)\n"
          "  coneshadow info SCENE                 triangles (flattened over node instances), bounds, cameras, lights\n"
          "  coneshadow results-table [--host-cost] DIR...\n"
-         "                                        markdown table of the compare results in each DIR (the README's)\n"
+         "                                        markdown table of the compare results in each DIR (docs/RESULTS.md's)\n"
          "  coneshadow devices                    list the Vulkan devices\n"
          "  coneshadow help [COMMAND]             this text, or a command's options (also COMMAND --help)\n"
          "  coneshadow --version\n"
@@ -345,7 +354,7 @@ Options parseArgs(int argc, char** argv) {
   if (sub != render && sub != compare) return o;
 
   // Values converted here, so each bad one is a one-line error naming its flag.
-  if (!raw.light.empty()) o.light = parseVec3("--light", raw.light);
+  for (const std::string& light : raw.lights) o.lights.push_back(parseVec3("--light", light));
   if (!raw.time.empty()) o.sceneTime = parseNumber("--time", raw.time, -1e300, 1e300, "a finite number (scene time)");
   if (!raw.views.empty()) o.views = splitList("--views", raw.views);
   // Given but empty (--method ''): a run of nothing is a mistake, not a request for the default.
@@ -373,6 +382,11 @@ Options parseArgs(int argc, char** argv) {
     throw UsageError("--interleave times a view's methods side by side; --animate, --scaling and --light-distances run "
                      "their own sweeps: drop one of them");
   if (o.animateFrames && o.scaling) throw UsageError("--animate and --scaling are separate runs; give one of them");
+  if (o.allLights && !o.lights.empty())
+    throw UsageError("--all-lights takes the scene's point lights and --light gives them: give one or the other");
+  if ((o.lights.size() > 1 || o.allLights) && (o.animateFrames || o.scaling || !o.lightDistances.empty()))
+    throw UsageError("--animate, --scaling and --light-distances run under one light: give at most one --light and "
+                     "no --all-lights");
   if (!o.lightDistances.empty() && (o.animateFrames || o.scaling))
     throw UsageError("--light-distances is a run of its own; give it without --animate and --scaling");
 

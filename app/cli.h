@@ -29,7 +29,8 @@ struct Options {
   uint32_t width = 512, height = 512;
   std::string view;                  // render: camera name; empty = scene's first camera
   std::vector<std::string> views;    // compare: cameras by name (empty = all views of the scene)
-  std::optional<glm::vec3> light;    // overrides the scene's first point light
+  std::vector<glm::vec3> lights;     // --light, in the order given (each a frame); overrides the scene's first point light
+  bool allLights = false;            // --all-lights: every point light of the scene, each a frame
   std::optional<double> sceneTime;   // --time T: where a BART (.aff) scene is placed in its animation
   std::string out = "out";
   std::string dump;                  // empty = no dump

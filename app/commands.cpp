@@ -110,8 +110,15 @@ int runRender(const Options& o) {
               << ")\n";
   }
   const std::string view = camera.name.empty() ? "auto" : camera.name;
-  const glm::vec3 light = chooseLight(scene, o);
-  log << "  view " << view << ", light " << vec3Text(light) << ", " << o.width << "x" << o.height << "\n";
+  const std::vector<glm::vec3> lights = chooseLights(scene, o);
+  // Several lights: each a frame of its own, its images and dump named by its index.
+  const bool several = lights.size() > 1;
+  auto lightSuffix = [&](size_t l) { return several ? "_light" + std::to_string(l) : std::string(); };
+  auto lightText = [&](size_t l) { return "light " + std::to_string(l) + " (" + vec3Text(lights[l]) + ")"; };
+  std::string lightList;
+  for (const glm::vec3& l : lights) lightList += (lightList.empty() ? "" : "; ") + vec3Text(l);
+  log << "  view " << view << ", " << (several ? std::to_string(lights.size()) + " lights " : "light ") << lightList
+      << ", " << o.width << "x" << o.height << "\n";
 
   const std::vector<std::string> inputs = runInputs(o);
   const bool dumpInOut = !o.dump.empty() && pathWithin(o.dump, o.out);
@@ -134,7 +141,7 @@ int runRender(const Options& o) {
   harness::RunSpec spec;
   spec.scene = &scene;
   spec.views = {{camera, view}};
-  spec.lights = {light};
+  spec.lights = lights;
   spec.width = o.width;
   spec.height = o.height;
   spec.frames = o.frames;
@@ -145,14 +152,16 @@ int runRender(const Options& o) {
 
   harness::Events events;
   events.step = [&](const harness::Frame& f, const std::string& step) {
-    if (step == "raster") log << "[3/5] raster, [4/5] reference (" << reference->name << ") and band" << std::endl;
+    if (step == "raster")
+      log << "[3/5] raster, [4/5] reference (" << reference->name << ") and band"
+          << (several ? " under " + lightText(f.light) : std::string()) << std::endl;
     if (step != "methods") return;
     const PreparedFrame& frame = *f.prepared;
     log << "  raster " << std::fixed << std::setprecision(2) << frame.rasterMs << " ms (GPU), readback "
         << frame.readbackMs << " ms; " << frame.litSamples << " lit samples of " << frame.gbuffer.size() << "\n"
         << "  " << reference->name << ": " << frame.reference.medianMs << " ms (" << stageText(frame.reference.output)
         << "), band " << frame.bandSamples << " samples in " << frame.bandMs << " ms\n";
-    log << "[5/5] methods" << std::endl;
+    log << "[5/5] methods" << (several ? " under " + lightText(f.light) : std::string()) << std::endl;
   };
   events.progress = [&](const harness::Frame&, size_t k) -> FrameProgress {
     if (k == harness::kReferenceRuns) return {};
@@ -168,51 +177,68 @@ int runRender(const Options& o) {
       log << "  " << m.name << ": " << row.judged.runs.medianMs << " ms (" << stageText(row.judged.runs.output) << ")\n";
   };
   harness::Results ran = harness::run(*ctx, spec, events);
-  harness::Frame& frame = ran.frames.front();
-  const PreparedFrame& prepared = *frame.prepared;
 
+  // Per light: its rows (the reference's first) and their masks by method.
   std::vector<FrameResult> results;
-  std::map<std::string, std::vector<float>> visibility;
-  const nlohmann::json provenance = runProvenance(o, scene, light, camera);
-  for (harness::Row& row : frame.rows) {
-    FrameResult r = row.result;
-    r.provenance = provenance;
-    visibility[r.method] = std::move(row.judged.runs.output.visibility);
-    results.push_back(std::move(r));
+  std::vector<std::map<std::string, std::vector<float>>> visibility(ran.frames.size());
+  for (size_t i = 0; i < ran.frames.size(); ++i) {
+    harness::Frame& frame = ran.frames[i];
+    const nlohmann::json provenance = runProvenance(o, scene, frame.lightPosition, camera);
+    for (harness::Row& row : frame.rows) {
+      FrameResult r = row.result;
+      r.provenance = provenance;
+      visibility[i][r.method] = std::move(row.judged.runs.output.visibility);
+      results.push_back(std::move(r));
+    }
   }
 
   // Output: --out and --dump both written in full into their staging folders (made before the run, so a
   // folder that may not be replaced is refused first), then each put in place in one step, so a failure
   // while writing either leaves neither. A dump folder inside the output folder (or the same one) is
-  // written inside its staging folder, and the other way round.
+  // written inside its staging folder, and the other way round. Several lights: each light's images
+  // with its index (<m>_light<i>_shaded.png), its dump in light<i>/.
   {
     const std::string outDir = out ? out->path() : inside(*dump, o.out);
     const std::string dumpDir = o.dump.empty() ? "" : dump ? dump->path() : inside(*out, o.dump);
-    const std::vector<float>& ref = visibility[reference->name];
-    for (const FrameResult& r : results)
-      writeFrameImages(outDir, fileStem(r.method), prepared.gbuffer, visibility[r.method], ref, prepared.band);
+    for (size_t i = 0; i < ran.frames.size(); ++i) {
+      const harness::Frame& frame = ran.frames[i];
+      const PreparedFrame& prepared = *frame.prepared;
+      std::map<std::string, std::vector<float>>& masks = visibility[i];
+      const std::vector<float>& ref = masks[reference->name];
+      for (const harness::Row& row : frame.rows)
+        writeFrameImages(outDir, fileStem(row.result.method) + lightSuffix(frame.light), prepared.gbuffer,
+                         masks[row.result.method], ref, prepared.band);
+      if (!dumpDir.empty())
+        writeDump(several ? (fs::path(dumpDir) / ("light" + std::to_string(frame.light))).string() : dumpDir, scene,
+                  prepared.gbuffer, camera, frame.lightPosition, prepared.policy, masks, prepared.band);
+    }
     writeResults(outDir, results);
-    if (!dumpDir.empty())
-      writeDump(dumpDir, scene, prepared.gbuffer, camera, light, prepared.policy, visibility, prepared.band);
     if (out) out->commit();
     if (dump) dump->commit();
   }
 
-  for (const FrameResult& row : results) {
-    if (row.method == reference->name && results.size() > 1) continue;
-    std::cout << std::fixed << std::setprecision(3) << "result: " << row.method << " on " << scene.name << "/" << view
-              << " " << o.width << "x" << o.height << ": " << row.totalMs << " ms (median of " << o.frames << "), "
-              << reference->name << " " << prepared.reference.medianMs << " ms, misclassified " << std::setprecision(6)
-              << row.error.misclassifiedFraction << " (outside band " << row.error.misclassifiedOutsideBand
-              << " samples; band " << std::setprecision(3) << 100.0 * row.error.bandFraction << " % of the lit samples"
-              << (row.error.undecided ? ", UNDECIDED: " + row.error.undecidedReason() : std::string()) << "), raster " << std::setprecision(3) << prepared.rasterMs << " ms; wrote " << o.out << "/"
-              << (o.dump.empty() ? "" : " and " + o.dump + "/") << "\n";
-    if (row.stats.contains("per_frame") && !o.quiet) {  // a progressive method: its error frame by frame
-      std::cout << "  " << row.method << " per frame (0 = warm-up): ";
-      for (const auto& f : row.stats["per_frame"])
-        std::cout << f["frame"].get<int>() << ": " << std::setprecision(4) << 100 * f["misclassified_fraction"].get<double>()
-                  << " % (" << std::setprecision(1) << f["ms"].get<double>() << " ms)  ";
-      std::cout << "\n";
+  for (const harness::Frame& frame : ran.frames) {
+    const PreparedFrame& prepared = *frame.prepared;
+    for (const harness::Row& r : frame.rows) {
+      const FrameResult& row = r.result;
+      if (row.method == reference->name && frame.rows.size() > 1) continue;
+      std::cout << std::fixed << std::setprecision(3) << "result: " << row.method << " on " << scene.name << "/" << view
+                << (several ? " " + lightText(frame.light) : std::string()) << " " << o.width << "x" << o.height
+                << ": " << row.totalMs << " ms (median of " << o.frames << "), " << reference->name << " "
+                << prepared.reference.medianMs << " ms, misclassified " << std::setprecision(6)
+                << row.error.misclassifiedFraction << " (outside band " << row.error.misclassifiedOutsideBand
+                << " samples; band " << std::setprecision(3) << 100.0 * row.error.bandFraction << " % of the lit samples"
+                << (row.error.undecided ? ", UNDECIDED: " + row.error.undecidedReason() : std::string()) << "), raster "
+                << std::setprecision(3) << prepared.rasterMs << " ms; wrote " << o.out << "/"
+                << (o.dump.empty() ? "" : " and " + o.dump + "/") << "\n";
+      if (row.stats.contains("per_frame") && !o.quiet) {  // a progressive method: its error frame by frame
+        std::cout << "  " << row.method << " per frame (0 = warm-up): ";
+        for (const auto& f : row.stats["per_frame"])
+          std::cout << f["frame"].get<int>() << ": " << std::setprecision(4)
+                    << 100 * f["misclassified_fraction"].get<double>() << " % (" << std::setprecision(1)
+                    << f["ms"].get<double>() << " ms)  ";
+        std::cout << "\n";
+      }
     }
   }
   return kExitOk;

@@ -90,6 +90,7 @@ namespace {
 
 struct Row {
   FrameResult result;
+  std::string view;  // the report's view: the camera's name, and its light when the run has several ("wall, light 1")
   std::string setting;
   std::string stem;  // the view's file-name stem (fileStem, unique in the run)
   double msMin = 0, msMax = 0;
@@ -165,7 +166,7 @@ const std::vector<std::string> kHeader = {"method/setting",
 std::vector<std::string> viewOrder(const std::vector<Row>& rows) {
   std::vector<std::string> views;
   for (auto& r : rows)
-    if (std::find(views.begin(), views.end(), r.result.view) == views.end()) views.push_back(r.result.view);
+    if (std::find(views.begin(), views.end(), r.view) == views.end()) views.push_back(r.view);
   return views;
 }
 
@@ -183,7 +184,7 @@ struct Verdict {
 Verdict verdictOf(const std::vector<Row>& rows, const std::string& view) {
   Verdict v;
   for (const Row& r : rows) {
-    if (r.result.view != view || r.result.method == referenceMethod().name) continue;
+    if (r.view != view || r.result.method == referenceMethod().name) continue;
     if (r.result.error.undecided) {  // the band swallowed the answer: no row is exact or good here
       v.undecided = r.result.error.undecidedReason();
       continue;
@@ -215,7 +216,7 @@ std::vector<std::string> verdictCells(const std::vector<Row>& rows, const std::s
   const Verdict v = verdictOf(rows, view);
   std::string reference = "—";
   for (const Row& r : rows)
-    if (r.result.view == view && r.result.method == referenceMethod().name) reference = num(r.result.totalMs, 1);
+    if (r.view == view && r.result.method == referenceMethod().name) reference = num(r.result.totalMs, 1);
   if (!v.undecided.empty()) {
     const std::string cell = "undecided: " + v.undecided;
     return {view, cell, cell, cell, reference};
@@ -253,7 +254,7 @@ std::string convergenceMd(const std::vector<Row>& rows) {
         "them in the plot at frame 1.\n\n![convergence](convergence.png)\n\n(vector: convergence.svg)\n";
   for (const Row& r : rows) {
     if (!r.result.stats.contains("per_frame")) continue;
-    os << "\n" << r.result.view << " / " << r.setting << ":";
+    os << "\n" << r.view << " / " << r.setting << ":";
     for (const auto& f : r.result.stats["per_frame"])
       os << " " << f["frame"].get<int>() + 1 << ": " << pct(f["misclassified_fraction"].get<double>()) << " ("
          << num(f["cumulative_ms"].get<double>(), 4) << " ms);";
@@ -280,7 +281,7 @@ std::string convergenceSvg(const std::vector<Row>& rows) {
     }
     PlotSeries oneFrame{"one-frame methods", {}, false}, oneFrameTime{"one-frame methods", {}, false};
     for (const Row& r : rows) {
-      if (r.result.view != view || r.result.method == referenceMethod().name) continue;
+      if (r.view != view || r.result.method == referenceMethod().name) continue;
       if (!r.result.stats.contains("per_frame")) {
         const double e = r.result.error.misclassifiedFraction;
         oneFrame.points.push_back({1.0, e, r.setting + ": " + pct(e)});
@@ -345,11 +346,11 @@ std::string reportMd(const std::string& sceneName, const std::string& device, ui
     os << "\n## " << v << "\n\n";
     table(kHeader);
     for (auto& r : rows)
-      if (r.result.view == v) row(cells(r));
+      if (r.view == v) row(cells(r));
     os << "\nStages:\n\n";
     table(stageHeader());
     for (auto& r : rows)
-      if (r.result.view == v) row({r.setting, stagesCell(r)});
+      if (r.view == v) row({r.setting, stagesCell(r)});
     for (auto& c : closeups)
       if (c.view == v) os << "\n" << closeupText(c) << "\n\n![" << v << " close-ups](" << c.file << ")\n";
   }
@@ -425,15 +426,15 @@ std::string reportHtml(const std::string& sceneName, const std::string& device, 
     os << "<h2>" << htmlEscape(v) << "</h2>\n";
     table(kHeader, "results");
     for (auto& r : rows)
-      if (r.result.view == v) row(cells(r));
+      if (r.view == v) row(cells(r));
     os << "</table>\n<h3>Stages</h3>\n";
     table(stageHeader(), "stages");
     for (auto& r : rows)
-      if (r.result.view == v) row({r.setting, stagesCell(r)});
+      if (r.view == v) row({r.setting, stagesCell(r)});
     os << "</table>\n<h3>Images</h3>\n<table class=\"images\">\n<tr><th>method/setting</th><th>shaded</th><th>mask</th>"
           "<th>diff</th></tr>\n";
     for (auto& r : rows) {
-      if (r.result.view != v) continue;
+      if (r.view != v) continue;
       os << "<tr><td>" << htmlEscape(r.setting) << "</td>";
       for (const char* kind : {"shaded", "mask", "diff"}) {
         const std::string file = imageName(r, kind), thumb = thumbFactor > 1 ? imageName(r, std::string(kind) + "_thumb") : file;
@@ -478,10 +479,10 @@ std::string tradeOffSvg(const std::vector<Row>& rows, bool memory) {
     panel.yLabel = "misclassified outside the band (log)";
     std::vector<double> errors;
     for (const Row& r : rows)
-      if (r.result.view == view) errors.push_back(r.result.error.misclassifiedFractionOutsideBand);
+      if (r.view == view) errors.push_back(r.result.error.misclassifiedFractionOutsideBand);
     panel.yFloor = floorFor(errors);
     for (const Row& r : rows) {
-      if (r.result.view != view) continue;
+      if (r.view != view) continue;
       if (memory && r.result.bytes == 0) continue;
       auto it = std::find_if(panel.series.begin(), panel.series.end(),
                              [&](const PlotSeries& s) { return s.name == r.result.method; });
@@ -559,7 +560,10 @@ int runCompare(const Options& o) {
 
   Scene scene = loadSceneArg(o, std::cerr);
   std::vector<Camera> cameras = selectViews(scene, o);
-  glm::vec3 light = chooseLight(scene, o);
+  const std::vector<glm::vec3> lights = chooseLights(scene, o);
+  // Several lights: each view under each, a frame of its own; its files and report section named by the
+  // light's index.
+  const bool several = lights.size() > 1;
   log << "scene " << scene.name << ": " << scene.triangleCount() << " triangles, " << cameras.size() << " view(s), "
       << settings.size() << " method setting(s), " << o.width << "x" << o.height << std::endl;
 
@@ -572,12 +576,12 @@ int runCompare(const Options& o) {
   std::vector<Row> rows;
   std::vector<Closeup> closeups;
   uint32_t thumbFactor = 1;
-  Eta eta(cameras.size() * (settings.size() + 1));  // per view: the reference, then each setting
+  Eta eta(cameras.size() * lights.size() * (settings.size() + 1));  // per frame: the reference, then each setting
 
   harness::RunSpec spec;
   spec.scene = &scene;
   spec.views = harness::viewsOf(cameras);
-  spec.lights = {light};
+  spec.lights = lights;
   spec.width = o.width;
   spec.height = o.height;
   spec.frames = o.frames;
@@ -593,8 +597,11 @@ int runCompare(const Options& o) {
       stem = fileStem(v.name) + "-" + std::to_string(k);
     stems.push_back(stem);
   }
+  auto viewOf = [&](const harness::Frame& f) {
+    return several ? f.viewName + ", light " + std::to_string(f.light) : f.viewName;
+  };
   auto tagOf = [&](const harness::Frame& f) {
-    return "[view " + std::to_string(f.view + 1) + "/" + std::to_string(cameras.size()) + "] " + f.viewName + ": ";
+    return "[view " + std::to_string(f.view + 1) + "/" + std::to_string(cameras.size()) + "] " + viewOf(f) + ": ";
   };
   const std::string referenceName = referenceMethod().name;
   harness::Events events;
@@ -614,11 +621,11 @@ int runCompare(const Options& o) {
   // Each view's rows, images and close-up strip, while its frame is held.
   events.done = [&](const harness::Frame& f) {
     const PreparedFrame& frame = *f.prepared;
-    const std::string& stem = stems[f.view];
+    const std::string stem = stems[f.view] + (several ? "_light" + std::to_string(f.light) : std::string());
     const std::vector<float>& reference = frame.reference.output.visibility;
     const nlohmann::json provenance = runProvenance(o, scene, f.lightPosition, f.camera);
     Closeup closeup;
-    closeup.view = f.viewName;
+    closeup.view = viewOf(f);
     closeup.file = stem + "_closeups.png";
     std::vector<std::vector<uint8_t>> shaded;
     auto show = [&](const std::string& label, const std::vector<float>& visibility) {
@@ -631,6 +638,7 @@ int runCompare(const Options& o) {
       const std::vector<float>& mask = j.judged.runs.output.visibility;
       if (!s.method->reference) show(s.label, mask);
       Row row;
+      row.view = viewOf(f);
       row.setting = s.label;
       row.stem = stem;
       row.result = j.result;
@@ -673,7 +681,7 @@ int runCompare(const Options& o) {
   out.commit();
 
   std::cout << "result: compared " << settings.size() << " method setting(s) on " << cameras.size() << " view(s) of "
-            << scene.name << " at " << o.width << "x" << o.height << "; wrote " << o.out << "/ (report.md, report.html, "
+            << scene.name << (several ? " under " + std::to_string(lights.size()) + " lights" : std::string()) << " at " << o.width << "x" << o.height << "; wrote " << o.out << "/ (report.md, report.html, "
             << "speed_vs_error.svg/.png, error_vs_bytes.svg/.png, results.json, results.csv, " << rows.size() * 3 << " images, "
             << closeups.size() << " close-up strip(s))\n";
   return kExitOk;

@@ -60,33 +60,50 @@ inline std::string stageText(const MethodOutput& out) {
   return os.str();
 }
 
-// The frame's light: --light, else the scene's first point light, else an automatic one (a warning on
-// stderr, shown under --quiet too).
+// The lights of the run, each a frame: every --light in the order given; with --all-lights every point
+// light of the scene (none: a usage error naming the scene); else the scene's first point light, else an
+// automatic one (a warning on stderr, shown under --quiet too).
 // A light too far from the scene for fp32 ray lengths (method/epsilon.h) is refused here, before any
 // work: a usage error for --light, a data error for the scene's own light.
-inline glm::vec3 chooseLight(const Scene& scene, const Options& o) {
-  if (o.light) {
-    if (std::string why = lightRangeProblem(*o.light, scene.boundsMin, scene.boundsMax); !why.empty())
-      throw UsageError("--light: " + why);
-    return *o.light;
-  }
-  if (!scene.lights.empty()) {
-    const glm::vec3 l = scene.lights.front().position;
+inline std::vector<glm::vec3> chooseLights(const Scene& scene, const Options& o) {
+  std::vector<glm::vec3> lights;
+  for (const glm::vec3& l : o.lights) {
     if (std::string why = lightRangeProblem(l, scene.boundsMin, scene.boundsMax); !why.empty())
-      throw Error(why, "scene " + scene.name + ", light '" + scene.lights.front().name + "'",
-                  "give a closer one with --light X,Y,Z");
-    return l;
+      throw UsageError("--light: " + why);
+    lights.push_back(l);
   }
+  if (!lights.empty()) return lights;
+  if (o.allLights && scene.lights.empty())
+    throw UsageError("--all-lights: scene " + scene.name + " has no point light" +
+                     (scene.unusableLights.empty()
+                          ? std::string()
+                          : " (its light " + scene.unusableLights.front() + " is not a point light)") +
+                     "; give one or more with --light X,Y,Z");
+  for (const PointLight& light : scene.lights) {
+    if (std::string why = lightRangeProblem(light.position, scene.boundsMin, scene.boundsMax); !why.empty())
+      throw Error(why, "scene " + scene.name + ", light '" + light.name + "'", "give a closer one with --light X,Y,Z");
+    lights.push_back(light.position);
+    if (!o.allLights) return lights;  // the first
+  }
+  if (!lights.empty()) return lights;
   if (!scene.unusableLights.empty())
     throw Error("the scene's light " + scene.unusableLights.front() + " is not a point light; the methods shadow point lights",
                 "scene " + scene.name, "give one with --light X,Y,Z");
   glm::vec3 light = automaticLight(scene).position;
   std::cerr << "coneshadow: warning: no point light in the scene: using an automatic one at " << light.x << ","
             << light.y << "," << light.z << " (give one with --light X,Y,Z)\n";
-  return light;
+  return {light};
 }
 
-// Where a results row comes from (docs/RESULTS.md): the schema, the tool and its revision, the command
+// The run's one light, for the runs that take one (--animate, --scaling, --light-distances: the parser
+// refused more).
+inline glm::vec3 chooseLight(const Scene& scene, const Options& o) {
+  const std::vector<glm::vec3> lights = chooseLights(scene, o);
+  CS_CHECK(lights.size() == 1, "a one-light run got " << lights.size() << " lights");
+  return lights.front();
+}
+
+// Where a results row comes from (docs/RESULTS_FORMAT.md): the schema, the tool and its revision, the command
 // line, the time (UTC), the scene file and its hash, the light and the camera.
 inline nlohmann::json runProvenance(const Options& o, const Scene& scene, glm::vec3 light, const Camera& camera) {
   const std::time_t now = std::time(nullptr);

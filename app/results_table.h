@@ -1,4 +1,4 @@
-// `coneshadow results-table DIR...`: the README's results table, made from the results.json files that
+// `coneshadow results-table DIR...`: docs/RESULTS.md's results table, made from the results.json files that
 // `coneshadow compare` wrote into each DIR, so the published numbers come from the tool itself.
 #pragma once
 #include <iosfwd>

@@ -414,7 +414,7 @@ int runScaling(const Options& base) {
   doc["view"] = view;
   doc["device"] = device;
   doc["frames"] = o.frames;
-  doc["provenance"] = runProvenance(o, scene, light, camera);  // the run's (docs/RESULTS.md); each point's light is in its row
+  doc["provenance"] = runProvenance(o, scene, light, camera);  // the run's (docs/RESULTS_FORMAT.md); each point's light is in its row
   doc["rows"] = json;
   if (distances) {
     doc["light_direction"] = {away.x, away.y, away.z};

@@ -96,6 +96,8 @@ void runFrame(vk::Context& ctx, const RunSpec& spec, const Events& ev, std::shar
     Row r;
     r.method = k;
     r.result = resultRow(*m.info, m.label, frame, j, m.defaults);
+    r.result.stats["light_index"] = f.light;  // which of the run's lights (RunSpec::lights), and where
+    r.result.stats["light"] = {f.lightPosition.x, f.lightPosition.y, f.lightPosition.z};
     r.judged = std::move(j);
     return r;
   };

@@ -85,12 +85,12 @@ struct FrameResult {
   uint64_t peakBytes = 0;
   nlohmann::json stats = nlohmann::json::object();
   ErrorStats error;
-  // Where the row comes from (docs/RESULTS.md): schema_version, tool, command_line, time, scene_path,
+  // Where the row comes from (docs/RESULTS_FORMAT.md): schema_version, tool, command_line, time, scene_path,
   // scene_hash, light, camera; empty: not written.
   nlohmann::json provenance = nlohmann::json::object();
 };
 
-// The results files' schema version (docs/RESULTS.md); bumped whenever a field changes meaning.
+// The results files' schema version (docs/RESULTS_FORMAT.md); bumped whenever a field changes meaning.
 inline constexpr int kResultsSchemaVersion = 2;
 
 FrameResult makeFrameResult(const std::string& scene, const std::string& view, const std::string& method,

@@ -1,4 +1,4 @@
-// compareVisibility: one pass over the pixels, counting over lit samples only (DESIGN.md "Error").
+// compareVisibility: one pass over the pixels, counting over lit samples only (docs/ARCHITECTURE.md, "Error metric and ambiguity band").
 #include "judge/metrics.h"
 
 #include <cmath>

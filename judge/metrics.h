@@ -1,4 +1,4 @@
-// The error metric of DESIGN.md ("Error"): a method's visibility against the reference's, over the
+// The error metric (docs/ARCHITECTURE.md, "Error metric and ambiguity band"): a method's visibility against the reference's, over the
 // samples that face the light, thresholded at 0.5, split into false shadow / false light, with and
 // without the ambiguity band, plus mean absolute visibility error.
 #pragma once

@@ -1,5 +1,5 @@
 // The shared epsilon policy: how far from its ends a shadow ray starts and stops counting hits, and the
-// family of perturbed rays whose disagreement defines the ambiguity band (DESIGN.md, "Error").
+// family of perturbed rays whose disagreement defines the ambiguity band (docs/ARCHITECTURE.md, "Error metric and ambiguity band").
 //
 // Every method and every checker uses these numbers; they are, with s = the diagonal of the scene's
 // bounding box (computed from the positions) and M = the largest |coordinate| of any scene position:
@@ -66,7 +66,7 @@ struct ShadowRay {
   bool operator==(const ShadowRay&) const = default;
 };
 
-// Which member groups of the band family to trace (all by default; DESIGN.md asks for at least the
+// Which member groups of the band family to trace (all by default; the contract (docs/ARCHITECTURE.md, "Contracts") asks for at least the
 // start offsets and the sideways nudge).
 struct BandOptions {
   bool startAlongRay = true;

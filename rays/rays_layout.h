@@ -64,7 +64,7 @@ struct RunsPush {
   uint litIndex;    // the word of the count binding holding the lit count
 };
 
-// hilbert_grid.comp (test kernel): every cell's Hilbert index and the keys of a list of directions.
+// tests/hilbert_grid.comp (test kernel): every cell's Hilbert index and the keys of a list of directions.
 struct HilbertGridPush {
   uint order;       // grid of 2^order x 2^order cells
   uint directions;  // directions in the dirs binding

@@ -15,7 +15,6 @@
 #include "method/epsilon.h"
 #include "shadowmaps/depth_pass.h"
 #include "shadowmaps/rmsm_lookup.comp.h"
-#include "shadowmaps/rmsm_probe.comp.h"
 #include "shadowmaps/rmsm_prune.comp.h"
 #include "shadowmaps/rmsm_requests.comp.h"
 #include "shadowmaps/rmsm_tables.comp.h"
@@ -687,9 +686,8 @@ void RmsmInspector::installPages(const std::vector<uint32_t>& keys, float (*texe
   vk::upload(s.ctx, s.pool, data.data(), data.size() * 4);
 }
 
-std::vector<glm::uvec4> RmsmInspector::probe(const std::vector<Probe>& probes) {
+std::vector<glm::uvec4> RmsmInspector::probe(const vk::Kernel& kernel, const std::vector<Probe>& probes) {
   Rmsm::State& s = *rmsm_.s_;
-  if (!probe_.pipeline) probe_ = vk::createKernel(s.ctx, "rmsm_probe", spv_rmsm_probe_comp, 5, sizeof(sm::RmsmPush));
   std::vector<glm::uvec4> queries;
   for (const Probe& q : probes) {
     uint32_t sb, tb;
@@ -703,7 +701,7 @@ std::vector<glm::uvec4> RmsmInspector::probe(const std::vector<Probe>& probes) {
   p.count = uint32_t(queries.size());
   vk::Commands cmd(s.ctx);
   vk::Grid grid = vk::gridFor(queries.size(), SM_LIST_THREADS, s.ctx.maxWorkgroups());
-  cmd.dispatch(probe_, {in, s.tableBuf, s.pool, out, s.windowBuf}, p, grid.x, grid.y);
+  cmd.dispatch(kernel, {in, s.tableBuf, s.pool, out, s.windowBuf}, p, grid.x, grid.y);
   cmd.barrier();
   cmd.submit();
   return vk::download<glm::uvec4>(s.ctx, out, queries.size());

@@ -1,4 +1,4 @@
-// RMSM lookups shared by rmsm_lookup.comp and the test kernel rmsm_probe.comp: the page-table walk and
+// RMSM lookups shared by rmsm_lookup.comp and the test kernel tests/rmsm_probe.comp: the page-table walk and
 // the 2x2 percentage-closer filter inside one page. Include after the bindings: it reads `tables`
 // (uint per entry), `pool` (float per texel), `windows` (vec4 per face) and the push constants `pc` (RmsmPush).
 // (s, t) are window coordinates (sm_shared.h windowST: the whole face unless the faces are fitted).

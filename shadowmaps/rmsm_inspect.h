@@ -1,6 +1,7 @@
 // The tests' view into an Rmsm after its last run, kept out of the production class: the GPU's page
 // requests, the pruned list, the unique pages, the residency and the pool, pages installed by hand and
-// the page-table walk of rmsm.glsl run on chosen queries (rmsm_probe.comp). Nothing here runs in a frame.
+// the page-table walk of rmsm.glsl run on chosen queries (by tests/rmsm_probe.comp, which the test binary
+// builds). Nothing here runs in a frame.
 #pragma once
 #include <cstdint>
 #include <vector>
@@ -24,16 +25,17 @@ class RmsmInspector {
   // Makes exactly `keys` resident (through the page-table kernel) and fills each page's texels, apron
   // included, with `texel(key, X, Y)` (X, Y: texel coordinates within the page's level of its face).
   void installPages(const std::vector<uint32_t>& keys, float (*texel)(uint32_t key, uint32_t x, uint32_t y));
-  // findTexel() of rmsm.glsl for each query: (found, level, bits of the lower texel, of its diagonal).
+  // findTexel() of rmsm.glsl for each query: (found, level, bits of the lower texel, of its diagonal), run
+  // by `kernel`, the tests' rmsm_probe.comp (bindings: queries, page tables, pool, results, windows;
+  // push constants sm::RmsmPush).
   struct Probe {
     uint32_t face = 0, level = 0;
     float s = 0, t = 0;
   };
-  std::vector<glm::uvec4> probe(const std::vector<Probe>& probes);
+  std::vector<glm::uvec4> probe(const vk::Kernel& kernel, const std::vector<Probe>& probes);
 
  private:
   Rmsm& rmsm_;
-  vk::Kernel probe_;  // rmsm_probe.comp, made on first use
 };
 
 }  // namespace cs

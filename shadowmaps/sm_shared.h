@@ -166,7 +166,7 @@ struct CubeLookupPush {
   uint pad0, pad1, pad2;
 };
 
-// rmsm_requests.comp, rmsm_prune.comp, rmsm_lookup.comp, rmsm_probe.comp
+// rmsm_requests.comp, rmsm_prune.comp, rmsm_lookup.comp, tests/rmsm_probe.comp
 struct RmsmPush {
   vec4 light;          // xyz: the point light
   uint width, height;  // G-buffer

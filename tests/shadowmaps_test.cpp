@@ -22,6 +22,7 @@
 #include "shadowmaps/rmsm.h"
 #include "shadowmaps/rmsm_inspect.h"
 #include "shadowmaps/sm_shared.h"
+#include "tests/rmsm_probe.comp.h"
 #include "tests/shadowmap_test_support.h"
 #include "tests/test_context.h"
 
@@ -555,7 +556,8 @@ TEST(Rmsm, PageTableLookupsReturnTheInstalledPage) {
     }
     probes.push_back(p);
   }
-  std::vector<glm::uvec4> got = RmsmInspector(rmsm).probe(probes);
+  const vk::Kernel walk = vk::createKernel(test::context(), "rmsm_probe", spv_rmsm_probe_comp, 5, sizeof(sm::RmsmPush));
+  std::vector<glm::uvec4> got = RmsmInspector(rmsm).probe(walk, probes);
   ASSERT_EQ(got.size(), probes.size());
   for (size_t i = 0; i < probes.size(); ++i) {
     const RmsmInspector::Probe& p = probes[i];
@@ -580,7 +582,7 @@ TEST(Rmsm, PageTableLookupsReturnTheInstalledPage) {
   }
   // Replacing the resident set clears the old entries.
   RmsmInspector(rmsm).installPages({sm::pageKey(3, 0, 0, 0)}, patternTexel);
-  got = RmsmInspector(rmsm).probe({{3, 5, 0.3f, 0.6f}, {1, 5, 0.3f, 0.6f}});
+  got = RmsmInspector(rmsm).probe(walk, {{3, 5, 0.3f, 0.6f}, {1, 5, 0.3f, 0.6f}});
   EXPECT_EQ(got[0].x, 1u);
   EXPECT_EQ(got[0].y, 0u);
   EXPECT_EQ(got[1].x, 0u);

@@ -16,9 +16,9 @@
 #include "core/scene.h"
 #include "raster/raster.h"
 #include "rays/hilbert.h"
-#include "rays/hilbert_grid.comp.h"
 #include "rays/rays.h"
 #include "sort/sort.h"
+#include "tests/hilbert_grid.comp.h"
 #include "tests/test_context.h"
 
 namespace cs {

@@ -16,9 +16,9 @@
 
 #include "raster/raster.h"
 #include "method/epsilon.h"
+#include "tests/precise_probe.comp.h"
 #include "tests/test_context.h"
 #include "traversal/cone_method.h"
-#include "traversal/precise_probe.comp.h"
 #include "traversal/precise_test.h"
 #include "traversal/sphere_test.h"
 #include "traversal/traversal.h"

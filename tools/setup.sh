@@ -9,7 +9,7 @@ PACKAGES=(
   libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers
   glslang-tools glslang-dev spirv-tools
   libembree-dev libtbb-dev libglm-dev libtinygltf-dev libstb-dev nlohmann-json3-dev
-  libgtest-dev libbenchmark-dev libcli11-dev libassimp-dev libtinyexr-dev
+  libgtest-dev libcli11-dev libassimp-dev libtinyexr-dev
   assimp-testmodels
   librsvg2-dev chromium
   pybind11-dev python3-dev python3-numpy python3-pytest

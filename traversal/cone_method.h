@@ -1,4 +1,4 @@
-// The cone path as a shadow method (eval/method.h): lit samples -> Hilbert ray keys -> radix sort (sort/)
+// The cone path as a shadow method (method/method.h): lit samples -> Hilbert ray keys -> radix sort (sort/)
 // -> cone tree (conetree/) -> bounded breadth-first traversal with the precise test -> exact leaves
 // (traversal/). CLI name "cone". See traversal/traversal.h for the traversal and its memory bound.
 #pragma once

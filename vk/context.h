@@ -52,7 +52,7 @@ struct ContextOptions {
 };
 
 // What a frame costs the host, counted by vk/ since the context was made; a method reports the
-// difference over its frame (eval/method.h: the keys submits_per_frame, host_syncs_per_frame,
+// difference over its frame (method/method.h: the keys submits_per_frame, host_syncs_per_frame,
 // readback_bytes_per_frame, allocations_per_frame, dispatches_per_frame).
 struct HostCost {
   uint64_t submits = 0;        // queue submissions (Commands::submit)
@@ -290,7 +290,7 @@ struct BufferRange {
 
 // The whole buffer as a uniform texel buffer of `format` texels, for a kernel binding declared as one
 // (createKernel's texelBindings): on lavapipe texel fetches of 16-byte texels gather several times faster
-// than storage-buffer loads (TOOLCHAIN.md), on GPUs they read through the texture cache. The view is made
+// than storage-buffer loads (docs/ARCHITECTURE.md, "Memory access"), on GPUs they read through the texture cache. The view is made
 // on first use and kept with the buffer; cs::Error when the buffer holds more texels than the device's
 // maxTexelBufferElements. Formats: RGBA32F, RGBA32UI, and R32UI for uint arrays read one word a fetch
 // (all three are uniform texel buffer formats every Vulkan device supports).

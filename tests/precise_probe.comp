@@ -1,10 +1,10 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
-// Test kernel (tests/traversal_test.cpp): the GPU side of precise_test.h on arrays of cases, so the
+// Test kernel (tests/traversal_test.cpp): the GPU side of traversal/precise_test.h on arrays of cases, so the
 // property tests check the very code the traversal runs. Case i: cone = cones[i], triangle relative to the
 // apex = verts[3i..3i+2].xyz, eps = verts[3i].w (the leaf test's: verts[3i+1].w), leaf ray = rays[i]; result bit 0 = preciseConeTriangle,
 // bit 1 = leafHit (the leaf kernel's test; the apex at the origin, so the sample is at w), bit 2 = leafHitFromLight
-// (the leaf kernel's other test, traversal.h LeafTest).
+// (the leaf kernel's other test, traversal/traversal.h LeafTest).
 // bindings: 0 = cones (ConeNode), 1 = verts (vec4), 2 = rays (vec4: w, L), 3 = results (uint)
 #include "traversal/precise_test.h"
 #include "traversal/traverse.glsl"

@@ -1,8 +1,8 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
-// Test kernel: the page-table walk of rmsm.glsl for a list of queries (face, level, s, t). Writes per
-// query (found ? 1 : 0, found level, the raw bits of the footprint's lower texel, of its diagonal
-// neighbour).
+// Test kernel (tests/shadowmaps_test.cpp, run by RmsmInspector::probe): the page-table walk of
+// shadowmaps/rmsm.glsl for a list of queries (face, level, s, t). Writes per query (found ? 1 : 0, found
+// level, the raw bits of the footprint's lower texel, of its diagonal neighbour).
 // bindings: 0 = queries (uvec4: face, level, floatBits(s), floatBits(t)), 1 = tables, 2 = pool,
 //           3 = results (uvec4), 4 = the faces' windows (s, t are window coordinates)
 #include "shadowmaps/sm_shared.h"

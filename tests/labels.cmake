@@ -1,0 +1,228 @@
+# The ctest labels of coneshadow_tests (docs/DEVELOPING.md), read by ctest right after the discovered
+# tests (tests/CMakeLists.txt adds it to TEST_INCLUDE_FILES):
+#   unit  pure host logic: no Vulkan device, no coneshadow process, fast (the quick suite: ctest -L unit)
+#   gpu   needs the Vulkan device, in the test or in the coneshadow process it starts
+#   cli   runs the coneshadow executable
+#   slow  took over ~10 s in a full run on the 2-core lavapipe machine (CI's sanitizer pass leaves these
+#         out, but for the few that tools/sanitize.sh names)
+# A test named in no list below is `gpu`, so a new test is never left out: it runs in the full suite, and
+# joins the quick one when it is listed here. Patterns are gtest filters (Suite.Name,
+# `*` for any run of characters); a pattern that names no test, or a test in two of the lists unit, cli and
+# gpu_cli, is reported on every ctest run. How a test was put in its list: `unit` passes with no Vulkan
+# driver at all (VK_ICD_FILENAMES=/nonexistent.json) and never starts the CLI, `cli` starts
+# build/app/coneshadow, `slow` is from build/Testing/Temporary/CTestCostData.txt.
+
+set(cs_unit_tests
+  Aff.* AffBart.* AnimatedScene.* AnimationSampler.* AsmTree.* AssimpModels/GltfBroken.* AutomaticCameraAndLight.*
+  BuiltinMotion.* BuiltinScene.* ClusterOrder.* ClusterSphere.* ConeFrameChoice.* ConeMath.* EarlyAcceptCovered.*
+  EmbreeDevice.* EmbreeReference.* EpsilonPolicy.* FrameOutput.* GeometryCheck.* GeometryRevision.*
+  GltfBrokenFolders.* GltfLoader.* Grid.* ImageIo.* LeafHitFromLight.* LeafRayHitsTriangle.* LeafStep.*
+  LoaderHostile.* Metrics.* ResultsTable.* Scene.* SceneLoader.* SphereConeTriangle.* ThreadPool.*
+  TraversalArena.* Validation/TinyGltfBroken.* VariantSphereTest.*
+  AnimatedGltf.BrokenAnimationsFailWithOneClearError
+  AnimatedGltf.HandWrittenTranslationAnimationMovesTheTriangle
+  AnimatedGltf.MorphWeightChannelsAreIgnoredWithOneWarning
+  AnimatedGltf.SimpleSkinJointRotationAtKeyframesFollowsItsParents
+  Compare.CloseupStripIsNearestNeighbourSideBySide
+  Compare.CloseupWindowHoldsTheShadowBoundary
+  Compare.PlotToPngFailureIsAnErrorAndLeavesNoFile
+  ConeTree.CoherentRaysGiveTightCones
+  ConeTree.ImplicitIndexingMatchesAnExplicitlyGroupedTree
+  ConeTree.ShapeOfTheLargestTreesDoesNotOverflow
+  Context.VulkanFailuresNameTheCallTheResultAndWhatToDo
+  Hilbert.ConsecutiveIndicesAreNeighbouringCells
+  MemoryBudget.TimedFramesKeepNoMaskOfTheirOwn
+  PreciseConeTriangle.FarFrameMarginsStayConservativeAndReject
+  PreciseConeTriangle.NeverRejectsAPairThatABruteForceSearchFindsIntersecting
+  PreciseConeTriangle.RejectsTheClearCasesOfEachTest
+  RayKeys.AFittedGridIsTheFacesGridZoomedOntoItsBox
+  RayKeys.FaceIsTheMajorAxisWithTiesGoingToTheLowestAxis
+  RayKeys.FaceSlotsShareOutTheKeySpaceByTheSubsetsCounts
+  RayKeys.OrderedBitsSortAsTheFloatsDo
+  Registry.ABuiltinNameIsTakenOnceAndEveryBuiltinDeclaresItself
+  Rmsm.BackupPagesAreOneWholeLevelOfEveryFaceInUse
+  Rmsm.CoarsenToFitReplacesPagesByTheirAncestors
+  Rmsm.LayoutFollowsTheOptionsAndRejectsWhatCannotWork
+  Rmsm.LodMatchesHandComputedCases
+  Rmsm.PageKeysRoundTripAndSortByFaceLevelThenZOrder
+  Rmsm.SuperpagesCoverEveryPageOnceWithinTheirWindow
+  Rtw.ImportanceFunctionsMatchHandComputedCases
+  Rtw.ImportanceListsParseAndWhatCannotWorkIsAUsageError
+  Rtw.KnotsAreMonotoneCoverTheUnitIntervalAndGiveCulledCellsNoWidth
+  Rtw.KnotsGiveEachCellItsShareOfTheImportance
+  Rtw.WarpAndUnwarpInvertEachOtherInsideEveryLiveCell
+  Scaling.CopiesGrowByFourUpToTheTriangleBound
+  Scaling.InstancedCopiesAreTranslatedBeyondTheBounds
+  ShadowMaps.EveryDirectionHasOneFaceWithCoordinatesInside
+  ShadowMaps.WindowClipMapsFaceTexelsOntoTheWindow
+  SortSizing.ScanLevelsShrinkByOneBlockUntilOneBlockRemains
+  SortSizing.ScreenDomainCoversTheImageWithWholeMortonTiles
+  StagedDir.AFileAddedToAnEarlierOutputKeepsTheFolderFromBeingReplaced
+  StagedDir.AFolderConeshadowDidNotWriteIsRefusedAndLeftAlone
+  StagedDir.ANewFolderAppearsOnlyAtCommitWithItsMarker
+  StagedDir.ARunReplacesItsPreviousOutputAsAWholeAndAFailedOneLeavesItAsItWas
+  StagedDir.AnOutputFolderNeverHoldsTheCurrentFolderOrTheScene
+  StagedDir.OnlyTheMarkerSaysAFolderIsConeshadowsNotAResultsFile
+  StagedDir.PathWithinComparesNormalPaths
+  TinyGltf.AccessorWithoutBufferViewIsZerosUnderItsSparseValues
+  TinyGltf.CamerasLightsAndSkippedPrimitivesEachOneWarningLine
+  TinyGltf.DeeplyNestedExtrasAreRefusedNotACrash
+  TinyGltf.IntegersWrittenAsWholeFloatsReadAsTheIntegersTheyAre
+  TinyGltf.MirroredNodeFlipsWindingSoNormalsAgree
+  TinyGltf.NoScenesDrawsEveryRootNode
+  TinyGltf.NodeTransformsPlaceTrianglesInWorldSpace
+  TinyGltf.SparseAccessorOverridesItsBase)
+
+# The CLI where it never reaches the device: usage, help, info and errors before the device starts.
+set(cs_cli_tests
+  Cli.HelpDocumentsCommandsAndExitCodes
+  Cli.InfoPrintsTheFlattenedTriangleCountAndBoundsOf2CylinderEngine
+  Cli.MalformedSceneIsOneLineNamingTheFileAndLeavesNoOutput
+  Cli.UnknownViewListsTheViews
+  Cli.UnwritableOutputIsAClearFailure
+  Cli.UsageErrorsExitWithTwo
+  Cli.VersionAndPerCommandHelp
+  Compare.UnknownMethodIsAUsageErrorNamingIt
+  DynamicCompare.FlagsOutsideADynamicCompareAreUsageErrors)
+
+# The CLI rendering on the device.
+set(cs_gpu_cli_tests
+  LightDistances.* ReportScreenshot.* ResultsSchema.*
+  AnimatedGltf.AnAnimationPastFp32RangeIsOneClearErrorNotACrash
+  Cli.AFrameWhoseBandCoversItsSamplesIsUndecidedInEveryResult
+  Cli.ALightTooFarForFp32RayLengthsIsAUsageErrorBeforeAnyOutput
+  Cli.AProcessThatCannotStartThreadsGetsOneClearLine
+  Cli.ASettingNoChosenMethodTakesIsAUsageErrorNamingIt
+  Cli.ATinyLightCoordinateIsAFiniteNumber
+  Cli.BadUserScenesAreOneLineEachAndWriteNothing
+  Cli.BartSceneRendersAtASceneTimeFromItsCameraTrack
+  Cli.BothOptionFormsAndAnyCaseGiveTheSameRun
+  Cli.EveryMemoryLimitGivesACompleteResultOrOneClearLineAndNoOutput
+  Cli.ManyFramesKeepOneMask
+  Cli.RenderRunsSeveralMethodsOnOneSetOfSamplesAndTheConePathIsExact
+  Cli.RenderWritesImagesResultsAndDump
+  Cli.UserScenesInObjPlyAndStlLoadAndRender
+  Compare.SkipsWhatTheDeviceCannotRunAndSaysWhy
+  Compare.TinyBuiltinRunWritesConsistentReports
+  DynamicCompare.AnimatedFileRunsOverItsKeyTimes
+  DynamicCompare.BartMuseumPlaysItsAnimatedArtAndItsCameraTrack
+  DynamicCompare.BuiltinMotionEveryMethodPaysPerFrameAndTheConePathIsExactOnEveryFrame
+  DynamicCompare.StaticFileNeedsMovingCameraThenRmsmRunsRebuiltAndCached
+  MemoryBudget.TheCliTakesItAndRefusesWhatCannotHoldWithNoOutput
+  Scaling.TinySweepWritesFilesWithCsvMatchingJson
+  StagedDir.AnInterruptedRunLeavesNoStagingFolderAndExitsWithTheSignal
+  StagedDir.NoCommandReplacesAUsersFolderOrTheScenesFolder
+  StagedDir.RenderWritesNestedOutAndDumpFoldersTogether
+  TinyGltf.CameraNamesNeverBecomePathsOutsideTheOutputFolder)
+
+set(cs_slow_tests
+  Api.EightLightsInOneFrameEqualOneLightFramesOnTheBartMuseum
+  Api.EightLightsInOneFrameEqualOneLightFramesOnTheBuiltinScene
+  Cli.EveryMemoryLimitGivesACompleteResultOrOneClearLineAndNoOutput
+  Compare.SkipsWhatTheDeviceCannotRunAndSaysWhy
+  Compare.TinyBuiltinRunWritesConsistentReports
+  ConeExactness.BartMuseumKitchenAndRobotsFromTheirViewsAndLights
+  ConeExactness.BuiltinSceneFromEveryViewAndTwoLights
+  ConeExactness.GltfModelsOnAGroundPlaneFromTwoLightsOneCloseToASurface
+  ConeFrame.OneSubmissionOneHostSyncNoAllocationAfterWarmUp
+  ConeHardCases.FarLightOnTheBartMuseum
+  ConeHardCases.FarLightOnTheBuiltinSceneAndAGltfModel
+  ConeHardCases.FarLightsFromTenToATenThousandThousandDiagonals
+  ConeHardCases.FarLightsGrazingTheWallsOfTheClosedRoom
+  ConeHardCases.FarLightsOutsideClosedScenesAreExactAndDecided
+  ConeHardCases.LightExactlyOnAVertexAndOnAnEdge
+  ConeHardCases.LightInsideAClosedMesh
+  ConeHardCases.LightInsideAThinSlab
+  ConeHardCases.LightsEitherSideOfTheFarFramesThreshold
+  ConeHardCases.NonFiniteTrianglesAreDroppedAsEmbreeDropsThem
+  ConeHardCases.OneHugeTriangleCoveringTheView
+  ConeMethod.ALastExpansionThatOverflowsIsRedoneWithTheSameMask
+  ConeMethod.LeafPairsOfFourSixteenOrSixtyFourRaysGiveTheSameMaskAndSkipTheLastSteps
+  ConeMethod.MaskEqualsTheLeafTestOnEveryPairSortedOrNot
+  ConeMethod.SpheresWrittenOnSeveralThreadsKeepTheMask
+  MemoryBudget.EveryVariantKeepsItsMaskUnderATightBudget
+  RadixSortLookBack.CountingAnUnpublishedTileItselfGivesTheSameSort
+  Registry.EveryRegisteredMethodKeepsTheMethodContract
+  ReportScreenshot.ChromiumShowsVerdictLegendPlotsAndThumbnailsThatKeepEveryErrorPixel
+  TinyGltf.CameraNamesNeverBecomePathsOutsideTheOutputFolder
+  TwoPass.BitIdenticalAtATinyTraversalMemoryAndAcrossRuns
+  VariantExactness.EveryVariantIsExactAndBitIdenticalOnTheBuiltinScene
+  VariantExactness.EveryVariantIsExactOnAGltfModel
+  VariantFrontFaceCulling.IsExactOnClosedMeshesAndTestsFewerPairs
+  VariantNames.MapToTheirOptionsAndTheSwitchesCombine)
+
+# ---- applying them --------------------------------------------------------------------------------------
+
+cmake_policy(PUSH)
+cmake_policy(VERSION 3.25)  # ctest reads this file under its own, older policies
+
+# A gtest filter pattern as a regular expression over the ctest name (a value-parameterised test's name
+# ends in "  # GetParam() = ...").
+function(cs_pattern_regex pattern out)
+  string(REGEX REPLACE "([][.+?^$()|\\\\])" "\\\\\\1" re "${pattern}")
+  string(REPLACE "*" ".*" re "${re}")
+  set(${out} "^${re}( +#.*)?$" PARENT_SCOPE)
+endfunction()
+
+if(DEFINED coneshadow_tests_TESTS)  # absent while the binary is not built: ctest then says so itself
+  set(cs_unmatched)
+  foreach(list cs_unit_tests cs_cli_tests cs_gpu_cli_tests cs_slow_tests)
+    set(${list}_regex)
+    foreach(pattern IN LISTS ${list})
+      cs_pattern_regex("${pattern}" re)
+      list(APPEND ${list}_regex "${re}")
+      set(matched FALSE)
+      foreach(test IN LISTS coneshadow_tests_TESTS)
+        if(test MATCHES "${re}")
+          set(matched TRUE)
+          break()
+        endif()
+      endforeach()
+      if(NOT matched)
+        list(APPEND cs_unmatched "${pattern}")
+      endif()
+    endforeach()
+  endforeach()
+  if(cs_unmatched)
+    list(JOIN cs_unmatched ", " names)
+    message(WARNING "tests/labels.cmake names tests that do not exist (renamed or removed?): ${names}")
+  endif()
+
+  foreach(test IN LISTS coneshadow_tests_TESTS)
+    set(kinds)
+    foreach(kind unit cli gpu_cli slow)
+      foreach(re IN LISTS cs_${kind}_tests_regex)
+        if(test MATCHES "${re}")
+          list(APPEND kinds ${kind})
+          break()
+        endif()
+      endforeach()
+    endforeach()
+    set(labels)
+    if("unit" IN_LIST kinds)
+      set(labels unit)
+    elseif("cli" IN_LIST kinds)
+      set(labels cli)
+    elseif("gpu_cli" IN_LIST kinds)
+      set(labels gpu cli)
+    else()
+      set(labels gpu)
+    endif()
+    list(REMOVE_ITEM kinds slow)
+    list(LENGTH kinds n)
+    if(n GREATER 1)
+      message(WARNING "tests/labels.cmake: '${test}' is in more than one of unit, cli and gpu_cli")
+    endif()
+    foreach(re IN LISTS cs_slow_tests_regex)
+      if(test MATCHES "${re}")
+        if(labels STREQUAL "unit")
+          message(WARNING "tests/labels.cmake: '${test}' is listed as unit and as slow; a unit test is fast")
+        endif()
+        list(APPEND labels slow)
+        break()
+      endif()
+    endforeach()
+    set_tests_properties("${test}" PROPERTIES LABELS "${labels}")
+  endforeach()
+endif()
+cmake_policy(POP)
