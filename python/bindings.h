@@ -72,9 +72,10 @@ void bindScenes(py::module_& m);
 void bindFrames(py::module_& m);
 void bindSamples(py::module_& m);
 
-// The light a frame takes when none is given, and the check of one that is, as the CLI's chooseLight
-// (app/frame_runner.h): the scene's first point light, else an automatic one (a warning); a given light
-// too far for fp32 ray lengths is a ValueError, the scene's own a RuntimeError.
+// The lights of a run, each a frame, as the CLI's chooseLights (app/frame_runner.h): the lights given
+// ((3,) or (L, 3)); 'all', every point light of the scene (--all-lights); None, the scene's first point
+// light, else an automatic one (a warning). A given light too far for fp32 ray lengths is a ValueError,
+// the scene's own a RuntimeError.
 std::vector<glm::vec3> framesLights(const Scene& scene, py::handle lights);
 // The camera of a frame: a Camera, a view name of the scene, or None (the scene's first camera, else an
 // automatic one, with a warning).

@@ -153,6 +153,21 @@ void warnLines(const std::string& text) {
 }
 
 std::vector<glm::vec3> framesLights(const Scene& scene, py::handle lights) {
+  if (py::isinstance<py::str>(lights)) {  // the CLI's --all-lights
+    if (lights.cast<std::string>() != "all")
+      usage("lights: expected one light (x, y, z), several (L, 3), 'all' or None, got '" + lights.cast<std::string>() + "'");
+    if (scene.lights.empty())
+      usage("lights='all': scene " + scene.name + " has no point light" +
+            (scene.unusableLights.empty() ? std::string() : " (its light " + scene.unusableLights.front() + " is not a point light)") +
+            "; give one or more as lights=");
+    std::vector<glm::vec3> out;
+    for (const PointLight& l : scene.lights) {
+      if (std::string why = lightRangeProblem(l.position, scene.boundsMin, scene.boundsMax); !why.empty())
+        throw Error(why, "scene " + scene.name + ", light '" + l.name + "'", "give a closer one with lights=");
+      out.push_back(l.position);
+    }
+    return out;
+  }
   if (!lights.is_none()) {
     std::vector<glm::vec3> out = lightsOf(lights, "lights");
     for (size_t l = 0; l < out.size(); ++l)

@@ -32,8 +32,8 @@ class Frame:
     """The result of :func:`render`: one view under one light, or under several.
 
     With one light, each per-light array is (H, W) and each per-light list of rows is a plain dict; with
-    several lights (``lights`` of shape (L, 3)), they gain a leading axis of length L (arrays (L, H, W),
-    rows lists of L dicts), in the order the lights were given.
+    several lights (``lights`` of shape (L, 3), or ``'all'``), they gain a leading axis of length L
+    (arrays (L, H, W), rows lists of L dicts), in the order the lights were given.
 
     Attributes:
         visibility: dict method -> float32 (H, W) or (L, H, W): 1 lit, 0 shadowed, in between where a
@@ -88,6 +88,8 @@ class Frame:
 def _several(lights):
     if lights is None:
         return False
+    if isinstance(lights, str):
+        return True  # 'all'
     try:
         import numpy as np
         return np.ndim(lights) == 2
@@ -102,8 +104,9 @@ def render(scene, camera=None, lights=None, width=512, height=512, methods=None,
         scene: a :class:`Scene`.
         camera: a :class:`Camera`, a view name of the scene, or None: the scene's first camera, else an
             automatic one (a warning), as the CLI.
-        lights: one point light (x, y, z) or several, shape (L, 3); None: the scene's first point light,
-            else an automatic one (a warning), as the CLI.
+        lights: one point light (x, y, z) or several, shape (L, 3), each a frame (the CLI's --light given
+            several times); ``'all'``: every point light of the scene (--all-lights); None: the scene's
+            first point light, else an automatic one (a warning), as the CLI.
         width, height: the camera pass's size (1 to 16384).
         methods: a method name or a list of them (:func:`methods`); None: the reference alone, as the CLI's
             render. The reference (``'embree'``) is always the first row.

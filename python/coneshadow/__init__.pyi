@@ -7,6 +7,7 @@ import numpy.typing as npt
 
 Vec3 = Union[Tuple[float, float, float], Sequence[float], npt.ArrayLike]
 Lights = Union[Vec3, Sequence[Vec3], npt.ArrayLike]
+FrameLights = Union[Lights, Literal['all']]
 Row = Dict[str, Any]
 
 class Camera:
@@ -86,10 +87,10 @@ class Frame:
     def methods(self) -> List[str]: ...
     def error(self, method: str) -> Union[Row, List[Row]]: ...
 
-def render(scene: Scene, camera: Union[Camera, str, None] = None, lights: Optional[Lights] = None, width: int = 512,
+def render(scene: Scene, camera: Union[Camera, str, None] = None, lights: Optional[FrameLights] = None, width: int = 512,
            height: int = 512, methods: Union[str, Sequence[str], None] = None,
            settings: Optional[Dict[str, Union[str, int, float, bool]]] = None, frames: int = 3) -> Frame: ...
-def compare(scene: Scene, views: Optional[Sequence[Union[Camera, str]]] = None, lights: Optional[Lights] = None,
+def compare(scene: Scene, views: Optional[Sequence[Union[Camera, str]]] = None, lights: Optional[FrameLights] = None,
             width: int = 256, height: int = 256, methods: Union[str, Sequence[str], None] = None,
             settings: Optional[Dict[str, Union[str, int, float, bool]]] = None, frames: int = 3,
             interleave: bool = False, out: Union[str, PathLike[str], None] = None) -> List[Row]: ...

@@ -78,6 +78,12 @@ def test_bad_frames(builtin):
         coneshadow.render(builtin, camera="nowhere")
     with pytest.raises(ValueError, match=r"methods: the list names no method"):
         coneshadow.render(builtin, methods=[])
+    with pytest.raises(ValueError, match=r"lights: expected one light \(x, y, z\), several \(L, 3\), 'all' or None"):
+        coneshadow.render(builtin, lights="every")
+    with pytest.raises(ValueError, match=r"lights='all': scene arrays has no point light"):
+        tri = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
+        cam = coneshadow.Camera((0, 0, 3), (0, 0, 0))
+        coneshadow.render(coneshadow.Scene.from_arrays(tri, np.array([[0, 1, 2]], np.uint32), cameras=[cam]), lights="all")
 
 
 def test_scene_errors(tmp_path):

@@ -63,20 +63,29 @@ def test_every_method_has_the_cli_masks_and_samples(every_method):
     assert frame.band.sum() == rows[0]["stats"]["band_samples"]
 
 
-def test_several_lights_give_a_leading_axis(builtin):
+def test_several_lights_are_the_clis_frames(builtin, cli, tmp_path):
     lo, hi = map(np.array, builtin.bounds)
-    lights = [lo + (hi - lo) * [0.5, 0.8, 0.5], lo + (hi - lo) * [0.3, 0.7, 0.6]]
-    frame = coneshadow.render(builtin, lights=np.array(lights), methods=["cone"], width=32, height=32, frames=1)
+    lights = np.array([lo + (hi - lo) * [0.5, 0.8, 0.5], lo + (hi - lo) * [0.3, 0.7, 0.6]], np.float32)
+    frame = coneshadow.render(builtin, lights=lights, methods=["cone"], width=32, height=32, frames=1)
     assert frame.visibility["cone"].shape == (2, 32, 32)
     assert frame.lit.shape == frame.band.shape == frame.reference.shape == (2, 32, 32)
     assert len(frame.results["cone"]) == 2 and len(frame.rows) == 4
-    for l, row in enumerate(frame.results["cone"]):
-        assert row["error"]["misclassified_outside_band"] == 0
-        np.testing.assert_allclose(row["provenance"]["light"], lights[l], rtol=1e-6)
-        # each light's frame is the one-light frame
+    args = [cli, "render", "--methods", "cone", "--width", "32", "--height", "32", "--frames", "1", "--quiet",
+            "--out", str(tmp_path)]
+    for l in lights:
+        args += ["--light", ",".join(repr(float(x)) for x in l)]
+    subprocess.run(args, check=True, stdout=subprocess.DEVNULL)
+    rows = json.loads((tmp_path / "results.json").read_text())
+    assert [(r["method"], r["stats"]["light_index"]) for r in frame.rows] == \
+        [(r["method"], r["stats"]["light_index"]) for r in rows]
+    for mine, theirs in zip(frame.rows, rows):
+        assert mine["error"] == theirs["error"] and mine["stats"]["light"] == theirs["stats"]["light"]
+    # Each light's frame is its one-light frame; 'all' is every light of the scene (the CLI's --all-lights).
     one = coneshadow.render(builtin, lights=lights[1], methods=["cone"], width=32, height=32, frames=1)
     np.testing.assert_array_equal(one.visibility["cone"], frame.visibility["cone"][1])
     assert one.results["cone"]["error"] == frame.results["cone"][1]["error"]
+    every = coneshadow.render(builtin, lights="all", methods=["cone"], width=32, height=32, frames=1)
+    assert every.visibility["cone"].shape == (len(builtin.lights), 32, 32)
 
 
 def test_compare_returns_the_rows_it_writes(builtin, tmp_path):
