@@ -12,7 +12,7 @@ PACKAGES=(
   libgtest-dev libcli11-dev libassimp-dev libtinyexr-dev
   assimp-testmodels
   librsvg2-dev chromium
-  pybind11-dev python3-dev python3-numpy python3-pytest
+  pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib
 )
 
 source tools/install_missing.sh
