@@ -39,7 +39,7 @@ struct Context::Impl {
   std::vector<cs::EngineInstance> engineInstances;
   float eps = 0;  // the along-ray epsilon of the scene's policy (method/epsilon.h), as the bench's harness uses
   cs::DeviceGBuffer samples;
-  std::vector<float> lights;
+  std::vector<glm::vec3> lights;  // the frame's lights, kept to reuse its storage
 
   ~Impl() {
     samples = {};  // buffers before the engine, the engine before the context
@@ -281,11 +281,10 @@ void Context::recordFrame(const FrameDesc& d) {
     region.imageExtent = {d.width, d.height, 1};
     vkCmdCopyImageToBuffer(d.commandBuffer, d.positionImage, VK_IMAGE_LAYOUT_GENERAL, s.samples.position.buffer, 1, &region);
     vkCmdCopyImageToBuffer(d.commandBuffer, d.normalImage, VK_IMAGE_LAYOUT_GENERAL, s.samples.normal.buffer, 1, &region);
-    s.lights.assign(d.lights, d.lights + 3 * d.lightCount);
-    std::vector<glm::vec3> lights(d.lightCount);
-    for (uint32_t l = 0; l < d.lightCount; ++l) lights[l] = {d.lights[3 * l], d.lights[3 * l + 1], d.lights[3 * l + 2]};
+    s.lights.resize(d.lightCount);
+    for (uint32_t l = 0; l < d.lightCount; ++l) s.lights[l] = {d.lights[3 * l], d.lights[3 * l + 1], d.lights[3 * l + 2]};
     // the engine's first command is a barrier: the copies are done before it reads the samples
-    s.engine->record(cmd, s.samples, lights, s.eps, d.frame, [&](uint32_t l, const cs::vk::Buffer& mask) {
+    s.engine->record(cmd, s.samples, s.lights, s.eps, d.frame, [&](uint32_t l, const cs::vk::Buffer& mask) {
       VkBufferImageCopy out{};
       out.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, l, 1};
       out.imageExtent = {d.width, d.height, 1};
