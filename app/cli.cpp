@@ -15,7 +15,7 @@ namespace cs {
 
 namespace {
 
-const std::vector<std::string> kCommands = {"render", "compare", "info", "results-table", "devices", "help"};
+const std::vector<std::string> kCommands = {"render", "compare", "view", "info", "results-table", "devices", "help"};
 
 std::vector<std::string> splitList(const std::string& flag, const std::string& v) {
   std::vector<std::string> items;
@@ -182,6 +182,7 @@ std::string usageText() {
          "  coneshadow compare [SCENE] [options]  every method's sweep on every view, against one Embree\n"
          "                                        reference per view; writes a report (also --animate N,\n"
          "                                        --scaling, --light-distances D1,D2: separate runs)\n"
+"  coneshadow view [SCENE] [options]     every method live in a window, Embree beside it (keys: H in the window)\n"
          "  coneshadow info SCENE                 triangles (flattened over node instances), bounds, cameras, lights\n"
          "  coneshadow results-table [--host-cost] DIR...\n"
          "                                        markdown table of the compare results in each DIR (docs/RESULTS.md's)\n"
@@ -250,6 +251,7 @@ Options parseArgs(int argc, char** argv) {
 
   CLI::App* render = app.add_subcommand("render", "one frame with one or more methods, each judged against Embree");
   CLI::App* compare = app.add_subcommand("compare", "every method's sweep on every view, against one Embree reference");
+  CLI::App* view = app.add_subcommand("view", "every method live in a window, the Embree reference beside it");
   CLI::App* info = app.add_subcommand("info", "triangles, bounds, cameras and lights of a scene");
   CLI::App* table = app.add_subcommand("results-table", "markdown table of the compare results in each folder");
   CLI::App* devices = app.add_subcommand("devices", "list the Vulkan devices");
@@ -257,7 +259,7 @@ Options parseArgs(int argc, char** argv) {
   std::string helpTopic;
   help->add_option("command", helpTopic, "a command");
 
-  for (CLI::App* sub : {render, compare}) {
+  for (CLI::App* sub : {render, compare, view}) {
     sub->allow_extras();
     sub->add_option("scene", o.scene,
                     "a glTF 2.0 (.gltf/.glb), BART (.aff) or other 3-D file assimp reads (.obj, .ply, .stl, .fbx, .dae, "
@@ -272,6 +274,23 @@ Options parseArgs(int argc, char** argv) {
                      "also write position.pfm, normal.pfm, visibility_<m>.pfm, band.pfm, meta.json to this folder")->type_name("DIR");
   render->footer("writes into --out DIR (default out): <m>_shaded.png, <m>_mask.png, <m>_diff.png for Embree and each\n"
                  "method, results.json and results.csv (one row per method, all on the same samples)");
+
+  view->add_option("--view", o.view, "the camera shown first, by name (default: the scene's first camera)")->type_name("NAME");
+  view->add_option("--script", o.script,
+                   "replay input from FILE, one command a line: method M, set NAME [VALUE], light X Y Z, move-light DX DY DZ, "
+                   "camera NAME, orbit YAW PITCH, display shaded|mask|diff, wait N, wait-reference, screenshot FILE, quit")
+      ->type_name("FILE");
+  view->add_option("--screenshot", o.screenshot, "write the window's last frame to FILE (PNG, and its results row as .json); "
+                                                 "with --frames N, after N frames")->type_name("FILE");
+  view->add_flag("--hide-ui", o.hideUi, "no panels over the image (screenshots)");
+  view->add_flag("--stats", o.stats, "print the frame loop's counters at exit: submissions, presents, host syncs and "
+                                      "device allocations a frame");
+  view->add_option("--display", o.display, "shaded, mask or diff (against Embree, in the CLI's colours)")
+      ->type_name("MODE")
+      ->check(CLI::IsMember({"shaded", "mask", "diff"}));
+  view->footer("the window: left drag orbits, shift + left drag moves the light, W A S D Q E fly, Tab next method,\n"
+               "1 2 3 shaded / mask / diff, P screenshot, R reset, U panels, H help. --frames N: exit after N frames.\n"
+               "Needs a window system (DISPLAY; under Xvfb: xvfb-run -a coneshadow view ...).");
 
   compare->add_option("--views", raw.views, "cameras by name V1,V2 (default: every camera of the scene)")->type_name("V1,V2");
   compare->add_option("--animate", o.animateFrames,
@@ -338,20 +357,20 @@ Options parseArgs(int argc, char** argv) {
     o.text = usageText();
     if (!helpTopic.empty()) {
       CLI::App* topic = nullptr;
-      for (CLI::App* s : {render, compare, info, table, devices})
+      for (CLI::App* s : {render, compare, view, info, table, devices})
         if (s->get_name() == helpTopic) topic = s;
       if (!topic) throw UsageError("help: unknown command '" + helpTopic + "'" + didYouMean(helpTopic, kCommands));
       o.text = topic->help("coneshadow");
     }
     return o;
   }
-  if (sub == render || sub == compare) refuseUnknown(sub->remaining(), *sub, sub == render ? *compare : *render);
+  if (sub == render || sub == compare || sub == view) refuseUnknown(sub->remaining(), *sub, sub == render ? *compare : *render);
   if (sub == info && o.scene.empty()) throw UsageError("info needs a SCENE (a .gltf/.glb file, or builtin)");
   if ((sub == info || sub == devices) && !sub->remaining().empty())
     throw UsageError(sub->get_name() + " takes " + (sub == info ? "one SCENE" : "no arguments") + "; '" +
                      sub->remaining().front().substr(0, 60) + "' is one too many");
   if (sub == table && o.folders.empty()) throw UsageError("results-table needs one or more folders written by coneshadow compare");
-  if (sub != render && sub != compare) return o;
+  if (sub != render && sub != compare && sub != view) return o;
 
   // Values converted here, so each bad one is a one-line error naming its flag.
   for (const std::string& light : raw.lights) o.lights.push_back(parseVec3("--light", light));
@@ -392,6 +411,13 @@ Options parseArgs(int argc, char** argv) {
 
   // Methods: render runs the reference alone when none is named.
   if (sub == render && o.methods.empty()) o.methods = {referenceMethod().name};
+  if (sub == view) {  // the cone path first; its frames count from 1 and are not timed repeats
+    if (o.methods.empty()) o.methods = {"cone"};
+    if (view->count("--frames") == 0) o.frames = 0;
+    if (o.allLights || o.lights.size() > 1) throw UsageError("view shows one light at a time: give at most one --light");
+    if (!o.screenshot.empty() && o.frames == 0 && o.script.empty())
+      throw UsageError("--screenshot writes the last frame of a run that ends by itself: give --frames N or a --script");
+  }
   std::vector<const MethodInfo*> chosen = chosenMethods(o);
   o.methods.clear();
   for (const MethodInfo* m : chosen) o.methods.push_back(m->name);

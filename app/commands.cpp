@@ -12,6 +12,7 @@
 #include <sstream>
 #include <unistd.h>
 
+#include "app/dynamic.h"
 #include "app/frame_runner.h"
 #include "core/image_io.h"
 #include "judge/frame_output.h"
@@ -19,6 +20,7 @@
 #include "harness/harness.h"
 #include "harness/run.h"
 #include "method/epsilon.h"
+#include "viewer/viewer.h"
 #include "vk/context.h"
 
 namespace fs = std::filesystem;
@@ -62,6 +64,27 @@ Scene loadSceneArg(const Options& o, std::ostream& log) {
 int runDevices(const Options&) {
   for (auto& line : vk::listDevices()) std::cout << line << "\n";
   return kExitOk;
+}
+
+int runView(const Options& o) {
+  viewer::ViewerSpec spec;
+  if (o.sceneTime) spec.scene = loadSceneArg(o, std::cerr);  // a BART scene placed at --time: held there
+  else spec.animation = viewerAnimation(o, spec.scene);
+  spec.light = chooseLights(spec.scene, o).front();
+  for (const MethodInfo* m : chosenMethods(o)) spec.methods.push_back({m, settingsFor(o, *m)});
+  spec.view = o.view;
+  spec.width = o.width;
+  spec.height = o.height;
+  spec.script = o.script;
+  spec.screenshot = o.screenshot;
+  spec.frames = o.frames;
+  spec.hideUi = o.hideUi;
+  spec.stats = o.stats;
+  spec.display = uint32_t(std::find(std::begin(viewer::kDisplayNames), std::end(viewer::kDisplayNames), o.display) -
+                          std::begin(viewer::kDisplayNames));
+  spec.device = o.device;
+  spec.commandLine = o.commandLine;
+  return viewer::runViewer(std::move(spec));
 }
 
 int runInfo(const Options& options) {

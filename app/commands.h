@@ -10,6 +10,7 @@ int runMain(int argc, char** argv);
 int runInfo(const Options& options);
 int runRender(const Options& options);
 int runDevices(const Options& options);
+int runView(const Options& options);  // viewer/: the window
 
 // SCENE of the command line: the built-in scene, a glTF file, or a BART .aff file at --time.
 Scene loadSceneArg(const Options& options, std::ostream& log);

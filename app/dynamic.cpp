@@ -101,6 +101,22 @@ Motion loadMotion(const Options& o) {
   return m;
 }
 
+}  // namespace
+
+std::optional<viewer::Animation> viewerAnimation(const Options& o, Scene& rest) {
+  auto m = std::make_shared<Motion>(loadMotion(o));
+  rest = m->rest;
+  if (!m->animated) return std::nullopt;
+  viewer::Animation a;
+  a.pose = [m](double t, Scene& scene) { m->pose(t, scene); };
+  a.start = m->start;
+  a.end = m->end;
+  a.cyclic = m->cyclic;
+  return a;
+}
+
+namespace {
+
 std::string num(double v, int prec) {
   std::ostringstream os;
   os << std::fixed << std::setprecision(prec) << v;

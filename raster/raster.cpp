@@ -206,6 +206,23 @@ void Raster::destroyTargets() {
   width_ = height_ = 0;
 }
 
+bool recordCameraDraw(VkCommandBuffer cb, VkPipeline pipeline, VkPipelineLayout layout, const DeviceScene& scene,
+                      const RasterPush& push, uint32_t width, uint32_t height) {
+  vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
+  VkViewport viewport{0, 0, float(width), float(height), 0.0f, 1.0f};
+  VkRect2D scissor{{0, 0}, {width, height}};
+  vkCmdSetViewport(cb, 0, 1, &viewport);
+  vkCmdSetScissor(cb, 0, 1, &scissor);
+  vkCmdPushConstants(cb, layout, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
+  if (!scene.indexCount) return false;
+  VkBuffer vbs[2] = {scene.positions.buffer, scene.normals.buffer};
+  VkDeviceSize offsets[2] = {0, 0};
+  vkCmdBindVertexBuffers(cb, 0, 2, vbs, offsets);
+  vkCmdBindIndexBuffer(cb, scene.indices.buffer, 0, VK_INDEX_TYPE_UINT32);
+  vkCmdDrawIndexed(cb, scene.indexCount, 1, 0, 0, 0);
+  return true;
+}
+
 RasterTiming Raster::render(const Camera& camera, glm::vec3 light, uint32_t width, uint32_t height,
                             DeviceGBuffer& out, GBuffer* host) {
   if (width != width_ || height != height_) createTargets(width, height);
@@ -238,17 +255,7 @@ RasterTiming Raster::render(const Camera& camera, glm::vec3 light, uint32_t widt
   bi.clearValueCount = colors + 1;
   bi.pClearValues = clears;
   vkCmdBeginRenderPass(cb, &bi, VK_SUBPASS_CONTENTS_INLINE);
-  vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
-  VkViewport viewport{0, 0, float(width), float(height), 0.0f, 1.0f};
-  VkRect2D scissor{{0, 0}, {width, height}};
-  vkCmdSetViewport(cb, 0, 1, &viewport);
-  vkCmdSetScissor(cb, 0, 1, &scissor);
-  vkCmdPushConstants(cb, layout_, VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
-  VkBuffer vbs[2] = {scene_.positions.buffer, scene_.normals.buffer};
-  VkDeviceSize offsets[2] = {0, 0};
-  vkCmdBindVertexBuffers(cb, 0, 2, vbs, offsets);
-  vkCmdBindIndexBuffer(cb, scene_.indices.buffer, 0, VK_INDEX_TYPE_UINT32);
-  if (scene_.indexCount) vkCmdDrawIndexed(cb, scene_.indexCount, 1, 0, 0, 0), ctx_.cost.dispatches++;
+  if (recordCameraDraw(cb, pipeline_, layout_, scene_, push, width, height)) ctx_.cost.dispatches++;
   vkCmdEndRenderPass(cb);
   VkBufferImageCopy region{};
   region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};

@@ -6,6 +6,7 @@
 
 #include "core/scene.h"
 #include "raster/gbuffer.h"
+#include "raster/raster_layout.h"
 #include "vk/context.h"
 
 namespace cs {
@@ -48,6 +49,12 @@ uint32_t maxRasterPixels(const vk::Context& ctx);
 
 // World -> clip for a camera at an aspect ratio, Vulkan conventions (y down, depth in [0,1]).
 glm::mat4 viewProjection(const Camera& camera, float aspect);
+
+// Records the camera pass's draw inside a render pass the caller began: the pipeline, a width x height
+// viewport, the push constants, the scene's buffers and one indexed draw (none for an empty scene).
+// Returns whether it drew. Raster::render records it; so does the viewer, into its own frame.
+bool recordCameraDraw(VkCommandBuffer cb, VkPipeline pipeline, VkPipelineLayout layout, const DeviceScene& scene,
+                      const RasterPush& push, uint32_t width, uint32_t height);
 
 class Raster {
  public:

@@ -3,6 +3,7 @@
 #   unit  pure host logic: no Vulkan device, no coneshadow process, fast (the quick suite: ctest -L unit)
 #   gpu   needs the Vulkan device, in the test or in the coneshadow process it starts
 #   cli   runs the coneshadow executable
+#   viewer  runs `coneshadow view` (viewer/), under Xvfb where it opens a window: with its kind's labels too
 #   slow  took over ~10 s in a full run on the 2-core lavapipe machine (CI's sanitizer pass leaves these
 #         out, but for the few that tools/sanitize.sh names)
 # A test named in no list below is `gpu`, so a new test is never left out: it runs in the full suite, and
@@ -83,7 +84,8 @@ set(cs_cli_tests
   Cli.UsageErrorsExitWithTwo
   Cli.VersionAndPerCommandHelp
   Compare.UnknownMethodIsAUsageErrorNamingIt
-  DynamicCompare.FlagsOutsideADynamicCompareAreUsageErrors)
+  DynamicCompare.FlagsOutsideADynamicCompareAreUsageErrors
+  Viewer.WithoutAWindowSystemItIsOneLineAndExitOne)
 
 # The CLI rendering on the device.
 set(cs_gpu_cli_tests
@@ -114,6 +116,10 @@ set(cs_gpu_cli_tests
   StagedDir.NoCommandReplacesAUsersFolderOrTheScenesFolder
   StagedDir.RenderWritesNestedOutAndDumpFoldersTogether
   TinyGltf.CameraNamesNeverBecomePathsOutsideTheOutputFolder)
+
+# `coneshadow view`: the window under Xvfb (xvfb-run, a server a run), 128x96 frames, seconds each.
+set(cs_viewer_tests
+  ViewerScript.* Viewer.*)
 
 set(cs_slow_tests
   Api.EightLightsInOneFrameEqualOneLightFramesOnTheBartMuseum
@@ -166,7 +172,7 @@ endfunction()
 
 if(DEFINED coneshadow_tests_TESTS)  # absent while the binary is not built: ctest then says so itself
   set(cs_unmatched)
-  foreach(list cs_unit_tests cs_cli_tests cs_gpu_cli_tests cs_slow_tests)
+  foreach(list cs_unit_tests cs_cli_tests cs_gpu_cli_tests cs_slow_tests cs_viewer_tests)
     set(${list}_regex)
     foreach(pattern IN LISTS ${list})
       cs_pattern_regex("${pattern}" re)
@@ -213,6 +219,12 @@ if(DEFINED coneshadow_tests_TESTS)  # absent while the binary is not built: ctes
     if(n GREATER 1)
       message(WARNING "tests/labels.cmake: '${test}' is in more than one of unit, cli and gpu_cli")
     endif()
+    foreach(re IN LISTS cs_viewer_tests_regex)
+      if(test MATCHES "${re}")
+        list(APPEND labels viewer)
+        break()
+      endif()
+    endforeach()
     foreach(re IN LISTS cs_slow_tests_regex)
       if(test MATCHES "${re}")
         if(labels STREQUAL "unit")

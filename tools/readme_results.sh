@@ -15,6 +15,8 @@
 #   scaling    resolution and triangle count (`coneshadow compare --scaling`)
 #   scale      height fields to 10 M triangles (bench/scale_bench)
 #   far        the light's distance (`coneshadow compare --light-distances`)
+#   viewer     `coneshadow view`'s frame time against the cone path's shadow time (bench/viewer_bench.sh,
+#              under Xvfb), and the README's screenshot of the window (docs/img/viewer.png, scripted)
 # and copies the plots docs/RESULTS.md shows into docs/img/.
 # Environment: SIZE (default 1024) and SMALL (512), the frame bench's sizes; FRAMES (default 3); OUT
 # (default build/readme-results); RESULTS, the page written (default docs/RESULTS.md, with TAG=gpu
@@ -22,7 +24,7 @@
 # to use the current build/ as is; BUILD (default build) to run another build's binaries while this one
 # changes; QUICK=1 (a check of the script: the scale bench on one small field); ONLY=far,sort (a comma
 # list of run names: frames (the results and host-cost sections), variants, sort, access, dynamic,
-# scaling, scale, far) reruns those alone and leaves the other sections as they are; TAG=gpu writes
+# scaling, scale, far, viewer) reruns those alone and leaves the other sections as they are; TAG=gpu writes
 # each section NAME into the NAME-gpu markers of docs/RESULTS_GPU.md instead (a GPU's figures on a page
 # of their own beside lavapipe's: `TAG=gpu ONLY=frames,variants,sort,scale tools/readme_results.sh` on a
 # machine whose Vulkan device is that GPU) and copies no plots. About 20 minutes on 2 CPU cores with lavapipe for
@@ -56,7 +58,7 @@ RESULTS=${RESULTS:-docs/RESULTS.md}
 marker() { echo "$1${TAG:+-$TAG}"; }
 # want NAME: whether this run of the script reruns NAME (ONLY unset: every one).
 want() { [ -z "${ONLY:-}" ] || [[ ",$ONLY," == *",$1,"* ]]; }
-for name in results host-cost variants sort access dynamic scaling scale far; do
+for name in results host-cost variants sort access dynamic scaling scale far viewer; do
   run_name=$name
   case $name in results | host-cost) run_name=frames ;; esac
   [ -z "$TAG" ] || want "$run_name" || continue  # a tagged run needs the markers of what it reruns only
@@ -176,6 +178,19 @@ if want far; then
   [ "$device" != unknown ] || device=$(sed -n 's/^device: //p' "$OUT/far/light_distances.md" | head -1)
   tables "$OUT/far/light_distances.md" | section far
   plot "$OUT/far/light_distances.png" light_distances_engine.png
+fi
+
+if want viewer; then
+  run viewer env BUILD="$BUILD" bench/viewer_bench.sh "$SMALL,$SIZE" 20 3
+  grep -v '^device:' "$work/viewer.out" | section viewer
+  # The README's picture of the window: cubesm's diff against Embree on the fur view, the panels shown.
+  if [ -z "$TAG" ]; then
+    mkdir -p "$IMG" "$OUT/viewer"
+    printf 'method cubesm\ndisplay diff\nwait-reference\nwait 2\nscreenshot %s\nquit\n' "$OUT/viewer/viewer.png" > "$OUT/viewer/script.txt"
+    xvfb-run -a -s '-screen 0 800x600x24' "$CLI" view --view fur --width 640 --height 400 --methods cone,cubesm \
+      --script "$OUT/viewer/script.txt" > /dev/null
+    cp "$OUT/viewer/viewer.png" "$IMG/viewer.png"
+  fi
 fi
 
 # ---- every section into the results page at once ------------------------------------------------

@@ -13,6 +13,7 @@ PACKAGES=(
   assimp-testmodels
   librsvg2-dev chromium
   pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib
+  libglfw3-dev libimgui-dev xvfb xauth
 )
 
 source tools/install_missing.sh

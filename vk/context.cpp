@@ -77,26 +77,6 @@ bool hasLayer(const char* name) {
   return false;
 }
 
-bool hasDeviceExtension(VkPhysicalDevice pd, const char* name) {
-  uint32_t n = 0;
-  VK_CHECK(vkEnumerateDeviceExtensionProperties(pd, nullptr, &n, nullptr));
-  std::vector<VkExtensionProperties> ext(n);
-  VK_CHECK(vkEnumerateDeviceExtensionProperties(pd, nullptr, &n, ext.data()));
-  for (auto& e : ext)
-    if (std::strcmp(e.extensionName, name) == 0) return true;
-  return false;
-}
-
-int typeRank(VkPhysicalDeviceType t) {
-  switch (t) {
-    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return 4;
-    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return 3;
-    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return 2;
-    case VK_PHYSICAL_DEVICE_TYPE_CPU: return 1;
-    default: return 0;
-  }
-}
-
 const char* typeName(VkPhysicalDeviceType t) {
   switch (t) {
     case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return "discrete GPU";
@@ -141,12 +121,40 @@ uint32_t findMemoryType(const Context& ctx, uint32_t bits, VkMemoryPropertyFlags
 
 }  // namespace
 
+bool hasDeviceExtension(VkPhysicalDevice pd, const char* name) {
+  uint32_t n = 0;
+  VK_CHECK(vkEnumerateDeviceExtensionProperties(pd, nullptr, &n, nullptr));
+  std::vector<VkExtensionProperties> ext(n);
+  VK_CHECK(vkEnumerateDeviceExtensionProperties(pd, nullptr, &n, ext.data()));
+  for (auto& e : ext)
+    if (std::strcmp(e.extensionName, name) == 0) return true;
+  return false;
+}
+
+int deviceTypeRank(VkPhysicalDeviceType t) {
+  switch (t) {
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return 4;
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return 3;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return 2;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return 1;
+    default: return 0;
+  }
+}
+
 HostCost operator-(const HostCost& a, const HostCost& b) {
   return {a.submits - b.submits, a.hostSyncs - b.hostSyncs, a.readbackBytes - b.readbackBytes,
           a.allocations - b.allocations, a.dispatches - b.dispatches};
 }
 
 Context::~Context() {
+  if (!ownsDevice) {  // shareDevice: the caller's device, this context's pool and fence
+    if (fence) vkWaitForFences(device, 1, &fence, VK_TRUE, UINT64_MAX);
+    pendingUploads.clear();
+    staging.reset();
+    if (fence) vkDestroyFence(device, fence, nullptr);
+    if (commandPool) vkDestroyCommandPool(device, commandPool, nullptr);
+    return;
+  }
   if (adopted) {  // the caller's device: only what this context made, and no wait
     pendingUploads.clear();
     staging.reset();
@@ -345,7 +353,7 @@ std::unique_ptr<Context> createContext(const ContextOptions& options) {
                       : std::string(p.deviceName).find(options.device) != std::string::npos;
     }
     if (!match) continue;
-    int rank = typeRank(p.deviceType);
+    int rank = deviceTypeRank(p.deviceType);
     if (rank > bestRank) best = int(i), bestRank = rank, bestFamily = family;
   }
   if (best < 0) {
@@ -470,6 +478,22 @@ std::unique_ptr<Context> adoptDevice(const AdoptedDevice& d) {
   if (!ctx->cmdPushDescriptorSet)
     throw Error("vkCmdPushDescriptorSetKHR is unavailable", name,
                 "enable VK_KHR_push_descriptor at vkCreateDevice (coneshadow::deviceRequirements)");
+  return ctx;
+}
+
+std::unique_ptr<Context> shareDevice(const AdoptedDevice& d, VkQueue queue) {
+  if (!queue) throw Error("no queue given", "shared Vulkan context", "pass a queue of the device's queueFamily");
+  std::unique_ptr<Context> ctx = adoptDevice(d);
+  ctx->adopted = false;
+  ctx->ownsDevice = false;
+  ctx->queue = queue;
+  VkCommandPoolCreateInfo pi{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+  pi.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+  pi.queueFamilyIndex = ctx->queueFamily;
+  VK_CHECK(vkCreateCommandPool(ctx->device, &pi, nullptr, &ctx->commandPool));
+  VkFenceCreateInfo fi{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+  fi.flags = VK_FENCE_CREATE_SIGNALED_BIT;  // the destructor's wait returns at once when nothing was submitted
+  VK_CHECK(vkCreateFence(ctx->device, &fi, nullptr, &ctx->fence));
   return ctx;
 }
 
@@ -764,7 +788,7 @@ VkShaderModule createShaderModule(Context& ctx, const uint32_t* spirv, size_t sp
 }
 
 VkPipeline createTrianglePipeline(Context& ctx, const TrianglePipelineDesc& desc) {
-  CS_CHECK(desc.vertexStreams >= 1 && desc.vertexStreams <= 4 && desc.colorAttachments <= 4,
+  CS_CHECK(desc.vertexStreams <= 4 && desc.colorAttachments <= 4,
            "triangle pipeline: " << desc.vertexStreams << " streams, " << desc.colorAttachments << " attachments");
   VkPipelineShaderStageCreateInfo stages[3]{};
   stages[0] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, nullptr, 0, VK_SHADER_STAGE_VERTEX_BIT, desc.vert, "main", nullptr};
@@ -817,7 +841,7 @@ VkPipeline createTrianglePipeline(Context& ctx, const TrianglePipelineDesc& desc
   pi.pViewportState = &vp;
   pi.pRasterizationState = &rs;
   pi.pMultisampleState = &ms;
-  pi.pDepthStencilState = &ds;
+  pi.pDepthStencilState = desc.depth ? &ds : nullptr;
   pi.pColorBlendState = &cb;
   pi.pDynamicState = &dy;
   pi.layout = desc.layout;

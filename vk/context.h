@@ -45,6 +45,11 @@ class DriverCall {
 // What a driver crash runs before exiting (the CLI removes its unfinished output folders); best effort.
 void setDriverCrashCleanup(void (*cleanup)());
 
+// Whether the physical device offers the extension.
+bool hasDeviceExtension(VkPhysicalDevice device, const char* name);
+// How createContext ranks device types when it chooses one: discrete 4, integrated 3, virtual 2, cpu 1.
+int deviceTypeRank(VkPhysicalDeviceType type);
+
 struct ContextOptions {
   std::string device;         // "" = automatic (discrete > integrated > virtual > cpu); else index or name substring
   bool validation = false;    // enable VK_LAYER_KHRONOS_validation and count its messages
@@ -88,6 +93,9 @@ struct Context {
   // for the device, and never submits (Commands record into the caller's command buffer). Uploads into
   // memory the host cannot map are staged and queued in pendingUploads for the next recorded frame.
   bool adopted = false;
+  // A device shared with the caller (shareDevice): the context submits to the caller's queue with its own
+  // command pool and fence, and destroys only those.
+  bool ownsDevice = true;
   struct PendingUpload {
     std::unique_ptr<Buffer> staging;
     VkBuffer dst = VK_NULL_HANDLE;
@@ -145,6 +153,12 @@ DeviceRequirements deviceRequirements();
 // cs::Error naming what the device lacks (an extension, a feature, subgroup operations, a queue family
 // without compute) -- checked before anything is made.
 std::unique_ptr<Context> adoptDevice(const AdoptedDevice& device);
+// The caller's device and one of its queues (of d.queueFamily), for work that submits and waits as a
+// context of its own does -- the registry's methods beside a renderer's frames (viewer/). The context makes
+// its own command pool and fence; submissions to `queue` must come from one thread at a time, the
+// caller's included. Checked as adoptDevice checks; the caller sets geometryShader and robustBufferAccess
+// when it enabled them.
+std::unique_ptr<Context> shareDevice(const AdoptedDevice& d, VkQueue queue);
 // Records the copies of ctx.pendingUploads into `cmd` (then a barrier) and returns their staging buffers,
 // which the caller keeps until the command buffer has executed.
 class Commands;
@@ -267,10 +281,11 @@ struct TrianglePipelineDesc {
   VkShaderModule geom = VK_NULL_HANDLE;       // optional geometry stage (the device's geometryShader feature)
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkRenderPass renderPass = VK_NULL_HANDLE;
-  uint32_t vertexStreams = 1;                 // at most 4
+  uint32_t vertexStreams = 1;                 // at most 4 (0: the vertex stage makes its own positions)
   uint32_t colorAttachments = 1;              // at most 4
   VkColorComponentFlags colorWriteMask = 0xF;
   VkCompareOp depthCompare = VK_COMPARE_OP_LESS;
+  bool depth = true;                          // false: the pass has no depth attachment (no depth state)
 };
 VkPipeline createTrianglePipeline(Context& ctx, const TrianglePipelineDesc& desc);
 

@@ -1,0 +1,31 @@
+// Push constants of the viewer's composite pass (composite.frag), shared by GLSL and C++. The colours
+// come from judge/frame_output.h's constants, so the window shows the CLI's images' colours.
+#ifndef CONESHADOW_VIEWER_COMPOSITE_LAYOUT_H
+#define CONESHADOW_VIEWER_COMPOSITE_LAYOUT_H
+
+#include "core/shared.h"
+
+#ifdef __cplusplus
+namespace cs::viewer {
+CS_GLSL_TYPES
+#endif
+
+#define CS_DISPLAY_SHADED 0u
+#define CS_DISPLAY_MASK 1u
+#define CS_DISPLAY_DIFF 2u
+
+struct CompositePush {
+  uint width, height;    // the frame's size
+  int offsetX, offsetY;  // the window pixel where the frame's pixel (0, 0) is
+  uint mode;             // CS_DISPLAY_*
+  uint reference;        // 1: the reference and band buffers hold this frame's
+  uint maskGrey;         // the mask's grey for samples that are not lit
+  uint pad;
+  vec4 background, falseShadow, falseLight, bandDisagree;  // 0..255 RGB
+};
+
+#ifdef __cplusplus
+static_assert(sizeof(CompositePush) == 96, "CompositePush layout");
+}  // namespace cs::viewer
+#endif
+#endif
