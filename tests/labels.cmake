@@ -18,7 +18,7 @@ set(cs_unit_tests
   BuiltinMotion.* BuiltinScene.* ClusterOrder.* ClusterSphere.* ConeFrameChoice.* ConeMath.* EarlyAcceptCovered.*
   EmbreeDevice.* EmbreeReference.* EpsilonPolicy.* FrameOutput.* GeometryCheck.* GeometryRevision.*
   GltfBrokenFolders.* GltfLoader.* Grid.* ImageIo.* LeafHitFromLight.* LeafRayHitsTriangle.* LeafStep.*
-  LoaderHostile.* Metrics.* ResultsTable.* Scene.* SceneLoader.* SphereConeTriangle.* ThreadPool.*
+  LoaderHostile.* Metrics.* ResultsTable.* Scene.* SceneLoader.* SphereConeTriangle.* ThreadPool.* ViewerScript.*
   TraversalArena.* Validation/TinyGltfBroken.* VariantSphereTest.*
   AnimatedGltf.BrokenAnimationsFailWithOneClearError
   AnimatedGltf.HandWrittenTranslationAnimationMovesTheTriangle
@@ -115,7 +115,10 @@ set(cs_gpu_cli_tests
   StagedDir.AnInterruptedRunLeavesNoStagingFolderAndExitsWithTheSignal
   StagedDir.NoCommandReplacesAUsersFolderOrTheScenesFolder
   StagedDir.RenderWritesNestedOutAndDumpFoldersTogether
-  TinyGltf.CameraNamesNeverBecomePathsOutsideTheOutputFolder)
+  TinyGltf.CameraNamesNeverBecomePathsOutsideTheOutputFolder
+  Viewer.AMethodSwitchALightDragTheSplitScreenAndTheSceneTimeChangeWhatIsShown
+  Viewer.HiddenUiScreenshotsHoldTheShadowPixelsOfRender
+  Viewer.TheConeFrameIsOneSubmissionOnePresentAndNoAllocationAndValid)
 
 # `coneshadow view`: the window under Xvfb (xvfb-run, a server a run), 128x96 frames, seconds each.
 set(cs_viewer_tests

@@ -169,11 +169,13 @@ TEST(Viewer, AMethodSwitchALightDragTheSplitScreenAndTheSceneTimeChangeWhatIsSho
   fs::remove_all(dir);
 }
 
-TEST(Viewer, TheConeFrameIsOneSubmissionOnePresentAndNoAllocation) {
+TEST(Viewer, TheConeFrameIsOneSubmissionOnePresentAndNoAllocationAndValid) {
   if (!haveXvfb()) GTEST_SKIP() << "xvfb-run is not installed (tools/setup.sh installs it)";
-  // The panels shown: ImGui draws into the same render pass, in the same submission.
-  const CliRun r = cli("view --width 128 --height 96 --frames 12 --stats", kXvfb);
+  // The panels shown: ImGui draws into the same render pass, in the same submission. Under the validation
+  // layer, which says nothing.
+  const CliRun r = cli("view --width 128 --height 96 --frames 12 --stats", "env VK_INSTANCE_LAYERS=VK_LAYER_KHRONOS_validation " + kXvfb);
   ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(r.out.find("VUID"), std::string::npos) << r.out;
   std::smatch m;
   ASSERT_TRUE(std::regex_search(r.out, m, std::regex("steady (\\d+), method cone \\(public API\\); per steady frame: submits ([0-9.]+), "
                                                      "presents ([0-9.]+), host syncs ([0-9.]+), device allocations ([0-9.]+)")))

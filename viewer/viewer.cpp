@@ -296,7 +296,9 @@ void Viewer::createFrameResources() {
   position_ = vk::createImage(*vk_, w, h, kGBufferFormat, target, VK_IMAGE_ASPECT_COLOR_BIT);
   normal_ = vk::createImage(*vk_, w, h, kGBufferFormat, target, VK_IMAGE_ASPECT_COLOR_BIT);
   depth_ = vk::createImage(*vk_, w, h, VK_FORMAT_D32_SFLOAT, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, VK_IMAGE_ASPECT_DEPTH_BIT);
-  visibility_ = vk::createImage(*vk_, w, h, VK_FORMAT_R32_SFLOAT, VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+  // Sampled only so that the view vk::createImage makes is valid: the API writes it, the copy reads it.
+  visibility_ = vk::createImage(*vk_, w, h, VK_FORMAT_R32_SFLOAT,
+                                VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
                                 VK_IMAGE_ASPECT_COLOR_BIT);
   posBuf_ = vk::createBuffer(*vk_, px * 16, vk::Memory::HostVisible);
   nrmBuf_ = vk::createBuffer(*vk_, px * 16, vk::Memory::HostVisible);
