@@ -1,15 +1,15 @@
 #!/usr/bin/env bash
 # The viewer's frame time against the cone path's own shadow time, built-in scene, its first view, under
-# Xvfb. The viewer's: `coneshadow view --frames N --hide-ui --stats`, the median of its steady frames (the
-# wall clock of a whole frame: camera pass, the cone path through the public API, the composite, the
-# present and the wait for it). The peer: `coneshadow render --methods cone` at the same size, the median
+# Xvfb. The viewer's: `coneshadow view --frames N --hide-ui --stats`, the median of its steady frames
+# during which the Embree worker was idle (it shares the CPU on lavapipe; the wall clock of a whole frame:
+# camera pass, the cone path through the public API, the composite, the present and the wait for it). The peer: `coneshadow render --methods cone` at the same size, the median
 # of its timed frames (results.json total_ms: the shadow work alone). Rounds alternate the two; each
 # figure is the median over the rounds. docs/ARCHITECTURE.md, "The viewer".
-# Usage: bench/viewer_bench.sh [SIZES (512,1024)] [FRAMES (20)] [ROUNDS (3)]; BUILD (default build).
+# Usage: bench/viewer_bench.sh [SIZES (512,1024)] [FRAMES (40)] [ROUNDS (3)]; BUILD (default build).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 SIZES=${1:-512,1024}
-FRAMES=${2:-20}
+FRAMES=${2:-40}
 ROUNDS=${3:-3}
 CLI=${BUILD:-build}/app/coneshadow
 [ -x "$CLI" ] || { echo "viewer_bench: $CLI is not built (run tools/setup.sh)" >&2; exit 1; }
@@ -18,13 +18,13 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 median() { sort -g | awk '{ v[NR] = $1 } END { print (NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2) }'; }
 
-echo "| size | view: frame (ms) | render: cone shadow work (ms) | frame / shadow work |"
+echo "| size | view: frame, worker idle (ms) | render: cone shadow work (ms) | frame / shadow work |"
 echo "| --- | --- | --- | --- |"
 for size in ${SIZES//,/ }; do
   : > "$work/view" && : > "$work/render"
   for _ in $(seq "$ROUNDS"); do
     xvfb-run -a -s "-screen 0 $((size + 64))x$((size + 64))x24" "$CLI" view --width "$size" --height "$size" \
-      --frames "$FRAMES" --hide-ui --stats | sed -n 's/.*median frame \([0-9.e+-]*\) ms.*/\1/p' >> "$work/view"
+      --frames "$FRAMES" --hide-ui --stats | sed -n 's/.* ms, \([0-9.e+-]*\) ms over the [0-9]* with the reference worker idle.*/\1/p' >> "$work/view"
     "$CLI" render --methods cone --width "$size" --height "$size" --frames "$FRAMES" --quiet --out "$work/out" > /dev/null
     python3 -c "import json,sys; print([r for r in json.load(open(sys.argv[1])) if r['method'] == 'cone'][0]['total_ms'])" \
       "$work/out/results.json" >> "$work/render"
@@ -34,4 +34,6 @@ for size in ${SIZES//,/ }; do
   awk -v s="$size" -v v="$v" -v r="$r" 'BEGIN { printf "| %d² | %.1f | %.1f | %.2fx |\n", s, v, r, v / r }'
 done
 echo
-echo "device: $("$CLI" devices | head -1); $ROUNDS rounds of $FRAMES frames each, medians; wall clock"
+echo "$ROUNDS rounds of $FRAMES frames each at each size; the medians of the rounds' medians; wall clock."
+python3 -c "import json,sys; print('device:', [r for r in json.load(open(sys.argv[1])) if r['method'] == 'cone'][0]['device'])" \
+  "$work/out/results.json"

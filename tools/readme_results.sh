@@ -181,13 +181,13 @@ if want far; then
 fi
 
 if want viewer; then
-  run viewer env BUILD="$BUILD" bench/viewer_bench.sh "$SMALL,$SIZE" 20 3
+  run viewer env BUILD="$BUILD" bench/viewer_bench.sh "$SMALL,$SIZE" 40 3
   grep -v '^device:' "$work/viewer.out" | section viewer
-  # The README's picture of the window: cubesm's diff against Embree on the fur view, the panels shown.
+  # The README's picture of the window: cubesm's diff against Embree on the room view, the panels shown.
   if [ -z "$TAG" ]; then
     mkdir -p "$IMG" "$OUT/viewer"
     printf 'method cubesm\ndisplay diff\nwait-reference\nwait 2\nscreenshot %s\nquit\n' "$OUT/viewer/viewer.png" > "$OUT/viewer/script.txt"
-    xvfb-run -a -s '-screen 0 800x600x24' "$CLI" view --view fur --width 640 --height 400 --methods cone,cubesm \
+    xvfb-run -a -s '-screen 0 1024x768x24' "$CLI" view --view room --width 960 --height 540 --methods cone,cubesm \
       --script "$OUT/viewer/script.txt" > /dev/null
     cp "$OUT/viewer/viewer.png" "$IMG/viewer.png"
   fi

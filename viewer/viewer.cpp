@@ -195,11 +195,14 @@ class Viewer {
   float frameMs_[kGraphFrames] = {};
   size_t graphPos_ = 0;
   double lastFrameMs_ = 0, recordMs_ = 0, waitMs_ = 0, methodMs_ = 0, rasterMs_ = 0;
+  double acquireMs_ = 0, presentMs_ = 0;  // the calls' own wall time (on lavapipe the present copies the image out)
+  double sumAcquireMs_ = 0, sumPresentMs_ = 0, sumWaitMs_ = 0;  // over the steady frames
   Clock::time_point lastFrameStart_ = Clock::now();
   Counters mine_;                 // the viewer's own submissions and presents
   Counters steady_;               // summed over frames past the warm-up with nothing changed
   uint64_t steadyFrames_ = 0;
   std::vector<double> steadyMs_;  // each steady frame's wall time, start of the loop to its fence (reserved)
+  std::vector<double> idleMs_;    // the same, of the steady frames during which the reference worker was idle
 };
 
 Viewer::Viewer(ViewerSpec spec) : spec_(std::move(spec)) {
@@ -795,12 +798,18 @@ void Viewer::drawUi() {
       if (ImGui::Selectable(p.name.empty() ? vec3Text(p.position).c_str() : p.name.c_str())) light_ = p.position, viewChanged();
     ImGui::EndCombo();
   }
-  ImGui::Separator();
+  ImGui::TextDisabled("H: help");
+  ImGui::PopItemWidth();
+  ImGui::End();
+  // The numbers, in a window of their own at the other corner.
+  ImGui::SetNextWindowPos(ImVec2(float(d_.extent.width) - 8, 8), ImGuiCond_Always, ImVec2(1, 0));
+  ImGui::SetNextWindowBgAlpha(0.8f);
+  ImGui::Begin("numbers", nullptr, ImGuiWindowFlags_AlwaysAutoResize);
   const bool wall = !vk_->timestampsTrusted();
   ImGui::Text("frame %.1f ms (%s clock)", lastFrameMs_, wall ? "wall" : "host");
-  ImGui::PlotLines("##frames", frameMs_, int(kGraphFrames), int(graphPos_), "frame ms", 0.0f, FLT_MAX, ImVec2(240, 40));
+  ImGui::PlotLines("##frames", frameMs_, int(kGraphFrames), int(graphPos_), "frame ms", 0.0f, FLT_MAX, ImVec2(200, 32));
   if (shown_.api) {
-    ImGui::Text("record %.2f ms, submit to done %.2f ms (wall)", recordMs_, waitMs_);
+    ImGui::Text("record %.2f ms, submit to done %.2f ms, present %.2f ms (wall)", recordMs_, waitMs_, presentMs_);
     ImGui::Text("device memory %.1f MiB", double(api_->deviceBytes()) / (1 << 20));
   } else {
     ImGui::Text("camera pass %.2f ms, method %.2f ms (wall)", rasterMs_, methodMs_);
@@ -824,8 +833,6 @@ void Viewer::drawUi() {
   }
   if (!shown_.error.empty()) ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", shown_.error.c_str());
   if (!status_.empty()) ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", status_.c_str());
-  ImGui::TextDisabled("H: help");
-  ImGui::PopItemWidth();
   ImGui::End();
   if (help_) {
     ImGui::SetNextWindowPos(ImVec2(float(d_.extent.width) / 2, float(d_.extent.height) / 2), ImGuiCond_Always, ImVec2(0.5f, 0.5f));
@@ -1087,6 +1094,7 @@ void Viewer::writeScreenshot(const std::string& path) {
 
 int Viewer::run() {
   steadyMs_.reserve(spec_.frames ? spec_.frames : 100000);
+  idleMs_.reserve(steadyMs_.capacity());
   while (!glfwWindowShouldClose(d_.window) && !quit_) {
     const auto frameStart = Clock::now();
     lastFrameMs_ = std::chrono::duration<double, std::milli>(frameStart - lastFrameStart_).count();
@@ -1095,6 +1103,7 @@ int Viewer::run() {
     graphPos_ = (graphPos_ + 1) % kGraphFrames;
     glfwPollEvents();
     const Counters before = totals();
+    const bool workerIdleBefore = worker_->busyWith() == 0;
     const uint64_t viewBefore = viewGeneration_, methodBefore = methodGeneration_;
 
     if (std::optional<ReferenceAnswer> a = worker_->take()) {
@@ -1125,6 +1134,7 @@ int Viewer::run() {
     if (split_ && !right_.api) runRegistryMethod(right_, hostMask2_, visBuf2_, rightOutput_);
 
     uint32_t image = 0;
+    const auto acquireStart = Clock::now();
     VkResult acquired = vkAcquireNextImageKHR(d_.device, d_.swapchain, UINT64_MAX, imageReady_, VK_NULL_HANDLE, &image);
     if (acquired == VK_ERROR_OUT_OF_DATE_KHR) {
       destroyFramebuffers();
@@ -1133,6 +1143,7 @@ int Viewer::run() {
       continue;
     }
     if (acquired != VK_SUBOPTIMAL_KHR) VK_CHECK(acquired);
+    acquireMs_ = msSince(acquireStart);
     const auto recordStart = Clock::now();
     const bool scriptDone = scriptPos_ >= script_.size() && scriptWait_ == 0 && !scriptWaitReference_;
     const bool last = spec_.frames && frame_ + 1 >= spec_.frames && scriptDone;
@@ -1165,7 +1176,9 @@ int Viewer::run() {
     pi.swapchainCount = 1;
     pi.pSwapchains = &d_.swapchain;
     pi.pImageIndices = &image;
+    const auto presentStart = Clock::now();
     const VkResult presented = vkQueuePresentKHR(d_.queue, &pi);
+    presentMs_ = msSince(presentStart);
     ++mine_.presents;
     // One frame in flight: the next frame's recording reuses this one's command buffer and images.
     VK_CHECK(vkWaitForFences(d_.device, 1, &frameDone_, VK_TRUE, UINT64_MAX));
@@ -1188,7 +1201,11 @@ int Viewer::run() {
       steady_.presents += after.presents - before.presents;
       steady_.allocations += after.allocations - before.allocations;
       steady_.hostSyncs += after.hostSyncs - before.hostSyncs;
-      if (steadyMs_.size() < steadyMs_.capacity()) steadyMs_.push_back(msSince(frameStart));
+      sumAcquireMs_ += acquireMs_, sumPresentMs_ += presentMs_, sumWaitMs_ += waitMs_;
+      const double ms = msSince(frameStart);
+      if (steadyMs_.size() < steadyMs_.capacity()) steadyMs_.push_back(ms);
+      // Embree shares the CPU on lavapipe: the frames it did not run beside are the frame's own cost.
+      if (workerIdleBefore && worker_->busyWith() == 0 && idleMs_.size() < idleMs_.capacity()) idleMs_.push_back(ms);
     }
     ++frame_;
     if (last) break;
@@ -1198,8 +1215,12 @@ int Viewer::run() {
     std::cout << "view stats: frames " << frame_ << ", steady " << steadyFrames_ << ", method " << shown_.label()
               << "; per steady frame: submits " << per(steady_.submits) << ", presents " << per(steady_.presents)
               << ", host syncs " << per(steady_.hostSyncs) << ", device allocations " << per(steady_.allocations)
-              << "; median frame " << (steadyMs_.empty() ? 0.0 : median(steadyMs_)) << " ms (wall clock, " << spec_.width << "x" << spec_.height
-              << ", " << vk_->deviceName() << ")\n";
+              << "; median frame " << (steadyMs_.empty() ? 0.0 : median(steadyMs_)) << " ms, "
+              << (idleMs_.empty() ? 0.0 : median(idleMs_)) << " ms over the " << idleMs_.size()
+              << " with the reference worker idle (wall clock, " << spec_.width << "x" << spec_.height << ", "
+              << vk_->deviceName() << "); mean acquire " << (steadyFrames_ ? sumAcquireMs_ / double(steadyFrames_) : 0.0)
+              << " ms, submit to done " << (steadyFrames_ ? sumWaitMs_ / double(steadyFrames_) : 0.0) << " ms of which the present call "
+              << (steadyFrames_ ? sumPresentMs_ / double(steadyFrames_) : 0.0) << " ms\n";
   }
   return 0;
 }
