@@ -278,7 +278,8 @@ Options parseArgs(int argc, char** argv) {
   view->add_option("--view", o.view, "the camera shown first, by name (default: the scene's first camera)")->type_name("NAME");
   view->add_option("--script", o.script,
                    "replay input from FILE, one command a line: method M, set NAME [VALUE], light X Y Z, move-light DX DY DZ, "
-                   "camera NAME, orbit YAW PITCH, display shaded|mask|diff, wait N, wait-reference, screenshot FILE, quit")
+                   "camera NAME, orbit YAW PITCH, display shaded|mask|diff, split M|off, time T, wait N, wait-reference, "
+                   "screenshot FILE, quit")
       ->type_name("FILE");
   view->add_option("--screenshot", o.screenshot, "write the window's last frame to FILE (PNG, and its results row as .json); "
                                                  "with --frames N, after N frames")->type_name("FILE");
@@ -415,6 +416,8 @@ Options parseArgs(int argc, char** argv) {
     if (o.methods.empty()) o.methods = {"cone"};
     if (view->count("--frames") == 0) o.frames = 0;
     if (o.allLights || o.lights.size() > 1) throw UsageError("view shows one light at a time: give at most one --light");
+    for (const char* flag : {"--out", "--validation", "--quiet"})
+      if (view->count(flag)) throw UsageError(std::string("view writes no folder and prints no progress: drop ") + flag);
     if (!o.screenshot.empty() && o.frames == 0 && o.script.empty())
       throw UsageError("--screenshot writes the last frame of a run that ends by itself: give --frames N or a --script");
   }

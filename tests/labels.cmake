@@ -85,7 +85,7 @@ set(cs_cli_tests
   Cli.VersionAndPerCommandHelp
   Compare.UnknownMethodIsAUsageErrorNamingIt
   DynamicCompare.FlagsOutsideADynamicCompareAreUsageErrors
-  Viewer.WithoutAWindowSystemItIsOneLineAndExitOne)
+  Viewer.WithoutAWindowSystemItIsOneLineAndExitOneAndBadUsageIsTwo)
 
 # The CLI rendering on the device.
 set(cs_gpu_cli_tests

@@ -99,13 +99,16 @@ TEST(ViewerScript, ParsesEveryCommandAndNamesTheLineOfABadOne) {
   }
 }
 
-TEST(Viewer, WithoutAWindowSystemItIsOneLineAndExitOne) {
+TEST(Viewer, WithoutAWindowSystemItIsOneLineAndExitOneAndBadUsageIsTwo) {
   const CliRun r = cli("view --frames 1", "env -u DISPLAY -u WAYLAND_DISPLAY ");
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_NE(r.out.find("no window system"), std::string::npos) << r.out;
   EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
-  const CliRun usage = cli("view --screenshot x.png");  // a screenshot of a run that never ends
-  EXPECT_EQ(usage.code, 2) << usage.out;
+  for (const char* args : {"view --screenshot x.png",  // a screenshot of a run that never ends
+                           "view --out somewhere", "view --light 1,2,3 --light 3,2,1", "view --display wireframe"}) {
+    const CliRun usage = cli(args);
+    EXPECT_EQ(usage.code, 2) << args << ": " << usage.out;
+  }
 }
 
 TEST(Viewer, HiddenUiScreenshotsHoldTheShadowPixelsOfRender) {
