@@ -87,7 +87,7 @@ set(cs_cli_tests
 
 # The CLI rendering on the device.
 set(cs_gpu_cli_tests
-  LightDistances.* ReportScreenshot.* ResultsSchema.*
+  LightDistances.* ReportScreenshot.* ResultsSchema.* Visibility.*
   AnimatedGltf.AnAnimationPastFp32RangeIsOneClearErrorNotACrash
   Cli.AFrameWhoseBandCoversItsSamplesIsUndecidedInEveryResult
   Cli.ALightTooFarForFp32RayLengthsIsAUsageErrorBeforeAnyOutput
