@@ -18,7 +18,7 @@ set(cs_unit_tests
   EmbreeDevice.* EmbreeReference.* EpsilonPolicy.* FrameOutput.* GeometryCheck.* GeometryRevision.*
   GltfBrokenFolders.* GltfLoader.* Grid.* ImageIo.* LeafHitFromLight.* LeafRayHitsTriangle.* LeafStep.*
   LoaderHostile.* Metrics.* ResultsTable.* Scene.* SceneLoader.* SphereConeTriangle.* ThreadPool.*
-  TraversalArena.* Validation/TinyGltfBroken.* VariantSphereTest.*
+  TraversalArena.* Validation/TinyGltfBroken.* VariantSphereTest.* VkSpirv.*
   AnimatedGltf.BrokenAnimationsFailWithOneClearError
   AnimatedGltf.HandWrittenTranslationAnimationMovesTheTriangle
   AnimatedGltf.MorphWeightChannelsAreIgnoredWithOneWarning
