@@ -11,6 +11,8 @@ int runInfo(const Options& options);
 int runRender(const Options& options);
 int runDevices(const Options& options);
 int runView(const Options& options);  // viewer/: the window
+// visibility: the samples of a file from 1..L lights through the cone engine (app/visibility.cpp).
+int runVisibility(const Options& options);
 
 // SCENE of the command line: the built-in scene, a glTF file, or a BART .aff file at --time.
 Scene loadSceneArg(const Options& options, std::ostream& log);

@@ -25,6 +25,7 @@ int runMain(int argc, char** argv) {
     if (options.command == "info") return runInfo(options);
     if (options.command == "compare") return runCompare(options);
     if (options.command == "view") return runView(options);
+    if (options.command == "visibility") return runVisibility(options);
     return runRender(options);
   } catch (const UsageError& e) {
     std::cerr << "coneshadow: " << e.what() << "\n";
