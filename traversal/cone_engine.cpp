@@ -8,7 +8,6 @@
 #include "core/error.h"
 #include "raster/raster.h"
 #include "traversal/cone_recorder.h"
-#include "traversal/sample_light.comp.h"
 #include "vk/context.h"
 
 namespace cs {
@@ -25,7 +24,6 @@ class Engine : public ConeEngine {
     CS_CHECK(maxLights >= 1 && maxLights <= 64, "lights a frame " << maxLights << ", not 1..64");
     framesInFlight_ = framesInFlight;
     maxLights_ = maxLights;
-    sampleLight_ = vk::createKernel(ctx_, "sample light", spv_sample_light_comp, 4, sizeof(traversal::SampleLightPush));
     statsRing_ = vk::createBuffer(ctx_, uint64_t(framesInFlight) * maxLights * kStatsWords * 4, vk::Memory::HostVisible);
     std::memset(statsRing_.mapped, 0, statsRing_.size);
     slots_.resize(framesInFlight);
@@ -70,31 +68,14 @@ class Engine : public ConeEngine {
     es.lights = uint32_t(lights.size());
     es.learned = false;
     const ConeRecorder::Boundary noBoundary = [](const char*) {};
-    const vk::Grid grid = vk::gridFor(std::max(pixels, 1u), TRAVERSE_THREADS, ctx_.maxWorkgroups());
-    const vk::Buffer& visibility = recorder_.visibility();
+    const bool adaptive = recorder_.options().sorted && recorder_.options().adaptiveOrder;
     for (uint32_t l = 0; l < lights.size(); ++l) {
-      const glm::vec3 light = lights[l];
-      cmd.barrier();  // the previous light's reads of every buffer reused below are done
-      recorder_.chooseFrame(light);
-      const traversal::TraversalInput in = recorder_.traversalInput(light, eps);
-      traversal::SampleLightPush push{};
-      push.light = glm::vec4(light, 1.0f);
-      push.count = pixels;
-      push.mode = SAMPLE_LIGHT_TERM;
-      cmd.dispatch(sampleLight_, {g.position, g.normal, visibility, visibility}, push, grid.x, grid.y);
-      cmd.barrier();
       const ConeRecorder::RecordedLight rec =
-          recorder_.recordLight(cmd, g, in, light, recorder_.options().sorted && recorder_.options().adaptiveOrder,
-                                slot * maxLights_ + l, noBoundary);
+          recorder_.recordLightFrame(cmd, g, lights[l], eps, adaptive, slot * maxLights_ + l, true, noBoundary);
       if (!rec.onDevice) refuseTooFewPairs(rec.batches, rec.batch);  // the arena shrank once the tree was made
-      const vk::Buffer& state = recorder_.traversal().stateBuffer();
-      cmd.barrier();
-      push.mode = SAMPLE_UNDECIDED;
-      cmd.dispatch(sampleLight_, {g.position, g.normal, visibility, state}, push, grid.x, grid.y);
-      cmd.barrier();
-      deliver(l, visibility);
+      deliver(l, recorder_.visibility());
       const uint64_t at = (uint64_t(slot) * maxLights_ + l) * kStatsWords * 4;
-      cmd.copy(state, statsRing_, STATE_WORDS * 4, 0, at);
+      cmd.copy(recorder_.traversal().stateBuffer(), statsRing_, STATE_WORDS * 4, 0, at);
       cmd.copy(recorder_.tree().shapeBuffer(), statsRing_, SHAPE_WORDS * 4, 0, at + STATE_WORDS * 4);
     }
     cmd.barrier();  // the stats words visible to the host once the caller's submission completes
@@ -166,7 +147,6 @@ class Engine : public ConeEngine {
   vk::Context& ctx_;
   ConeRecorder recorder_;
   uint32_t framesInFlight_ = 0, maxLights_ = 0;
-  vk::Kernel sampleLight_;
   vk::Buffer statsRing_;
   std::vector<Slot> slots_;
 };

@@ -11,6 +11,7 @@
 #include "method/settings.h"
 #include "raster/raster.h"
 #include "traversal/order_choice.comp.h"
+#include "traversal/sample_light.comp.h"
 #include "traversal/unfinished_rays.comp.h"
 
 namespace cs {
@@ -81,6 +82,7 @@ ConeRecorder::ConeRecorder(vk::Context& ctx, const ConeOptions& options)
   if (options.arena.pairCapacity > 0) traversal_ = std::make_unique<traversal::Traversal>(ctx, options.arena);
   else if (options.memoryBudgetBytes == 0)
     traversal_ = std::make_unique<traversal::Traversal>(ctx, options.traversalMemoryBytes);
+  sampleLight_ = vk::createKernel(ctx_, "sample light", spv_sample_light_comp, 4, sizeof(traversal::SampleLightPush));
   if (options_.sorted && options_.adaptiveOrder && !options_.twoPass) {
     orderChoice_ = vk::createKernel(ctx, "ray order choice", spv_order_choice_comp, 2, 0);
     orderWords_ = vk::createBuffer(ctx, ORDER_WORDS * 4);
@@ -231,6 +233,30 @@ ConeRecorder::RecordedLight ConeRecorder::recordLight(vk::Commands& cmd, const D
   return rec;
 }
 
+ConeRecorder::RecordedLight ConeRecorder::recordLightFrame(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light,
+                                                           float eps, bool adaptive, uint32_t sphereSlot,
+                                                           bool markUndecided, const Boundary& boundary) {
+  const uint32_t pixels = g.width * g.height;
+  const vk::Grid grid = vk::gridFor(std::max(pixels, 1u), TRAVERSE_THREADS, ctx_.maxWorkgroups());
+  cmd.barrier();  // the previous light's reads of every buffer reused below are done
+  chooseFrame(light);
+  const traversal::TraversalInput in = traversalInput(light, eps);
+  traversal::SampleLightPush push{};
+  push.light = glm::vec4(light, 1.0f);
+  push.count = pixels;
+  push.mode = SAMPLE_LIGHT_TERM;
+  cmd.dispatch(sampleLight_, {g.position, g.normal, visibility_, visibility_}, push, grid.x, grid.y);
+  cmd.barrier();
+  const RecordedLight rec = recordLight(cmd, g, in, light, adaptive, sphereSlot, boundary);
+  if (markUndecided && rec.onDevice) {
+    cmd.barrier();
+    push.mode = SAMPLE_UNDECIDED;
+    cmd.dispatch(sampleLight_, {g.position, g.normal, visibility_, traversal_->stateBuffer()}, push, grid.x, grid.y);
+    cmd.barrier();
+  }
+  return rec;
+}
+
 uint64_t ConeRecorder::batchesNeeded() {
   const uint32_t batch = traversal_->batchTriangles();
   uint64_t batches = 0;
@@ -354,7 +380,7 @@ traversal::TraversalStats ConeRecorder::runSubmitted(const FrameInput& frame, co
   // the sort is slower on screen-ordered input than on row-major input.
   const bool adaptive = options_.sorted && options_.adaptiveOrder &&
                         !(orderLoose_ && framesSinceOrderCheck_ + 1 < kOrderRecheckFrames);
-  const RecordedLight rec = recordLight(cmd, g, in, frame.light, adaptive, 0, boundary);
+  const RecordedLight rec = recordLightFrame(cmd, g, frame.light, in.eps, adaptive, 0, false, boundary);
   stats.oneSubmission = true;
   stats.clusters = rec.clusters && rec.onDevice;
   stats.lastExpansionTest = options_.sphereLastExpansion && options_.test == ConeTest::Precise ? "sphere" : "precise";

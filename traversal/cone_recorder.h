@@ -1,4 +1,4 @@
-// The cone path's frame recorder: one light's frame recorded into a command buffer (recordLight), shared
+// The cone path's frame recorder: one light's frame recorded into a command buffer (recordLightFrame), shared
 // by the engine (cone_engine.cpp, a frame of 1..N lights in the caller's command buffer) and the bench's
 // method (runFrame: one submission, with the chunked traversal and two-pass as its fallbacks).
 // docs/ARCHITECTURE.md, "The cone path's code".
@@ -38,16 +38,17 @@ class ConeRecorder {
     uint64_t batches = 0;
     uint32_t batch = 0;
   };
-  // A light's frame into `cmd`: the visibility words set to lit, the lit samples' compaction, the ray order
-  // (sorted, screen, or measured on the GPU when `adaptive`), keys, sort, the tree, the far frame's
-  // triangles, the traversal and the leaves (the mask in visibility()). boundary(name) ends each stage.
-  // The cones' frame (chooseFrame) must be chosen for `light` first.
-  using Boundary = std::function<void(const char*)>;
-  RecordedLight recordLight(vk::Commands& cmd, const DeviceGBuffer& g, const traversal::TraversalInput& in,
-                            glm::vec3 light, bool adaptive, uint32_t sphereSlot, const Boundary& boundary);
+  using Boundary = std::function<void(const char*)>;  // called with each stage's name at its end
+
+  // One light of a frame as the engine records it: a barrier, the cones' frame chosen, the samples' light
+  // term for `light` (sample_light.comp writes g.normal.w with the camera pass's expression), recordLight,
+  // and with `markUndecided` an overflowed traversal's undecided lit samples written as 0.5. The bench's
+  // one-pass frame records through it too, without markUndecided (it resumes an overflow chunked).
+  RecordedLight recordLightFrame(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, float eps, bool adaptive,
+                                 uint32_t sphereSlot, bool markUndecided, const Boundary& boundary);
 
   // One bench frame (the method's run): the triangles uploaded when they changed, the light checked, one
-  // submission of recordLight and the readback -- or with profileStages a submission a stage. Fallbacks:
+  // submission of recordLightFrame and the readback -- or with profileStages a submission a stage. Fallbacks:
   // the chunked traversal after it, when the arena holds too few pairs for one recording or its pairs
   // outgrew it on the GPU; with two-pass, the ray stages a submission each, then the passes (002 §3.4).
   struct Frame {
@@ -58,12 +59,10 @@ class ConeRecorder {
   };
   Frame runFrame(const FrameInput& frame);
 
-  // Pieces the engine's frame uses around recordLight.
+  // Pieces the engine's frame uses around recordLightFrame.
   void refuseUnreachableLight(glm::vec3 light) const;
   void sizeFrameBuffers(uint32_t width, uint32_t height);
   void ensureTraversal(uint32_t pixels);
-  void chooseFrame(glm::vec3 light) { frame_ = cone::chooseFrame(light, layout_.boundsLo(), layout_.boundsHi()); }
-  traversal::TraversalInput traversalInput(glm::vec3 light, float eps);
   // Batches a frame's traversal takes at the current arena (more than kConeMaxBatches: not recordable).
   uint64_t batchesNeeded();
 
@@ -77,6 +76,14 @@ class ConeRecorder {
   uint64_t heldBytes() const;
 
  private:
+  // A light's frame into `cmd`: the visibility words set to lit, the lit samples' compaction, the ray order
+  // (sorted, screen, or measured on the GPU when `adaptive`), keys, sort, the tree, the far frame's
+  // triangles, the traversal and the leaves (the mask in visibility()). boundary(name) ends each stage.
+  // The cones' frame (chooseFrame) must be chosen for `light` first.
+  RecordedLight recordLight(vk::Commands& cmd, const DeviceGBuffer& g, const traversal::TraversalInput& in,
+                            glm::vec3 light, bool adaptive, uint32_t sphereSlot, const Boundary& boundary);
+  void chooseFrame(glm::vec3 light) { frame_ = cone::chooseFrame(light, layout_.boundsLo(), layout_.boundsHi()); }
+  traversal::TraversalInput traversalInput(glm::vec3 light, float eps);
   // The visibility words set to lit, the lit samples' compaction and (in Hilbert order) their keys:
   // fused into one stage where the device's sort takes pairs. Returns whether they were fused.
   bool fusedKeys(rays::RayOrder order) const;
@@ -95,6 +102,7 @@ class ConeRecorder {
   vk::Context& ctx_;
   ConeOptions options_;
   TriangleLayout layout_;
+  vk::Kernel sampleLight_;
   cone::ConeTree tree_;
   std::unique_ptr<traversal::Traversal> traversal_;
   vk::Timer timer_;
