@@ -116,6 +116,7 @@ set(cs_gpu_cli_tests
   TinyGltf.CameraNamesNeverBecomePathsOutsideTheOutputFolder)
 
 set(cs_slow_tests
+  Api.ABudgetThatLeavesTooFewPairsForOneRecordingIsOneClearError
   Api.EightLightsInOneFrameEqualOneLightFramesOnTheBartMuseum
   Api.EightLightsInOneFrameEqualOneLightFramesOnTheBuiltinScene
   Cli.EveryMemoryLimitGivesACompleteResultOrOneClearLineAndNoOutput
