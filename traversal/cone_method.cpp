@@ -11,7 +11,7 @@
 namespace cs {
 namespace {
 
-// The frame's statistics as the bench's JSON row (the keys cone_method.h lists).
+// The frame's statistics as the bench's JSON row (its keys: docs/ARCHITECTURE.md, "The cone path's settings").
 nlohmann::json statsJson(const ConeFrameStats& s) {
   nlohmann::json j = {{"triangles", s.triangles},
                       {"triangles_dropped", s.trianglesDropped},

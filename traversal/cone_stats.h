@@ -1,6 +1,6 @@
-// The cone path's statistics of one bench frame, typed (the recorder fills them; the bench's method turns
-// them into its JSON row, cone_method.cpp, and nothing else does). docs/ARCHITECTURE.md, "The cone
-// path's code"; the JSON keys are listed in cone_method.h.
+// The cone path's statistics of one bench frame, typed: the recorder fills them, and only the bench's
+// method turns them into its JSON row (cone_method.cpp, statsJson). docs/ARCHITECTURE.md, "The cone path's
+// code"; the JSON keys are listed under "The cone path's settings".
 #pragma once
 #include <cstdint>
 #include <optional>

@@ -276,7 +276,7 @@ void TriangleLayout::planChunks() {
 // are dropped, as Embree drops them. Returns the wall ms, 0 if cached.
 // The host working set stays small beside the scene: the buffers' order of the kept triangles (4 bytes
 // each; 8 more while clusters sort them, 9 while two-pass ranks them), the cluster bounds, and one
-// chunk of at most kUploadBytes written into the buffers at a time. A change is seen from a 128-bit
+// chunk of at most kUploadTriangles written into the buffers at a time. A change is seen from a 128-bit
 // hash of the positions and the indices -- the frame's geometry revision (core/scene.h), computed once
 // per frame by the harness -- not from a copy of them (hostPeakBytes_ counts all of it).
 double TriangleLayout::upload(const FrameInput& frame) {
@@ -383,12 +383,9 @@ double TriangleLayout::upload(const FrameInput& frame) {
 
 // Clusters (traversal.h, "Clusters"): the triangles in Hilbert order of their centroids on a grid of
 // 2^10 cubes a side over the bounds, so every CLUSTER_SIZE consecutive ones are one piece of space and
-// their sphere is small. Cubes, not the bounds' box cut 2^10 ways per axis: on a flat scene (a terrain)
-// the thin axis' cells would be far finer than the others, and a run of cells a thin strip. Measured
-// at 512² (scale_bench), pairs tested: the 1 M height field 17.8 M with the Morton order over the box,
-// 11.1 M over cubes, 9.1 M in Hilbert order; 2CylinderEngine x8 19.1 / 15.9 / 14.9 M. The previous
-// order is kept when there is one (the same index list, no triangle dropped: moving vertices keep their
-// clusters, whose spheres follow them).
+// their sphere is small (cubes, not the bounds' box: docs/ARCHITECTURE.md, "The triangle layout"). The
+// previous order is kept when there is one (the same index list, no triangle dropped: moving vertices
+// keep their clusters, whose spheres follow them).
 template <class Vertex>
 void TriangleLayout::orderForClusters(std::vector<uint32_t>& kept, std::vector<uint32_t>& previous, const Vertex& vertex) {
   if (previous.size() == kept.size() && kept.size() > 0) {
@@ -462,8 +459,8 @@ void TriangleLayout::updateClusterSpheres(glm::vec3 light, uint32_t slot, const 
         }
       }
     };
-    // On the host's cores, a run of at least 8192 super clusters each (the 10 M height field's 156 k took
-    // 89 ms on one thread); where a thread cannot start, this one does its share.
+    // On the host's cores, a run of at least 8192 super clusters each (docs/ARCHITECTURE.md, "The triangle
+    // layout"); where a thread cannot start, this one does its share.
     const size_t hw = std::max(1u, std::thread::hardware_concurrency());
     const size_t parts = std::clamp<size_t>(supers / 8192, 1, std::min<size_t>(hw, 16));
     std::vector<std::thread> threads;
@@ -480,7 +477,7 @@ void TriangleLayout::updateClusterSpheres(glm::vec3 light, uint32_t slot, const 
   }
 }
 
-// Two-pass blockers (cone_method.h): triangles subtending at least blockerSolidAngle at the light, the
+// Two-pass blockers (docs/ARCHITECTURE.md, "The cone path's settings"): triangles subtending at least blockerSolidAngle at the light, the
 // largest blockerMaxFraction of all at most, moved to the front in their scene order; sets blockerCount_.
 template <class Vertex>
 void TriangleLayout::orderBlockersFirst(std::vector<uint32_t>& kept, const Vertex& vertex, glm::vec3 light) {
