@@ -17,7 +17,9 @@
 #include "cone_test_support.h"
 #include "core/scene.h"
 #include "test_context.h"
+#include "traversal/cone_engine.h"
 #include "traversal/cone_method.h"
+#include "vk/context.h"
 
 namespace cs::test {
 namespace {
@@ -521,6 +523,104 @@ TEST(Api, HostileCallsAreOneClearErrorAndRecordNothing) {
   expectError([&] { coneshadow::Context::create(device.desc(), o); }, "framesInFlight");
   coneshadow::DeviceDesc none;
   expectError([&] { coneshadow::Context::create(none); }, "must all be given");
+}
+
+// The engine records the one-pass variants only: two-pass decides its update on the host between the
+// passes, which a frame in the caller's command buffer cannot do.
+TEST(Api, TheEngineRefusesTheTwoPassVariantsInOneLine) {
+  for (const char* name : {"PreciseEATP", "PreciseSEATP"}) {
+    ConeOptions o;
+    ASSERT_TRUE(applyConeVariant(name, o));
+    try {
+      makeConeEngine(context(), o, 1, 1);
+      ADD_FAILURE() << name << ": the engine took a two-pass variant";
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("two-pass variants"), std::string::npos) << what;
+      EXPECT_NE(what.find("one-pass variants only"), std::string::npos) << what;
+      EXPECT_EQ(what.find('\n'), std::string::npos) << "one line: " << what;
+    }
+  }
+}
+
+// An arena so small that the frame's batches pass what one recording holds (256): the engine refuses the
+// frame in one line before it records a single command (the bench would traverse it chunked, submitting).
+TEST(Api, TheEngineRefusesAFrameWhoseBatchesPassOneRecordingBeforeRecordingAnything) {
+  Scene scene = builtinScene();
+  const Camera* cam = scene.findCamera(builtinViewNames()[0]);
+  ASSERT_NE(cam, nullptr);
+  const glm::vec3 light = scene.lights[0].position;
+  ReferenceFrame f(scene, *cam, light, 32);
+  ConeOptions o;
+  o.arena.pairCapacity = 64;  // batches of one triangle: thousands of them
+  o.arena.chunkCapacity = 1;
+  auto engine = makeConeEngine(context(), o, 1, 1);
+  engine->setGeometry(scene, geometryRevision(scene));
+  vk::Commands cmd(context());
+  const vk::HostCost before = context().cost;
+  const glm::vec3 lights[1] = {light};
+  try {
+    engine->record(cmd, f.dev, lights, f.input.epsilon, 0, [](uint32_t, const vk::Buffer&) {});
+    ADD_FAILURE() << "the engine recorded a frame of batches of one triangle";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("holds too few pairs to record the frame"), std::string::npos) << what;
+    EXPECT_NE(what.find("batches of 1 triangles"), std::string::npos) << what;
+    EXPECT_NE(what.find("give a larger memory budget"), std::string::npos) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << "one line: " << what;
+  }
+  EXPECT_EQ((context().cost - before).dispatches, 0u) << "the refused frame recorded dispatches";
+  EXPECT_TRUE(engine->stats(0).empty()) << "the refused frame holds a stats slot";
+}
+
+// The same refusal through the public API: a memory budget that leaves the traversal an arena too small for
+// one recording is one coneshadow::Error line. The budget is found by bisection between one that cannot
+// hold the frame and one that records it (the window is the arena's ~1 KB over the frame's other buffers).
+TEST(Api, ABudgetThatLeavesTooFewPairsForOneRecordingIsOneClearError) {
+  OwnDevice device;
+  Scene scene = builtinScene();
+  const Camera* cam = scene.findCamera(builtinViewNames()[0]);
+  ASSERT_NE(cam, nullptr);
+  const glm::vec3 light = scene.lights[0].position;
+  const uint32_t size = 16;
+  ReferenceFrame f(scene, *cam, light, size);
+  Renderer renderer(device, size, size, 1);
+  auto attempt = [&](uint64_t budget) -> std::string {  // the error, or "" when the frame was recorded
+    coneshadow::Options o;
+    o.memoryBudgetBytes = budget;
+    o.framesInFlight = 1;
+    o.maxLights = 1;
+    auto cs = coneshadow::Context::create(device.desc(), o);
+    addScene(*cs, scene);
+    try {
+      renderer.frame(*cs, f.host, {light});
+      return "";
+    } catch (const coneshadow::Error& e) {
+      EXPECT_EQ(vkResetCommandBuffer(device.cb, 0), VK_SUCCESS);  // the frame's recording, abandoned
+      const std::string what = e.what();
+      EXPECT_EQ(what.find('\n'), std::string::npos) << "one line: " << what;
+      return what;
+    }
+  };
+  const std::string tooSmall = attempt(1024);
+  ASSERT_NE(tooSmall.find("cannot hold this frame"), std::string::npos) << tooSmall;
+  EXPECT_NE(tooSmall.find("or more"), std::string::npos) << "the bytes it needs: " << tooSmall;
+  uint64_t lo = 1024, hi = uint64_t(1) << 20;
+  ASSERT_EQ(attempt(hi), "");
+  std::string tooFew;
+  while (tooFew.empty() && hi - lo > 16) {
+    const uint64_t mid = lo + (hi - lo) / 2;
+    const std::string what = attempt(mid);
+    if (what.find("holds too few pairs to record the frame") != std::string::npos) tooFew = what;
+    else if (what.empty()) hi = mid;
+    else {
+      EXPECT_NE(what.find("cannot hold this frame"), std::string::npos) << what;
+      lo = mid;
+    }
+  }
+  ASSERT_FALSE(tooFew.empty()) << "no budget between " << lo << " and " << hi << " bytes left too few pairs";
+  EXPECT_EQ(tooFew.rfind("coneshadow: ", 0), 0u) << tooFew;
+  EXPECT_NE(tooFew.find("give a larger memory budget"), std::string::npos) << tooFew;
 }
 
 }  // namespace

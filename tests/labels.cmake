@@ -125,6 +125,7 @@ set(cs_viewer_tests
   ViewerScript.* Viewer.*)
 
 set(cs_slow_tests
+  Api.ABudgetThatLeavesTooFewPairsForOneRecordingIsOneClearError
   Api.EightLightsInOneFrameEqualOneLightFramesOnTheBartMuseum
   Api.EightLightsInOneFrameEqualOneLightFramesOnTheBuiltinScene
   Cli.EveryMemoryLimitGivesACompleteResultOrOneClearLineAndNoOutput

@@ -1020,7 +1020,7 @@ TEST(ConeMethod, SuperClustersGoDownTheTopOfTheTreeWithTheSameMask) {
 }
 
 // A scene of more than 16384 super clusters (1.2 M triangles) has its spheres written on several of the
-// host's threads where it has them (cone_method.cpp, updateClusterSpheres): the mask is the one without
+// host's threads where it has them (triangle_layout.cpp, updateClusterSpheres): the mask is the one without
 // clusters, for one light and for another (every sphere rewritten), both low over the field.
 TEST(ConeMethod, SpheresWrittenOnSeveralThreadsKeepTheMask) {
   auto& ctx = test::context();

@@ -1,6 +1,6 @@
 // The cone path as an engine: a frame of 1..N lights recorded into a command buffer the caller submits
 // (the public API, include/coneshadow/coneshadow.h, is a thin layer over this; the bench's "cone" method
-// runs the same recorder). docs/ARCHITECTURE.md, "The engine".
+// runs the same recorder, cone_recorder.h). docs/ARCHITECTURE.md, "The engine".
 #pragma once
 #include <cstdint>
 #include <functional>
@@ -12,6 +12,7 @@
 
 #include "core/scene.h"
 #include "traversal/cone_method.h"
+#include "traversal/triangle_layout.h"
 
 namespace cs {
 namespace vk {
@@ -28,18 +29,6 @@ struct EngineLightStats {
   uint64_t pairsTested = 0, pairsSurvived = 0, leafTests = 0;
   bool complete = true;  // false: the traversal's pairs passed its arena; the lit samples not shadowed by then
                          // are written as 0.5 (undecided), the next frames use smaller batches
-};
-
-// A mesh in its own space and an instance of it (row-major 3x4: world = M (x, y, z, 1)).
-struct EngineMesh {
-  const glm::vec3* positions = nullptr;
-  size_t vertexCount = 0;
-  const uint32_t* indices = nullptr;  // three a triangle, each < vertexCount (checked by the caller)
-  size_t indexCount = 0;
-};
-struct EngineInstance {
-  uint32_t mesh = 0;
-  float transform[12] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
 };
 
 class ConeEngine {

@@ -45,7 +45,7 @@ constexpr uint64_t kMinPairs = 4;
 constexpr uint64_t kDefaultMemoryBytes = uint64_t(64) << 20;
 
 // ---- cluster spheres (pure, unit-tested; "Clusters") ------------------------------------------------
-// Clusters (the device path): every CLUSTER_SIZE consecutive triangles (in Hilbert order, cone_method.cpp)
+// Clusters (the device path): every CLUSTER_SIZE consecutive triangles (in Hilbert order, triangle_layout.cpp)
 // are bounded by one sphere and every SUPER_CLUSTERS clusters by another; a batch goes down the upper
 // depths as (super cluster or cluster, node) pairs under the conservative sphere test and is expanded into
 // its triangles' pairs where the nodes stop being wide against the clusters (docs/ARCHITECTURE.md, "The

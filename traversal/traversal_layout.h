@@ -50,7 +50,7 @@
 #define ADVANCE_END_OF_BATCH 0xFFFFFFFFu
 
 // Triangle clusters (traversal.h, "Clusters"): CLUSTER_SIZE consecutive triangles of a triangle buffer
-// (the last may hold fewer), bounded by one sphere relative to the light (cone_method.cpp).
+// (the last may hold fewer), bounded by one sphere relative to the light (triangle_layout.cpp).
 #define CLUSTER_SIZE 16u
 #define CLUSTER_SHIFT 4u
 // Each cluster's four runs of four triangles (its groups) have spheres too, read by the whole-cluster
