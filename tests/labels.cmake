@@ -17,7 +17,7 @@ set(cs_unit_tests
   BuiltinMotion.* BuiltinScene.* ClusterOrder.* ClusterSphere.* ConeFrameChoice.* ConeMath.* EarlyAcceptCovered.*
   EmbreeDevice.* EmbreeReference.* EpsilonPolicy.* FrameOutput.* GeometryCheck.* GeometryRevision.*
   GltfBrokenFolders.* GltfLoader.* Grid.* ImageIo.* LeafHitFromLight.* LeafRayHitsTriangle.* LeafStep.*
-  LoaderHostile.* Metrics.* ResultsTable.* Scene.* SceneLoader.* SphereConeTriangle.* ThreadPool.*
+  LoaderHostile.* Metrics.* ResultsTable.* Scene.* SceneFamily.* SceneLoader.* SphereConeTriangle.* ThreadPool.*
   TraversalArena.* Validation/TinyGltfBroken.* VariantSphereTest.*
   AnimatedGltf.BrokenAnimationsFailWithOneClearError
   AnimatedGltf.HandWrittenTranslationAnimationMovesTheTriangle
