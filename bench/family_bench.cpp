@@ -4,10 +4,12 @@
 // tested and leaf tests per lit sample, what the automatic choices chose (rays a leaf pair, the last
 // expansion's lanes, the ray order) and the samples misclassified outside the band (0: exact); then the
 // WORST ratio, naming its member, and the MEDIAN.
-//   family_bench [--members N] [--first S] [--size 1024] [--frames 3] [--big] [--device D] [--CONE-SETTING V ...]
-// Members family:S .. family:S+N-1 (default 1..12) at size² (default 1024). --big adds, at 512², members 1..3
-// at 1 M triangles and member 1 at 10 M (slow: minutes on lavapipe), reported apart. Frames: the median of
-// N after a warm-up frame.
+//   family_bench [--members N] [--first S] [--members-list LIST] [--size 1024] [--frames 3] [--big] [--detail]
+//                [--device D] [--CONE-SETTING V ...]
+// Members family:S .. family:S+N-1 (default 1..12), or those of LIST (e.g. 3,9:tris=1M), at size² (default
+// 1024). --big adds, at 512², members 1..3 at 1 M triangles and member 1 at 10 M (slow: minutes on
+// lavapipe), reported apart. --detail: per member the pairs per depth, the leaf pairs and tests, and with
+// --profile-stages on the stages' times. Frames: the median of N after a warm-up frame.
 #include <algorithm>
 #include <cstdio>
 #include <iostream>
@@ -48,9 +50,10 @@ void summary(const char* title, std::vector<Row> rows) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  uint32_t members = 12, first = 1, size = 1024;
+  uint32_t count = 12, first = 1, size = 1024;
   int frames = 3;
-  bool big = false;
+  bool big = false, detail = false;
+  std::vector<std::string> list;
   std::string device;
   std::vector<std::pair<std::string, std::string>> given;
   try {
@@ -59,16 +62,18 @@ int main(int argc, char** argv) {
     for (int i = 1; i < argc; ++i) {
       const std::string a = argv[i];
       auto next = [&] { return bench::optionValue(argc, argv, i); };
-      if (a == "--members") members = uint32_t(std::max(1, std::stoi(next())));
+      if (a == "--members") count = uint32_t(std::max(1, std::stoi(next())));
       else if (a == "--first") first = uint32_t(std::max(0, std::stoi(next())));
       else if (a == "--size") size = uint32_t(std::max(16, std::stoi(next())));
       else if (a == "--frames") frames = std::max(1, std::stoi(next()));
       else if (a == "--big") big = true;
+      else if (a == "--detail") detail = true;
+      else if (a == "--members-list") list = bench::split(next());
       else if (a == "--device") device = next();
       else if (const SettingSpec* setting = bench::settingOption(cone, a)) given.emplace_back(setting->name, next());
       else
-        throw UsageError("unknown option '" + a + "' (usage: family_bench [--members N] [--first S] [--size 1024] "
-                         "[--frames N] [--big] [--device D] [--CONE-SETTING VALUE ...])");
+        throw UsageError("unknown option '" + a + "' (usage: family_bench [--members N] [--first S] [--members-list "
+                         "S[:k=v...],...] [--size 1024] [--frames N] [--big] [--detail] [--device D] [--CONE-SETTING VALUE ...])");
     }
     std::string settingsText;
     const Settings settings = bench::settingsOf(cone, given, settingsText);
@@ -82,16 +87,20 @@ int main(int argc, char** argv) {
       uint32_t size;
       bool big;
     };
-    std::vector<Member> list;
-    for (uint32_t s = first; s < first + members; ++s) list.push_back({"family:" + std::to_string(s), size, false});
+    std::vector<Member> members;
+    if (!list.empty()) {
+      for (const std::string& m : list) members.push_back({"family:" + m, size, false});
+    } else {
+      for (uint32_t s = first; s < first + count; ++s) members.push_back({"family:" + std::to_string(s), size, false});
+    }
     if (big) {
-      for (uint32_t s = 1; s <= 3; ++s) list.push_back({"family:" + std::to_string(s) + ":tris=1M", 512, true});
-      list.push_back({"family:1:tris=10M", 512, true});
+      for (uint32_t s = 1; s <= 3; ++s) members.push_back({"family:" + std::to_string(s) + ":tris=1M", 512, true});
+      members.push_back({"family:1:tris=10M", 512, true});
     }
     std::printf("%-10s %5s %9s %8s %9s %9s %7s %9s %11s %5s %-8s %-6s %5s  %s\n", "member", "size", "triangles", "lit",
                 "embree ms", "cone ms", "x emb", "pairs/lit", "leaftst/lit", "leaf", "lanes", "order", "wrong", "parameters");
     std::vector<Row> small, large;
-    for (const Member& m : list) {
+    for (const Member& m : members) {
       std::vector<std::unique_ptr<Scene>> scenes;
       const std::vector<bench::View> views = bench::loadViews(m.arg, scenes);
       const bench::View& v = views.front();
@@ -109,9 +118,19 @@ int main(int argc, char** argv) {
                   j.runs.medianMs, ratio, double(u64(s, "pairs_tested")) / lit, double(u64(s, "leaf_tests")) / lit,
                   text(s, "leaf_rays").c_str(), text(s, "last_expansion_lanes").c_str(), text(s, "ray_order").c_str(),
                   (unsigned long long)j.error.misclassifiedOutsideBand, familyDescription(parseFamilyArg(m.arg)).c_str());
-      if (s.contains("leaf_rays_choice")) std::printf("%-10s   leaf rays: %s\n", "", text(s, "leaf_rays_choice").c_str());
-      if (s.contains("last_expansion_lanes_choice"))
-        std::printf("%-10s   lanes: %s\n", "", text(s, "last_expansion_lanes_choice").c_str());
+      const nlohmann::json& t = s["traversal"];
+      std::printf("%-10s   leaf rays: %s\n", "", text(t, "leaf_rays_choice").c_str());
+      if (detail) {  // what the leaf choice's costs are fitted to (docs/ARCHITECTURE.md, "Leaf pairs chosen per frame")
+        std::printf("%-10s   per depth (tested/survived, k):", "");
+        for (const nlohmann::json& p : t["passes"])
+          std::printf(" %.4g/%.4g", double(u64(p, "pairs_tested")) / 1e3, double(u64(p, "pairs_survived")) / 1e3);
+        std::printf("; leaf pairs %.4gk, leaf tests %.4gk\n", double(u64(t, "leaf_pairs")) / 1e3, double(u64(t, "leaf_tests")) / 1e3);
+        if (j.runs.output.stages.size() > 1) {  // --profile-stages on: the frame's stages timed one by one
+          std::printf("%-10s   stages (ms):", "");
+          for (const StageTime& st : j.runs.output.stages) std::printf(" %s %.1f", st.name.c_str(), st.ms);
+          std::printf("\n");
+        }
+      }
       std::fflush(stdout);
       (m.big ? large : small).push_back({label, ratio});
     }

@@ -49,7 +49,7 @@ struct Builder {
 
 // The closed and the open shapes, each about `tris` triangles (at least a few), centred at c, radius r.
 void sphere(Builder& b, glm::dvec3 c, double r, uint64_t tris) {
-  const uint32_t n = uint32_t(std::clamp(std::sqrt(double(tris) / 4.0), 3.0, 4096.0));
+  const uint32_t n = uint32_t(std::lround(std::clamp(std::sqrt(double(tris) / 4.0), 3.0, 4096.0)));
   b.grid(2 * n, n, true, [&](double u, double v, glm::dvec3& p, glm::dvec3& nn) {
     const double phi = 2 * glm::pi<double>() * u, theta = glm::pi<double>() * (1 - v);
     nn = {std::sin(theta) * std::cos(phi), std::cos(theta), -std::sin(theta) * std::sin(phi)};
@@ -57,7 +57,7 @@ void sphere(Builder& b, glm::dvec3 c, double r, uint64_t tris) {
   });
 }
 void torus(Builder& b, glm::dvec3 c, double r, uint64_t tris) {
-  const uint32_t n = uint32_t(std::clamp(std::sqrt(double(tris) / 6.0), 3.0, 4096.0));
+  const uint32_t n = uint32_t(std::lround(std::clamp(std::sqrt(double(tris) / 6.0), 3.0, 4096.0)));
   const double minor = 0.3 * r, major = 0.7 * r;
   b.grid(3 * n, n, true, [&](double u, double v, glm::dvec3& p, glm::dvec3& nn) {
     const double phi = 2 * glm::pi<double>() * u, theta = 2 * glm::pi<double>() * v;
@@ -68,7 +68,7 @@ void torus(Builder& b, glm::dvec3 c, double r, uint64_t tris) {
   // The grid's v seam repeats its first row: the same positions, so the surface stays closed.
 }
 void box(Builder& b, glm::dvec3 c, double r, uint64_t tris) {
-  const uint32_t n = uint32_t(std::clamp(std::sqrt(double(tris) / 12.0), 1.0, 4096.0));
+  const uint32_t n = uint32_t(std::lround(std::clamp(std::sqrt(double(tris) / 12.0), 1.0, 4096.0)));
   const double h = r / std::sqrt(3.0);
   for (int axis = 0; axis < 3; ++axis)
     for (int sign : {-1, 1}) {
@@ -83,7 +83,7 @@ void box(Builder& b, glm::dvec3 c, double r, uint64_t tris) {
     }
 }
 void sheet(Builder& b, glm::dvec3 c, double r, uint64_t tris, double tilt) {  // a wavy open square
-  const uint32_t n = uint32_t(std::clamp(std::sqrt(double(tris) / 2.0), 1.0, 8192.0));
+  const uint32_t n = uint32_t(std::lround(std::clamp(std::sqrt(double(tris) / 2.0), 1.0, 8192.0)));
   const glm::dvec3 e1{std::cos(tilt), std::sin(tilt), 0}, e2{0, 0, -1}, up = glm::cross(e1, e2);
   b.grid(n, n, false, [&](double u, double v, glm::dvec3& p, glm::dvec3& nn) {
     const double x = 2 * u - 1, z = 2 * v - 1, k = 5.0;
@@ -94,7 +94,7 @@ void sheet(Builder& b, glm::dvec3 c, double r, uint64_t tris, double tilt) {  //
   });
 }
 void tube(Builder& b, glm::dvec3 c, double r, uint64_t tris) {  // an open cylinder, no caps
-  const uint32_t n = uint32_t(std::clamp(std::sqrt(double(tris) / 4.0), 3.0, 4096.0));
+  const uint32_t n = uint32_t(std::lround(std::clamp(std::sqrt(double(tris) / 4.0), 3.0, 4096.0)));
   b.grid(2 * n, n, true, [&](double u, double v, glm::dvec3& p, glm::dvec3& nn) {
     const double phi = 2 * glm::pi<double>() * u;
     nn = {std::cos(phi), 0, -std::sin(phi)};
@@ -102,7 +102,7 @@ void tube(Builder& b, glm::dvec3 c, double r, uint64_t tris) {  // an open cylin
   });
 }
 void shell(Builder& b, glm::dvec3 c, double r, uint64_t tris) {  // an open hemisphere, dome up
-  const uint32_t n = uint32_t(std::clamp(std::sqrt(double(tris) / 4.0), 3.0, 4096.0));
+  const uint32_t n = uint32_t(std::lround(std::clamp(std::sqrt(double(tris) / 4.0), 3.0, 4096.0)));
   b.grid(2 * n, n, true, [&](double u, double v, glm::dvec3& p, glm::dvec3& nn) {
     const double phi = 2 * glm::pi<double>() * u, theta = 0.5 * glm::pi<double>() * (1 - v);
     nn = {std::sin(theta) * std::cos(phi), std::cos(theta), -std::sin(theta) * std::sin(phi)};
@@ -230,7 +230,7 @@ Scene familyScene(const FamilyParams& p) {
     }
   }
   if (p.ground) {
-    const uint32_t n = uint32_t(std::clamp(std::sqrt(double(groundTris) / 2.0), 1.0, 8192.0));
+    const uint32_t n = uint32_t(std::lround(std::clamp(std::sqrt(double(groundTris) / 2.0), 1.0, 8192.0)));
     b.grid(n, n, false, [&](double u, double v, glm::dvec3& q, glm::dvec3& nn) {
       q = {3.2 * u - 1.6, 0.0, 1.6 - 3.2 * v};
       nn = {0, 1, 0};
