@@ -490,6 +490,7 @@ class ConeMethod : public ShadowMethod, public ConeEngine {
     in.sphereLastExpansion = options_.sphereLastExpansion;
     in.lastExpansionLanes = options_.lastExpansionLanes;
     in.leafRays = options_.leafRays;
+    in.leafChoiceCosts = options_.leafChoiceCosts;
     in.leafTest = options_.leafTestFromLight ? traversal::leafTestFor(frame_.far, boundsLo_, boundsHi_, light)
                                              : traversal::LeafTest::TwoEnds;
     in.superClusters = options_.superClusters;

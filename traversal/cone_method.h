@@ -82,9 +82,10 @@ struct ConeOptions {
   // Those expansions' lanes (traversal.h ExpansionLanes; --last-expansion-lanes): auto (a lane per cluster
   // pair on a CPU device, per triangle pair on a GPU), cluster or triangle. The same mask.
   traversal::ExpansionLanes lastExpansionLanes = traversal::ExpansionLanes::Auto;
-  // Rays a leaf pair covers (traversal.h LeafRays; --leaf-rays): auto (64 on a CPU device, four on a
-  // GPU), 4 (paper 002's leaves), 16 or 64. The same mask.
+  // Rays a leaf pair covers (traversal.h LeafRays; --leaf-rays): auto (chosen per batch from its counts
+  // on a CPU device, four on a GPU), 4 (paper 002's leaves), 16 or 64. The same mask.
   traversal::LeafRays leafRays = traversal::LeafRays::Auto;
+  std::optional<traversal::LeafChoiceCosts> leafChoiceCosts;  // tests: auto's choice with these costs (traversal.h)
   // The leaves' test (traversal.h LeafTest; --leaf-test): true (auto), the test from the light wherever it
   // is exact (traversal::leafTestFor: a light among the geometry), else the two ends'; false, the two ends'
   // always. Exact outside the ambiguity band either way; within it the masks may differ.
