@@ -15,7 +15,7 @@ namespace cs {
 
 namespace {
 
-const std::vector<std::string> kCommands = {"render", "compare", "info", "results-table", "devices", "help"};
+const std::vector<std::string> kCommands = {"render", "compare", "visibility", "info", "results-table", "devices", "help"};
 
 std::vector<std::string> splitList(const std::string& flag, const std::string& v) {
   std::vector<std::string> items;
@@ -182,6 +182,9 @@ std::string usageText() {
          "  coneshadow compare [SCENE] [options]  every method's sweep on every view, against one Embree\n"
          "                                        reference per view; writes a report (also --animate N,\n"
          "                                        --scaling, --light-distances D1,D2: separate runs)\n"
+         "  coneshadow visibility [SCENE] --samples FILE [--light X,Y,Z]... [--reference]\n"
+         "                                        the exact visibility of your own samples (x y z nx ny nz a\n"
+         "                                        line) from each light, as a CSV (Embree's beside it)\n"
          "  coneshadow info SCENE                 triangles (flattened over node instances), bounds, cameras, lights\n"
          "  coneshadow results-table [--host-cost] DIR...\n"
          "                                        markdown table of the compare results in each DIR (docs/RESULTS.md's)\n"
@@ -250,6 +253,8 @@ Options parseArgs(int argc, char** argv) {
 
   CLI::App* render = app.add_subcommand("render", "one frame with one or more methods, each judged against Embree");
   CLI::App* compare = app.add_subcommand("compare", "every method's sweep on every view, against one Embree reference");
+  CLI::App* visibility =
+      app.add_subcommand("visibility", "the exact shadow visibility of your own samples (x y z nx ny nz a line) from the lights");
   CLI::App* info = app.add_subcommand("info", "triangles, bounds, cameras and lights of a scene");
   CLI::App* table = app.add_subcommand("results-table", "markdown table of the compare results in each folder");
   CLI::App* devices = app.add_subcommand("devices", "list the Vulkan devices");
@@ -299,6 +304,29 @@ Options parseArgs(int argc, char** argv) {
   compare->footer("writes into --out DIR (default compare, 256x256): results.json, results.csv, per-setting images,\n"
                   "<view>_closeups.png, report.md, report.html, speed_vs_error.svg/.png");
 
+  visibility->add_option("scene", o.scene, "the scene, as for render (default: the built-in scene)");
+  visibility->add_option("--samples", o.samples, "a text file, a sample a line: x y z nx ny nz (spaces, tabs or commas; # comments)")
+      ->type_name("FILE")
+      ->required();
+  visibility->add_option("--light", raw.lights,
+                         "point light position X,Y,Z; given again, one more light (default: the scene's first point light)")
+      ->type_name("X,Y,Z")
+      ->expected(1)
+      ->allow_extra_args(false)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  visibility->add_flag("--all-lights", o.allLights, "every point light of the scene");
+  visibility->add_option("--time", raw.time, "a BART .aff scene at scene time T")->type_name("T");
+  visibility->add_flag("--ground-plane", o.groundPlane, "add a receiver under the scene's bounds (normal +y)");
+  visibility->add_flag("--reference", o.reference, "also Embree's answer and the ambiguity band, in columns of their own");
+  visibility->add_option("--out", o.samplesOut,
+                         "the CSV file (default: standard output); an existing file is replaced only when this command wrote it")
+      ->type_name("FILE");
+  visibility->add_option("--device", o.device, "Vulkan device by index or name substring (see `coneshadow devices`)")->type_name("D");
+  visibility->add_flag("--validation", o.validation, "enable VK_LAYER_KHRONOS_validation (slow; for debugging)");
+  visibility->footer("writes a CSV: a comment line, a header, then a row a sample in the file's order: facing_<l> for each\n"
+                     "light l (1: the sample faces it), then visible_<l> (1: facing it and nothing between), then with\n"
+                     "--reference embree_<l> (Embree's visible_<l>) and band_<l> (1: in the ambiguity band); a summary on stderr");
+
   info->add_option("scene", o.scene, "a .gltf/.glb, .aff or other file assimp reads, builtin, heightfield:N (a generated height field of N triangles) or family:SEED (a generated scene)");
   table->add_option("folders", o.folders, "folders written by coneshadow compare");
   table->add_flag("--host-cost", o.hostCost,
@@ -339,7 +367,7 @@ Options parseArgs(int argc, char** argv) {
     o.text = usageText();
     if (!helpTopic.empty()) {
       CLI::App* topic = nullptr;
-      for (CLI::App* s : {render, compare, info, table, devices})
+      for (CLI::App* s : {render, compare, visibility, info, table, devices})
         if (s->get_name() == helpTopic) topic = s;
       if (!topic) throw UsageError("help: unknown command '" + helpTopic + "'" + didYouMean(helpTopic, kCommands));
       o.text = topic->help("coneshadow");
@@ -352,6 +380,15 @@ Options parseArgs(int argc, char** argv) {
     throw UsageError(sub->get_name() + " takes " + (sub == info ? "one SCENE" : "no arguments") + "; '" +
                      sub->remaining().front().substr(0, 60) + "' is one too many");
   if (sub == table && o.folders.empty()) throw UsageError("results-table needs one or more folders written by coneshadow compare");
+  if (sub == visibility) {
+    if (!sub->remaining().empty())
+      throw UsageError("visibility takes one SCENE; '" + sub->remaining().front().substr(0, 60) + "' is one too many");
+    for (const std::string& light : raw.lights) o.lights.push_back(parseVec3("--light", light));
+    if (!raw.time.empty()) o.sceneTime = parseNumber("--time", raw.time, -1e300, 1e300, "a finite number (scene time)");
+    if (o.allLights && !o.lights.empty())
+      throw UsageError("--all-lights takes the scene's point lights and --light gives them: give one or the other");
+    return o;
+  }
   if (sub != render && sub != compare) return o;
 
   // Values converted here, so each bad one is a one-line error naming its flag.

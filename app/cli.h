@@ -20,7 +20,7 @@ namespace cs {
 enum ExitCode : int { kExitOk = 0, kExitFailure = 1, kExitUsage = 2 };
 
 struct Options {
-  std::string command;               // info | render | compare | results-table | devices | help | version
+  std::string command;               // info | render | compare | visibility | results-table | devices | help | version
   std::string text;                  // help and version: what to print
   std::string scene;                 // empty = built-in scene
   bool groundPlane = false;          // --ground-plane: a receiver under the scene's bounds
@@ -48,6 +48,10 @@ struct Options {
   std::vector<double> lightDistances;  // --light-distances D1,D2: the light sweep, in scene diagonals
   std::vector<std::string> folders;  // results-table DIR...
   bool hostCost = false;             // results-table --host-cost
+  // visibility: the samples file (--samples), where the CSV goes (--out; empty or "-": standard output),
+  // and --reference (Embree's answer and the band beside the engine's)
+  std::string samples, samplesOut;
+  bool reference = false;
   // The methods' settings as given, in order: name without the dashes, value ("" for a switch).
   std::vector<std::pair<std::string, std::string>> settings;
 };

@@ -10,6 +10,8 @@ int runMain(int argc, char** argv);
 int runInfo(const Options& options);
 int runRender(const Options& options);
 int runDevices(const Options& options);
+// visibility: the samples of a file from 1..L lights through the cone engine (app/visibility.cpp).
+int runVisibility(const Options& options);
 
 // SCENE of the command line: the built-in scene, a glTF file, or a BART .aff file at --time.
 Scene loadSceneArg(const Options& options, std::ostream& log);

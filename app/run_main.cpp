@@ -24,6 +24,7 @@ int runMain(int argc, char** argv) {
     if (options.command == "devices") return runDevices(options);
     if (options.command == "info") return runInfo(options);
     if (options.command == "compare") return runCompare(options);
+    if (options.command == "visibility") return runVisibility(options);
     return runRender(options);
   } catch (const UsageError& e) {
     std::cerr << "coneshadow: " << e.what() << "\n";

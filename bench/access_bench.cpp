@@ -65,7 +65,7 @@ int main(int argc, char** argv) {
         elements > ctx->properties.limits.maxTexelBufferElements)
       throw Error("--elements " + std::to_string(elements) + " exceeds one binding of this device", ctx->deviceName(),
                   "lower --elements");
-    vk::Kernel kernel = vk::createKernel(*ctx, "access_bench", spv_access_bench_comp, 5, sizeof(Push), {}, 1u << 2);
+    vk::Kernel kernel = vk::createKernel(*ctx, "access_bench", spv_access_bench_comp, 5, sizeof(Push));
     vk::Buffer src = vk::createBuffer(*ctx, srcBytes), out = vk::createBuffer(*ctx, outBytes),
                atomics = vk::createBuffer(*ctx, 4096 * 4);
     {

@@ -32,7 +32,7 @@ ConeTree::ConeTree(vk::Context& ctx)
   for (uint32_t far = 0; far < 2; ++far)
     for (uint32_t leaves = 0; leaves < 3; ++leaves)
       build_[far][leaves] = vk::createKernel(ctx, "cone tree build", spv_build_level_comp, 7, sizeof(BuildPush),
-                                             {{0, far}, {1, leaves}}, 0x69u);
+                                             {{0, far}, {1, leaves}});
 }
 
 const vk::Kernel& ConeTree::buildKernel(const BuildPush& p, uint32_t leaves) const {

@@ -14,10 +14,9 @@ layout(std430, binding = 1) writeonly buffer Shape { uint shape[]; };
 layout(push_constant) uniform Push { ShapePush p; };
 
 void writeArgs(uint at, uint items, uint groupSize) {
-  uint groups = (items + groupSize - 1u) / groupSize;
-  uint x = min(groups, p.maxPerDim);
-  shape[at] = x;
-  shape[at + 1u] = x == 0u ? 1u : (groups + x - 1u) / x;
+  uvec2 grid = indirectGrid(items, groupSize, p.maxPerDim);
+  shape[at] = grid.x;
+  shape[at + 1u] = grid.y;
   shape[at + 2u] = 1u;
   shape[at + 3u] = items;
 }

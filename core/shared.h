@@ -9,8 +9,9 @@
 //   CS_GLSL_MATH   inside a C++ namespace: the built-ins the shared code calls, from glm. The cone headers
 //                  take theirs through CONE_CPU_MATH (conetree/cone_layout.h), which a test may replace with
 //                  an emulation of the worst arithmetic a GPU is allowed.
-//   CS_FLAT_INDEX(threads)  GLSL compute only: the invocation's index in a one-dimensional launch of
-//                  `threads`-wide workgroups spread over a 2D grid, x first (vk::gridFor).
+//   CS_FLAT_WORKGROUP, CS_FLAT_INDEX(threads)  GLSL compute only: the workgroup's index, and the
+//                  invocation's, in a one-dimensional launch of `threads`-wide workgroups spread over a 2D
+//                  grid, x first (vk::gridFor); the one place that grid is flattened.
 //   evenBits(v)    the even bits of v packed into the low 16: a Morton (Z-order) code's x (and, of v >> 1, y)
 //   litSample(position, normal)  the lit-sample rule: the G-buffer has geometry at the pixel (position.w
 //                  is 1) and the direct-light term N·L there is positive (normal.w). Every method, the
@@ -60,8 +61,15 @@ CS_GLSL_TYPES
 #define CS_PRECISE precise
 #define CS_GLSL_TYPES
 #define CS_GLSL_MATH
-#define CS_FLAT_INDEX(threads) \
-  ((gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * (threads) + gl_LocalInvocationIndex)
+#define CS_FLAT_WORKGROUP (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x)
+#define CS_FLAT_INDEX(threads) (CS_FLAT_WORKGROUP * (threads) + gl_LocalInvocationIndex)
+// GLSL only: the (x, y) workgroups of an indirect dispatch a kernel writes for `items` in workgroups of
+// `groupSize`: x up to maxPerDim, then as many rows as that takes (one row and zero columns for none).
+uvec2 indirectGrid(uint items, uint groupSize, uint maxPerDim) {
+  uint groups = (items + groupSize - 1u) / groupSize;
+  uint x = min(groups, maxPerDim);
+  return uvec2(x, x == 0u ? 1u : (groups + x - 1u) / x);
+}
 // GLSL only: word w of a uint array bound as a uniform texel buffer of RGBA32UI texels (four words a
 // texel) -- how kernels read the few words every invocation needs (a tree's shape, the traversal's
 // state): a texel fetch is a gather on lavapipe, a storage load a loop over the lanes.

@@ -16,11 +16,11 @@
 #include <pybind11/stl.h>
 
 #include "core/error.h"
+#include "harness/samples.h"
 
 namespace cs {
 struct Scene;
 struct Camera;
-class ConeEngine;
 namespace vk {
 struct Context;
 }
@@ -35,13 +35,9 @@ namespace py = pybind11;
 // context is used: one frame at a time, whichever Python thread asks.
 std::unique_lock<std::mutex> lockDevice();
 vk::Context& device();
-// The cone engine visibility() records with (samples.cpp makes it on first use), and the number of the next
-// frame it records; made on the context of device(), ended with it. Hold the lock.
-struct EngineSlot {
-  std::unique_ptr<ConeEngine> engine;
-  uint64_t frame = 0;
-};
-EngineSlot& engineSlot();
+// The cone engine visibility() records with (harness/samples.h: made on first use), on the context of
+// device(), ended with it. Hold the lock.
+SampleEngine& engineSlot();
 // set_device(): the next device() makes a context on `device` (index or name substring).
 void chooseDevice(const std::string& device, bool validation);
 // The context's driver description (making it if needed).

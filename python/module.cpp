@@ -20,7 +20,7 @@ namespace {
 struct DeviceState {
   std::mutex mutex;
   std::unique_ptr<vk::Context> ctx;
-  EngineSlot engine;  // ended before ctx
+  SampleEngine engine;  // ended before ctx
   std::string device;
   bool validation = false;
 };
@@ -92,7 +92,7 @@ void releaseDevice() {
   state().ctx.reset();
 }
 
-EngineSlot& engineSlot() { return state().engine; }
+SampleEngine& engineSlot() { return state().engine; }
 
 void usage(const std::string& message) { throw UsageError(message); }
 

@@ -21,13 +21,12 @@ layout(std430, binding = 3) writeonly buffer Counts { uint counts[]; };
 layout(push_constant) uniform Push { LitPush pc; };
 // = pc.order != 0, as a specialisation constant: the row-major pipeline holds no Morton code.
 layout(constant_id = 0) const uint SPEC_MORTON = 0u;
-uint flatWorkgroup() { return gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x; }
 #define WG_SIZE SCAN_THREADS
 #define WG_RAKE SCAN_RAKE
 #include "sort/workgroup_scan.glsl"
 void main() {
   uint n = pc.domain;
-  uint b = flatWorkgroup();
+  uint b = CS_FLAT_WORKGROUP;
   if (b * SCAN_BLOCK >= n) return;  // the whole workgroup: past the end
   uint t = gl_LocalInvocationIndex;
   uint first = b * SCAN_BLOCK + t * SCAN_ITEMS;

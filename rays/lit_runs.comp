@@ -35,7 +35,6 @@ layout(std430, binding = 7) writeonly buffer Cells { uvec4 cells4[]; };
 layout(push_constant) uniform Push { KeysPush pc; };
 // = pc.framed, as a specialisation constant: each pipeline holds one key's code (ray_keys.comp).
 layout(constant_id = 0) const uint SPEC_FRAMED = 0u;
-uint flatWorkgroup() { return gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x; }
 vec4 g0, g1, g2, g3, g4, g5;
 #include "rays/run_cell.glsl"
 #define WG_SIZE SCAN_THREADS
@@ -54,7 +53,7 @@ uint litCell(uint first, uint k, uint n) {
 
 void main() {
   uint n = pc.count;  // pixels
-  uint b = flatWorkgroup();
+  uint b = CS_FLAT_WORKGROUP;
   if (b * SCAN_BLOCK >= n) return;  // the whole workgroup: past the end
   uint t = gl_LocalInvocationIndex;
   uint inv = b * SCAN_THREADS + t;

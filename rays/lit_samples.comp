@@ -15,9 +15,8 @@ layout(std430, binding = 1) readonly buffer Offsets { uint offsets[]; };
 layout(std430, binding = 2) writeonly buffer Samples { uint samples[]; };
 layout(push_constant) uniform Push { LitPush pc; };
 layout(constant_id = 0) const uint SPEC_MORTON = 0u;
-uint flatWorkgroup() { return gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x; }
 void main() {
-  uint b = flatWorkgroup();
+  uint b = CS_FLAT_WORKGROUP;
   if (b * SCAN_BLOCK >= pc.domain) return;
   uint t = gl_LocalInvocationIndex;
   uint first = b * SCAN_BLOCK + t * SCAN_ITEMS;

@@ -21,7 +21,7 @@ layout(constant_id = 0) const uint SPEC_FRAMED = 0u;
 #include "sort/common.glsl"
 
 void main() {
-  uint i = flatWorkgroup() * PIXEL_THREADS + gl_LocalInvocationIndex;
+  uint i = CS_FLAT_INDEX(PIXEL_THREADS);
   if (i >= countOf(pc.count, pc.countIndex, pc.flags)) return;
   vec3 x = texelFetch(position, int(samples[i])).xyz;
   if (SPEC_FRAMED != 0u) {  // S R (x - origin) - lightFrame: the ray in the rotated frame

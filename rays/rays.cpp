@@ -75,24 +75,24 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
       groups_(ctx),
       runScan_(ctx, blockInvocations(maxPixels_)),
       itemScan_(ctx, std::max(maxPixels_, 1u)) {
-  rayBounds_ = vk::createKernel(ctx, "ray_bounds", spv_ray_bounds_comp, 3, sizeof(KeysPush), {}, 0x3u);
+  rayBounds_ = vk::createKernel(ctx, "ray_bounds", spv_ray_bounds_comp, 3, sizeof(KeysPush));
   rayGrids_ = vk::createKernel(ctx, "ray_grids", spv_ray_grids_comp, 2, sizeof(KeysPush));
-  rayKeys_ = vk::createKernel(ctx, "ray_keys", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 0u}}, 0x1u);
-  frameRayKeys_ = vk::createKernel(ctx, "ray_keys (frame)", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 1u}}, 0x1u);
-  litCount_ = vk::createKernel(ctx, "lit_count", spv_lit_count_comp, 4, sizeof(LitPush), {{0, 0u}}, 0x3u);
-  mortonLitCount_ = vk::createKernel(ctx, "lit_count (Morton)", spv_lit_count_comp, 4, sizeof(LitPush), {{0, 1u}}, 0x3u);
+  rayKeys_ = vk::createKernel(ctx, "ray_keys", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 0u}});
+  frameRayKeys_ = vk::createKernel(ctx, "ray_keys (frame)", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 1u}});
+  litCount_ = vk::createKernel(ctx, "lit_count", spv_lit_count_comp, 4, sizeof(LitPush), {{0, 0u}});
+  mortonLitCount_ = vk::createKernel(ctx, "lit_count (Morton)", spv_lit_count_comp, 4, sizeof(LitPush), {{0, 1u}});
   litSamples_ = vk::createKernel(ctx, "lit_samples", spv_lit_samples_comp, 3, sizeof(LitPush), {{0, 0u}});
   mortonLitSamples_ = vk::createKernel(ctx, "lit_samples (Morton)", spv_lit_samples_comp, 3, sizeof(LitPush), {{0, 1u}});
-  litRuns_ = vk::createKernel(ctx, "lit_runs", spv_lit_runs_comp, 8, sizeof(KeysPush), {{0, 0u}}, 0x3u);
-  frameLitRuns_ = vk::createKernel(ctx, "lit_runs (frame)", spv_lit_runs_comp, 8, sizeof(KeysPush), {{0, 1u}}, 0x3u);
-  runItems_ = vk::createKernel(ctx, "run_items", spv_run_items_comp, 7, sizeof(KeysPush), {{0, 0u}}, 0x41u);
-  frameRunItems_ = vk::createKernel(ctx, "run_items (frame)", spv_run_items_comp, 7, sizeof(KeysPush), {{0, 1u}}, 0x41u);
+  litRuns_ = vk::createKernel(ctx, "lit_runs", spv_lit_runs_comp, 8, sizeof(KeysPush), {{0, 0u}});
+  frameLitRuns_ = vk::createKernel(ctx, "lit_runs (frame)", spv_lit_runs_comp, 8, sizeof(KeysPush), {{0, 1u}});
+  runItems_ = vk::createKernel(ctx, "run_items", spv_run_items_comp, 7, sizeof(KeysPush), {{0, 0u}});
+  frameRunItems_ = vk::createKernel(ctx, "run_items (frame)", spv_run_items_comp, 7, sizeof(KeysPush), {{0, 1u}});
   for (uint32_t keys = 0; keys < 2; ++keys)
     for (uint32_t records = 0; records < 2; ++records)
       runExpand_[keys][records] =
           vk::createKernel(ctx, keys ? (records ? "run_expand (keys, records)" : "run_expand (keys)")
                                      : (records ? "run_expand (records)" : "run_expand"),
-                           spv_run_expand_comp, 8, sizeof(RunsPush), {{0, keys}, {1, records}}, 0x53u);
+                           spv_run_expand_comp, 8, sizeof(RunsPush), {{0, keys}, {1, records}});
   samples_ = vk::createBuffer(ctx, uint64_t(maxPixels_) * 4);
   keys_ = vk::createBuffer(ctx, uint64_t(maxPixels_) * 4);
   count_ = vk::createBuffer(ctx, 16);

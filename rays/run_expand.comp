@@ -26,9 +26,8 @@ layout(std430, binding = 7) writeonly buffer Records { uvec4 records[]; };
 layout(push_constant) uniform Push { RunsPush pc; };
 layout(constant_id = 0) const uint SPEC_KEYS = 0u;
 layout(constant_id = 1) const uint SPEC_RECORDS = 0u;
-uint flatWorkgroup() { return gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x; }
 void main() {
-  uint j = flatWorkgroup() * PIXEL_THREADS + gl_LocalInvocationIndex;
+  uint j = CS_FLAT_INDEX(PIXEL_THREADS);
   if (j >= min(countWords[pc.itemsIndex], pc.items)) return;
   uint item = texelFetch(order, int(j)).x, at = texelFetch(starts, int(j)).x;
   uint pixel = item & RUN_PIXEL_MASK, length = (item >> RUN_PIXEL_BITS) + 1u;

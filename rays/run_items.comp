@@ -23,11 +23,10 @@ layout(std430, binding = 5) readonly buffer Grids { vec4 grids[]; };
 layout(binding = 6) uniform usamplerBuffer cells;
 layout(push_constant) uniform Push { KeysPush pc; };
 layout(constant_id = 0) const uint SPEC_FRAMED = 0u;
-uint flatWorkgroup() { return gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x; }
 vec4 g0, g1, g2, g3, g4, g5;
 #include "rays/run_cell.glsl"
 void main() {
-  uint b = flatWorkgroup();
+  uint b = CS_FLAT_WORKGROUP;
   if (b * SCAN_BLOCK >= pc.count) return;
   uint t = gl_LocalInvocationIndex;
   uint inv = b * SCAN_THREADS + t;

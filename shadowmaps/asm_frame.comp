@@ -8,7 +8,7 @@
 //   and the node's texel covers more of the surface than the pixel does, the cell of that node whose
 //   child would hold the footprint gains one unit of benefit.
 //   ASM_MODE_LOOKUP (§4.4): visibility from the finest node's nearest texel or 2x2 PCF, the shared
-//   slope-scaled or receiver-plane bias with that node's texel.
+//   slope-scaled or receiver-plane bias with that node's texel (pcf.glsl).
 // With pc.idTest (§4.2, ID + depth) a tap is lit when the triangle nearest the light there is the
 // sample's own (from the G-buffer), and only otherwise by the depth comparison.
 // Both modes mark every node a walk passes through as used (the host's LRU, §3.2).
@@ -33,6 +33,7 @@ layout(std430, binding = 8) readonly buffer IdPool { uint idPool[]; };
 layout(std430, binding = 9) readonly buffer Triangle { uint triangle[]; };
 layout(std430, binding = 10) readonly buffer Windows { vec4 windows[]; };
 layout(push_constant) uniform Push { AsmPush pc; };
+#include "shadowmaps/pcf.glsl"
 
 uint findSlot(uint key) {
   uint h = asmHash(key, pc.capacity);
@@ -96,27 +97,20 @@ void main() {
   }
 
   uint stride = N + 1u;
-  uint origin = slot * asmSlotStride(N);
   uvec2 local = base - node * N;
+  uint t = slot * asmSlotStride(N) + local.y * stride + local.x;  // the footprint's first texel in the pool
+  uvec4 taps = uvec4(t, t + 1u, t + stride, t + stride + 1u);
   float faceRes = res * zoom;  // the level's texels across the whole face
-  float reach = dist - slopeScaledBias(dist, cosTheta, 2.0f / faceRes, pc.constantBias, pc.slopeBias, pc.maxSlope);
-  float slack = 0.25 * dist * 2.0f / faceRes;
+  Receiver r = faceReceiver(dist, cosTheta, faceRes, dF, nF);
+  vec4 uv = vec4(windowFaceUV(vec2(base) + 0.5, res, w), windowFaceUV(vec2(base + 1u) + 0.5, res, w));
+  vec4 l = pcfTaps(r, vec4(pool[taps.x], pool[taps.y], pool[taps.z], pool[taps.w]), uv);
   uint ownTriangle = pc.idTest != 0u ? triangle[i] : CS_NO_TRIANGLE;
-  float l[4];
-  for (uint k = 0u; k < 4u; ++k) {
-    uvec2 tap = local + uvec2(k & 1u, k >> 1u);
-    float r = pc.planeBias != 0u
-                  ? planeReach(dF, nF, 2.0 * (vec2(w.x, w.y) + (vec2(base + uvec2(k & 1u, k >> 1u)) + 0.5) / faceRes) - 1.0, reach,
-                               pc.constantBias, slack)
-                  : reach;
-    uint t = origin + tap.y * stride + tap.x;
-    bool sameTriangle = ownTriangle != CS_NO_TRIANGLE && idPool[t] == ownTriangle;
-    l[k] = sameTriangle || pool[t] >= r ? 1.0 : 0.0;
-  }
+  if (ownTriangle != CS_NO_TRIANGLE)  // a tap whose nearest triangle is the sample's own lights it
+    l = mix(l, vec4(1.0), equal(uvec4(idPool[taps.x], idPool[taps.y], idPool[taps.z], idPool[taps.w]), uvec4(ownTriangle)));
 
   if (!analyse) {
     if (pc.pcf != 0u) {
-      visibility[i] = mix(mix(l[0], l[1], frac.x), mix(l[2], l[3], frac.x), frac.y);
+      visibility[i] = pcfBlend(l, frac);
     } else {
       uint k = (frac.x >= 0.5 ? 1u : 0u) + (frac.y >= 0.5 ? 2u : 0u);
       visibility[i] = l[k];

@@ -1,5 +1,5 @@
 // RMSM lookups shared by rmsm_lookup.comp and the test kernel tests/rmsm_probe.comp: the page-table walk and
-// the 2x2 percentage-closer filter inside one page. Include after the bindings: it reads `tables`
+// the 2x2 percentage-closer filter inside one page (pcf.glsl). Include after the bindings: it reads `tables`
 // (uint per entry), `pool` (float per texel), `windows` (vec4 per face) and the push constants `pc` (RmsmPush).
 // (s, t) are window coordinates (sm_shared.h windowST: the whole face unless the faces are fitted).
 //
@@ -8,6 +8,8 @@
 // below that level, which is what the paper's mip hierarchy of tables stores at every level (000
 // §3.3.3: "each page table resolution should use the highest resolution page that is less than or equal
 // to that page table's resolution") — without writing every finer table under every coarse page.
+
+#include "shadowmaps/pcf.glsl"
 
 uint pageSide() { return 1u << pc.log2Page; }
 uint pageStride() { return (pageSide() + 1u) * (pageSide() + 1u); }  // texels per pool slot (apron included)
@@ -53,16 +55,9 @@ float pcfAtLevel(uint face, vec2 st, uint level, float dist, float cosTheta, vec
   float res = float(pageSide() << found);
   vec4 window = windows[face];
   float faceRes = res * window.z;  // the whole face's texels a side at this level
-  float reach = dist - slopeScaledBias(dist, cosTheta, 2.0f / faceRes, pc.constantBias, pc.slopeBias, pc.maxSlope);
-  float slack = 0.25 * dist * 2.0f / faceRes;
+  Receiver r = faceReceiver(dist, cosTheta, faceRes, dF, nF);
   uint row = pageSide() + 1u;
-  float l[4];
-  for (uint k = 0u; k < 4u; ++k) {
-    uvec2 o = uvec2(k & 1u, k >> 1u);
-    float r = pc.planeBias != 0u
-                  ? planeReach(dF, nF, windowFaceUV(vec2(texel + o) + 0.5, res, window), reach, pc.constantBias, slack)
-                  : reach;
-    l[k] = pool[base + o.y * row + o.x] >= r ? 1.0 : 0.0;
-  }
-  return mix(mix(l[0], l[1], f.x), mix(l[2], l[3], f.x), f.y);
+  vec4 depth = vec4(pool[base], pool[base + 1u], pool[base + row], pool[base + row + 1u]);
+  vec4 uv = vec4(windowFaceUV(vec2(texel) + 0.5, res, window), windowFaceUV(vec2(texel + 1u) + 0.5, res, window));
+  return pcfBlend(pcfTaps(r, depth, uv), f);
 }

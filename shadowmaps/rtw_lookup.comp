@@ -7,34 +7,19 @@
 // and its neighbours (the taps may reach into them) scaled by warpBias; or per tap the receiver-plane
 // distance along the tap's own unwarped ray. Unlit samples get 1. Lit samples whose cell was culled
 // (zero width: the analysis gave it no importance) are counted.
-// bindings: 0 = position, 1 = normal (w = N·L̂), 2..7 = faces 0..5 (float per texel, R x R), 8 =
-//           visibility (float per pixel), 9 = warp (rtw_shared.h layout), 10 = counters (uint: 0 = lit
-//           samples in culled cells)
+// bindings: 0 = position, 1 = normal (w = N·L̂), 2..7 = faces 0..5 (float per texel, R x R:
+//           cube_faces.glsl), 8 = visibility (float per pixel), 9 = warp (rtw_shared.h layout),
+//           10 = counters (uint: 0 = lit samples in culled cells)
 #include "shadowmaps/rtw_shared.h"
 layout(local_size_x = RTW_THREADS) in;
 layout(std430, binding = 0) readonly buffer Position { vec4 position[]; };
 layout(std430, binding = 1) readonly buffer Normal { vec4 normal[]; };
-layout(std430, binding = 2) readonly buffer Face0 { float face0[]; };
-layout(std430, binding = 3) readonly buffer Face1 { float face1[]; };
-layout(std430, binding = 4) readonly buffer Face2 { float face2[]; };
-layout(std430, binding = 5) readonly buffer Face3 { float face3[]; };
-layout(std430, binding = 6) readonly buffer Face4 { float face4[]; };
-layout(std430, binding = 7) readonly buffer Face5 { float face5[]; };
+#include "shadowmaps/cube_faces.glsl"
 layout(std430, binding = 8) writeonly buffer Visibility { float visibility[]; };
 layout(std430, binding = 9) readonly buffer Warp { float warp[]; };
 layout(std430, binding = 10) buffer Counters { uint counters[]; };
 layout(push_constant) uniform Push { RtwLookupPush pc; };
-
-float texel(uint face, uint index) {
-  switch (face) {
-    case 0u: return face0[index];
-    case 1u: return face1[index];
-    case 2u: return face2[index];
-    case 3u: return face3[index];
-    case 4u: return face4[index];
-    default: return face5[index];
-  }
-}
+#include "shadowmaps/pcf.glsl"
 
 float knot(uint face, uint axis, uint k) { return warp[rtwKnotBase(face, axis, pc.cells) + k]; }
 
@@ -44,6 +29,12 @@ float cellWidth(uint face, uint axis, uint k) { return knot(face, axis, k + 1u) 
 // Unwarped coordinate of texel j's centre on an axis (the warp buffer's inverse table).
 float unwarpTexel(uint face, uint axis, float j) {
   return warp[rtwInverseBase(face, axis, pc.cells, pc.resolution) + uint(j)];
+}
+
+// Face coordinates of warped texel `tap`'s centre, for the receiver-plane bias: the inverse tables are
+// read only when it is on.
+vec2 texelUV(uint face, vec2 tap) {
+  return pc.planeBias != 0u ? 2.0 * vec2(unwarpTexel(face, 0u, tap.x), unwarpTexel(face, 1u, tap.y)) - 1.0 : vec2(0.0);
 }
 
 void main() {
@@ -78,33 +69,17 @@ void main() {
   // One warped texel (1/R of s') spans (1/n) / (R · width) of s, i.e. 2 / (R · n · width) of u.
   float res = float(pc.resolution);
   float texelAngle = pc.warpBias * 2.0 / (res * float(n) * narrowest);
-  float reach = dist - slopeScaledBias(dist, cosTheta, texelAngle, pc.constantBias, pc.slopeBias, pc.maxSlope);
-  float slack = 0.25 * dist * texelAngle;
+  Receiver r = receiver(dist, cosTheta, texelAngle, 0.25 * dist * texelAngle, dF, nF);
   float vis;
   if (pc.pcf != 0u) {
     vec2 x = footprintCoord(sw, res);
     vec2 b = clamp(floor(x), vec2(0.0), vec2(res - 2.0));
     vec2 f = clamp(x - b, vec2(0.0), vec2(1.0));
-    uint base = uint(b.y) * pc.resolution + uint(b.x);
-    float l[4];
-    for (uint k = 0u; k < 4u; ++k) {
-      vec2 tap = b + vec2(float(k & 1u), float(k >> 1u));
-      float r = reach;
-      if (pc.planeBias != 0u) {
-        vec2 uv = 2.0 * vec2(unwarpTexel(face, 0u, tap.x), unwarpTexel(face, 1u, tap.y)) - 1.0;
-        r = planeReach(dF, nF, uv, reach, pc.constantBias, slack);
-      }
-      l[k] = texel(face, base + (k >> 1u) * pc.resolution + (k & 1u)) >= r ? 1.0 : 0.0;
-    }
-    vis = mix(mix(l[0], l[1], f.x), mix(l[2], l[3], f.x), f.y);
+    vec4 depth = faceDepth4(face, uint(b.y) * pc.resolution + uint(b.x), pc.resolution);
+    vis = pcfBlend(pcfTaps(r, depth, vec4(texelUV(face, b), texelUV(face, b + 1.0))), f);
   } else {
     vec2 b = clamp(floor(sw * res), vec2(0.0), vec2(res - 1.0));
-    float r = reach;
-    if (pc.planeBias != 0u) {
-      vec2 uv = 2.0 * vec2(unwarpTexel(face, 0u, b.x), unwarpTexel(face, 1u, b.y)) - 1.0;
-      r = planeReach(dF, nF, uv, reach, pc.constantBias, slack);
-    }
-    vis = texel(face, uint(b.y) * pc.resolution + uint(b.x)) >= r ? 1.0 : 0.0;
+    vis = tapLit(r, faceDepth(face, uint(b.y) * pc.resolution + uint(b.x)), texelUV(face, b));
   }
   visibility[i] = vis;
 }

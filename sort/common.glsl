@@ -1,9 +1,6 @@
 // Helpers every sort/ kernel shares. Include after the kernel's bindings: countOf() reads the count
 // binding, which each kernel declares as `countWords`.
 
-// Flat workgroup index over a 2-D grid of workgroups (vk::gridFor's layout).
-uint flatWorkgroup() { return gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x; }
-
 uint ceilDiv(uint a, uint b) { return a / b + ((a % b) != 0u ? 1u : 0u); }
 
 // The element count a dispatch works on: the pushed count, or the device count clamped to it (the

@@ -29,7 +29,7 @@ uint keptBits(uint v, uint n) {
 
 void main() {
   uint n = levelCount();
-  uint b = flatWorkgroup();
+  uint b = CS_FLAT_WORKGROUP;
   if (b * SCAN_BLOCK >= n) return;
   uint first = b * SCAN_BLOCK + gl_LocalInvocationIndex * SCAN_ITEMS;
   uint kept = 0u;  // bit k: element first + k is kept

@@ -3,7 +3,7 @@
 // Indirect dispatch arguments for a count that lives on the GPU: ceil(min(count, bound) / perGroup)
 // workgroups as the 2-D grid vk::gridFor makes on the host (x up to maxPerDim, then rows), so a
 // dispatch sized by an earlier kernel's output needs no host round trip. The kernel it launches indexes
-// flatWorkgroup() and still checks its element index against the device count (the grid's last
+// CS_FLAT_WORKGROUP and still checks its element index against the device count (the grid's last
 // row may run past it). One invocation.
 // bindings: 0 = count words, 1 = args (uint; x, y, z at argsIndex)
 #include "sort/sort_layout.h"

@@ -29,7 +29,7 @@ layout(push_constant) uniform Push { RadixPush pc; };
 shared uint counters[kWords + kWords / 32u];  // radix.glsl, slot()
 
 void main() {
-  uint tile = flatWorkgroup();
+  uint tile = CS_FLAT_WORKGROUP;
   if (tile >= pc.tiles) return;
   uint n = countOf(pc.count, pc.countIndex, pc.flags);
   uint t = gl_LocalInvocationIndex;

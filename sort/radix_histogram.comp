@@ -19,7 +19,7 @@ layout(push_constant) uniform Push { RadixPush pc; };
 shared uint bins[LOOKBACK_MAX_PASSES * RADIX_BINS];
 
 void main() {
-  uint tile = flatWorkgroup();
+  uint tile = CS_FLAT_WORKGROUP;
   if (tile >= pc.tiles) return;
   uint n = countOf(pc.count, pc.countIndex, pc.flags);
   if (tile * SORT_TILE >= n) return;  // uniform

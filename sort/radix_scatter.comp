@@ -141,7 +141,7 @@ void main() {
     barrier();
     tile = lookbackTile;
   } else {
-    tile = flatWorkgroup();
+    tile = CS_FLAT_WORKGROUP;
   }
   if (tile >= pc.tiles) return;
   uint n = countOf(pc.count, pc.countIndex, pc.flags);

@@ -35,7 +35,7 @@ void store4(uint v, uint n, uvec4 x) {
 
 void main() {
   uint n = levelCount();
-  uint b = flatWorkgroup();
+  uint b = CS_FLAT_WORKGROUP;
   if (b > 0u && b * SCAN_BLOCK >= n) return;  // block 0 always runs: it writes the total, even of nothing
   uint first = (b * SCAN_BLOCK + gl_LocalInvocationIndex * SCAN_ITEMS) / 4u;
   bool inPlace = (pc.flags & FLAG_IN_PLACE) != 0u;

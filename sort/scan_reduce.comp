@@ -22,7 +22,7 @@ uvec4 load4(uint v, uint n) {
 
 void main() {
   uint n = levelCount();
-  uint b = flatWorkgroup();
+  uint b = CS_FLAT_WORKGROUP;
   if (b * SCAN_BLOCK >= n) return;  // the whole workgroup: past the end
   uint first = (b * SCAN_BLOCK + gl_LocalInvocationIndex * SCAN_ITEMS) / 4u;
   bool flagsOnly = (pc.flags & FLAG_NONZERO_AS_ONE) != 0u;

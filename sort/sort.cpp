@@ -314,16 +314,16 @@ RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape, SortS
     const std::initializer_list<vk::SpecConstant> spec = {{0, shape.threads}, {1, shape.items}, {2, lookBack ? 1u : 0u},
                                                           {3, spins}, {4, in}, {5, 0u}};
     if (lookBack)
-      count_[in] = vk::createKernel(ctx, "radix_histogram", spv_radix_histogram_comp, 4, sizeof(RadixPush), spec, 1u << 3);
+      count_[in] = vk::createKernel(ctx, "radix_histogram", spv_radix_histogram_comp, 4, sizeof(RadixPush), spec);
     else
-      count_[in] = vk::createKernel(ctx, "radix_count", spv_radix_count_comp, 5, sizeof(RadixPush), spec, 1u << 3);
+      count_[in] = vk::createKernel(ctx, "radix_count", spv_radix_count_comp, 5, sizeof(RadixPush), spec);
   }
   for (uint32_t in = 0; in < 2; ++in)
     for (uint32_t out = 0; out < 2; ++out) {
       if (!pairs_ && (in || out)) continue;
       const std::initializer_list<vk::SpecConstant> spec = {{0, shape.threads}, {1, shape.items}, {2, lookBack ? 1u : 0u},
                                                             {3, spins}, {4, in}, {5, out}};
-      scatter_[in][out] = vk::createKernel(ctx, "radix_scatter", spv_radix_scatter_comp, 9, sizeof(RadixPush), spec, 1u << 7);
+      scatter_[in][out] = vk::createKernel(ctx, "radix_scatter", spv_radix_scatter_comp, 9, sizeof(RadixPush), spec);
     }
 }
 
@@ -448,8 +448,7 @@ void RadixSort::recordPasses(vk::Commands& cmd, const vk::BufferRange& keys, con
     if (valuesOnly && scatterValues_.pipeline == VK_NULL_HANDLE) {  // compiled for the callers that ask
       scatterValues_ = vk::createKernel(ctx_, "radix_scatter (values)", spv_radix_scatter_comp, 9, sizeof(RadixPush),
                                         {{0, shape_.threads}, {1, shape_.items}, {2, lookBack ? 1u : 0u}, {3, spins_},
-                                         {4, 1u}, {5, 0u}, {6, 0u}},
-                                        1u << 7);
+                                         {4, 1u}, {5, 0u}, {6, 0u}});
     }
     overTiles(valuesOnly ? scatterValues_ : scatter_[src.pairs][dst.pairs],
               {src.pairs ? none : src.keys, src.values, dst.pairs ? none : dst.keys, dst.pairs ? none : dst.values, table,

@@ -18,7 +18,7 @@ set(cs_unit_tests
   EmbreeDevice.* EmbreeReference.* EpsilonPolicy.* FrameOutput.* GeometryCheck.* GeometryRevision.*
   GltfBrokenFolders.* GltfLoader.* Grid.* ImageIo.* LeafHitFromLight.* LeafRayHitsTriangle.* LeafStep.*
   LoaderHostile.* Metrics.* ResultsTable.* Scene.* SceneFamily.* SceneLoader.* SphereConeTriangle.* ThreadPool.*
-  TraversalArena.* Validation/TinyGltfBroken.* VariantSphereTest.*
+  TraversalArena.* Validation/TinyGltfBroken.* VariantSphereTest.* VkSpirv.*
   AnimatedGltf.BrokenAnimationsFailWithOneClearError
   AnimatedGltf.HandWrittenTranslationAnimationMovesTheTriangle
   AnimatedGltf.MorphWeightChannelsAreIgnoredWithOneWarning
@@ -87,7 +87,7 @@ set(cs_cli_tests
 
 # The CLI rendering on the device.
 set(cs_gpu_cli_tests
-  LightDistances.* ReportScreenshot.* ResultsSchema.*
+  LightDistances.* ReportScreenshot.* ResultsSchema.* Visibility.*
   AnimatedGltf.AnAnimationPastFp32RangeIsOneClearErrorNotACrash
   Cli.AFrameWhoseBandCoversItsSamplesIsUndecidedInEveryResult
   Cli.ALightTooFarForFp32RayLengthsIsAUsageErrorBeforeAnyOutput

@@ -1,10 +1,13 @@
-// The Vulkan context: buffers both ways, kernels with push descriptors, grid maths, timestamps, errors.
+// The Vulkan context: buffers both ways, kernels with push descriptors and what they read from their SPIR-V,
+// grid maths, timestamps, errors.
+#include <map>
 #include <numeric>
-#include <set>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
+#include "tests/binding_kinds.comp.h"
 #include "tests/iota.comp.h"
 #include "traversal/traversal_layout.h"
 #include "traversal/traverse_test.comp.h"
@@ -96,7 +99,8 @@ TEST(Kernel, DispatchesOverATwoDimensionalGridAndTimesIt) {
 TEST(Vk, AKernelsBindingsAndPushConstantsAreCheckedAgainstItsSpirv) {
   auto& ctx = test::context();
   const vk::SpirvInterface iface = vk::spirvInterface(spv_iota_comp, sizeof(spv_iota_comp));
-  EXPECT_EQ(iface.bindings, (std::set<uint32_t>{0, 1}));
+  EXPECT_EQ(iface.bindings, (std::map<uint32_t, VkDescriptorType>{{0, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},
+                                                                   {1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER}}));
   EXPECT_EQ(iface.localSize[0], 64u);
   EXPECT_EQ(iface.localSize[1], 1u);
   for (uint32_t wrong : {1u, 3u}) {
@@ -126,6 +130,57 @@ TEST(Vk, AKernelsBindingsAndPushConstantsAreCheckedAgainstItsSpirv) {
   }
   const uint32_t notSpirv[6] = {1, 2, 3, 4, 5, 6};
   EXPECT_THROW(vk::spirvInterface(notSpirv, sizeof(notSpirv)), Error);
+}
+
+// The descriptor type of each binding comes from its declaration in the SPIR-V (no device needed): one
+// kernel declaring every kind, the same kernel's storage buffer in SPIR-V 1.0's form, and a project kernel
+// that mixes texel, uniform and storage buffers.
+TEST(VkSpirv, EveryBindingsDescriptorTypeIsReadFromItsDeclaration) {
+  using Types = std::map<uint32_t, VkDescriptorType>;
+  const Types kinds = {{0, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER},       {1, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER},
+                       {2, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER}, {3, VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER},
+                       {4, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE},        {5, VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE},
+                       {6, VK_DESCRIPTOR_TYPE_SAMPLER},              {7, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER},
+                       {8, VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER}};
+  EXPECT_EQ(vk::spirvInterface(spv_binding_kinds_comp, sizeof(spv_binding_kinds_comp)).bindings, kinds);
+
+  // SPIR-V before 1.3 declares a storage buffer as a Uniform pointer to a BufferBlock struct: the same
+  // module rewritten that way (storage class StorageBuffer 12 -> Uniform 2, its struct's Block 2 ->
+  // BufferBlock 3) still has a storage buffer at binding 0, beside the uniform buffer at 1.
+  std::vector<uint32_t> old(std::begin(spv_binding_kinds_comp), std::end(spv_binding_kinds_comp));
+  std::map<uint32_t, uint32_t> pointee;
+  uint32_t storageStruct = 0;
+  for (size_t at = 5; at < old.size(); at += old[at] >> 16) {
+    const uint32_t op = old[at] & 0xFFFF;
+    if (op == 32) pointee[old[at + 1]] = old[at + 3];  // OpTypePointer
+    if (op == 32 && old[at + 2] == 12) old[at + 2] = 2;
+    if (op == 59 && old[at + 3] == 12) storageStruct = pointee[old[at + 1]], old[at + 3] = 2;  // OpVariable
+  }
+  ASSERT_NE(storageStruct, 0u);
+  for (size_t at = 5; at < old.size(); at += old[at] >> 16)
+    if ((old[at] & 0xFFFF) == 71 && old[at + 1] == storageStruct && old[at + 2] == 2) old[at + 2] = 3;  // OpDecorate
+  EXPECT_EQ(vk::spirvInterface(old.data(), old.size() * 4).bindings, kinds);
+
+  // traversal::Traversal's test kernel: triangles, nodes and input pairs as texels, the state words as a
+  // uniform buffer, the rest storage buffers.
+  Types test;
+  for (uint32_t b = 0; b < 10; ++b)
+    test[b] = b < 3 ? VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER
+                    : b == 9 ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  EXPECT_EQ(vk::spirvInterface(spv_traverse_test_comp, sizeof(spv_traverse_test_comp)).bindings, test);
+}
+
+// Commands pushes buffers: a kernel declaring an image, a sampler or a storage texel buffer is refused when
+// it is made, naming the binding and its kind.
+TEST(Kernel, ABindingOfAKindCommandsCannotPushIsRefusedWhenTheKernelIsMade) {
+  try {
+    vk::createKernel(test::context(), "binding kinds", spv_binding_kinds_comp, 9, 0);
+    ADD_FAILURE() << "a storage texel buffer binding accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("binding kinds: binding 3 is a storage texel buffer; kernels bind storage "
+                                         "buffers, uniform buffers and uniform texel buffers only"),
+              std::string::npos) << e.what();
+  }
 }
 
 TEST(Kernel, WrongBindingCountIsAnErrorNotACrash) {

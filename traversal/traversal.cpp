@@ -219,10 +219,10 @@ Traversal::Traversal(vk::Context& ctx, uint64_t memoryBytes)
 Traversal::Traversal(vk::Context& ctx, const ArenaPlan& plan) : ctx_(ctx), plan_(plan) {
   CS_CHECK(plan_.pairCapacity >= kMinPairs && plan_.chunkCapacity >= 1, "traversal arena plan too small");
   batchTriangles_ = plan_.chunkCapacity;
-  leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 6, sizeof(TraversePush), {{0, 0u}}, 0x17u);
+  leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 6, sizeof(TraversePush), {{0, 0u}});
   leavesFromLight_ = vk::createKernel(ctx, "traverse leaves (from the light)", spv_traverse_leaves_comp, 6,
-                                      sizeof(TraversePush), {{0, 1u}}, 0x17u);
-  leafHits_ = vk::createKernel(ctx, "leaf hits", spv_leaf_hits_comp, 4, sizeof(LeafHitsPush), {}, 0xBu);
+                                      sizeof(TraversePush), {{0, 1u}});
+  leafHits_ = vk::createKernel(ctx, "leaf hits", spv_leaf_hits_comp, 4, sizeof(LeafHitsPush));
   advance_ = vk::createKernel(ctx, "traverse advance", spv_traverse_advance_comp, 2, sizeof(AdvancePush));
   arena_ = vk::createBuffer(ctx, pairBufferBytes(plan_.pairCapacity));
   chunk_ = vk::createBuffer(ctx, pairBufferBytes(plan_.chunkCapacity));
@@ -249,8 +249,7 @@ const vk::Kernel& Traversal::testKernel(const TraversePush& p, bool clusters, bo
         ctx_, clusters ? "traverse test (clusters)" : whole ? "traverse test (whole clusters)" : "traverse test",
         spv_traverse_test_comp, 10, sizeof(TraversePush),
         {{0, sphere && !clusters ? TRAVERSE_TEST_SPHERE : TRAVERSE_TEST_PRECISE}, {1, early ? 1u : 0u},
-         {2, culling ? 1u : 0u}, {3, clusters ? 1u : 0u}, {4, whole ? 1u : 0u}, {5, scaled ? 1u : 0u}},
-        0x7u, 0x200u));
+         {2, culling ? 1u : 0u}, {3, clusters ? 1u : 0u}, {4, whole ? 1u : 0u}, {5, scaled ? 1u : 0u}}));
   return *k;
 }
 

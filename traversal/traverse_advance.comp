@@ -49,10 +49,9 @@ bool leavesNow(uint c, uint treeDepth, uint n, float survival) {
 }
 
 void writeArgs(uint at, uint items, uint count, uint groupSize) {
-  uint groups = (items + groupSize - 1u) / groupSize;
-  uint x = min(groups, p.maxPerDim);
-  state[at] = x;
-  state[at + 1u] = x == 0u ? 1u : (groups + x - 1u) / x;
+  uvec2 grid = indirectGrid(items, groupSize, p.maxPerDim);
+  state[at] = grid.x;
+  state[at + 1u] = grid.y;
   state[at + 2u] = 1u;
   state[at + 3u] = count;
 }

@@ -836,8 +836,7 @@ Kernel& Kernel::operator=(Kernel&& o) noexcept {
   if (this != &o) {
     reset();
     ctx = o.ctx, name = std::move(o.name), module = o.module, setLayout = o.setLayout, layout = o.layout;
-    pipeline = o.pipeline, bindings = o.bindings, texelBindings = o.texelBindings,
-    uniformBindings = o.uniformBindings, pushBytes = o.pushBytes;
+    pipeline = o.pipeline, bindings = o.bindings, types = std::move(o.types), pushBytes = o.pushBytes;
     o.module = VK_NULL_HANDLE, o.setLayout = VK_NULL_HANDLE, o.layout = VK_NULL_HANDLE, o.pipeline = VK_NULL_HANDLE;
   }
   return *this;
@@ -852,16 +851,34 @@ void Kernel::reset() {
   pipeline = VK_NULL_HANDLE, layout = VK_NULL_HANDLE, setLayout = VK_NULL_HANDLE, module = VK_NULL_HANDLE;
 }
 
+const char* descriptorTypeName(VkDescriptorType type) {
+  switch (type) {
+    case VK_DESCRIPTOR_TYPE_STORAGE_BUFFER: return "a storage buffer";
+    case VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER: return "a uniform buffer";
+    case VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER: return "a uniform texel buffer";
+    case VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER: return "a storage texel buffer";
+    case VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE: return "a sampled image";
+    case VK_DESCRIPTOR_TYPE_STORAGE_IMAGE: return "a storage image";
+    case VK_DESCRIPTOR_TYPE_SAMPLER: return "a sampler";
+    case VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER: return "an image with its sampler";
+    case VK_DESCRIPTOR_TYPE_INPUT_ATTACHMENT: return "an input attachment";
+    default: return "a descriptor of another type";
+  }
+}
+
 SpirvInterface spirvInterface(const uint32_t* spirv, size_t spirvBytes) {
-  // Opcodes, decorations and the storage class this reads (SPIR-V specification, section 3).
+  // Opcodes, decorations, storage classes and image dimensions this reads (SPIR-V specification, section 3).
   constexpr uint32_t kMagic = 0x07230203, kOpExecutionMode = 16, kOpTypeInt = 21, kOpTypeFloat = 22,
-                     kOpTypeVector = 23, kOpTypeMatrix = 24, kOpTypeArray = 28, kOpTypeStruct = 30,
+                     kOpTypeVector = 23, kOpTypeMatrix = 24, kOpTypeImage = 25, kOpTypeSampler = 26,
+                     kOpTypeSampledImage = 27, kOpTypeArray = 28, kOpTypeRuntimeArray = 29, kOpTypeStruct = 30,
                      kOpTypePointer = 32, kOpConstant = 43, kOpVariable = 59, kOpDecorate = 71,
-                     kOpMemberDecorate = 72, kLocalSize = 17, kBinding = 33, kArrayStride = 6, kMatrixStride = 7,
-                     kOffset = 35, kPushConstant = 9;
+                     kOpMemberDecorate = 72, kLocalSize = 17, kBinding = 33, kBlock = 2, kBufferBlock = 3,
+                     kArrayStride = 6, kMatrixStride = 7, kOffset = 35, kUniformConstant = 0, kUniform = 2,
+                     kPushConstant = 9, kStorageBuffer = 12, kDimBuffer = 5, kDimSubpassData = 6;
   struct Type {
     uint32_t op = 0, a = 0, b = 0;    // int/float: a = width; vector/matrix: a = element, b = count;
-                                      // array: a = element, b = length's constant; pointer: a = pointee
+                                      // array: a = element, b = length's constant; pointer: a = pointee,
+                                      // b = storage class; image: a = Dim, b = Sampled; sampled image: a = image
     std::vector<uint32_t> members;    // struct member types
   };
   SpirvInterface out;
@@ -870,12 +887,15 @@ SpirvInterface spirvInterface(const uint32_t* spirv, size_t spirvBytes) {
   std::map<uint32_t, Type> types;
   std::map<uint32_t, uint32_t> constants, arrayStride;
   std::map<std::pair<uint32_t, uint32_t>, uint32_t> offsets, matrixStride;  // (struct, member)
+  std::map<uint32_t, uint32_t> bindingOf, blockOf, variableType;  // variable -> binding, struct -> Block or
+                                                                  // BufferBlock, variable -> its pointer type
   uint32_t pushPointer = 0;
   for (size_t at = 5; at < words;) {
     const uint32_t count = spirv[at] >> 16, op = spirv[at] & 0xFFFF;
     CS_CHECK(count > 0 && at + count <= words, "malformed SPIR-V at word " << at);
     const uint32_t* w = spirv + at;
-    if (op == kOpDecorate && count >= 4 && w[2] == kBinding) out.bindings.insert(w[3]);
+    if (op == kOpDecorate && count >= 4 && w[2] == kBinding) bindingOf[w[1]] = w[3];
+    if (op == kOpDecorate && count >= 3 && (w[2] == kBlock || w[2] == kBufferBlock)) blockOf[w[1]] = w[2];
     if (op == kOpDecorate && count >= 4 && w[2] == kArrayStride) arrayStride[w[1]] = w[3];
     if (op == kOpMemberDecorate && count >= 5 && w[3] == kOffset) offsets[{w[1], w[2]}] = w[4];
     if (op == kOpMemberDecorate && count >= 5 && w[3] == kMatrixStride) matrixStride[{w[1], w[2]}] = w[4];
@@ -886,9 +906,44 @@ SpirvInterface spirvInterface(const uint32_t* spirv, size_t spirvBytes) {
       types[w[1]] = {op, w[2], w[3], {}};
     if (op == kOpTypeStruct && count >= 2) types[w[1]] = {op, 0, 0, std::vector<uint32_t>(w + 2, w + count)};
     if (op == kOpTypePointer && count >= 4) types[w[1]] = {op, w[3], w[2], {}};
+    if (op == kOpTypeImage && count >= 9) types[w[1]] = {op, w[3], w[7], {}};
+    if ((op == kOpTypeSampledImage || op == kOpTypeRuntimeArray) && count >= 3) types[w[1]] = {op, w[2], 0, {}};
+    if (op == kOpTypeSampler && count >= 2) types[w[1]] = {op, 0, 0, {}};
     if (op == kOpConstant && count >= 4) constants[w[2]] = w[3];
+    if (op == kOpVariable && count >= 4) variableType[w[2]] = w[1];
     if (op == kOpVariable && count >= 4 && w[3] == kPushConstant) pushPointer = w[1];
     at += count;
+  }
+  // Each bound variable's descriptor type, from its storage class and the type it points to.
+  for (const auto& [variable, binding] : bindingOf) {
+    auto v = variableType.find(variable);
+    auto p = v == variableType.end() ? types.end() : types.find(v->second);
+    CS_CHECK(p != types.end() && p->second.op == kOpTypePointer, "SPIR-V binding " << binding << ": no variable's type");
+    auto t = types.find(p->second.a);
+    CS_CHECK(t != types.end(), "SPIR-V binding " << binding << ": unreadable type %" << p->second.a);
+    CS_CHECK(t->second.op != kOpTypeArray && t->second.op != kOpTypeRuntimeArray,
+             "SPIR-V binding " << binding << " is an array of descriptors; kernels here bind one descriptor a binding");
+    const Type& ty = t->second;
+    const auto sampled = [&](const Type& image) {  // an image as a sampled image / texel buffer would read it
+      return image.a == kDimBuffer ? VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER : VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE;
+    };
+    VkDescriptorType type = VK_DESCRIPTOR_TYPE_MAX_ENUM;
+    const uint32_t storage = p->second.b;
+    if (storage == kStorageBuffer) type = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    else if (storage == kUniform && ty.op == kOpTypeStruct && blockOf.count(p->second.a))
+      type = blockOf[p->second.a] == kBufferBlock ? VK_DESCRIPTOR_TYPE_STORAGE_BUFFER : VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+    else if (storage == kUniformConstant && ty.op == kOpTypeSampler) type = VK_DESCRIPTOR_TYPE_SAMPLER;
+    else if (storage == kUniformConstant && ty.op == kOpTypeImage && ty.a == kDimSubpassData)
+      type = VK_DESCRIPTOR_TYPE_INPUT_ATTACHMENT;
+    else if (storage == kUniformConstant && ty.op == kOpTypeImage)  // Sampled 2: read and written as storage
+      type = ty.b == 2 ? (ty.a == kDimBuffer ? VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER : VK_DESCRIPTOR_TYPE_STORAGE_IMAGE)
+                       : sampled(ty);
+    else if (storage == kUniformConstant && ty.op == kOpTypeSampledImage && types.count(ty.a))
+      type = types[ty.a].a == kDimBuffer ? sampled(types[ty.a]) : VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    CS_CHECK(type != VK_DESCRIPTOR_TYPE_MAX_ENUM,
+             "SPIR-V binding " << binding << ": storage class " << storage << ", type op " << ty.op << " is no descriptor");
+    auto [it, fresh] = out.bindings.emplace(binding, type);
+    CS_CHECK(fresh || it->second == type, "SPIR-V binding " << binding << " is declared as two descriptor types");
   }
   if (pushPointer == 0) return out;
   // Sizes as the block's explicit layout gives them; `stride`: a matrix member's MatrixStride.
@@ -924,13 +979,12 @@ SpirvInterface spirvInterface(const uint32_t* spirv, size_t spirvBytes) {
 }
 
 Kernel createKernel(Context& ctx, const char* name, const uint32_t* spirv, size_t spirvBytes, uint32_t bindings,
-                    uint32_t pushBytes, std::initializer_list<SpecConstant> spec, uint32_t texelBindings,
-                    uint32_t uniformBindings) {
+                    uint32_t pushBytes, std::initializer_list<SpecConstant> spec) {
   // The host's binding count against what the kernel declares: a kernel reading a binding the host never
   // pushes, or a host pushing buffers the kernel does not declare, is a bug to stop here, not a wrong
   // answer or a driver crash later.
   const SpirvInterface iface = spirvInterface(spirv, spirvBytes);
-  const uint32_t declared = iface.bindings.empty() ? 0 : *iface.bindings.rbegin() + 1;
+  const uint32_t declared = iface.bindings.empty() ? 0 : iface.bindings.rbegin()->first + 1;
   CS_CHECK(declared == bindings && iface.bindings.size() == bindings,
            name << ": the host binds " << bindings << " buffers, the kernel declares " << iface.bindings.size()
                 << " bindings (highest " << (declared ? int(declared) - 1 : -1) << ")");
@@ -943,9 +997,15 @@ Kernel createKernel(Context& ctx, const char* name, const uint32_t* spirv, size_
   k.ctx = &ctx;
   k.name = name;
   k.bindings = bindings;
-  k.texelBindings = texelBindings;
-  k.uniformBindings = uniformBindings;
-  CS_CHECK((texelBindings & uniformBindings) == 0, name << ": a binding is both a texel and a uniform buffer");
+  // The descriptor types as the kernel declares them: Commands pushes buffers, so a binding of any other
+  // kind is refused here rather than by the driver at the first dispatch.
+  for (const auto& [binding, type] : iface.bindings) {
+    CS_CHECK(type == VK_DESCRIPTOR_TYPE_STORAGE_BUFFER || type == VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER ||
+                 type == VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER,
+             name << ": binding " << binding << " is " << descriptorTypeName(type)
+                  << "; kernels bind storage buffers, uniform buffers and uniform texel buffers only");
+    k.types.push_back(type);
+  }
   k.pushBytes = pushBytes;
   CS_CHECK(pushBytes <= ctx.properties.limits.maxPushConstantsSize,
            name << ": push constants of " << pushBytes << " bytes exceed the device's "
@@ -953,12 +1013,7 @@ Kernel createKernel(Context& ctx, const char* name, const uint32_t* spirv, size_
   k.module = createShaderModule(ctx, spirv, spirvBytes);
 
   std::vector<VkDescriptorSetLayoutBinding> b(bindings);
-  for (uint32_t i = 0; i < bindings; ++i)
-    b[i] = {i,
-            (texelBindings & (1u << i))     ? VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER
-            : (uniformBindings & (1u << i)) ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER
-                                            : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
-            1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+  for (uint32_t i = 0; i < bindings; ++i) b[i] = {i, k.types[i], 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
   VkDescriptorSetLayoutCreateInfo li{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
   li.flags = VK_DESCRIPTOR_SET_LAYOUT_CREATE_PUSH_DESCRIPTOR_BIT_KHR;
   li.bindingCount = bindings;
@@ -1098,11 +1153,11 @@ static void pushBuffers(Context& ctx, VkCommandBuffer cb, const Kernel& kernel,
     writes[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
     writes[i].dstBinding = i;
     writes[i].descriptorCount = 1;
-    if (kernel.texelBindings & (1u << i)) {
+    if (kernel.types[i] == VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER) {
       CS_CHECK(b.view != VK_NULL_HANDLE, kernel.name << ": binding " << i << " is a texel buffer: pass vk::texels()");
       writes[i].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
       writes[i].pTexelBufferView = &views[i];
-    } else if (kernel.uniformBindings & (1u << i)) {
+    } else if (kernel.types[i] == VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER) {
       CS_CHECK(b.uniform, kernel.name << ": binding " << i << " is a uniform buffer: pass vk::uniforms()");
       writes[i].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
       writes[i].pBufferInfo = &infos[i];

@@ -2,11 +2,14 @@
 // device, a GPU where there is one, lavapipe otherwise), fills a G-buffer of a small scene (a box above a
 // floor, ray cast on the host), records the library's frame for two lights into its own command buffer
 // between its own copies, submits it itself, and writes the two masks as PNG. Then it checks every lit
-// pixel against a double-precision ray cast of its own and prints the count that disagree.
+// pixel against a double-precision ray cast of its own and prints the count that disagree. For the CLI's
+// check (tools/example.sh) it also writes the scene (scene.obj), its samples (samples.txt: x y z nx ny nz
+// a line, the pixels with geometry row by row) and its masks at those samples (masks.csv).
 //   two_lights <out folder>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <fstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -63,7 +66,8 @@ struct Scene {
 Scene boxOverFloor() {
   Scene s;
   s.quad({-6, 0, -6}, {6, 0, -6}, {6, 0, 6}, {-6, 0, 6});
-  const double x0 = -1, x1 = 1, y0 = 0.8, y1 = 2.4, z0 = -1, z1 = 1;
+  // Every coordinate exact in binary, so any reader of scene.obj gets the same floats.
+  const double x0 = -1, x1 = 1, y0 = 0.75, y1 = 2.5, z0 = -1, z1 = 1;
   s.quad({x0, y0, z0}, {x1, y0, z0}, {x1, y1, z0}, {x0, y1, z0});
   s.quad({x0, y0, z1}, {x0, y1, z1}, {x1, y1, z1}, {x1, y0, z1});
   s.quad({x0, y0, z0}, {x0, y1, z0}, {x0, y1, z1}, {x0, y0, z1});
@@ -311,6 +315,24 @@ int main(int argc, char** argv) try {
                 (unsigned long long)stats.lights[l].pairsTested, stats.lights[l].complete ? "" : " (incomplete)");
   }
   std::printf("%zu of %zu lit pixels disagree with a double-precision ray cast\n", disagree, lit);
+
+  // ---- the same frame as files, for `coneshadow visibility` to answer on its own ----
+  std::ofstream obj(out + "/scene.obj"), txt(out + "/samples.txt"), csv(out + "/masks.csv");
+  for (size_t v = 0; v < scene.positions.size(); v += 3)
+    obj << "v " << scene.positions[v] << " " << scene.positions[v + 1] << " " << scene.positions[v + 2] << "\n";
+  for (size_t t = 0; t < scene.triangles(); ++t)
+    obj << "f " << scene.indices[3 * t] + 1 << " " << scene.indices[3 * t + 1] + 1 << " " << scene.indices[3 * t + 2] + 1 << "\n";
+  csv << "mask_0,mask_1\n";
+  char line[200];
+  for (size_t i = 0; i < size_t(W) * H; ++i) {
+    const float* p = &samples[4 * i];
+    const float* nn = &samples[size_t(W) * H * 4 + 4 * i];
+    if (p[3] != 1) continue;
+    std::snprintf(line, sizeof line, "%.9g %.9g %.9g %.9g %.9g %.9g\n", p[0], p[1], p[2], nn[0], nn[1], nn[2]);
+    txt << line;
+    csv << (mapped[i] >= 0.5f) << "," << (mapped[size_t(W) * H + i] >= 0.5f) << "\n";
+  }
+  if (!obj || !txt || !csv) throw std::runtime_error("cannot write the scene, samples or masks into " + out);
 
   shadows.reset();
   vkDestroyCommandPool(device, pool, nullptr);
