@@ -36,8 +36,8 @@ void add64v(uint at, uint64_t value) {
 
 // The leaf choice (traversal.h, LeafRays::Auto; docs/ARCHITECTURE.md, "Leaf pairs chosen per frame"): n
 // triangle pairs at step c of a tree of depth D, each with 4^(D - c + 1) rays under its node; `survival` is
-// the step's own survival as the two steps above predict it (survival grows with depth: the last one's
-// times its growth over the one before, at most 1). The leaves now cost n (leafLaneCost + rays) leaf
+// the step's own survival as the steps above predict it (survival grows with depth: the last one's,
+// times its growth over the one before when both tested triangle pairs, at most 1). The leaves now cost n (leafLaneCost + rays) leaf
 // tests; one more depth costs n stepCost, then 4 survival n pairs with a quarter of the rays each. One
 // more depth when that is cheaper and its pairs, so estimated, fill at most 3/4 of the capacity (an
 // overflow redoes the frame on the host).
@@ -74,6 +74,7 @@ void main() {
   if (c == 0u) {
     n = state[STATE_OVERFLOW] != 0u || depth == 0u ? 0u : p.triangles;
     state[STATE_BATCH_TRIANGLES] = p.triangles;
+    state[STATE_SURVIVAL] = 0u;
     writeArgs(STATE_HITS_ARGS, (shape[SHAPE_LEAVES] + LEAF_HITS_RAYS - 1u) / LEAF_HITS_RAYS, shape[SHAPE_LEAVES], CONE_BUILD_THREADS);
     // Clusters go down the upper levels when there are levels to spare before the leaves (see below),
     // super clusters first where the host asks.
@@ -104,10 +105,12 @@ void main() {
       state[STATE_PEAK_PAIRS] = max(state[STATE_PEAK_PAIRS], (c == 1u ? 0u : inputs) + min(survivors, p.capacity));
       if (survivors > p.capacity) state[STATE_OVERFLOW] = 1u;
       else n = survivors;
-      float last = float(survivors) / float(max(tests, 1u));
+      // Of every (pair, child) of the step, those a whole-cluster lane never tested included; the trend
+      // only from one triangle step to the next (a cluster step's survival is another quantity).
+      float last = float(survivors) / max(1.0, float(inputs) * (c == 1u ? 1.0 : 4.0));
       float before = float(state[STATE_SURVIVAL]) / 65536.0;
-      survival = c >= 2u && before > 0.0 ? min(1.0, last * max(1.0, last / before)) : last;
-      state[STATE_SURVIVAL] = max(1u, uint(min(last, 1.0) * 65536.0));
+      survival = was == STEP_TRIANGLES && before > 0.0 ? min(1.0, last * max(1.0, last / before)) : last;
+      state[STATE_SURVIVAL] = was == STEP_TRIANGLES ? max(1u, uint(min(last, 1.0) * 65536.0)) : 0u;
       // Expansion rule (traversal.h, "Clusters"): cluster pairs go on while the nodes are wide against the
       // clusters, and expand into their triangles' pairs at the first depth with more than 1/K as many
       // nodes as the clusters pass 0 kept (scaled from the batch to the whole record: the batches are
