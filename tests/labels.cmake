@@ -75,6 +75,7 @@ set(cs_unit_tests
 
 # The CLI where it never reaches the device: usage, help, info and errors before the device starts.
 set(cs_cli_tests
+  SceneFamilyCli.InfoTakesAMemberAndRefusesAMalformedOneInOneLine
   Cli.HelpDocumentsCommandsAndExitCodes
   Cli.InfoPrintsTheFlattenedTriangleCountAndBoundsOf2CylinderEngine
   Cli.MalformedSceneIsOneLineNamingTheFileAndLeavesNoOutput

@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "core/scene.h"
+#include "tests/cli_support.h"
 
 namespace cs {
 namespace {
@@ -121,6 +122,17 @@ TEST(SceneFamily, MalformedArgumentsAreOneLineNamingTheArgument) {
       EXPECT_EQ(what.find('\n'), std::string::npos) << what;
     }
   }
+}
+
+// The CLI takes a member wherever it takes a scene, and refuses a malformed one in one line (exit 2).
+TEST(SceneFamilyCli, InfoTakesAMemberAndRefusesAMalformedOneInOneLine) {
+  const test::CliRun ok = test::cli("info family:7:tris=20k");
+  EXPECT_EQ(ok.code, 0) << ok.out;
+  EXPECT_NE(ok.out.find("scene: family-7"), std::string::npos) << ok.out;
+  const test::CliRun bad = test::cli("info family:7:view=3");
+  EXPECT_EQ(bad.code, 2) << bad.out;
+  EXPECT_NE(bad.out.find("'family:7:view=3': view is a number in [0, 1], not '3'"), std::string::npos) << bad.out;
+  EXPECT_EQ(std::count(bad.out.begin(), bad.out.end(), '\n'), 1) << bad.out;
 }
 
 }  // namespace
