@@ -268,7 +268,8 @@ Options parseArgs(int argc, char** argv) {
     sub->allow_extras();
     sub->add_option("scene", o.scene,
                     "a glTF 2.0 (.gltf/.glb), BART (.aff) or other 3-D file assimp reads (.obj, .ply, .stl, .fbx, .dae, "
-                    "...), or heightfield:N for a generated wavy height field of N triangles (e.g. heightfield:1M); default: the "
+                    "...), or heightfield:N for a generated wavy height field of N triangles (e.g. heightfield:1M), or family:SEED for a member of the generated scene family (e.g. family:7); "
+                    "default: the "
                     "built-in scene");
     addFrameOptions(*sub, o, raw);
     addMethodSettings(*sub, o);
@@ -346,7 +347,7 @@ Options parseArgs(int argc, char** argv) {
                      "light l (1: the sample faces it), then visible_<l> (1: facing it and nothing between), then with\n"
                      "--reference embree_<l> (Embree's visible_<l>) and band_<l> (1: in the ambiguity band); a summary on stderr");
 
-  info->add_option("scene", o.scene, "a .gltf/.glb, .aff or other file assimp reads, builtin, or heightfield:N (a generated height field of N triangles)");
+  info->add_option("scene", o.scene, "a .gltf/.glb, .aff or other file assimp reads, builtin, heightfield:N (a generated height field of N triangles) or family:SEED (a generated scene)");
   table->add_option("folders", o.folders, "folders written by coneshadow compare");
   table->add_flag("--host-cost", o.hostCost,
                   "instead: the first method's time over the reference's and every other method's (default "

@@ -52,6 +52,9 @@ Scene loadSceneArg(const Options& o, std::ostream& log) {
   } else if (const uint64_t triangles = parseHeightFieldArg(arg)) {
     if (o.sceneTime) throw UsageError("--time places a BART (.aff) scene in time; a height field has no time");
     scene = heightFieldScene(triangles);
+  } else if (const FamilyParams family = parseFamilyArg(arg); family.valid) {
+    if (o.sceneTime) throw UsageError("--time places a BART (.aff) scene in time; a family member has no time");
+    scene = familyScene(family);
   } else {
     if (!fs::exists(arg))
       throw Error("no such file", arg, "give a scene file (.gltf/.glb, .aff, .obj, .ply, ...), or omit SCENE for the built-in scene");

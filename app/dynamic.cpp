@@ -62,6 +62,9 @@ Motion loadMotion(const Options& o) {
   } else if (const uint64_t triangles = parseHeightFieldArg(path)) {
     m.gltf = std::make_unique<AnimatedScene>();  // a static scene
     m.gltf->rest = heightFieldScene(triangles);
+  } else if (const FamilyParams family = parseFamilyArg(path); family.valid) {
+    m.gltf = std::make_unique<AnimatedScene>();  // a static scene
+    m.gltf->rest = familyScene(family);
   } else {
     if (!fs::exists(path))
       throw Error("no such file", path, "give a scene file (.gltf/.glb, .aff, .obj, .ply, ...), or omit SCENE for the built-in scene");

@@ -1,7 +1,8 @@
 // What the scene benchmarks share: the views named on their command line ("builtin": every view of the
 // built-in scene; "engine": assimp's 2CylinderEngine with its automatic camera and light; "museum": the
 // BART museum paper 002 measured on, its view and its camera track at t = 0 and 2.5 with the scene at
-// that time, lit by its first light; "heightfield:N": the generated height field of N triangles; or a
+// that time, lit by its first light; "heightfield:N": the generated height field of N triangles;
+// "family:...": a member of the generated scene family with its own camera and light; or a
 // .gltf/.glb/.aff path), a view's run (the one run entry, harness/run.h), and list parsing.
 #pragma once
 #include <algorithm>
@@ -14,6 +15,7 @@
 #include "core/error.h"
 #include "core/scene.h"
 #include "method/method.h"
+#include "method/registry.h"
 #include "harness/harness.h"
 #include "harness/run.h"
 #include "raster/raster.h"
@@ -59,6 +61,12 @@ inline std::vector<View> loadViews(const std::string& list, std::vector<std::uni
       views.push_back({&sc, automaticCamera(sc), sc.lights.at(0).position, sc.name + "/auto"});
       continue;
     }
+    if (const FamilyParams family = parseFamilyArg(s); family.valid) {  // family:..., its own camera and light
+      scenes.push_back(std::make_unique<Scene>(familyScene(family)));
+      Scene& sc = *scenes.back();
+      views.push_back({&sc, sc.cameras.at(0), sc.lights.at(0).position, sc.name});
+      continue;
+    }
     if (s == "museum") {
       const std::string museum = std::string(CONESHADOW_BART_SCENES) + "/museum/museum5.aff";
       for (double t : {0.0, 2.5}) {
@@ -83,6 +91,25 @@ inline std::vector<View> loadViews(const std::string& list, std::vector<std::uni
                                     (c.name.empty() ? "auto" : c.name)});
   }
   return views;
+}
+
+// The setting of `method` an option names ("--leaf-rays" -> leaf-rays); nullptr for any other option.
+inline const SettingSpec* settingOption(const MethodInfo& method, const std::string& option) {
+  for (const SettingSpec& s : method.settings)
+    if ("--" + s.name == option) return &s;
+  return nullptr;
+}
+
+// The settings given on a benchmark's command line, checked by the method; `text` lists them (" --k v").
+inline Settings settingsOf(const MethodInfo& method, const std::vector<std::pair<std::string, std::string>>& given,
+                           std::string& text) {
+  Settings settings(method.name);
+  for (auto& [k, v] : given) {
+    settings.set(k, v);
+    text += " --" + k + " " + v;
+  }
+  if (method.check) method.check(settings);
+  return settings;
 }
 
 // The benchmarks' Vulkan context: --device D (index or name part; "" = automatic), no driver chatter.

@@ -86,9 +86,7 @@ int main(int argc, char** argv) {
     for (int i = 1; i < argc; ++i) {
       std::string a = argv[i];
       auto next = [&] { return bench::optionValue(argc, argv, i); };
-      const SettingSpec* setting = nullptr;
-      for (const SettingSpec& s : cone.settings)
-        if ("--" + s.name == a) setting = &s;
+      const SettingSpec* setting = bench::settingOption(cone, a);
       if (a == "--sizes") sizesArg = next();
       else if (a == "--scenes") scenesArg = next();
       else if (a == "--frames") frames = std::max(1, std::stoi(next()));
@@ -98,13 +96,8 @@ int main(int argc, char** argv) {
         throw UsageError("unknown option '" + a + "' (usage: scale_bench [--sizes 512,1024] [--scenes LIST] [--frames N] "
                          "[--device D] [--CONE-SETTING VALUE ...])");
     }
-    Settings settings(cone.name);
     std::string settingsText;
-    for (auto& [k, v] : given) {
-      settings.set(k, v);
-      settingsText += " --" + k + " " + v;
-    }
-    if (cone.check) cone.check(settings);
+    const Settings settings = bench::settingsOf(cone, given, settingsText);
     std::vector<uint32_t> sizes;
     for (const std::string& s : split(sizesArg)) sizes.push_back(uint32_t(std::stoul(s)));
 

@@ -10,6 +10,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "core/animation.h"
+#include "core/rng.h"
 #include "core/scene.h"
 
 namespace cs {
@@ -24,24 +25,6 @@ constexpr glm::dvec3 kTableCentre{-4.5, 0, 2.8};    // floor point under the tab
 constexpr glm::dvec3 kTableHalf{1.6, 0.5, 0.9};     // table top half-size in x, height / 2, z
 constexpr glm::dvec3 kWallEye{1.5, 3.4, -2.8}, kWallTarget{1.2, 3.3, -7};
 constexpr float kWallFov = 0.9f;
-
-// splitmix64: tiny, fast, and the same numbers everywhere (std:: distributions are not).
-struct Rng {
-  uint64_t state;
-  uint64_t next() {
-    uint64_t z = (state += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  double uniform() { return double(next() >> 11) * 0x1.0p-53; }  // [0, 1)
-  double range(double lo, double hi) { return lo + (hi - lo) * uniform(); }
-  glm::dvec3 unitVector() {  // uniform on the sphere
-    const double z = range(-1, 1), phi = range(0, 2 * glm::pi<double>());
-    const double r = std::sqrt(std::max(0.0, 1 - z * z));
-    return {r * std::cos(phi), z, r * std::sin(phi)};
-  }
-};
 
 // Appends triangles with flat normals (three vertices of their own); the normal follows the winding,
 // so every shape below is wound counter-clockwise seen from outside.

@@ -168,6 +168,30 @@ Scene heightFieldScene(uint64_t triangles);
 // heightfield:10M); 0 for any other argument; UsageError for a malformed N.
 uint64_t parseHeightFieldArg(const std::string& arg);
 
+// The scene family ("family:SEED", docs/ARCHITECTURE.md, "The scene family"): generated scenes for the
+// benchmarks that no rule was tuned on, each deterministic from its parameters, which a seed draws:
+// 2 to 11 objects -- closed (spheres, tori, boxes) or open (wavy sheets, tubes, domes) -- on or over a
+// tessellated ground plane or none, about `triangles` in all (a tenth in the ground), one point light and
+// one camera. Parameters given after the seed replace the drawn ones and move nothing else.
+struct FamilyParams {
+  uint64_t seed = 0;
+  uint64_t triangles = 0;      // in all: 300 .. 100k drawn (log-uniform); 100 .. kMaxHeightFieldTriangles given
+  double view = 0;             // 0: the whole scene in ~300 pixels of 1024; 1: a close-up of one object
+  double lightElevation = 45;  // degrees over the horizon: ~4 grazing .. 90 overhead
+  double lightDistance = 1;    // from the centre, in scene diagonals: 0.7 (among the objects) .. 1000 (a sun)
+  bool ground = true;          // a tessellated ground plane under the objects
+  double openShare = 0;        // the share of open meshes among the objects (0, 0.5 or 1 drawn)
+  uint32_t objects = 4;
+  bool valid = false;          // parseFamilyArg: the argument was a family member
+};
+FamilyParams familyMember(uint64_t seed);
+// "family:SEED" or "family:SEED:key=value:..." (keys tris, view, elevation, distance, ground, open,
+// objects; "seed=S" may open it); .valid false for any other argument; UsageError naming the argument for
+// a malformed one.
+FamilyParams parseFamilyArg(const std::string& arg);
+std::string familyDescription(const FamilyParams& params);  // the full "family:..." of these parameters
+Scene familyScene(const FamilyParams& params);               // cs::Error for a count out of range
+
 // Automatic camera / light for scenes that carry none: framing the bounds.
 Camera automaticCamera(const Scene& scene);
 PointLight automaticLight(const Scene& scene);

@@ -18,7 +18,8 @@ set(cs_unit_tests
   BuiltinMotion.* BuiltinScene.* ClusterOrder.* ClusterSphere.* ConeFrameChoice.* ConeMath.* EarlyAcceptCovered.*
   EmbreeDevice.* EmbreeReference.* EpsilonPolicy.* FrameOutput.* GeometryCheck.* GeometryRevision.*
   GltfBrokenFolders.* GltfLoader.* Grid.* ImageIo.* LeafHitFromLight.* LeafRayHitsTriangle.* LeafStep.*
-  LoaderHostile.* Metrics.* ResultsTable.* Scene.* SceneLoader.* SphereConeTriangle.* ThreadPool.* ViewerScript.*
+  LoaderHostile.* Metrics.* ResultsTable.* Scene.* SceneFamily.* SceneLoader.* SphereConeTriangle.* ThreadPool.*
+  ViewerScript.*
   TraversalArena.* Validation/TinyGltfBroken.* VariantSphereTest.* VkSpirv.*
   AnimatedGltf.BrokenAnimationsFailWithOneClearError
   AnimatedGltf.HandWrittenTranslationAnimationMovesTheTriangle
@@ -76,6 +77,7 @@ set(cs_unit_tests
 
 # The CLI where it never reaches the device: usage, help, info and errors before the device starts.
 set(cs_cli_tests
+  SceneFamilyCli.InfoTakesAMemberAndRefusesAMalformedOneInOneLine
   Cli.HelpDocumentsCommandsAndExitCodes
   Cli.InfoPrintsTheFlattenedTriangleCountAndBoundsOf2CylinderEngine
   Cli.MalformedSceneIsOneLineNamingTheFileAndLeavesNoOutput

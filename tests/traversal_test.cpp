@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -667,7 +668,11 @@ TEST(ConeMethod, MaskIsBitIdenticalAtAnyTraversalMemoryAndPeakStaysUnderTheBound
   // per depth (traversal::minimumPairs) with chunks of a single pair.
   const uint32_t depth = cone::treeDepth(uint32_t(host.litCount()));
   std::vector<ConeOptions> configs(4);
-  for (ConeOptions& o : configs) o.clusters = false;  // the chunked path has none: the very same pairs
+  // The chunked path has no clusters and no leaf choice (it takes 64 rays a pair): the very same pairs.
+  for (ConeOptions& o : configs) {
+    o.clusters = false;
+    o.leafRays = traversal::LeafRays::SixtyFour;
+  }
   configs[0].traversalMemoryBytes = traversal::kDefaultMemoryBytes;
   configs[1].traversalMemoryBytes = traversal::kDefaultMemoryBytes / 1000;
   configs[2].traversalMemoryBytes = 9000;
@@ -782,10 +787,64 @@ TEST(ConeMethod, LeafPairsOfFourSixteenOrSixtyFourRaysGiveTheSameMaskAndSkipTheL
     EXPECT_EQ(got.stats["traversal"]["leaf_pairs"], many.stats["traversal"]["leaf_pairs"]) << what;
   }
 
-  // Auto: 64 on a CPU device, four on a GPU.
+  // Auto: chosen from the frame's counts on a CPU device (ConeMethod.LeafChoice*), four on a GPU.
   const MethodOutput automatic = run(traversal::LeafRays::Auto, false);
-  EXPECT_EQ(automatic.stats["leaf_rays"], ctx.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? 64u : 4u);
+  if (ctx.properties.deviceType != VK_PHYSICAL_DEVICE_TYPE_CPU) EXPECT_EQ(automatic.stats["leaf_rays"], 4u);
   EXPECT_EQ(automatic.visibility, four.visibility);
+}
+
+// The leaf choice (traversal.h, LeafRays::Auto): whatever it chooses, the mask is the four-ray one, and the
+// frame stays one submission with one host sync. Forced by its costs to take the leaves at the first step
+// it may (64 rays) or never before the last (four), it tests the very pairs of --leaf-rays 64 or 4
+// (clusters off: with clusters the expansion rules count from the choice's first step); with costs between,
+// the stats count every leaf pair under the span it went with and say why.
+TEST(ConeMethod, LeafChoiceGivesTheSameMaskWhateverItChoosesInOneSubmission) {
+  auto& ctx = test::context();
+  BusyFrame busy;
+  const uint32_t depth = cone::treeDepth(uint32_t(busy.host.litCount()));
+  ASSERT_GE(depth, 5u);
+  auto run = [&](traversal::LeafRays rays, std::optional<traversal::LeafChoiceCosts> costs, bool clusters) {
+    ConeOptions o;
+    o.clusters = clusters;
+    o.leafRays = rays;
+    o.leafChoiceCosts = costs;
+    auto method = makeConeMethod(ctx, o);
+    runCounted(*method, busy.frame);
+    return runCounted(*method, busy.frame);
+  };
+  const MethodOutput four = run(traversal::LeafRays::Four, std::nullopt, false);
+  const MethodOutput sixtyFour = run(traversal::LeafRays::SixtyFour, std::nullopt, false);
+  ASSERT_EQ(sixtyFour.visibility, four.visibility);
+  // Leaves at the first step the choice may take them, at the last, and between.
+  const traversal::LeafChoiceCosts choices[3] = {{1e30f, 0.0f}, {-1e30f, 0.0f}, {16.0f, 0.0f}};
+  const char* names[3] = {"leaves at the first step", "leaves at the last step", "between"};
+  for (bool clusters : {false, true}) {
+    for (int k = 0; k < 3; ++k) {
+      const traversal::LeafChoiceCosts& costs = choices[k];
+      const std::string what = std::string(names[k]) + (clusters ? ", clusters" : "");
+      const MethodOutput got = run(traversal::LeafRays::Auto, costs, clusters);
+      EXPECT_EQ(got.visibility, four.visibility) << what;
+      EXPECT_EQ(got.stats["traversal_path"], "one submission") << what;
+      EXPECT_EQ(got.stats["submits_per_frame"], 1u) << what;
+      EXPECT_EQ(got.stats["host_syncs_per_frame"], 1u) << what;
+      const nlohmann::json& t = got.stats["traversal"];
+      const uint64_t leafPairs = t["leaf_pairs"].get<uint64_t>();
+      const nlohmann::json& by = t["leaf_pairs_by_rays"];
+      EXPECT_EQ(by["4"].get<uint64_t>() + by["16"].get<uint64_t>() + by["64"].get<uint64_t>(), leafPairs) << what;
+      EXPECT_EQ(t["leaf_rays_choice"].get<std::string>().rfind("per batch from its counts", 0), 0u) << what;
+      const MethodOutput& forced = k == 0 ? sixtyFour : four;
+      if (k == 2) {
+        EXPECT_EQ(by["4"], 0u) << what << ": a step of 16 rays a pair never goes deeper at these costs";
+      } else {
+        EXPECT_EQ(got.stats["leaf_rays"], forced.stats["leaf_rays"]) << what;
+        EXPECT_EQ(by[std::to_string(forced.stats["leaf_rays"].get<uint32_t>())], leafPairs) << what;
+        if (!clusters) {
+          EXPECT_EQ(t["passes"], forced.stats["traversal"]["passes"]) << what;
+          EXPECT_EQ(got.stats["leaf_tests"], forced.stats["leaf_tests"]) << what;
+        }
+      }
+    }
+  }
 }
 
 // A tree shallower than the leaf levels asked gives what it has: 64 rays a pair over a tree of depth 2

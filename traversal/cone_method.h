@@ -4,6 +4,7 @@
 #pragma once
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -43,7 +44,8 @@ struct ConeOptions {
   bool superClusters = true;        // four clusters a super cluster (--super-clusters)
   bool sphereLastExpansion = true;  // the sphere test one depth above the leaves (--last-expansion-test)
   traversal::ExpansionLanes lastExpansionLanes = traversal::ExpansionLanes::Auto;  // --last-expansion-lanes
-  traversal::LeafRays leafRays = traversal::LeafRays::Auto;                        // --leaf-rays
+  traversal::LeafRays leafRays = traversal::LeafRays::Auto;  // --leaf-rays (auto: chosen per batch from its counts on a CPU device)
+  std::optional<traversal::LeafChoiceCosts> leafChoiceCosts;  // tests: auto's leaf choice with these costs (traversal.h)
   bool leafTestFromLight = true;  // --leaf-test auto (true) or two-ends
   // --memory-budget: device buffers and host working set together (0: none); the arena gets what the
   // rest leaves, and a budget that cannot hold the frame is refused with the bytes it needs.

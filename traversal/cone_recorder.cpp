@@ -137,6 +137,7 @@ traversal::TraversalInput ConeRecorder::traversalInput(glm::vec3 light, float ep
   in.sphereLastExpansion = options_.sphereLastExpansion;
   in.lastExpansionLanes = options_.lastExpansionLanes;
   in.leafRays = options_.leafRays;
+  in.leafChoiceCosts = options_.leafChoiceCosts;
   in.leafTest = options_.leafTestFromLight
                     ? traversal::leafTestFor(frame_.far, layout_.boundsLo(), layout_.boundsHi(), light)
                     : traversal::LeafTest::TwoEnds;

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <sstream>
 
 #include "core/error.h"
 #include "traversal/traverse_advance.comp.h"
@@ -25,6 +26,8 @@ constexpr uint64_t kPairBytes = 8;          // uvec2
 constexpr uint64_t kStatsBytes = STAT_WORDS * 4;
 constexpr uint64_t kStateBytes = STATE_WORDS * 4;  // the state words, bound whole as a uniform buffer
 // Levels of the tree the leaves take (leafStepOf): 1 for four rays a leaf pair, 2 for sixteen, 3 for 64.
+// The leaf choice's costs on a CPU device, in leaf tests (LeafChoiceCosts).
+constexpr float kLeafChoiceStepCost = 40.0f, kLeafChoiceLaneCost = 4.0f;
 uint32_t leafLevels(LeafRays rays) { return rays == LeafRays::SixtyFour ? 3u : rays == LeafRays::Sixteen ? 2u : 1u; }
 }  // namespace
 
@@ -172,6 +175,8 @@ nlohmann::json TraversalStats::toJson() const {
           {"leaf_pairs", leafPairs},
           {"leaf_tests", leafTests},
           {"leaf_rays", leafRays},
+          {"leaf_pairs_by_rays", {{"4", leafPairsByRays[0]}, {"16", leafPairsByRays[1]}, {"64", leafPairsByRays[2]}}},
+          {"leaf_rays_choice", leafChoice.empty() ? std::string("given") : leafChoice},
           {"leaf_test", leafTestName(leafTest)},
           {"submits", submits},
           {"early_accepted_nodes", earlyAccepted},
@@ -426,6 +431,8 @@ TraversalStats Traversal::run(const TraversalInput& in, vk::Timer* timer) {
   f.depth = leafStepOf(f.treeDepth, leafLevels(leafRays_));
   f.leafShift = 2u * (f.treeDepth - f.depth + 1u);
   f.stats.leafRays = 1u << f.leafShift;
+  if (in.leafRays == LeafRays::Auto)
+    f.stats.leafChoice = "auto on the chunked path (host counts): 64 rays on a CPU device, four on a GPU";
   f.stats.leafTest = in.leafTest;
   CS_CHECK(plan_.pairCapacity >= minimumPairs(f.depth),
            "traversal memory too small for this view: a tree of depth " << f.treeDepth << " needs at least "
@@ -468,6 +475,7 @@ TraversalStats Traversal::run(const TraversalInput& in, vk::Timer* timer) {
   const uint64_t scratch = bytesAllocated() - arena_.size;
   f.stats.peakBytes = f.stats.peakPairs * kPairBytes +
                       (f.stats.peakChunk ? std::min(chunkScratchBytes(f.stats.peakChunk), scratch) : 0);
+  f.stats.leafPairsByRays[std::min(f.leafShift / 2u, 3u) - 1u] = f.stats.leafPairs;
   return f.stats;
 }
 
@@ -548,7 +556,12 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
                             ? (cpu ? ExpansionLanes::PerCluster : ExpansionLanes::PerTriangle)
                             : in.lastExpansionLanes;
   const bool wholeExpansion = lastExpansionLanes_ == ExpansionLanes::PerCluster;
-  leafRays_ = resolveLeafRays(in.leafRays);
+  // Auto on a CPU device: the leaves' span chosen per batch from its counts, 64 rays the earliest.
+  leafAuto_ = in.leafRays == LeafRays::Auto;
+  leafChoice_ = leafAuto_ && (cpu || in.leafChoiceCosts);
+  leafRays_ = leafChoice_ ? LeafRays::SixtyFour : resolveLeafRays(in.leafRays);
+  leafCosts_ = in.leafChoiceCosts.value_or(leafChoiceCosts(cpu));
+  const LeafChoiceCosts costs = leafCosts_;
   leafTest_ = in.leafTest;
   const vk::Buffer& shape = in.tree->shapeBuffer();
   const vk::Buffer* buffers[2] = {&arena_, &chunk_};  // step c writes buffers[c % 2]
@@ -570,7 +583,8 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
 
   auto advance = [&](uint32_t step, uint32_t triangles) {
     AdvancePush a{step, triangles, capacity, ctx_.maxWorkgroups(), supers ? 2u : clusters ? 1u : 0u, in.triangleCount,
-                  sphereExpansion ? 1u : 0u, wholeExpansion ? 1u : 0u, leafLevels(leafRays_)};
+                  sphereExpansion ? 1u : 0u, wholeExpansion ? 1u : 0u, leafLevels(leafRays_), leafChoice_ ? 1u : 0u,
+                  costs.step, costs.lane};
     cmd.dispatch(advance_, {shape, state_}, a, 1);
     cmd.barrier();
   };
@@ -666,6 +680,11 @@ void Traversal::learnBatch(const uint32_t* w, const TraversalStats& frame, uint6
   }
 }
 
+LeafChoiceCosts leafChoiceCosts(bool cpuDevice) {
+  // Measured on lavapipe (docs/ARCHITECTURE.md, "Leaf pairs chosen per frame"). On a GPU, unmeasured: not used.
+  return cpuDevice ? LeafChoiceCosts{kLeafChoiceStepCost, kLeafChoiceLaneCost} : LeafChoiceCosts{};
+}
+
 LeafRays Traversal::resolveLeafRays(LeafRays wanted) const {
   if (wanted != LeafRays::Auto) return wanted;
   return ctx_.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? LeafRays::SixtyFour : LeafRays::Four;
@@ -701,8 +720,12 @@ TraversalStats Traversal::statsFromState(const uint32_t* words, uint32_t depth, 
   const uint32_t* w = view.data();
   auto u64 = [&](uint32_t at) { return uint64_t(w[at]) | (uint64_t(w[at + 1]) << 32); };
   TraversalStats s;
-  // The depths tested: those above the pairs the leaves take (a tree of depth `depth`).
-  const uint32_t leafStep = leafStepOf(depth, leafLevels(leafRays_));
+  // The depths tested: those above the pairs the leaves take (a tree of depth `depth`); with the leaf
+  // choice, down to the deepest step that ran.
+  uint32_t leafStep = leafStepOf(depth, leafLevels(leafRays_));
+  if (leafChoice_)
+    for (uint32_t d = leafStep; d < std::min<uint32_t>(depth, STATE_MAX_STEPS); ++d)
+      if (w[STATE_ACC + STATE_ACC_WORDS * d + 6] > 0) leafStep = d + 1;
   for (uint32_t d = 0; d < std::min<uint32_t>(leafStep, STATE_MAX_STEPS); ++d) {
     const uint32_t at = STATE_ACC + STATE_ACC_WORDS * d;
     PassStats ps;
@@ -716,7 +739,31 @@ TraversalStats Traversal::statsFromState(const uint32_t* words, uint32_t depth, 
   s.expandedClusters = uint64_t(words[STATE_EXPANDED]) | (uint64_t(words[STATE_EXPANDED + 1]) << 32);
   s.leafPairs = u64(STATE_LEAF_PAIRS);
   s.leafRays = 1u << (2u * (depth - leafStep + 1u));
-  s.leafTests = s.leafPairs * s.leafRays - w[STATE_LEAF_MISSING];
+  for (uint32_t l = 0; l < 3; ++l) s.leafPairsByRays[l] = w[STATE_LEAF_BY_LEVEL + l];
+  if (leafChoice_) {
+    // The span that took the most leaf pairs; why: what the last batch's choices saw against the
+    // thresholds (LeafChoiceCosts::threshold).
+    uint32_t most = 0;
+    for (uint32_t l = 1; l < 3; ++l)
+      if (s.leafPairsByRays[l] > s.leafPairsByRays[most]) most = l;
+    if (s.leafPairs > 0) s.leafRays = 4u << (2u * most);
+    const LeafChoiceCosts& costs = leafCosts_;
+    std::ostringstream why;
+    why.precision(2);
+    why << "per batch from its counts: leaf pairs of 4/16/64 rays " << s.leafPairsByRays[0] << "/" << s.leafPairsByRays[1]
+        << "/" << s.leafPairsByRays[2] << "; the last batch's predicted survival";
+    for (uint32_t l = 3; l >= 2; --l) {
+      const uint32_t seen = w[STATE_LEAF_SEEN + l - 2];
+      why << (l == 3 ? " at the 64-ray step " : ", at the 16-ray step ");
+      if (seen == 0) why << "-";
+      else why << double(seen) / 65536.0;
+      why << " (one more depth below " << costs.threshold(double(1u << (2 * l))) << ")";
+    }
+    s.leafChoice = why.str();
+  } else if (leafAuto_) {
+    s.leafChoice = "auto: four on a GPU, where the choice's costs have not been measured";
+  }
+  s.leafTests = u64(STATE_LEAF_TESTS) - w[STATE_LEAF_MISSING];
   s.leafTest = leafTest_;
   s.earlyAccepted = u64(STATE_ACCEPTED);
   s.droppedPairs = u64(STATE_DROPPED);

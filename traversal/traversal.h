@@ -9,6 +9,8 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -115,7 +117,10 @@ struct TraversalStats {
   uint64_t expandedClusters = 0;  // (cluster, node) pairs expanded into their triangles' pairs
   uint64_t leafPairs = 0;         // pairs sent to the leaves (of depth D-1, or D-2 / D-3 with 16 / 64 rays a pair)
   uint64_t leafTests = 0;         // (pair, ray) combinations at the leaves: 4 (16, 64) per pair but under a last node
-  uint32_t leafRays = 4;          // rays a leaf pair covers (LeafRays; 4 in a tree of depth 1 whatever was asked)
+  uint32_t leafRays = 4;          // rays a leaf pair covers (LeafRays; 4 in a tree of depth 1 whatever was asked);
+                                  // chosen per batch: the span that took the most leaf pairs
+  uint64_t leafPairsByRays[3] = {0, 0, 0};  // leaf pairs of 4, 16 and 64 rays
+  std::string leafChoice;         // chosen per batch: what was chosen and why; "" when the span was given
   LeafTest leafTest = LeafTest::TwoEnds;  // the leaves' test
   uint64_t submits = 0;
   uint64_t earlyAccepted = 0;     // early accept: distinct nodes found covered (and shadowed at once)
@@ -148,10 +153,21 @@ const char* expansionLanesName(ExpansionLanes lanes);
 // way: a pair a skipped test would have rejected holds no ray the leaf test hits (precise_test.h: the
 // test's margins cover the leaf test's rounding), so its extra leaf tests find nothing. What it trades:
 // the last depths' tests, the most numerous of the traversal, with their appends, against more leaf tests
-// (the measurements: docs/ARCHITECTURE.md, "Leaf pairs of sixteen or 64 rays"). Auto: SixtyFour on a CPU
-// device (lavapipe), whose lanes pay for every step's bookkeeping; Four on a GPU, where neither has been
-// measured against it yet.
+// (the measurements: docs/ARCHITECTURE.md, "Leaf pairs of sixteen or 64 rays"). Auto on a CPU device
+// (lavapipe), the device path: chosen per batch on the device from the batch's own counts -- at the 64-ray
+// step and again at the 16-ray one, the leaves now or one more depth, whichever the step's pairs, the rays
+// under them and the survival of the step above say is cheaper (leafChoiceCosts; docs/ARCHITECTURE.md,
+// "Leaf pairs chosen per frame"); the chunked fallback takes 64. Four on a GPU, where the costs have not
+// been measured yet.
 enum class LeafRays { Auto, Four, Sixteen, SixtyFour };
+// The leaf choice's costs on this kind of device, in leaf tests (one ray against one triangle): a pair's
+// step (its four child tests and appends) and a leaf pair's lane before its rays. The survival below which
+// one more depth wins at a step of `rays` rays a pair: (lane + rays - step) / (4 lane + rays).
+struct LeafChoiceCosts {
+  float step = 0, lane = 0;
+  double threshold(double rays) const { return (lane + rays - step) / (4.0 * lane + rays); }
+};
+LeafChoiceCosts leafChoiceCosts(bool cpuDevice);
 
 // What one traversal reads. Buffers stay owned by the caller.
 struct TraversalInput {
@@ -183,6 +199,9 @@ struct TraversalInput {
   bool sphereLastExpansion = true;
   ExpansionLanes lastExpansionLanes = ExpansionLanes::Auto;  // that expansion's lanes (see ExpansionLanes)
   LeafRays leafRays = LeafRays::Auto;     // rays a leaf pair covers (see LeafRays)
+  // Auto's choice with these costs instead of the device's (tests: every outcome of the choice on any
+  // device); unset: leafChoiceCosts(device), and no choice on a GPU.
+  std::optional<LeafChoiceCosts> leafChoiceCosts;
   LeafTest leafTest = LeafTest::TwoEnds;  // the leaves' test (see LeafTest; leafTestFor says when FromLight is exact)
   // With clusters: batches start as super clusters, which split into their clusters further down
   // ("Clusters"). The same mask.
@@ -230,8 +249,10 @@ class Traversal {
   // (ExpansionLanes::Auto resolved for this device).
   ExpansionLanes lastExpansionLanes() const { return lastExpansionLanes_; }
   // The last frame's rays a leaf pair (Four, Sixteen or SixtyFour: Auto resolved for the device; a tree
-  // shallower than the levels asked gives what it has, a tree of depth 1 four).
+  // shallower than the levels asked gives what it has, a tree of depth 1 four); with leafChoice(), the
+  // most the choice could take (the stats say what it took).
   LeafRays leafRays() const { return leafRays_; }
+  bool leafChoice() const { return leafChoice_; }
   const vk::Buffer& stateBuffer() const { return state_; }
   // The counters of the device path from the state words read back (STATE_WORDS of them), for a tree
   // of `depth` (the shape's SHAPE_DEPTH).
@@ -276,7 +297,10 @@ class Traversal {
   bool supersFit_ = true;        // false once a one-super-cluster batch overflowed: clusters only from then on
   bool usedSupers_ = false;      // the last record() started its batches as super clusters
   ExpansionLanes lastExpansionLanes_ = ExpansionLanes::PerTriangle;
-  LeafRays leafRays_ = LeafRays::Four;
+  LeafRays leafRays_ = LeafRays::Four;  // the fixed span, or with leafChoice_ the earliest the choice may take
+  bool leafChoice_ = false;              // the last record() chose the span per batch (AdvancePush::leafChoice)
+  bool leafAuto_ = false;                // the last record() was asked for Auto
+  LeafChoiceCosts leafCosts_;            // with the costs (statsFromState says why)
   LeafTest leafTest_ = LeafTest::TwoEnds;  // the last frame's (statsFromState)
   LeafRays resolveLeafRays(LeafRays wanted) const;
 };

@@ -34,6 +34,7 @@
 #define STATE_LEAF_PAIRS 144   // uint64 (lo, hi): pairs sent to the leaves
 #define STATE_ACCEPTED 146     // uint64: early accept, nodes found covered
 #define STATE_DROPPED 148      // uint64: early accept, pairs dropped at an accepted node
+#define STATE_LEAF_TESTS 150   // uint64: (pair, ray) combinations the leaves were sent, past the last ray included
 #define STATE_TEST_ARGS 152    // uvec4: the current step's triangle-test dispatch (x, y, 1, inputs); 0 groups for cluster pairs
 #define STATE_LEAF_ARGS 156    // + 4 c: the leaves of step c (x, y, 1, leaf pairs); 0 groups but at c = D
 #define STATE_MAX_STEPS 16     // steps 0 .. 15 (tree depth <= 15)
@@ -46,7 +47,11 @@
 #define STATE_ROOT_SUPERS 370    // the super clusters pass 0 kept, scaled likewise (the split rule)
 #define STATE_SPHERE_ARGS 372  // uvec4: the current step's dispatch of the sphere-test triangle kernel (AdvancePush::sphereExpansion)
 #define STATE_HITS_ARGS 376    // uvec4: leaf_hits.comp's dispatch (x, y, 1, sorted rays), from the tree's shape (step 0)
-#define STATE_WORDS 380
+#define STATE_LEAF_BY_LEVEL 380  // + l - 1: leaf pairs of l levels (4, 16, 64 rays: l = 1, 2, 3), over the frame
+#define STATE_LEAF_SEEN 383    // + l - 2: the survival the last batch's leaf choice of l levels (2, 3) predicted, x 2^16
+                               //   (at least 1); 0: no choice was made there
+#define STATE_SURVIVAL 385     // the survival of the step before the current one, x 2^16 (the leaf choice's trend)
+#define STATE_WORDS 388
 #define ADVANCE_END_OF_BATCH 0xFFFFFFFFu
 
 // Triangle clusters (traversal.h, "Clusters"): CLUSTER_SIZE consecutive triangles of a triangle buffer
@@ -174,7 +179,12 @@ struct AdvancePush {
   uint sphereExpansion;  // 1: an expansion step's triangle pairs go to the sphere-test kernel (STATE_SPHERE_ARGS)
   uint wholeExpansion;   // with sphereExpansion: 1 = that step is STEP_EXPAND_WHOLE (a lane per cluster pair)
   uint leafLevels;       // 1: the pairs of depth D - 1 go to the leaves (four rays each); 2 (3): those of
-                         // depth D - 2 (D - 3), 16 (64) rays each, as deep as the tree goes (leafStepOf)
+                         // depth D - 2 (D - 3), 16 (64) rays each, as deep as the tree goes (leafStepOf);
+                         // with leafChoice, the most levels the leaves may take
+  uint leafChoice;       // 1: each step from that one on chooses between the leaves and one more depth from
+                         // its counts (traversal.h, LeafRays::Auto; the costs below); 0: the leaves there
+  float stepCost;        // the leaf choice's costs, in leaf tests (one ray against one triangle): a pair's
+  float leafLaneCost;    // step (four child tests and the appends) and a leaf pair's lane before its rays
 };
 
 // leaf_hits.comp: the leaves' hits into the visibility, LEAF_HITS_RAYS sorted rays an invocation (a
@@ -212,7 +222,7 @@ struct SampleLightPush {
 #ifdef __cplusplus
 static_assert(sizeof(SampleLightPush) == 32, "SampleLightPush layout");
 static_assert(sizeof(FrameTrianglesPush) == 96, "FrameTrianglesPush layout");
-static_assert(sizeof(AdvancePush) == 36, "AdvancePush layout");
+static_assert(sizeof(AdvancePush) == 48, "AdvancePush layout");
 static_assert(sizeof(LeafHitsPush) == 16, "LeafHitsPush layout");
 static_assert(STATE_ACC + STATE_ACC_WORDS * STATE_MAX_STEPS <= STATE_LEAF_PAIRS && STATE_TEST_ARGS % 4 == 0 &&
                   STATE_LEAF_ARGS % 4 == 0 && STATE_LEAF_ARGS + 4 * (STATE_MAX_STEPS + 1) <= STATE_WORDS,

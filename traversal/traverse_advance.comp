@@ -10,7 +10,9 @@
 //    every later step of the frame is a dispatch of zero workgroups: the host redoes it chunked),
 //  - at step 0, writes the indirect arguments of leaf_hits.comp (a lane per LEAF_HITS_RAYS sorted rays),
 //  - writes step c's count, its TraversePush fields from the tree's shape, and the indirect arguments of
-//    its test (the cluster or the triangle kernel), or of the leaves at c = D, and clears the step counters.
+//    its test (the cluster or the triangle kernel), or of the leaves at c = D, and clears the step counters;
+//  - with the leaf choice (AdvancePush::leafChoice), from c = D on to the tree's depth, chooses from the
+//    step's own counts between the leaves now and one more depth first (leafChoice below).
 // bindings: 0 = shape words (SHAPE_*, conetree/tree_shape.comp), 1 = state words (STAT_*, STATE_*)
 #include "conetree/cone_layout.h"
 #include "traversal/traversal_layout.h"
@@ -24,6 +26,26 @@ void add64(uint at, uint value) {
   uint lo = state[at] + value;
   if (lo < value) state[at + 1u] += 1u;
   state[at] = lo;
+}
+
+void add64v(uint at, uint64_t value) {
+  uint64_t sum = (uint64_t(state[at + 1u]) << 32) + uint64_t(state[at]) + value;
+  state[at] = uint(sum & 0xFFFFFFFFul);
+  state[at + 1u] = uint(sum >> 32);
+}
+
+// The leaf choice (traversal.h, LeafRays::Auto; docs/ARCHITECTURE.md, "Leaf pairs chosen per frame"): n
+// triangle pairs at step c of a tree of depth D, each with 4^(D - c + 1) rays under its node; `survival` is
+// the step's own survival as the steps above predict it (survival grows with depth: the last one's,
+// times its growth over the one before when both tested triangle pairs, at most 1). The leaves now cost n (leafLaneCost + rays) leaf
+// tests; one more depth costs n stepCost, then 4 survival n pairs with a quarter of the rays each. One
+// more depth when that is cheaper and its pairs, so estimated, fill at most 3/4 of the capacity (an
+// overflow redoes the frame on the host).
+bool leavesNow(uint c, uint treeDepth, uint n, float survival) {
+  float rays = float(1u << (2u * (treeDepth - c + 1u)));
+  float now = p.leafLaneCost + rays;
+  float deeper = p.stepCost + 4.0 * survival * (p.leafLaneCost + 0.25 * rays);
+  return !(deeper < now) || 4.0 * survival * float(n) > 0.75 * float(p.capacity);
 }
 
 void writeArgs(uint at, uint items, uint count, uint groupSize) {
@@ -48,9 +70,11 @@ void main() {
   uint n = 0u;
   uint mode = STEP_TRIANGLES;
   uint count = 0u;  // the next step's inputs (an expansion: CLUSTER_SIZE per cluster pair)
+  float survival = 1.0;  // survivors per test of step c - 1 (the leaf choice's estimate of step c's)
   if (c == 0u) {
     n = state[STATE_OVERFLOW] != 0u || depth == 0u ? 0u : p.triangles;
     state[STATE_BATCH_TRIANGLES] = p.triangles;
+    state[STATE_SURVIVAL] = 0u;
     writeArgs(STATE_HITS_ARGS, (shape[SHAPE_LEAVES] + LEAF_HITS_RAYS - 1u) / LEAF_HITS_RAYS, shape[SHAPE_LEAVES], CONE_BUILD_THREADS);
     // Clusters go down the upper levels when there are levels to spare before the leaves (see below),
     // super clusters first where the host asks.
@@ -81,6 +105,12 @@ void main() {
       state[STATE_PEAK_PAIRS] = max(state[STATE_PEAK_PAIRS], (c == 1u ? 0u : inputs) + min(survivors, p.capacity));
       if (survivors > p.capacity) state[STATE_OVERFLOW] = 1u;
       else n = survivors;
+      // Of every (pair, child) of the step, those a whole-cluster lane never tested included; the trend
+      // only from one triangle step to the next (a cluster step's survival is another quantity).
+      float last = float(survivors) / max(1.0, float(inputs) * (c == 1u ? 1.0 : 4.0));
+      float before = float(state[STATE_SURVIVAL]) / 65536.0;
+      survival = was == STEP_TRIANGLES && before > 0.0 ? min(1.0, last * max(1.0, last / before)) : last;
+      state[STATE_SURVIVAL] = was == STEP_TRIANGLES ? max(1u, uint(min(last, 1.0) * 65536.0)) : 0u;
       // Expansion rule (traversal.h, "Clusters"): cluster pairs go on while the nodes are wide against the
       // clusters, and expand into their triangles' pairs at the first depth with more than 1/K as many
       // nodes as the clusters pass 0 kept (scaled from the batch to the whole record: the batches are
@@ -149,11 +179,21 @@ void main() {
   writeArgs(STATE_SPHERE_ARGS, 0u, 0u, TRAVERSE_THREADS);
   if (c <= STATE_MAX_STEPS) writeArgs(STATE_LEAF_ARGS + 4u * c, 0u, 0u, TRAVERSE_THREADS);
   state[STATE_COUNT] = 0u;
-  if (n > 0u && c == depth) {
+  // The leaves take the pairs at step D, or with the choice at the first step from D on where it says so
+  // (at the tree's depth at the latest). Expansions are done by D (the rules above count from it), so
+  // the pairs there and below are triangle pairs.
+  bool choosing = p.leafChoice != 0u && c >= depth && c < treeDepth && mode == STEP_TRIANGLES;
+  bool leaves = n > 0u && c >= depth && (!choosing || leavesNow(c, treeDepth, n, survival));
+  if (choosing && n > 0u && treeDepth - c + 1u <= 3u)
+    state[STATE_LEAF_SEEN + treeDepth - c - 1u] = max(1u, uint(min(survival, 1.0) * 65536.0));
+  if (leaves) {
+    uint levels = treeDepth - c + 1u;
     writeArgs(STATE_LEAF_ARGS + 4u * c, n, n, TRAVERSE_THREADS);
     add64(STATE_LEAF_PAIRS, n);
-    state[STATE_LEAF_SHIFT] = 2u * (treeDepth - depth + 1u);  // a pair's rays: [node << shift, (node + 1) << shift)
-  } else if (n > 0u && c < depth) {
+    add64v(STATE_LEAF_TESTS, uint64_t(n) << (2u * levels));
+    state[STATE_LEAF_BY_LEVEL + min(levels, 3u) - 1u] += n;
+    state[STATE_LEAF_SHIFT] = 2u * levels;  // a pair's rays: [node << shift, (node + 1) << shift)
+  } else if (n > 0u) {
     state[STATE_COUNT] = count;
     // The step's test: the cluster kernel for cluster pairs, the triangle kernel otherwise, or the
     // sphere-test triangle kernel for an expansion one depth above the leaves when the host asks for it
