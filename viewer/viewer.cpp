@@ -1020,6 +1020,11 @@ void Viewer::drawUi() {
   const Counters t = totals();
   ImGui::Text("host cost: %llu submits, %llu presents, %llu allocations", (unsigned long long)t.submits,
               (unsigned long long)t.presents, (unsigned long long)t.allocations);
+  ImGui::Text("UI device allocations %llu; heap: ImGui %llu", (unsigned long long)t.uiDeviceAllocations, (unsigned long long)t.uiHeap);
+  if (threadHeapAllocations) {
+    ImGui::SameLine();
+    ImGui::Text(", loop thread's operator new %llu (recordFrame's %llu)", (unsigned long long)t.heap, (unsigned long long)t.apiHeap);
+  }
   ImGui::Separator();
   if (errorShown()) {
     ImGui::Text("vs Embree: %llu false shadow, %llu false light outside the band", (unsigned long long)error_.falseShadowOutsideBand,
