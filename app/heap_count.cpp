@@ -1,9 +1,9 @@
 // The coneshadow executable's count of heap allocations (operator new), per thread, so that `view --stats`
 // can say how many its frame loop makes (docs/ARCHITECTURE.md, "The viewer"). Linked into the executable
 // only: the tests' in-process runs keep the library's operator new and report host allocations as not
-// counted. Only the throwing, unaligned operator new is replaced: new[] and the nothrow forms reach it, the
-// default operator delete frees what malloc gave; aligned new and direct malloc calls (C libraries, the
-// Vulkan driver) are not counted.
+// counted. Every unaligned operator new and delete is replaced, as a set: they allocate with malloc and
+// free with free, so a sanitizer's runtime (which brings its own operators) never sees a mix. Aligned new
+// and direct malloc calls (C libraries, the Vulkan driver) are not counted.
 #include <cstdint>
 #include <cstdlib>
 #include <new>
@@ -31,3 +31,18 @@ void* operator new(std::size_t bytes) {
     handler();
   }
 }
+void* operator new[](std::size_t bytes) { return ::operator new(bytes); }
+void* operator new(std::size_t bytes, const std::nothrow_t&) noexcept {
+  try {
+    return ::operator new(bytes);
+  } catch (...) {
+    return nullptr;
+  }
+}
+void* operator new[](std::size_t bytes, const std::nothrow_t& tag) noexcept { return ::operator new(bytes, tag); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
+void operator delete[](void* p, const std::nothrow_t&) noexcept { std::free(p); }
