@@ -11,6 +11,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "viewer/viewer.h"
+
 namespace cs {
 
 namespace {
@@ -284,19 +286,20 @@ Options parseArgs(int argc, char** argv) {
   view->add_option("--view", o.view, "the camera shown first, by name (default: the scene's first camera)")->type_name("NAME");
   view->add_option("--script", o.script,
                    "replay input from FILE, one command a line: method M, set NAME [VALUE], light X Y Z, move-light DX DY DZ, "
-                   "camera NAME, orbit YAW PITCH, display shaded|mask|diff, split M|off, time T, wait N, wait-reference, "
+                   "lights all|I,J, show-light K, camera NAME, orbit YAW PITCH, display shaded|mask|diff, split M|off, time T, wait N, wait-reference, "
                    "screenshot FILE, quit")
       ->type_name("FILE");
   view->add_option("--screenshot", o.screenshot, "write the window's last frame to FILE (PNG, and its results row as .json); "
                                                  "with --frames N, after N frames")->type_name("FILE");
   view->add_flag("--hide-ui", o.hideUi, "no panels over the image (screenshots)");
-  view->add_flag("--stats", o.stats, "print the frame loop's counters at exit: submissions, presents, host syncs and "
-                                      "device allocations a frame");
+  view->add_flag("--stats", o.stats, "print the frame loop's counters at exit: submissions, presents, host syncs, "
+                                      "device allocations (the project's and the UI's) and host allocations a frame");
   view->add_option("--display", o.display, "shaded, mask or diff (against Embree, in the CLI's colours)")
       ->type_name("MODE")
       ->check(CLI::IsMember({"shaded", "mask", "diff"}));
   view->footer("the window: left drag orbits, shift + left drag moves the light, W A S D Q E fly, Tab next method,\n"
                "1 2 3 shaded / mask / diff, P screenshot, R reset, U panels, H help. --frames N: exit after N frames.\n"
+               "--light several times or --all-lights: the cone path shows them all at once (the panel picks them).\n"
                "Needs a window system (DISPLAY; under Xvfb: xvfb-run -a coneshadow view ...).");
 
   compare->add_option("--views", raw.views, "cameras by name V1,V2 (default: every camera of the scene)")->type_name("V1,V2");
@@ -453,7 +456,8 @@ Options parseArgs(int argc, char** argv) {
   if (sub == view) {  // the cone path first; its frames count from 1 and are not timed repeats
     if (o.methods.empty()) o.methods = {"cone"};
     if (view->count("--frames") == 0) o.frames = 0;
-    if (o.allLights || o.lights.size() > 1) throw UsageError("view shows one light at a time: give at most one --light");
+    if (o.lights.size() > viewer::kMaxLights)
+      throw UsageError("view shows up to " + std::to_string(viewer::kMaxLights) + " lights at once: give fewer --light");
     for (const char* flag : {"--out", "--validation", "--quiet"})
       if (view->count(flag)) throw UsageError(std::string("view writes no folder and prints no progress: drop ") + flag);
     if (!o.screenshot.empty() && o.frames == 0 && o.script.empty())

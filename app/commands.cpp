@@ -73,7 +73,7 @@ int runView(const Options& o) {
   viewer::ViewerSpec spec;
   if (o.sceneTime) spec.scene = loadSceneArg(o, std::cerr);  // a BART scene placed at --time: held there
   else spec.animation = viewerAnimation(o, spec.scene);
-  spec.light = chooseLights(spec.scene, o).front();
+  spec.lights = chooseLights(spec.scene, o);
   for (const MethodInfo* m : chosenMethods(o)) spec.methods.push_back({m, settingsFor(o, *m)});
   spec.view = o.view;
   spec.width = o.width;

@@ -120,6 +120,7 @@ set(cs_gpu_cli_tests
   TinyGltf.CameraNamesNeverBecomePathsOutsideTheOutputFolder
   Viewer.AMethodSwitchALightDragTheSplitScreenAndTheSceneTimeChangeWhatIsShown
   Viewer.HiddenUiScreenshotsHoldTheShadowPixelsOfRender
+  Viewer.SeveralLightsAtOnceOnTheConePathShadeTogetherAndEachMaskIsTheCLIs
   Viewer.TheConeFrameIsOneSubmissionOnePresentAndNoAllocationAndValid)
 
 # `coneshadow view`: the window under Xvfb (xvfb-run, a server a run), 128x96 frames, seconds each.

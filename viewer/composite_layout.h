@@ -20,12 +20,15 @@ struct CompositePush {
   uint mode;             // CS_DISPLAY_*
   uint reference;        // 1: the reference and band buffers hold this frame's
   uint maskGrey;         // the mask's grey for samples that are not lit
-  uint pad;
+  uint lightCount;       // the visibility buffer's layers, one a light shown (a registry method: 1)
+  uint focusLight;       // the layer the mask and the diff show; the G-buffer's light term is its light's
+  uint firstLight;       // the lights buffer's entry of layer 0
+  uint pad0, pad1;
   vec4 background, falseShadow, falseLight, bandDisagree;  // 0..255 RGB
 };
 
 #ifdef __cplusplus
-static_assert(sizeof(CompositePush) == 96, "CompositePush layout");
+static_assert(sizeof(CompositePush) == 112, "CompositePush layout");
 }  // namespace cs::viewer
 #endif
 #endif

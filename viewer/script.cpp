@@ -2,6 +2,7 @@
 #include "viewer/script.h"
 
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 
@@ -52,6 +53,20 @@ std::vector<ScriptStep> parseScript(const std::string& text, const std::string& 
       if (w.size() != 4) bad("three numbers X Y Z");
       s.kind = c == "light" ? ScriptStep::Light : ScriptStep::MoveLight;
       s.v = {number(1), number(2), number(3)};
+    } else if (c == "lights" || c == "show-light") {
+      if (w.size() != 2) bad(c == "lights" ? "all or a list of light numbers I,J,..." : "a light number K");
+      s.kind = c == "lights" ? ScriptStep::Lights : ScriptStep::ShowLight;
+      if (s.kind == ScriptStep::ShowLight || w[1] != "all") {
+        std::istringstream list(w[1]);
+        for (std::string item; std::getline(list, item, ',');) {
+          char* end = nullptr;
+          const unsigned long k = std::strtoul(item.c_str(), &end, 10);
+          if (item.empty() || *end != '\0' || item[0] == '-' || k >= 64) bad("light numbers from 0 to 63, got '" + w[1] + "'");
+          s.lights.push_back(uint32_t(k));
+        }
+        if (s.lights.empty() || (s.kind == ScriptStep::ShowLight && s.lights.size() != 1))
+          bad(c == "lights" ? "all or a list of light numbers I,J,..." : "one light number K");
+      }
     } else if (c == "orbit") {
       if (w.size() != 3) bad("two angles YAW PITCH in radians");
       s.kind = ScriptStep::Orbit;
@@ -71,7 +86,7 @@ std::vector<ScriptStep> parseScript(const std::string& text, const std::string& 
       s.kind = c == "quit" ? ScriptStep::Quit : ScriptStep::WaitReference;
     } else {
       throw Error("unknown command '" + c + "'", where,
-                  "commands: method, set, light, move-light, camera, orbit, display, split, time, wait, wait-reference, screenshot, quit");
+                  "commands: method, set, light, move-light, lights, show-light, camera, orbit, display, split, time, wait, wait-reference, screenshot, quit");
     }
     steps.push_back(s);
   }

@@ -3,6 +3,8 @@
 #include "viewer/viewer.h"
 
 #include <algorithm>
+#include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -75,6 +77,33 @@ Camera orbited(const Camera& c, float yaw, float pitch) {
   return out;
 }
 
+// The ImGui Vulkan backend's device allocations (its font image, its vertex and index buffers): the backend
+// is built with IMGUI_IMPL_VULKAN_NO_PROTOTYPES and gets its functions from loadUiFunction, whose
+// vkAllocateMemory counts. Its heap allocations go through ImGui's allocator functions, which count too.
+std::atomic<uint64_t> uiDeviceAllocations{0}, uiHeapAllocations{0};
+PFN_vkAllocateMemory driverAllocateMemory = nullptr;
+
+VKAPI_ATTR VkResult VKAPI_CALL countedAllocateMemory(VkDevice device, const VkMemoryAllocateInfo* info,
+                                                     const VkAllocationCallbacks* callbacks, VkDeviceMemory* memory) {
+  ++uiDeviceAllocations;
+  return driverAllocateMemory(device, info, callbacks, memory);
+}
+
+PFN_vkVoidFunction loadUiFunction(const char* name, void* instance) {
+  const PFN_vkVoidFunction f = vkGetInstanceProcAddr(*static_cast<VkInstance*>(instance), name);
+  if (f && std::strcmp(name, "vkAllocateMemory") == 0) {
+    driverAllocateMemory = reinterpret_cast<PFN_vkAllocateMemory>(f);
+    return reinterpret_cast<PFN_vkVoidFunction>(countedAllocateMemory);
+  }
+  return f;
+}
+
+void* uiAlloc(size_t bytes, void*) {
+  ++uiHeapAllocations;
+  return std::malloc(bytes);
+}
+void uiFree(void* p, void*) { std::free(p); }
+
 // One method as the loop runs it: the cone path through the public API, or a registry method.
 struct Shown {
   const MethodInfo* info = nullptr;
@@ -82,12 +111,19 @@ struct Shown {
   bool api = false;                       // the cone path through include/coneshadow/ (cone at its defaults)
   std::unique_ptr<ShadowMethod> method;   // a registry method (null for the API path)
   std::string error;                      // why it cannot run ("" = it runs)
-  std::string label() const { return api ? info->name + " (public API)" : info->name; }
+  std::string title;                      // its name in the panels (made once: the frame allocates nothing)
+  const std::string& label() const { return title; }
 };
 
 struct Counters {
   uint64_t submits = 0, presents = 0, allocations = 0, hostSyncs = 0;
+  uint64_t uiDeviceAllocations = 0;  // the ImGui Vulkan backend's vkAllocateMemory calls
+  uint64_t heap = 0;                 // operator new on the frame loop's thread (the coneshadow binary counts it)
+  uint64_t uiHeap = 0;               // ImGui's own allocations (its allocator functions)
+  uint64_t apiHeap = 0;              // of `heap`, those made inside coneshadow::Context::recordFrame
 };
+
+uint64_t heapNow() { return threadHeapAllocations ? threadHeapAllocations() : 0; }
 
 class Viewer {
  public:
@@ -98,6 +134,7 @@ class Viewer {
  private:
   // setup
   void createFrameResources();
+  void createVisibilityImage();
   void createDisplayPass();
   void createCompositePipeline();
   void createGBufferPipeline();
@@ -121,6 +158,14 @@ class Viewer {
   Counters totals() const;
   void viewChanged() { ++viewGeneration_, restFrames_ = 0; }
   void setTime(double t);  // an animated scene posed at t: every path's geometry, a new view
+  void setActive(std::vector<uint32_t> entries);  // the lights shown (table entries); the focus stays if shown
+  void setFocus(uint32_t k);                      // the k-th light shown becomes the one the mask shows
+  void syncLight() { table_[active_[focus_]] = light_; }
+  void lightPanel();
+  // The warm-up: the pipelines and first uploads, and the UI's vertex and index buffers, a set per
+  // swapchain image, made the first time the image is drawn.
+  uint64_t warmUpFrames() const { return std::max<uint64_t>(kWarmUpFrames, d_.images.size()); }
+  void reserveUiBuffers();
   // The error on screen belongs to the view and the method shown.
   bool errorShown() const {
     return errorValid_ && reference_.generation == viewGeneration_ && errorView_ == viewGeneration_ && errorMethod_ == methodGeneration_;
@@ -136,7 +181,17 @@ class Viewer {
   std::vector<Camera> cameras_;
   size_t cameraIndex_ = 0;
   Camera camera_;
-  glm::vec3 light_{0}, initialLight_{0};
+  // The light table: the run's lights, then the scene's other point lights (at most kMaxLights). active_:
+  // the entries shown, in the frame's order (the visibility image's layers); focus_: the place in active_
+  // of the light the mask, the diff, the light moves, the reference and the registry methods use, whose
+  // position light_ holds while it moves (written back to the table by syncLight).
+  std::vector<glm::vec3> table_, initialTable_;
+  std::vector<std::string> tableNames_;
+  std::vector<uint32_t> active_;
+  uint32_t focus_ = 0;
+  glm::vec3 light_{0};
+  std::array<glm::vec4, kMaxLights + 1> frameLights_{};  // the active lights, then the focus light (the composite's)
+  std::array<float, 3 * kMaxLights> lightXyz_{};         // the active lights as the public API takes them
   Shown shown_;
   size_t methodIndex_ = 0;
   Shown right_;           // split screen: the method of the right half
@@ -150,8 +205,10 @@ class Viewer {
 
   // The frame's data, host-visible: the G-buffer the composite shades, the method's mask, the reference.
   DeviceScene geometry_;
-  vk::Image position_, normal_, depth_, visibility_;
-  vk::Buffer posBuf_, nrmBuf_, visBuf_, visBuf2_, refBuf_, bandBuf_, captureBuf_;
+  vk::Image position_, normal_, depth_;
+  VkImage visibility_ = VK_NULL_HANDLE;  // a layer a light of the table (vk::createImage makes one layer)
+  VkDeviceMemory visibilityMemory_ = VK_NULL_HANDLE;
+  vk::Buffer posBuf_, nrmBuf_, visBuf_, visBuf2_, refBuf_, bandBuf_, captureBuf_, lightBuf_;
   DeviceGBuffer registryGBuffer_;
   GBuffer host_;                  // the frame's G-buffer on the host (the reference's and the error's input)
   std::vector<float> hostMask_, hostMask2_;  // the masks on the host (the left method's, the right's)
@@ -201,6 +258,10 @@ class Viewer {
   Counters mine_;                 // the viewer's own submissions and presents
   Counters steady_;               // summed over frames past the warm-up with nothing changed
   uint64_t steadyFrames_ = 0;
+  // Host allocations over the steady frames that hand nothing to or from the reference worker and write
+  // no screenshot (those copy a frame or a file's worth by design, once a view).
+  uint64_t quietFrames_ = 0, quietHeap_ = 0, quietUiHeap_ = 0, quietApiHeap_ = 0;
+  bool frameEvent_ = false;       // this frame handed work to or from the worker, or wrote a screenshot
   std::vector<double> steadyMs_;  // each steady frame's wall time, start of the loop to its fence (reserved)
   std::vector<double> idleMs_;    // the same, of the steady frames during which the reference worker was idle
 };
@@ -227,7 +288,28 @@ Viewer::Viewer(ViewerSpec spec) : spec_(std::move(spec)) {
     cameraIndex_ = size_t(it - cameras_.begin());
   }
   camera_ = cameras_[cameraIndex_];
-  light_ = initialLight_ = spec_.light;
+  CS_CHECK(!spec_.lights.empty(), "the viewer needs a light");
+  if (spec_.lights.size() > kMaxLights)
+    throw UsageError("the viewer shows up to " + std::to_string(kMaxLights) + " lights at once; scene " + spec_.scene.name +
+                     " gives " + std::to_string(spec_.lights.size()) + " (give some with --light X,Y,Z)");
+  auto sceneLightName = [&](glm::vec3 p) -> std::string {
+    for (const PointLight& l : spec_.scene.lights)
+      if (l.position == p) return l.name.empty() ? vec3Text(p) : l.name;
+    return "";
+  };
+  for (size_t i = 0; i < spec_.lights.size(); ++i) {
+    table_.push_back(spec_.lights[i]);
+    const std::string name = sceneLightName(spec_.lights[i]);
+    tableNames_.push_back(std::to_string(i) + ": " + (name.empty() ? "--light " + vec3Text(spec_.lights[i]) : name));
+    active_.push_back(uint32_t(i));
+  }
+  for (const PointLight& l : spec_.scene.lights)
+    if (table_.size() < kMaxLights && std::find(table_.begin(), table_.end(), l.position) == table_.end()) {
+      tableNames_.push_back(std::to_string(table_.size()) + ": " + (l.name.empty() ? vec3Text(l.position) : l.name));
+      table_.push_back(l.position);
+    }
+  initialTable_ = table_;
+  light_ = table_[active_[focus_]];
   policy_ = EpsilonPolicy::forScene(spec_.scene);
 
   openDisplay(d_, spec_.width, spec_.height, spec_.device, "coneshadow view — " + spec_.scene.name);
@@ -237,7 +319,7 @@ Viewer::Viewer(ViewerSpec spec) : spec_(std::move(spec)) {
   vk_->robustBufferAccess = d_.robustBufferAccess;
   coneshadow::Options o;
   o.framesInFlight = 1;  // the loop waits for each frame before recording the next
-  o.maxLights = 1;
+  o.maxLights = uint32_t(table_.size());
   api_ = coneshadow::Context::create({d_.instance, d_.physical, d_.device, d_.queueFamily, vkGetInstanceProcAddr}, o);
   mesh_ = api_->createMesh(&spec_.scene.positions[0].x, spec_.scene.positions.size(),
                                          spec_.scene.indices.data(), spec_.scene.indices.size());
@@ -285,8 +367,10 @@ Viewer::~Viewer() {
   right_.method.reset();
   raster_.reset();
   registryGBuffer_ = {};
-  for (vk::Image* i : {&position_, &normal_, &depth_, &visibility_}) i->reset();
-  for (vk::Buffer* b : {&posBuf_, &nrmBuf_, &visBuf_, &visBuf2_, &refBuf_, &bandBuf_, &captureBuf_}) b->reset();
+  for (vk::Image* i : {&position_, &normal_, &depth_}) i->reset();
+  if (visibility_) vkDestroyImage(dev, visibility_, nullptr);
+  if (visibilityMemory_) vkFreeMemory(dev, visibilityMemory_, nullptr);
+  for (vk::Buffer* b : {&posBuf_, &nrmBuf_, &visBuf_, &visBuf2_, &refBuf_, &bandBuf_, &captureBuf_, &lightBuf_}) b->reset();
   geometry_ = {};
   api_.reset();
   vk_.reset();
@@ -299,14 +383,13 @@ void Viewer::createFrameResources() {
   position_ = vk::createImage(*vk_, w, h, kGBufferFormat, target, VK_IMAGE_ASPECT_COLOR_BIT);
   normal_ = vk::createImage(*vk_, w, h, kGBufferFormat, target, VK_IMAGE_ASPECT_COLOR_BIT);
   depth_ = vk::createImage(*vk_, w, h, VK_FORMAT_D32_SFLOAT, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT, VK_IMAGE_ASPECT_DEPTH_BIT);
-  // Sampled only so that the view vk::createImage makes is valid: the API writes it, the copy reads it.
-  visibility_ = vk::createImage(*vk_, w, h, VK_FORMAT_R32_SFLOAT,
-                                VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
-                                VK_IMAGE_ASPECT_COLOR_BIT);
+  createVisibilityImage();
+  const VkDeviceSize layers = table_.size();
   posBuf_ = vk::createBuffer(*vk_, px * 16, vk::Memory::HostVisible);
   nrmBuf_ = vk::createBuffer(*vk_, px * 16, vk::Memory::HostVisible);
-  visBuf_ = vk::createBuffer(*vk_, px * 4, vk::Memory::HostVisible);
-  visBuf2_ = vk::createBuffer(*vk_, px * 4, vk::Memory::HostVisible);
+  visBuf_ = vk::createBuffer(*vk_, px * 4 * layers, vk::Memory::HostVisible);
+  visBuf2_ = vk::createBuffer(*vk_, px * 4 * layers, vk::Memory::HostVisible);
+  lightBuf_ = vk::createBuffer(*vk_, sizeof(frameLights_), vk::Memory::HostVisible);
   refBuf_ = vk::createBuffer(*vk_, px * 4, vk::Memory::HostVisible);
   bandBuf_ = vk::createBuffer(*vk_, px * 4, vk::Memory::HostVisible);
   host_.width = w, host_.height = h;
@@ -328,6 +411,39 @@ void Viewer::createFrameResources() {
   VK_CHECK(vkCreateFence(d_.device, &fi, nullptr, &frameDone_));
   VkSemaphoreCreateInfo si{VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO};
   VK_CHECK(vkCreateSemaphore(d_.device, &si, nullptr, &imageReady_));
+}
+
+// The public API's visibility image: a layer a light of the table, the API writes it, the copies read it.
+void Viewer::createVisibilityImage() {
+  VkImageCreateInfo ii{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+  ii.imageType = VK_IMAGE_TYPE_2D;
+  ii.format = VK_FORMAT_R32_SFLOAT;
+  ii.extent = {spec_.width, spec_.height, 1};
+  ii.mipLevels = 1;
+  ii.arrayLayers = uint32_t(table_.size());
+  ii.samples = VK_SAMPLE_COUNT_1_BIT;
+  ii.tiling = VK_IMAGE_TILING_OPTIMAL;
+  ii.usage = VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  ii.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  VK_CHECK(vkCreateImage(d_.device, &ii, nullptr, &visibility_));
+  VkMemoryRequirements req;
+  vkGetImageMemoryRequirements(d_.device, visibility_, &req);
+  VkPhysicalDeviceMemoryProperties props;
+  vkGetPhysicalDeviceMemoryProperties(d_.physical, &props);
+  uint32_t type = UINT32_MAX;
+  for (VkMemoryPropertyFlags want : {VkMemoryPropertyFlags(VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT), VkMemoryPropertyFlags(0)})
+    for (uint32_t t = 0; t < props.memoryTypeCount && type == UINT32_MAX; ++t)
+      if ((req.memoryTypeBits & (1u << t)) && (props.memoryTypes[t].propertyFlags & want) == want) type = t;
+  if (type == UINT32_MAX) throw Error("no memory type for the visibility image", vk_->deviceName());
+  VkMemoryAllocateInfo ai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+  ai.allocationSize = req.size;
+  ai.memoryTypeIndex = type;
+  const VkResult r = vkAllocateMemory(d_.device, &ai, nullptr, &visibilityMemory_);
+  ++mine_.allocations;
+  if (r != VK_SUCCESS)
+    throw Error("cannot allocate the visibility image (" + std::to_string(table_.size()) + " lights)", vk_->deviceName(),
+                "lower the resolution or give fewer lights");
+  VK_CHECK(vkBindImageMemory(d_.device, visibility_, visibilityMemory_, 0));
 }
 
 void Viewer::createDisplayPass() {
@@ -433,11 +549,11 @@ void Viewer::createGBufferPipeline() {
 }
 
 void Viewer::createCompositePipeline() {
-  VkDescriptorSetLayoutBinding b[5];
-  for (uint32_t i = 0; i < 5; ++i) b[i] = {i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+  VkDescriptorSetLayoutBinding b[6];
+  for (uint32_t i = 0; i < 6; ++i) b[i] = {i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
   VkDescriptorSetLayoutCreateInfo si{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
   si.flags = VK_DESCRIPTOR_SET_LAYOUT_CREATE_PUSH_DESCRIPTOR_BIT_KHR;
-  si.bindingCount = 5;
+  si.bindingCount = 6;
   si.pBindings = b;
   VK_CHECK(vkCreateDescriptorSetLayout(d_.device, &si, nullptr, &compositeSet_));
   VkPushConstantRange range{VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(CompositePush)};
@@ -493,6 +609,7 @@ void checkUiResult(VkResult r) {
 
 void Viewer::initUi() {
   IMGUI_CHECKVERSION();
+  ImGui::SetAllocatorFunctions(uiAlloc, uiFree);
   ImGui::CreateContext();
   ImGui::GetIO().IniFilename = nullptr;  // the window's layout is not written next to the user's files
   ImGui::StyleColorsDark();
@@ -515,6 +632,8 @@ void Viewer::initUi() {
   init.ImageCount = uint32_t(d_.images.size());
   init.MSAASamples = VK_SAMPLE_COUNT_1_BIT;
   init.CheckVkResultFn = checkUiResult;
+  if (!ImGui_ImplVulkan_LoadFunctions(loadUiFunction, &d_.instance))
+    throw Error("the ImGui Vulkan backend cannot load its Vulkan functions", vk_->deviceName());
   ImGui_ImplVulkan_Init(&init, displayPass_);
   uiReady_ = true;
   // The font atlas: the one submission outside the frame loop.
@@ -539,6 +658,7 @@ Shown Viewer::makeShown(size_t index, const Settings& settings) {
   next.info = &info;
   next.settings = settings;
   next.api = info.name == "cone" && settings.values().empty();
+  next.title = next.api ? info.name + " (public API)" : info.name;
   if (!next.api) {
     next.error = unsupportedOn(info, *vk_, settings);
     if (next.error.empty()) next.method = info.make(info.usesDevice ? vk_.get() : nullptr, settings);
@@ -566,6 +686,25 @@ size_t Viewer::methodEntry(const MethodInfo& info) {
   if (it != spec_.methods.end()) return size_t(it - spec_.methods.begin());
   spec_.methods.push_back({&info, Settings(info.name)});
   return spec_.methods.size() - 1;
+}
+
+void Viewer::setActive(std::vector<uint32_t> entries) {
+  syncLight();
+  const uint32_t focused = active_[focus_];
+  entries.erase(std::unique(entries.begin(), entries.end()), entries.end());
+  if (entries.empty()) return;  // one light stays shown
+  active_ = std::move(entries);
+  const auto it = std::find(active_.begin(), active_.end(), focused);
+  focus_ = it == active_.end() ? 0 : uint32_t(it - active_.begin());
+  light_ = table_[active_[focus_]];
+  viewChanged();
+}
+
+void Viewer::setFocus(uint32_t k) {
+  syncLight();
+  focus_ = k;
+  light_ = table_[active_[focus_]];
+  viewChanged();
 }
 
 void Viewer::setTime(double t) {
@@ -607,6 +746,23 @@ void Viewer::applyScript() {
         selectMethod(methodIndex_, shown_.settings.with(s.name, s.value));
         break;
       case ScriptStep::Light: light_ = s.v, viewChanged(); break;
+      case ScriptStep::Lights: {
+        std::vector<uint32_t> entries = s.lights;
+        if (entries.empty())
+          for (uint32_t i = 0; i < table_.size(); ++i) entries.push_back(i);
+        for (uint32_t k : entries)
+          if (k >= table_.size())
+            throw Error("no light " + std::to_string(k) + " (the table has " + std::to_string(table_.size()) + ")", where,
+                        "number the run's lights (--light, in order) and then the scene's point lights from 0");
+        setActive(entries);
+        break;
+      }
+      case ScriptStep::ShowLight:
+        if (s.lights[0] >= active_.size())
+          throw Error("no light " + std::to_string(s.lights[0]) + " among the " + std::to_string(active_.size()) + " shown", where,
+                      "count the lights of the last `lights` command from 0");
+        setFocus(s.lights[0]);
+        break;
       case ScriptStep::MoveLight: light_ += s.v, viewChanged(); break;
       case ScriptStep::Camera: {
         auto it = std::find_if(cameras_.begin(), cameras_.end(), [&](const Camera& c) { return c.name == s.name; });
@@ -652,7 +808,8 @@ void Viewer::handleInput() {
     if (ImGui::IsKeyPressed(GLFW_KEY_P)) capturePath_ = "coneshadow_view_" + std::to_string(frame_) + ".png";
     if (ImGui::IsKeyPressed(GLFW_KEY_R)) {
       camera_ = cameras_[cameraIndex_];
-      light_ = initialLight_;
+      table_ = initialTable_;
+      light_ = table_[active_[focus_]];
       viewChanged();
     }
     // Fly: WASD along the view, Q/E down and up, a hundredth of the scene's diagonal a frame.
@@ -686,6 +843,55 @@ void Viewer::handleInput() {
     camera_.eye = camera_.target + (camera_.eye - camera_.target) * std::pow(0.9f, io.MouseWheel);
     viewChanged();
   }
+}
+
+// The lights: the one the mask shows (typed or dragged), the table's entries shown at once, what each
+// display and method does with them. Labels from fixed buffers: the steady frame allocates nothing.
+void Viewer::lightPanel() {
+  float l[3] = {light_.x, light_.y, light_.z};
+  if (ImGui::DragFloat3("light", l, 0.002f * spec_.scene.diagonal())) light_ = {l[0], l[1], l[2]}, viewChanged();
+  const uint32_t n = uint32_t(active_.size());
+  if (ImGui::BeginCombo("lights", n == 1 ? tableNames_[active_[0]].c_str() : "several")) {
+    for (uint32_t e = 0; e < table_.size(); ++e) {
+      bool on = std::find(active_.begin(), active_.end(), e) != active_.end();
+      if (ImGui::Checkbox(tableNames_[e].c_str(), &on)) {
+        std::vector<uint32_t> next;
+        for (uint32_t a : active_)
+          if (a != e) next.push_back(a);
+        if (on) next.push_back(e);
+        std::sort(next.begin(), next.end());
+        setActive(next);
+      }
+    }
+    if (ImGui::Selectable("all")) {
+      std::vector<uint32_t> all(table_.size());
+      for (uint32_t e = 0; e < all.size(); ++e) all[e] = e;
+      setActive(all);
+    }
+    ImGui::EndCombo();
+  }
+  if (n > 1) {
+    if (ImGui::BeginCombo("mask light", tableNames_[active_[focus_]].c_str())) {
+      for (uint32_t k = 0; k < n; ++k)
+        if (ImGui::Selectable(tableNames_[active_[k]].c_str(), k == focus_)) setFocus(k);
+      ImGui::EndCombo();
+    }
+    if (shown_.api)
+      ImGui::TextDisabled("shaded: %u lights summed; mask, diff, light moves: %s", n, tableNames_[active_[focus_]].c_str());
+  }
+  if (!shown_.api || (split_ && !right_.api))
+    ImGui::TextDisabled("registry methods: one light a frame: %s", tableNames_[active_[focus_]].c_str());
+}
+
+// The ImGui backend sizes its vertex and index buffers to each frame's panels, so panels that grow by a few
+// vertices (a longer number, the reference's lines) would reallocate them in a steady frame. During the
+// warm-up every swapchain image's set is made room for kUiReservedRects empty rectangles (nothing drawn);
+// they grow again only for panels past that.
+void Viewer::reserveUiBuffers() {
+  constexpr int kUiReservedRects = 8192;  // 32K vertices, 48K indices: several times the panels' size
+  ImDrawList* list = ImGui::GetForegroundDrawList();
+  list->PrimReserve(6 * kUiReservedRects, 4 * kUiReservedRects);
+  for (int i = 0; i < kUiReservedRects; ++i) list->PrimRect(ImVec2(0, 0), ImVec2(0, 0), 0);
 }
 
 // The window's panels; every method's settings come from its SettingSpecs.
@@ -791,13 +997,7 @@ void Viewer::drawUi() {
       if (ImGui::Selectable(cameras_[i].name.c_str(), i == cameraIndex_)) cameraIndex_ = i, camera_ = cameras_[i], viewChanged();
     ImGui::EndCombo();
   }
-  float l[3] = {light_.x, light_.y, light_.z};
-  if (ImGui::DragFloat3("light", l, 0.002f * spec_.scene.diagonal())) light_ = {l[0], l[1], l[2]}, viewChanged();
-  if (!spec_.scene.lights.empty() && ImGui::BeginCombo("scene light", "pick")) {
-    for (const PointLight& p : spec_.scene.lights)
-      if (ImGui::Selectable(p.name.empty() ? vec3Text(p.position).c_str() : p.name.c_str())) light_ = p.position, viewChanged();
-    ImGui::EndCombo();
-  }
+  lightPanel();
   ImGui::TextDisabled("H: help");
   ImGui::PopItemWidth();
   ImGui::End();
@@ -820,6 +1020,11 @@ void Viewer::drawUi() {
   const Counters t = totals();
   ImGui::Text("host cost: %llu submits, %llu presents, %llu allocations", (unsigned long long)t.submits,
               (unsigned long long)t.presents, (unsigned long long)t.allocations);
+  ImGui::Text("UI device allocations %llu; heap: ImGui %llu", (unsigned long long)t.uiDeviceAllocations, (unsigned long long)t.uiHeap);
+  if (threadHeapAllocations) {
+    ImGui::SameLine();
+    ImGui::Text(", loop thread's operator new %llu (recordFrame's %llu)", (unsigned long long)t.heap, (unsigned long long)t.apiHeap);
+  }
   ImGui::Separator();
   if (errorShown()) {
     ImGui::Text("vs Embree: %llu false shadow, %llu false light outside the band", (unsigned long long)error_.falseShadowOutsideBand,
@@ -886,8 +1091,8 @@ void Viewer::recordFrame(VkCommandBuffer cb, uint32_t image) {
       ib.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
       ib.newLayout = VK_IMAGE_LAYOUT_GENERAL;
       ib.srcQueueFamilyIndex = ib.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-      ib.image = visibility_.image;
-      ib.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+      ib.image = visibility_;
+      ib.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, VK_REMAINING_ARRAY_LAYERS};
       vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr, 1, &ib);
       visibilityInitialised_ = true;
     }
@@ -915,17 +1120,19 @@ void Viewer::recordFrame(VkCommandBuffer cb, uint32_t image) {
     f.normalImage = normal_.image;
     f.width = w;
     f.height = h;
-    f.lights = &light_.x;
-    f.lightCount = 1;
-    f.visibilityImage = visibility_.image;
+    f.lights = &lightXyz_[0];
+    f.lightCount = uint32_t(active_.size());
+    f.visibilityImage = visibility_;
+    const uint64_t heapBefore = heapNow();
     api_->recordFrame(f);
+    mine_.apiHeap += heapNow() - heapBefore;
     barrier(VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_READ_BIT);
     VkBufferImageCopy region{};
-    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, f.lightCount};  // the layers one after another
     region.imageExtent = {w, h, 1};
-    if (shown_.api) vkCmdCopyImageToBuffer(cb, visibility_.image, VK_IMAGE_LAYOUT_GENERAL, visBuf_.buffer, 1, &region);
-    if (split_ && right_.api)
-      vkCmdCopyImageToBuffer(cb, visibility_.image, VK_IMAGE_LAYOUT_GENERAL, visBuf2_.buffer, 1, &region);
+    if (shown_.api) vkCmdCopyImageToBuffer(cb, visibility_, VK_IMAGE_LAYOUT_GENERAL, visBuf_.buffer, 1, &region);
+    if (split_ && right_.api) vkCmdCopyImageToBuffer(cb, visibility_, VK_IMAGE_LAYOUT_GENERAL, visBuf2_.buffer, 1, &region);
+    region.imageSubresource.layerCount = 1;
     vkCmdCopyImageToBuffer(cb, position_.image, VK_IMAGE_LAYOUT_GENERAL, posBuf_.buffer, 1, &region);
     vkCmdCopyImageToBuffer(cb, normal_.image, VK_IMAGE_LAYOUT_GENERAL, nrmBuf_.buffer, 1, &region);
     barrier(VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
@@ -954,6 +1161,7 @@ void Viewer::recordFrame(VkCommandBuffer cb, uint32_t image) {
   push.mode = display_;
   push.reference = reference_.generation == viewGeneration_ && reference_.failure.empty() ? 1u : 0u;
   push.maskGrey = kNotLitMaskGrey;
+  push.pad0 = push.pad1 = 0;
   push.background = rgb(kBackgroundRgb);
   push.falseShadow = rgb(kFalseShadowRgb);
   push.falseLight = rgb(kFalseLightRgb);
@@ -962,12 +1170,16 @@ void Viewer::recordFrame(VkCommandBuffer cb, uint32_t image) {
   auto composite = [&](const Shown& shown, const vk::Buffer& vis, VkRect2D area) {
     vkCmdSetScissor(cb, 0, 1, &area);
     const bool api = shown.api;
-    const VkBuffer bufs[5] = {api ? posBuf_.buffer : registryGBuffer_.position.buffer,
+    // The API's frame: every light shown, a layer each; a registry method's: the focus light's one layer.
+    push.lightCount = api ? uint32_t(active_.size()) : 1u;
+    push.focusLight = api ? focus_ : 0u;
+    push.firstLight = api ? 0u : kMaxLights;
+    const VkBuffer bufs[6] = {api ? posBuf_.buffer : registryGBuffer_.position.buffer,
                               api ? nrmBuf_.buffer : registryGBuffer_.normal.buffer, vis.buffer, refBuf_.buffer,
-                              bandBuf_.buffer};
-    VkDescriptorBufferInfo infos[5];
-    VkWriteDescriptorSet writes[5];
-    for (uint32_t i = 0; i < 5; ++i) {
+                              bandBuf_.buffer, lightBuf_.buffer};
+    VkDescriptorBufferInfo infos[6];
+    VkWriteDescriptorSet writes[6];
+    for (uint32_t i = 0; i < 6; ++i) {
       infos[i] = {bufs[i], 0, VK_WHOLE_SIZE};
       writes[i] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
       writes[i].dstBinding = i;
@@ -975,7 +1187,7 @@ void Viewer::recordFrame(VkCommandBuffer cb, uint32_t image) {
       writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
       writes[i].pBufferInfo = &infos[i];
     }
-    vk_->cmdPushDescriptorSet(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, compositeLayout_, 0, 5, writes);
+    vk_->cmdPushDescriptorSet(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, compositeLayout_, 0, 6, writes);
     vkCmdPushConstants(cb, compositeLayout_, VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
     vkCmdDraw(cb, 3, 1, 0, 0);
   };
@@ -1021,6 +1233,7 @@ void Viewer::recordFrame(VkCommandBuffer cb, uint32_t image) {
 // After the frame's fence: the screenshot, the host snapshot for the reference and the error.
 void Viewer::afterFrame() {
   if (captureInFlight_) {
+    frameEvent_ = true;
     writeScreenshot(capturePath_);
     capturePath_.clear();
     captureInFlight_ = false;
@@ -1029,9 +1242,11 @@ void Viewer::afterFrame() {
     if (shown_.api) {  // the registry path's camera pass already read its G-buffer and mask back
       std::memcpy(host_.position.data(), posBuf_.mapped, host_.position.size() * sizeof(glm::vec4));
       std::memcpy(host_.normal.data(), nrmBuf_.mapped, host_.normal.size() * sizeof(glm::vec4));
-      std::memcpy(hostMask_.data(), visBuf_.mapped, hostMask_.size() * sizeof(float));
+      std::memcpy(hostMask_.data(), static_cast<const float*>(visBuf_.mapped) + size_t(focus_) * hostMask_.size(),
+                  hostMask_.size() * sizeof(float));
     }
     needSnapshot_ = false;
+    frameEvent_ = true;
     if (worker_->busyWith() != snapshotGeneration_ && reference_.generation != snapshotGeneration_)
       worker_->submit({snapshotGeneration_, std::make_shared<const Scene>(spec_.scene), host_, camera_, light_});  // copies
     if (reference_.generation == snapshotGeneration_) updateError();
@@ -1055,6 +1270,9 @@ Counters Viewer::totals() const {
   c.submits += a.submits + b.submits;
   c.hostSyncs += a.hostSyncs + b.hostSyncs;
   c.allocations += a.allocations + b.allocations;
+  c.uiDeviceAllocations = uiDeviceAllocations;
+  c.uiHeap = uiHeapAllocations;
+  c.heap = heapNow();
   return c;
 }
 
@@ -1081,9 +1299,13 @@ void Viewer::writeScreenshot(const std::string& path) {
   row.stats["reference_shown"] = referenceShown;
   row.stats["display"] = kDisplayNames[display_];
   row.stats["settings"] = shown_.settings.values();
+  nlohmann::json lightsShown = nlohmann::json::array();
+  for (uint32_t e : active_) lightsShown.push_back({table_[e].x, table_[e].y, table_[e].z});
   row.provenance = {{"tool", "coneshadow view"},
                     {"command_line", spec_.commandLine},
                     {"light", {light_.x, light_.y, light_.z}},
+                    {"lights_shown", lightsShown},
+                    {"mask_light", focus_},
                     {"camera", {{"eye", {camera_.eye.x, camera_.eye.y, camera_.eye.z}},
                                 {"target", {camera_.target.x, camera_.target.y, camera_.target.z}},
                                 {"yfov", camera_.yfov}}}};
@@ -1106,7 +1328,9 @@ int Viewer::run() {
     const bool workerIdleBefore = worker_->busyWith() == 0;
     const uint64_t viewBefore = viewGeneration_, methodBefore = methodGeneration_;
 
+    frameEvent_ = false;
     if (std::optional<ReferenceAnswer> a = worker_->take()) {
+      frameEvent_ = true;
       reference_ = std::move(*a);
       if (reference_.failure.empty() && reference_.generation == viewGeneration_) {
         std::memcpy(refBuf_.mapped, reference_.visibility.data(), reference_.visibility.size() * sizeof(float));
@@ -1121,9 +1345,18 @@ int Viewer::run() {
     ImGui_ImplGlfw_NewFrame();
     ImGui::NewFrame();
     if (!hideUi_) drawUi();
+    if (!hideUi_ && frame_ < warmUpFrames()) reserveUiBuffers();
     handleInput();
     ImGui::Render();
     if (viewGeneration_ == viewBefore) ++restFrames_;
+    // The lights of the frame: the API's list, the composite's buffer (the frame before is done with it).
+    syncLight();
+    for (size_t k = 0; k < active_.size(); ++k) {
+      frameLights_[k] = glm::vec4(table_[active_[k]], 1.0f);
+      for (int c = 0; c < 3; ++c) lightXyz_[3 * k + c] = table_[active_[k]][c];
+    }
+    frameLights_[kMaxLights] = glm::vec4(light_, 1.0f);
+    std::memcpy(lightBuf_.mapped, frameLights_.data(), sizeof(frameLights_));
 
     if (!shown_.api || (split_ && !right_.api)) {  // the registry's frame: the camera pass of raster/, read back
       const auto t0 = Clock::now();
@@ -1195,12 +1428,21 @@ int Viewer::run() {
     }
 
     const Counters after = totals();
-    if (frame_ >= kWarmUpFrames && viewGeneration_ == viewBefore && methodGeneration_ == methodBefore) {
+    // The warm-up: the pipelines and first uploads, and the UI's vertex and index buffers (one set per
+    // swapchain image, made the first time the image is drawn).
+    if (frame_ >= warmUpFrames() && viewGeneration_ == viewBefore && methodGeneration_ == methodBefore) {
       ++steadyFrames_;
       steady_.submits += after.submits - before.submits;
       steady_.presents += after.presents - before.presents;
       steady_.allocations += after.allocations - before.allocations;
+      steady_.uiDeviceAllocations += after.uiDeviceAllocations - before.uiDeviceAllocations;
       steady_.hostSyncs += after.hostSyncs - before.hostSyncs;
+      if (!frameEvent_) {
+        ++quietFrames_;
+        quietApiHeap_ += after.apiHeap - before.apiHeap;
+        quietHeap_ += (after.heap - before.heap) - (after.apiHeap - before.apiHeap);
+        quietUiHeap_ += after.uiHeap - before.uiHeap;
+      }
       sumAcquireMs_ += acquireMs_, sumPresentMs_ += presentMs_, sumWaitMs_ += waitMs_;
       const double ms = msSince(frameStart);
       if (steadyMs_.size() < steadyMs_.capacity()) steadyMs_.push_back(ms);
@@ -1215,7 +1457,11 @@ int Viewer::run() {
     std::cout << "view stats: frames " << frame_ << ", steady " << steadyFrames_ << ", method " << shown_.label()
               << "; per steady frame: submits " << per(steady_.submits) << ", presents " << per(steady_.presents)
               << ", host syncs " << per(steady_.hostSyncs) << ", device allocations " << per(steady_.allocations)
-              << "; median frame " << (steadyMs_.empty() ? 0.0 : median(steadyMs_)) << " ms, "
+              << " (the project's) + " << per(steady_.uiDeviceAllocations) << " (ImGui's); host allocations over the "
+              << quietFrames_ << " that hand nothing to or from the reference worker and write no screenshot: operator new ";
+    if (threadHeapAllocations) std::cout << quietHeap_ << " in the viewer + " << quietApiHeap_ << " in coneshadow::Context::recordFrame";
+    else std::cout << "not counted";
+    std::cout << ", ImGui " << quietUiHeap_ << "; lights " << active_.size() << "; median frame " << (steadyMs_.empty() ? 0.0 : median(steadyMs_)) << " ms, "
               << (idleMs_.empty() ? 0.0 : median(idleMs_)) << " ms over the " << idleMs_.size()
               << " with the reference worker idle (wall clock, " << spec_.width << "x" << spec_.height << ", "
               << vk_->deviceName() << "); mean acquire " << (steadyFrames_ ? sumAcquireMs_ / double(steadyFrames_) : 0.0)

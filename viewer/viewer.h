@@ -18,6 +18,14 @@
 namespace cs::viewer {
 
 inline constexpr const char* kDisplayNames[3] = {"shaded", "mask", "diff"};
+// The lights the viewer holds at most (the public API takes up to 64 a frame; each is a layer of the
+// visibility image and of its host copy, so the viewer keeps fewer).
+inline constexpr uint32_t kMaxLights = 16;
+
+// Heap allocations (operator new) made so far on the calling thread, where the binary counts them: the
+// coneshadow executable sets this (app/heap_count.cpp); null elsewhere (tests' in-process runs), where the
+// viewer reports host allocations as not counted.
+inline uint64_t (*threadHeapAllocations)() = nullptr;
 
 // A moving scene's motion: pose(t, scene) places the scene at time t in [start, end].
 struct Animation {
@@ -30,7 +38,9 @@ struct ViewerSpec {
   Scene scene;                         // with an animation: its rest pose
   std::optional<Animation> animation;  // the scene moves: play, pause, step
   std::string view;   // the camera shown first ("" = the scene's first, or an automatic one)
-  glm::vec3 light{0};
+  // The run's lights (--light, each; --all-lights: the scene's point lights; else the scene's first), all
+  // shown at once on the cone path. The scene's other point lights can be added in the window.
+  std::vector<glm::vec3> lights;
   // The methods offered, each with its settings as given; the first is shown (a second: the split screen's
   // right half).
   std::vector<std::pair<const MethodInfo*, Settings>> methods;
