@@ -570,6 +570,73 @@ TEST(LeafHitFromLight, AgreesWithTheTwoEndsTestAndTheExactAnswerAwayFromEdgesAnd
   EXPECT_GT(receivers, 5000);
 }
 
+// Small triangles far from the light, crossed at a grazing angle well inside: a hit for both tests. The
+// edge functions from the light round to an ulp of |P - light| |edge|, so |N.w| of a ray a degree off
+// the plane of a triangle a thousandth of its distance to the light is no larger than that rounding --
+// which is no reason to doubt the hit: where the three signs agree and the plane is crossed (dl, ds, each
+// past its own bound) the crossing is inside. The first case is the sample of family:1:tris=1M at 512²
+// that the cone path once left lit (docs/ARCHITECTURE.md, "Grazing hits on small triangles").
+TEST(LeafHitFromLight, FindsGrazingHitsOnSmallTrianglesFarFromTheLight) {
+  {
+    const vec3 light(0.6520491242408752f, 6.822934150695801f, -0.6157954335212708f);
+    const vec3 p(0.8966633081436157f, 0.0f, -0.6418735980987549f);
+    const vec3 P0(0.8925246f, 0.118786618f, -0.641308069f), P1(0.890049219f, 0.120922647f, -0.642772019f),
+        P2(0.8925246f, 0.120922647f, -0.641308069f);
+    const float eps = 0.000467712438f;  // the policy's for that scene (diagonal 4.677)
+    const vec4 ray = cone::leafRay(p, light);
+    EXPECT_TRUE(cone::leafHitFromLight(p, light, ray, eps, P0, P1, P2));
+    EXPECT_TRUE(cone::leafHit(p, light, ray, eps, P0, P1, P2));
+  }
+  // Random ones: a triangle of size 1e-3 .. 1e-2 around a point X of the ray light -> p (5 to 95 % of the
+  // way), its plane at 0.1 to 2 degrees to the ray, lights 2 to 8 from the samples in a unit box; kept
+  // when the fp32 ray (in double) passes every edge plane through the light at more than 2e-6 rad (16
+  // ulp: the edge functions' signs are exact) and crosses the plane more than 10 eps from both ends.
+  std::mt19937 rng(20261207);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const float eps = 1e-4f;
+  int cases = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const dvec3 p0 = dvec3(u(rng), u(rng), u(rng)) - 0.5;
+    const dvec3 dir = glm::normalize(dvec3(u(rng), u(rng), u(rng)) - 0.5);
+    const vec3 pf(p0), lightf(p0 + (2.0 + 6.0 * u(rng)) * dir);
+    const dvec3 light(lightf), q = dvec3(pf) - light, d = glm::normalize(q);
+    const double len = glm::length(q);
+    const dvec3 X = light + (0.05 + 0.9 * u(rng)) * q;
+    vec3 ua, va;
+    orthonormalBasis(vec3(d), ua, va);
+    const double phi = 6.283185307179586 * u(rng), angle = (0.1 + 1.9 * u(rng)) * 0.017453292519943295;
+    const dvec3 n = std::cos(angle) * (std::cos(phi) * dvec3(ua) + std::sin(phi) * dvec3(va)) + std::sin(angle) * d;
+    const dvec3 e1 = glm::normalize(d - glm::dot(d, n) * n), e2 = glm::cross(n, e1);
+    const double size = 1e-3 * std::pow(10.0, u(rng));
+    dvec3 V[3];
+    for (int k = 0; k < 3; ++k) {
+      const double t = 2.0943951023931957 * k + 0.6 * (u(rng) - 0.5), r = size * (0.7 + 0.6 * u(rng));
+      V[k] = r * (std::cos(t) * e1 + std::sin(t) * e2);
+    }
+    const double w0 = 0.1 + u(rng), w1 = 0.1 + u(rng), w2 = 0.1 + u(rng);
+    const dvec3 at = (w0 * V[0] + w1 * V[1] + w2 * V[2]) / (w0 + w1 + w2);
+    vec3 P[3];
+    for (int k = 0; k < 3; ++k) P[k] = vec3(X + V[k] - at);
+    const dvec3 A(P[0]), B(P[1]), C(P[2]), N = glm::cross(B - A, C - A);
+    const double t = glm::dot(A - light, N) / glm::dot(q, N);
+    double sep = 1e300;  // the ray's least angle to an edge plane through the light, signed: > 0 inside
+    for (int k = 0; k < 3; ++k) {
+      const dvec3 a = dvec3(P[(k + 1) % 3]) - light, b = dvec3(P[(k + 2) % 3]) - light, m = glm::cross(a, b);
+      const double side = glm::dot(m, dvec3(P[k]) - light) > 0 ? 1.0 : -1.0;
+      sep = std::min(sep, side * glm::dot(m, q) / (glm::length(m) * len));
+    }
+    if (!(sep > 2e-6 && t * len > 10 * eps && t * len < len - 10 * eps)) continue;
+    cases++;
+    const vec4 ray = cone::leafRay(pf, lightf);
+    ASSERT_TRUE(cone::leafHitFromLight(pf, lightf, ray, eps, P[0], P[1], P[2]))
+        << "case " << i << ": size " << size << ", " << angle / 0.017453292519943295 << " degrees, at " << t * len
+        << " of " << len << ", " << sep << " rad inside its edges";
+    ASSERT_TRUE(cone::leafHit(pf, lightf, ray, eps, P[0], P[1], P[2])) << "case " << i;
+  }
+  std::printf("  %d grazing hits\n", cases);
+  EXPECT_GT(cases, 15000);
+}
+
 // The choice (traversal.h leafTestFor): from the light where it is exact, the two ends' elsewhere.
 TEST(LeafHitFromLight, RunsWhereTheLightIsAmongTheGeometry) {
   const vec3 lo(-1, 0, -2), hi(3, 2, 1);

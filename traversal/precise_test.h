@@ -366,9 +366,13 @@ CS_FN bool leafHit(vec3 p, vec3 light, vec4 ray, float eps, vec3 P0, vec3 P1, ve
 //    an ulp of the sample's distance from P0, not of its distance from the light, so a receiver (the
 //    sample on the triangle, ds ~ 0) does not shadow itself.
 //  - Within rounding, a miss: dl or ds within its bound on its rounding (the light or the sample on the
-//    plane, a degenerate triangle), or the ray so nearly parallel to the plane that |N.w| = |dl - ds| is
-//    within twice the edge functions' rounding (their signs are noise there) -- leafRayHitsTriangle's det
-//    bound.
+//    plane, a degenerate triangle). Nothing more: unlike leafRayHitsTriangle, which divides by det and so
+//    needs det clear of its rounding, this test takes the crossing from the signs of dl and ds, each
+//    checked against its own bound, so a ray at a grazing angle to the plane still crosses it at one
+//    certain point between its ends, and the edge functions say whether that point is inside. (A bound
+//    of |N.w| against the edge functions' rounding, ~ulp |P - light| |edge|, dropped every ray within
+//    ~1 degree of a small triangle's plane a thousandth of its distance from the light, hits well inside
+//    it included: docs/ARCHITECTURE.md, "Grazing hits on small triangles".)
 // Hits are where leafHit's are, up to each test's rounding at the edges and the ends of the interval,
 // far below the ambiguity band's nudges (tests/traversal_test.cpp, LeafHitFromLight).
 struct LeafTriangle {
@@ -379,23 +383,20 @@ struct LeafTriangle {
   float errL;       // the bound on dl's rounding
   float errN;       // the bound on each of N's components' rounding
   float errS;       // over |sample - P0|_1: the bound on ds's rounding
-  float errEdge;    // over the ray's length L: twice the bound on the edge functions' summed rounding
 };
 
 // A strict total order on points (x, then y, then z): both triangles of an edge pick the same end.
 CS_FN bool lexLess(vec3 a, vec3 b) { return a.x < b.x || (a.x == b.x && (a.y < b.y || (a.y == b.y && a.z < b.z))); }
 
 // The normal (Pa - light) x (Pb - light) of the plane through the light and the edge Pa -> Pb, made from
-// the edge's smaller end (see above); va, vb = Pa - light, Pb - light. w: its rounding bound's share,
-// max|A - light| max|B - A| (the bound is 8 ulp of that per component).
-CS_FN vec4 edgeNormalFromLight(vec3 Pa, vec3 Pb, vec3 va, vec3 vb) {
+// the edge's smaller end (see above); va, vb = Pa - light, Pb - light.
+CS_FN vec3 edgeNormalFromLight(vec3 Pa, vec3 Pb, vec3 va, vec3 vb) {
   bool forward = lexLess(Pa, Pb);
   CS_PRECISE vec3 e = Pb - Pa;
   vec3 base = forward ? va : vb;
   vec3 dir = forward ? e : -e;  // fl(Pa - Pb) = -fl(Pb - Pa) exactly
   CS_PRECISE vec3 n = cross(base, dir);
-  float share = maxAbs3(base, base, base) * maxAbs3(dir, dir, dir);
-  return vec4(forward ? n : -n, share);
+  return forward ? n : -n;
 }
 
 CS_FN LeafTriangle leafTriangle(vec3 P0, vec3 P1, vec3 P2, vec3 light) {
@@ -403,15 +404,9 @@ CS_FN LeafTriangle leafTriangle(vec3 P0, vec3 P1, vec3 P2, vec3 light) {
   CS_PRECISE vec3 v0 = P0 - light;
   CS_PRECISE vec3 v1 = P1 - light;
   CS_PRECISE vec3 v2 = P2 - light;
-  vec4 n0 = edgeNormalFromLight(P1, P2, v1, v2);
-  vec4 n1 = edgeNormalFromLight(P2, P0, v2, v0);
-  vec4 n2 = edgeNormalFromLight(P0, P1, v0, v1);
-  t.n0 = vec3(n0);
-  t.n1 = vec3(n1);
-  t.n2 = vec3(n2);
-  // An edge function w.n: n's components off by 8 ulp of its share, the products and sums by an ulp
-  // each of |w_k n_k| <= 2 share: <= 16 ulp of |w|_1 share <= 16 ulp sqrt(3) L share. Twice the three's sum.
-  t.errEdge = 2.0f * 1.7320508f * CONE_ULP16 * (n0.w + n1.w + n2.w);
+  t.n0 = edgeNormalFromLight(P1, P2, v1, v2);
+  t.n1 = edgeNormalFromLight(P2, P0, v2, v0);
+  t.n2 = edgeNormalFromLight(P0, P1, v0, v1);
   CS_PRECISE vec3 e1 = P1 - P0;
   CS_PRECISE vec3 e2 = P2 - P0;
   CS_PRECISE vec3 N = cross(e1, e2);
@@ -445,8 +440,8 @@ CS_FN bool leafHitFromLight(LeafTriangle t, vec3 p, vec4 ray, float eps) {
   float errS = t.errS * (a.x + a.y + a.z);
   float adl = abs(t.dl);
   float ads = abs(ds);
-  float sum = adl + ads;  // |dl - ds| = |N.w| where the signs differ
-  return inside && (t.dl > 0.0f) != (ds > 0.0f) && adl > t.errL && ads > errS && sum > t.errEdge * ray.w &&
+  float sum = adl + ads;  // |dl - ds| = |N.w| where the signs differ: tau = L adl / sum
+  return inside && (t.dl > 0.0f) != (ds > 0.0f) && adl > t.errL && ads > errS &&
          adl * ray.w > eps * sum && ads * ray.w > eps * sum;
 }
 
