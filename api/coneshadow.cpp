@@ -36,6 +36,10 @@ struct Context::Impl {
   std::vector<Instance> instances;
   bool layoutDirty = true;      // a mesh or the set of instances changed: the engine's layout again
   bool transformsDirty = false;  // only transforms changed: the engine keeps its triangles
+  // The engine's view of the live meshes and instances, rebuilt in place when they change (a moved
+  // instance's frame reuses their storage: recordFrame allocates nothing once warm).
+  std::vector<cs::EngineMesh> engineMeshes;
+  std::vector<uint32_t> engineMeshIndex;  // per mesh handle: its index in engineMeshes, or UINT32_MAX
   std::vector<cs::EngineInstance> engineInstances;
   float eps = 0;  // the along-ray epsilon of the scene's policy (method/epsilon.h), as the bench's harness uses
   cs::DeviceGBuffer samples;
@@ -232,8 +236,10 @@ void Context::recordFrame(const FrameDesc& d) {
 
     if (s.layoutDirty || s.transformsDirty) {
       // The live meshes and instances, compacted; the engine uploads the meshes once and transforms them.
-      std::vector<cs::EngineMesh> meshes;
-      std::vector<uint32_t> meshIndex(s.meshes.size(), UINT32_MAX);
+      std::vector<cs::EngineMesh>& meshes = s.engineMeshes;
+      std::vector<uint32_t>& meshIndex = s.engineMeshIndex;
+      meshes.clear();
+      meshIndex.assign(s.meshes.size(), UINT32_MAX);
       s.engineInstances.clear();
       glm::dvec3 lo(INFINITY), hi(-INFINITY);
       for (const Impl::Instance& inst : s.instances) {

@@ -12,8 +12,20 @@
 
 namespace cs::cone {
 
-TreeShape treeShape(uint32_t leaves) {
+namespace {
+void checkLeaves(uint32_t leaves) {
   CS_CHECK(leaves >= 1 && leaves <= kMaxLeaves, "cone tree over " << leaves << " rays (1 .. " << kMaxLeaves << ")");
+}
+}  // namespace
+
+uint32_t treeNodes(uint32_t leaves) {
+  checkLeaves(leaves);
+  const uint32_t depth = treeDepth(leaves);
+  return levelOffset(leaves, depth, depth);
+}
+
+TreeShape treeShape(uint32_t leaves) {
+  checkLeaves(leaves);
   TreeShape s;
   s.leaves = leaves;
   s.depth = treeDepth(leaves);
@@ -109,9 +121,10 @@ glm::dvec3 toConeFrameExact(glm::dvec3 x, const ConeFrame& f) {
 }
 
 void ConeTree::ensureNodes(uint32_t count) {
-  const uint64_t bytes = uint64_t(treeShape(count).nodes()) * sizeof(ConeNode);
+  const uint32_t nodes = treeNodes(count);
+  const uint64_t bytes = uint64_t(nodes) * sizeof(ConeNode);
   CS_CHECK(bytes <= ctx_.maxStorageBufferRange(),
-           "cone tree of " << treeShape(count).nodes() << " nodes (" << bytes << " bytes) exceeds one storage binding ("
+           "cone tree of " << nodes << " nodes (" << bytes << " bytes) exceeds one storage binding ("
                            << ctx_.maxStorageBufferRange() << " bytes)");
   if (nodes_.size < bytes) {
     nodes_.reset();  // the old one is not needed: free before allocating the larger one

@@ -24,6 +24,9 @@ struct TreeShape {
   uint32_t nodes() const { return offsets.empty() ? 0 : offsets.back(); }  // interior nodes stored
 };
 TreeShape treeShape(uint32_t leaves);
+// Interior nodes stored for `leaves` rays: treeShape(leaves).nodes() without the shape's arrays, so sizing
+// a recording allocates nothing on the host.
+uint32_t treeNodes(uint32_t leaves);
 
 // The frame the cones are built and tested in (cone_layout.h, ConeFrame; traversal/traversal.h,
 // "Far-light frame"), with the slack that covers the difference between the frame's geometry and the

@@ -19,10 +19,16 @@ namespace cs::sort {
 
 uint32_t ceilDiv(uint64_t a, uint32_t b) { return uint32_t((a + b - 1) / b); }
 
-std::vector<uint32_t> scanLevelCounts(uint32_t n, size_t minLevels) {
-  std::vector<uint32_t> levels{n};
-  while (levels.back() > SCAN_BLOCK || levels.size() < minLevels) levels.push_back(ceilDiv(levels.back(), SCAN_BLOCK));
-  return levels;
+ScanLevels scanLevelCounts(uint32_t n, size_t minLevels) {
+  CS_CHECK(minLevels <= kMaxScanLevels, "scan of at least " << minLevels << " levels (at most " << kMaxScanLevels << ")");
+  ScanLevels l;
+  l.counts[l.levels++] = n;
+  while (l.counts[l.levels - 1] > SCAN_BLOCK || l.levels < minLevels) {
+    CS_CHECK(l.levels < kMaxScanLevels, "scan of " << n << " elements: more than " << kMaxScanLevels << " levels");
+    l.counts[l.levels] = ceilDiv(l.counts[l.levels - 1], SCAN_BLOCK);
+    ++l.levels;
+  }
+  return l;
 }
 
 uint64_t scanScratchElements(uint32_t capacity) {
@@ -156,10 +162,10 @@ Scan::Scan(vk::Context& ctx, uint32_t capacity) : ctx_(ctx), capacity_(capacity)
 }
 
 vk::BufferRange Scan::sums(uint32_t level) const {
-  return range(scratch_, sumsOffset_.at(level), VkDeviceSize(levels_.at(level)) * 4);
+  return range(scratch_, sumsOffset_.at(level), VkDeviceSize(levels_[level]) * 4);
 }
 vk::BufferRange Scan::scanned(uint32_t level) const {
-  return range(scratch_, scannedOffset_.at(level), VkDeviceSize(levels_.at(level)) * 4);
+  return range(scratch_, scannedOffset_.at(level), VkDeviceSize(levels_[level]) * 4);
 }
 vk::BufferRange Scan::countBinding(const Count& count) const { return bindWord(count.word, dummy_); }
 vk::BufferRange Scan::wordBinding(GpuWord w) const { return bindWord(w, dummy_); }
@@ -181,7 +187,7 @@ void Scan::record(vk::Commands& cmd, const vk::BufferRange& in, const vk::Buffer
 
 void Scan::recordLevel(vk::Commands& cmd, const vk::BufferRange& in, const vk::BufferRange& out,
                        const Count& count, uint32_t level, GpuWord total, bool inPlace, int fieldShift) {
-  const std::vector<uint32_t> counts = scanLevelCounts(count.max, level + 1);  // host bounds per level
+  const ScanLevels counts = scanLevelCounts(count.max, level + 1);  // host bounds per level
   ScanPush push{count.max, count.word.index, countFlags(count), level, total.index, 0, 0, 0};
   if (inPlace) push.flags |= FLAG_IN_PLACE;
   if (fieldShift >= 0) {
@@ -381,15 +387,18 @@ void RadixSort::recordPasses(vk::Commands& cmd, const vk::BufferRange& keys, con
                              interleave ? vk::texels(scratchA_, VK_FORMAT_R32G32B32A32_UINT) : noTexels},
                             {range(scratchB_, 0, pairBytes), vk::BufferRange(dummy_), true,
                              interleave ? vk::texels(scratchB_, VK_FORMAT_R32G32B32A32_UINT) : noTexels}};
-  // Pass p reads sides[p] and writes sides[p + 1]; the last lands in the caller's arrays.
-  std::vector<Side> sides;
+  // Pass p reads sides[p] and writes sides[p + 1]; the last lands in the caller's arrays. A fixed array (32
+  // key bits at most: LOOKBACK_MAX_PASSES passes), so recording a sort allocates nothing.
+  std::array<Side, LOOKBACK_MAX_PASSES + 1> sides;
+  size_t sideCount = 0;
+  auto add = [&](const Side& s) { sides[sideCount++] = s; };
   if (fromPairs) {  // the producer's pairs in scratch A, then B, A, ... and the caller's arrays last
-    for (uint32_t p = 0; p < passes; ++p) sides.push_back(pairSide[p % 2]);
-    sides.push_back(user);
+    for (uint32_t p = 0; p < passes; ++p) add(pairSide[p % 2]);
+    add(user);
   } else if (interleave) {
-    sides.push_back(user);
-    for (uint32_t p = 1; p < passes; ++p) sides.push_back(pairSide[(p - 1) % 2]);
-    sides.push_back(user);
+    add(user);
+    for (uint32_t p = 1; p < passes; ++p) add(pairSide[(p - 1) % 2]);
+    add(user);
   } else {
     Side a = user, b = alt;
     if (passes % 2 == 1) {  // an odd number of passes starts from a copy, so the last one lands in `keys`
@@ -399,7 +408,7 @@ void RadixSort::recordPasses(vk::Commands& cmd, const vk::BufferRange& keys, con
       cmd.barrier();
       std::swap(a, b);
     }
-    for (uint32_t p = 0; p <= passes; ++p) sides.push_back(p % 2 == 0 ? a : b);
+    for (uint32_t p = 0; p <= passes; ++p) add(p % 2 == 0 ? a : b);
   }
   const vk::BufferRange countBinding = bindWord(count.word, dummy_);
   const vk::Grid g = groups(ctx_, tiles);

@@ -35,6 +35,7 @@
 // no count or scan per pass. Passes ping-pong between the caller's arrays and the object's; an odd pass
 // count starts with a copy so the result always lands in the caller's arrays.
 #pragma once
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -80,8 +81,18 @@ struct Count {
 // ---- sizing and dispatch maths (pure, unit-tested) ----------------------------------------------
 uint32_t ceilDiv(uint64_t a, uint32_t b);
 // Element counts of the scan's levels: {n, ceil(n/B), ceil(n/B^2), ...} down to the first that fits one
-// block (B = SCAN_BLOCK), and at least `minLevels` entries.
-std::vector<uint32_t> scanLevelCounts(uint32_t n, size_t minLevels = 1);
+// block (B = SCAN_BLOCK), and at least `minLevels` entries (at most kMaxScanLevels). In a fixed array, so
+// recording a scan allocates nothing: two levels of block sums cover any 32-bit count.
+inline constexpr size_t kMaxScanLevels = 4;
+struct ScanLevels {
+  std::array<uint32_t, kMaxScanLevels> counts{};
+  size_t levels = 0;
+  size_t size() const { return levels; }
+  uint32_t operator[](size_t level) const { return counts[level]; }
+  const uint32_t* begin() const { return counts.data(); }
+  const uint32_t* end() const { return counts.data() + levels; }
+};
+ScanLevels scanLevelCounts(uint32_t n, size_t minLevels = 1);
 // uint32 elements of scratch a Scan of `capacity` needs (block sums and their scans, every level >= 1).
 uint64_t scanScratchElements(uint32_t capacity);
 uint32_t radixPasses(uint32_t keyBits);     // ceil(keyBits / RADIX_BITS): 18-bit ray keys in 2, 32 bits in 4
@@ -158,7 +169,7 @@ class Scan {
 
   vk::Context& ctx_;
   uint32_t capacity_;
-  std::vector<uint32_t> levels_;                       // scanLevelCounts(capacity, 2)
+  ScanLevels levels_;                                   // scanLevelCounts(capacity, 2)
   std::vector<VkDeviceSize> sumsOffset_, scannedOffset_;  // bytes into scratch_, per level (0 unused)
   vk::Kernel reduce_, block_;
   vk::Buffer scratch_, dummy_;

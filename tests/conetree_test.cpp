@@ -66,6 +66,7 @@ TEST(ConeTree, ImplicitIndexingMatchesAnExplicitlyGroupedTree) {
       }
     }
     EXPECT_EQ(s.nodes(), offset - n) << "interior nodes = all elements but the leaves";
+    EXPECT_EQ(cone::treeNodes(n), s.nodes()) << "n=" << n;
   }
 }
 
@@ -80,6 +81,8 @@ TEST(ConeTree, ShapeOfTheLargestTreesDoesNotOverflow) {
   }
   EXPECT_THROW(cone::treeShape(0), Error);
   EXPECT_THROW(cone::treeShape((1u << 30) + 1), Error);
+  EXPECT_EQ(cone::treeNodes(1u << 30), cone::treeShape(1u << 30).nodes());
+  EXPECT_THROW(cone::treeNodes(0), Error);
 }
 
 // A cone (axis, half-angle) as the tree stores it.

@@ -75,11 +75,15 @@ long firstMismatch(const std::vector<uint32_t>& a, const std::vector<uint32_t>& 
 // ---- sizing ---------------------------------------------------------------------------------------
 
 TEST(SortSizing, ScanLevelsShrinkByOneBlockUntilOneBlockRemains) {
-  EXPECT_EQ(sort::scanLevelCounts(0), std::vector<uint32_t>{0});
-  EXPECT_EQ(sort::scanLevelCounts(SCAN_BLOCK), std::vector<uint32_t>{SCAN_BLOCK});
-  EXPECT_EQ(sort::scanLevelCounts(SCAN_BLOCK + 1), (std::vector<uint32_t>{SCAN_BLOCK + 1, 2}));
-  EXPECT_EQ(sort::scanLevelCounts(7, 2), (std::vector<uint32_t>{7, 1}));
-  EXPECT_EQ(sort::scanLevelCounts(SCAN_BLOCK * SCAN_BLOCK + 1), (std::vector<uint32_t>{SCAN_BLOCK * SCAN_BLOCK + 1, SCAN_BLOCK + 1, 2}));
+  auto levels = [](uint32_t n, size_t minLevels = 1) {
+    const sort::ScanLevels l = sort::scanLevelCounts(n, minLevels);
+    return std::vector<uint32_t>(l.begin(), l.end());
+  };
+  EXPECT_EQ(levels(0), std::vector<uint32_t>{0});
+  EXPECT_EQ(levels(SCAN_BLOCK), std::vector<uint32_t>{SCAN_BLOCK});
+  EXPECT_EQ(levels(SCAN_BLOCK + 1), (std::vector<uint32_t>{SCAN_BLOCK + 1, 2}));
+  EXPECT_EQ(levels(7, 2), (std::vector<uint32_t>{7, 1}));
+  EXPECT_EQ(levels(SCAN_BLOCK * SCAN_BLOCK + 1), (std::vector<uint32_t>{SCAN_BLOCK * SCAN_BLOCK + 1, SCAN_BLOCK + 1, 2}));
   EXPECT_EQ(sort::scanLevelCounts(UINT32_MAX).size(), 3u) << "two levels of block sums cover any 32-bit count";
   EXPECT_EQ(sort::scanScratchElements(100), 2u) << "one sum and its scan";
 }

@@ -48,7 +48,7 @@ class Engine : public ConeEngine {
   }
 
   void record(vk::Commands& cmd, const DeviceGBuffer& g, std::span<const glm::vec3> lights, float eps, uint64_t frame,
-              const std::function<void(uint32_t, const vk::Buffer&)>& deliver) override {
+              FunctionRef<void(uint32_t, const vk::Buffer&)> deliver) override {
     TriangleLayout& layout = recorder_.layout();
     CS_CHECK(!lights.empty() && lights.size() <= maxLights_,
              lights.size() << " lights in a frame; this context takes 1 to " << maxLights_);
@@ -67,7 +67,7 @@ class Engine : public ConeEngine {
     es.frame = frame;
     es.lights = uint32_t(lights.size());
     es.learned = false;
-    const ConeRecorder::Boundary noBoundary = [](const char*) {};
+    auto noBoundary = [](const char*) {};
     const bool adaptive = recorder_.options().sorted && recorder_.options().adaptiveOrder;
     for (uint32_t l = 0; l < lights.size(); ++l) {
       const ConeRecorder::RecordedLight rec =
@@ -139,7 +139,7 @@ class Engine : public ConeEngine {
     for (uint32_t l = 0; l < es.lights; ++l) {
       const uint32_t* state = statsWords(slot, l);
       const uint32_t depth = state[STATE_WORDS + SHAPE_DEPTH];
-      t.learnBatch(state, t.statsFromState(state, depth, traversal::Traversal::overflowed(state)),
+      t.learnBatch(state, t.mostSurvived(state, depth, traversal::Traversal::overflowed(state)),
                    recorder_.layout().triangleCount());
     }
   }

@@ -3,13 +3,13 @@
 // runs the same recorder, cone_recorder.h). docs/ARCHITECTURE.md, "The engine".
 #pragma once
 #include <cstdint>
-#include <functional>
 #include <memory>
 #include <span>
 #include <vector>
 
 #include <glm/glm.hpp>
 
+#include "core/function_ref.h"
 #include "core/scene.h"
 #include "traversal/cone_method.h"
 #include "traversal/triangle_layout.h"
@@ -53,7 +53,7 @@ class ConeEngine {
   // `frame` numbers the frames from 0; the frame `frame - framesInFlight` must have completed on the
   // device (its stats slot and host-written buffers are reused). Submits nothing, waits for nothing.
   virtual void record(vk::Commands& cmd, const DeviceGBuffer& g, std::span<const glm::vec3> lights, float eps,
-                      uint64_t frame, const std::function<void(uint32_t light, const vk::Buffer& mask)>& deliver) = 0;
+                      uint64_t frame, FunctionRef<void(uint32_t light, const vk::Buffer& mask)> deliver) = 0;
   // The stats of a recorded frame that has completed on the device, one per light (empty for a frame that
   // is not among the last framesInFlight recorded).
   virtual std::vector<EngineLightStats> stats(uint64_t frame) = 0;

@@ -89,6 +89,7 @@ ConeRecorder::ConeRecorder(vk::Context& ctx, const ConeOptions& options)
   }
   if (options_.twoPass) unfinished_ = vk::createKernel(ctx, "unfinished rays", spv_unfinished_rays_comp, 3,
                                                        sizeof(traversal::TraversePush));
+  batchStarts_.reserve(kConeMaxBatches);
 }
 
 // A light too far for fp32 ray lengths would give a silently wrong mask: refuse it (epsilon.h).
@@ -218,13 +219,15 @@ ConeRecorder::RecordedLight ConeRecorder::recordLight(vk::Commands& cmd, const D
   // An arena so small that the batches would number in the hundreds (each ~10 dispatches a depth) is
   // traversed chunked instead, after the submission.
   rec.onDevice = rec.batches <= kConeMaxBatches;
+  batchStarts_.clear();
   if (rec.onDevice) {
     const uint32_t triangles = layout_.triangleCount();
     layout_.forEachTriangleBuffer(in, 0, triangles, frame_, [&](traversal::TraversalInput part) {
       const size_t b = size_t(part.triangles - layout_.triangles().data());
       if (clusters) part.clusterSpheres = layout_.clusterSpheres(sphereSlot, b);
-      for (uint32_t first : traversal_->record(cmd, part, boundary))
-        rec.batchStarts.push_back(uint32_t(b) * layout_.chunkTriangles() + first);
+      const size_t from = batchStarts_.size();
+      traversal_->record(cmd, part, batchStarts_, boundary);
+      for (size_t i = from; i < batchStarts_.size(); ++i) batchStarts_[i] += uint32_t(b) * layout_.chunkTriangles();
     });
     // The hits of the batches that completed (all of them but after an overflow, which the chunked
     // traversal resumes) into the visibility.
@@ -439,7 +442,7 @@ traversal::TraversalStats ConeRecorder::runSubmitted(const FrameInput& frame, co
     // not complete (the hits written so far are hits; the completed batches' counts are in ts).
     const uint32_t triangles = layout_.triangleCount();
     const uint32_t done = traversal::Traversal::batchesDone(state);
-    const uint32_t from = !rec.onDevice ? 0 : done < rec.batchStarts.size() ? rec.batchStarts[done] : triangles;
+    const uint32_t from = !rec.onDevice ? 0 : done < batchStarts_.size() ? batchStarts_[done] : triangles;
     auto f0 = Clock::now();
     if (from < triangles) ts = combine(ts, traverse(in, from, triangles - from));
     addWall("traversal (chunked)", msSince(f0));
@@ -517,7 +520,7 @@ traversal::TraversalStats ConeRecorder::runTwoPass(const FrameInput& frame, cons
     stages.push_back({name, msSince(s0)});
     for (auto& [n, ms] : timer_.intervals()) stats.setTimestamp(n, ms);
   };
-  const Boundary none = [](const char*) {};
+  auto none = [](const char*) {};
   const rays::RayOrder order = options_.sorted ? rays::RayOrder::Hilbert : rays::RayOrder::ScreenMorton;
   const bool fused = fusedKeys(order);
   stage(fused ? "compact + keys" : "compact",

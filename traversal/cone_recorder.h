@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "conetree/conetree.h"
+#include "core/function_ref.h"
 #include "method/method.h"
 #include "rays/rays.h"
 #include "sort/sort.h"
@@ -31,14 +32,15 @@ class ConeRecorder {
   ConeRecorder(vk::Context& ctx, const ConeOptions& options);
 
   // What recordLight recorded: the ray order's choice, whether the traversal is in the recording (an arena
-  // so small that the batches would number in the hundreds is not), the batches.
+  // so small that the batches would number in the hundreds is not), the batches (their first triangles:
+  // batchStarts()).
   struct RecordedLight {
     bool adaptive = false, clusters = false, onDevice = true;
-    std::vector<uint32_t> batchStarts;  // scene index of each batch's first triangle, in order
     uint64_t batches = 0;
     uint32_t batch = 0;
   };
-  using Boundary = std::function<void(const char*)>;  // called with each stage's name at its end
+  // Called with each stage's name at its end; not kept (a lambda with captures costs no allocation).
+  using Boundary = FunctionRef<void(const char*)>;
 
   // One light of a frame as the engine records it: a barrier, the cones' frame chosen, the samples' light
   // term for `light` (sample_light.comp writes g.normal.w with the camera pass's expression), recordLight,
@@ -71,6 +73,8 @@ class ConeRecorder {
   traversal::Traversal& traversal() { return *traversal_; }
   const cone::ConeTree& tree() const { return tree_; }
   const vk::Buffer& visibility() const { return visibility_; }
+  // The scene index of each batch's first triangle, in order, of the last recordLight's traversal.
+  const std::vector<uint32_t>& batchStarts() const { return batchStarts_; }
   const ConeOptions& options() const { return options_; }
   // Every buffer held for a frame.
   uint64_t heldBytes() const;
@@ -113,6 +117,7 @@ class ConeRecorder {
   std::chrono::steady_clock::time_point submitStart_, submitEnd_;  // the frame's one submission
   uint64_t traversalMemory_ = 0;  // the traversal's memory bound this frame (ensureTraversal)
   cone::FrameChoice frame_;       // this light's cone frame (world or far)
+  std::vector<uint32_t> batchStarts_;  // room for kConeMaxBatches made once: a recording allocates nothing
   // the ray order chosen on the GPU (ConeOptions::adaptiveOrder)
   vk::Kernel orderChoice_;
   vk::Buffer orderWords_;               // ORDER_* (traversal_layout.h)

@@ -2,6 +2,7 @@
 #include "traversal/traversal.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <sstream>
@@ -531,9 +532,8 @@ void Traversal::recordBegin(vk::Commands& cmd, const TraversalInput& in) {
   cmd.barrier();
 }
 
-std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput& in,
-                                        const std::function<void(const char*)>& boundary) {
-  std::vector<uint32_t> starts;
+void Traversal::record(vk::Commands& cmd, const TraversalInput& in, std::vector<uint32_t>& batchStarts,
+                       FunctionRef<void(const char*)> boundary) {
   CS_CHECK(in.triangles && in.tree && in.visibility, "traversal input incomplete");
   const uint32_t maxDepth = in.tree->maxDepth();
   CS_CHECK(maxDepth >= 1 && maxDepth < STATE_MAX_STEPS, "traversal: tree depth bound " << maxDepth);
@@ -626,7 +626,7 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
   else if (clusters) batch = batch / CLUSTER_SIZE * CLUSTER_SIZE;
   for (uint64_t pos = in.firstTriangle; pos < end; pos += batch) {
     const uint32_t m = uint32_t(std::min<uint64_t>(batch, end - pos));
-    starts.push_back(uint32_t(pos));
+    batchStarts.push_back(uint32_t(pos));
     advance(0, m);
     TraversePush p0 = base;
     p0.first = uint32_t(pos);
@@ -651,10 +651,15 @@ std::vector<uint32_t> Traversal::record(vk::Commands& cmd, const TraversalInput&
     advance(ADVANCE_END_OF_BATCH, 0);
     if (boundary) boundary("leaves");
   }
-  return starts;
 }
 
 void Traversal::learnBatch(const uint32_t* w, const TraversalStats& frame, uint64_t triangles) {
+  uint64_t worst = 0;
+  for (const PassStats& p : frame.passes) worst = std::max(worst, p.survived);
+  learnBatch(w, worst, triangles);
+}
+
+void Traversal::learnBatch(const uint32_t* w, uint64_t worst, uint64_t triangles) {
   const uint32_t capacity = plan_.chunkCapacity;
   const uint32_t used = std::max(1u, std::min(capacity, batchTriangles_));
   if (overflowed(w) && usedClusters_ && used <= CLUSTER_SIZE) {
@@ -667,8 +672,6 @@ void Traversal::learnBatch(const uint32_t* w, const TraversalStats& frame, uint6
     // An expansion's inputs (CLUSTER_SIZE per expanded cluster pair) must fit as well: the GPU's count of
     // expansions covers the batches that completed and the one that overflowed (the fallback runs without
     // clusters).
-    uint64_t worst = 0;
-    for (const PassStats& p : frame.passes) worst = std::max(worst, p.survived);
     double perTriangle = double(worst) / double(std::max<uint64_t>(1, triangles));
     const uint64_t expanded = uint64_t(w[STATE_EXPANDED]) | (uint64_t(w[STATE_EXPANDED + 1]) << 32);
     const uint64_t ran = std::min<uint64_t>(triangles, (uint64_t(batchesDone(w)) + 1) * used);
@@ -709,33 +712,58 @@ const char* expansionLanesName(ExpansionLanes lanes) {
   return "?";
 }
 
-TraversalStats Traversal::statsFromState(const uint32_t* words, uint32_t depth, bool committed) const {
-  // The committed copy holds STATE_LEAF_MISSING, then the words from STATE_ACC on: read it through a
-  // view that puts them where the live words are.
-  std::vector<uint32_t> view(words, words + STATE_WORDS);
+namespace {
+
+// The committed copy holds STATE_LEAF_MISSING, then the words from STATE_ACC on: read it through a view
+// that puts them where the live words are (on the stack).
+std::array<uint32_t, STATE_WORDS> stateView(const uint32_t* words, bool committed) {
+  std::array<uint32_t, STATE_WORDS> view;
+  std::copy(words, words + STATE_WORDS, view.begin());
   if (committed) {
     view[STATE_LEAF_MISSING] = words[STATE_COMMITTED];
     for (uint32_t k = 0; k + 1 < STATE_COMMITTED_WORDS; ++k) view[STATE_ACC + k] = words[STATE_COMMITTED + 1 + k];
   }
-  const uint32_t* w = view.data();
-  auto u64 = [&](uint32_t at) { return uint64_t(w[at]) | (uint64_t(w[at + 1]) << 32); };
-  TraversalStats s;
-  // The depths tested: those above the pairs the leaves take (a tree of depth `depth`); with the leaf
-  // choice, down to the deepest step that ran.
+  return view;
+}
+
+uint64_t stateU64(const uint32_t* w, uint32_t at) { return uint64_t(w[at]) | (uint64_t(w[at + 1]) << 32); }
+
+PassStats passFromState(const uint32_t* w, uint32_t d) {
+  const uint32_t at = STATE_ACC + STATE_ACC_WORDS * d;
+  PassStats ps;
+  ps.inputs = stateU64(w, at);
+  ps.tested = stateU64(w, at + 2);
+  ps.survived = stateU64(w, at + 4);
+  ps.chunks = w[at + 6];
+  ps.clusterTests = w[at + 7];
+  return ps;
+}
+
+}  // namespace
+
+uint32_t Traversal::passesInState(const uint32_t* w, uint32_t depth) const {
   uint32_t leafStep = leafStepOf(depth, leafLevels(leafRays_));
   if (leafChoice_)
     for (uint32_t d = leafStep; d < std::min<uint32_t>(depth, STATE_MAX_STEPS); ++d)
       if (w[STATE_ACC + STATE_ACC_WORDS * d + 6] > 0) leafStep = d + 1;
-  for (uint32_t d = 0; d < std::min<uint32_t>(leafStep, STATE_MAX_STEPS); ++d) {
-    const uint32_t at = STATE_ACC + STATE_ACC_WORDS * d;
-    PassStats ps;
-    ps.inputs = u64(at);
-    ps.tested = u64(at + 2);
-    ps.survived = u64(at + 4);
-    ps.chunks = w[at + 6];
-    ps.clusterTests = w[at + 7];
-    s.passes.push_back(ps);
-  }
+  return leafStep;
+}
+
+uint64_t Traversal::mostSurvived(const uint32_t* words, uint32_t depth, bool committed) const {
+  const std::array<uint32_t, STATE_WORDS> view = stateView(words, committed);
+  uint64_t worst = 0;
+  const uint32_t passes = std::min<uint32_t>(passesInState(view.data(), depth), STATE_MAX_STEPS);
+  for (uint32_t d = 0; d < passes; ++d) worst = std::max(worst, passFromState(view.data(), d).survived);
+  return worst;
+}
+
+TraversalStats Traversal::statsFromState(const uint32_t* words, uint32_t depth, bool committed) const {
+  const std::array<uint32_t, STATE_WORDS> view = stateView(words, committed);
+  const uint32_t* w = view.data();
+  auto u64 = [&](uint32_t at) { return stateU64(w, at); };
+  TraversalStats s;
+  const uint32_t leafStep = passesInState(w, depth);
+  for (uint32_t d = 0; d < std::min<uint32_t>(leafStep, STATE_MAX_STEPS); ++d) s.passes.push_back(passFromState(w, d));
   s.expandedClusters = uint64_t(words[STATE_EXPANDED]) | (uint64_t(words[STATE_EXPANDED + 1]) << 32);
   s.leafPairs = u64(STATE_LEAF_PAIRS);
   s.leafRays = 1u << (2u * (depth - leafStep + 1u));

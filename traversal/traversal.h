@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "conetree/conetree.h"
+#include "core/function_ref.h"
 #include "traversal/traversal_layout.h"
 #include "vk/context.h"
 
@@ -232,15 +233,22 @@ class Traversal {
   // after its leaves with "leaves" (a caller may end a submission there to time them).
   void recordBegin(vk::Commands& cmd, const TraversalInput& in);
   void recordEnd(vk::Commands& cmd, const TraversalInput& in);
-  // Returns the first triangle of each batch, in order (STATE_BATCHES_DONE of them completed).
-  std::vector<uint32_t> record(vk::Commands& cmd, const TraversalInput& in,
-                               const std::function<void(const char*)>& boundary = {});
+  // Appends the first triangle of each batch to `batchStarts`, in order (STATE_BATCHES_DONE of them
+  // completed): the caller's vector, so a recording with room in it allocates nothing.
+  void record(vk::Commands& cmd, const TraversalInput& in, std::vector<uint32_t>& batchStarts,
+              FunctionRef<void(const char*)> boundary = nullptr);
   // After a device frame, from its state words and the frame's whole traversal stats (`triangles`
   // traversed): a frame that overflowed sizes the next frame's batches so that its busiest depth's pairs
   // per triangle fill half the capacity (at most half the batch it used; a step's pairs grow with its
   // batch's triangles), one that used less than 1/8 of the capacity at its peak doubles them, up to
   // chunkCapacity. So a scene whose full batch overflows pays the chunked fallback on its first frame.
   void learnBatch(const uint32_t* words, const TraversalStats& frame, uint64_t triangles);
+  // The same from the state words alone (the engine's frames, whose stats are the words): `mostSurvived`,
+  // the most pairs any depth held (mostSurvived() of the words).
+  void learnBatch(const uint32_t* words, uint64_t mostSurvived, uint64_t triangles);
+  // The most survivors of any depth in statsFromState(words, depth, committed).passes, read without
+  // building the stats (nothing allocated).
+  uint64_t mostSurvived(const uint32_t* words, uint32_t depth, bool committed = false) const;
   uint32_t batchTriangles() const { return batchTriangles_; }
   // Whether the device path may start its batches as clusters (an arena too small for one cluster's
   // expansion turns them off for good).
@@ -303,6 +311,10 @@ class Traversal {
   LeafChoiceCosts leafCosts_;            // with the costs (statsFromState says why)
   LeafTest leafTest_ = LeafTest::TwoEnds;  // the last frame's (statsFromState)
   LeafRays resolveLeafRays(LeafRays wanted) const;
+  // The depths statsFromState reports passes for (at most STATE_MAX_STEPS of them), from the live words:
+  // those above the pairs the leaves take in a tree of `depth`; with the leaf choice, down to the deepest
+  // step that ran.
+  uint32_t passesInState(const uint32_t* live, uint32_t depth) const;
 };
 
 }  // namespace cs::traversal

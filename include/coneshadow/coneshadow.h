@@ -146,9 +146,11 @@ class CONESHADOW_API Context {
   void destroyInstance(uint32_t instance);
 
   // Records one frame into desc.commandBuffer (see FrameDesc). After the first frames at a resolution and
-  // light count it allocates nothing; it never submits or waits.
+  // light count it allocates nothing, neither device memory nor host heap, moved instances (setTransform)
+  // included; the frame after a mesh edit or a new set of instances allocates. It never submits or waits.
   void recordFrame(const FrameDesc& desc);
-  // The counts of a recorded frame. Call only once that frame's command buffer has completed.
+  // The counts of a recorded frame (its lights in a vector: this call allocates). Call only once that
+  // frame's command buffer has completed.
   FrameStats frameStats(uint64_t frame) const;
   // Device memory the library holds, in bytes.
   uint64_t deviceBytes() const;
