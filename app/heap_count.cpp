@@ -1,14 +1,15 @@
-// The coneshadow executable's count of heap allocations (operator new), per thread, so that `view --stats`
-// can say how many its frame loop makes (docs/ARCHITECTURE.md, "The viewer"). Linked into the executable
-// only: the tests' in-process runs keep the library's operator new and report host allocations as not
-// counted. Every unaligned operator new and delete is replaced, as a set: they allocate with malloc and
-// free with free, so a sanitizer's runtime (which brings its own operators) never sees a mix. Aligned new
-// and direct malloc calls (C libraries, the Vulkan driver) are not counted.
+// A count of heap allocations (operator new), per thread (core/heap_count.h), so that `view --stats` can
+// say how many its frame loop makes and the tests can hold the engine's warm frames to none
+// (docs/ARCHITECTURE.md, "The viewer" and "The engine"). Linked into the coneshadow executable and the test
+// binary only (cs_heap_count), never into the library. Every unaligned operator new and delete is
+// replaced, as a set: they allocate with malloc and free with free, so a sanitizer's runtime (which brings
+// its own operators) never sees a mix. Aligned new and direct malloc calls (C libraries, the Vulkan
+// driver) are not counted.
 #include <cstdint>
 #include <cstdlib>
 #include <new>
 
-#include "viewer/viewer.h"
+#include "core/heap_count.h"
 
 namespace {
 
@@ -16,8 +17,8 @@ thread_local uint64_t heapAllocations = 0;
 
 uint64_t countedOnThisThread() { return heapAllocations; }
 
-// Set before main: the viewer reads the count through cs::viewer::threadHeapAllocations.
-[[maybe_unused]] const bool installed = (cs::viewer::threadHeapAllocations = countedOnThisThread, true);
+// Set before main: the viewer and the tests read the count through cs::threadHeapAllocations.
+[[maybe_unused]] const bool installed = (cs::threadHeapAllocations = countedOnThisThread, true);
 
 }  // namespace
 

@@ -15,6 +15,7 @@
 #include "api/internal.h"
 #include "coneshadow/coneshadow.h"
 #include "cone_test_support.h"
+#include "core/heap_count.h"
 #include "core/scene.h"
 #include "test_context.h"
 #include "traversal/cone_engine.h"
@@ -24,16 +25,18 @@
 namespace cs::test {
 namespace {
 
-// A Vulkan instance and device of the test's own, as a renderer makes them.
+// A Vulkan instance and device of the test's own, as a renderer makes them. With `validate` (and the layer
+// installed) under VK_LAYER_KHRONOS_validation with synchronization validation; without it for the host
+// heap counts, which would include the layer's own allocations on the calling thread.
 class OwnDevice {
  public:
-  OwnDevice() {
+  explicit OwnDevice(bool validate = true) {
     bool validation = false;
     uint32_t n = 0;
     vkEnumerateInstanceLayerProperties(&n, nullptr);
     std::vector<VkLayerProperties> layers(n);
     vkEnumerateInstanceLayerProperties(&n, layers.data());
-    for (auto& l : layers) validation |= std::strcmp(l.layerName, "VK_LAYER_KHRONOS_validation") == 0;
+    for (auto& l : layers) validation |= validate && std::strcmp(l.layerName, "VK_LAYER_KHRONOS_validation") == 0;
     VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
     app.apiVersion = coneshadow::deviceRequirements().apiVersion;
     const char* layer = "VK_LAYER_KHRONOS_validation";
@@ -285,7 +288,9 @@ class Renderer {
     f.lights = &lights[0].x;
     f.lightCount = uint32_t(lights.size());
     f.visibilityImage = visibility_;
+    const uint64_t heapBefore = heapNow();
     cs.recordFrame(f);
+    heapInRecordFrame += heapNow() - heapBefore;
     d_.transferBarrier();
     VkBufferImageCopy out{};
     out.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, uint32_t(lights.size())};
@@ -300,6 +305,10 @@ class Renderer {
     return masks;
   }
   uint64_t lastFrame = 0;
+  // Heap allocations (operator new) on this thread inside recordFrame, summed over the frames
+  // (core/heap_count.h; 0 where the binary does not count them).
+  uint64_t heapInRecordFrame = 0;
+  static uint64_t heapNow() { return threadHeapAllocations ? threadHeapAllocations() : 0; }
 
  private:
   OwnDevice& d_;
@@ -441,15 +450,23 @@ TEST(Api, EightLightsInOneFrameEqualOneLightFramesOnTheBartMuseum) {
 // A box moved by setTransform: no triangle uploaded again (no allocation at all), and the mask is the
 // bench's on the scene with the box already there (translations by exact binary fractions, so the
 // device's transform and the host's flattening round alike).
-TEST(Api, MovingAnInstanceUpdatesItsTransformOnlyAndGivesTheMovedScenesMask) {
-  OwnDevice device;
-  Scene room = builtinScene();
+// A unit box open at the bottom, standing on the origin.
+Scene openBox() {
   Scene box;
   addQuad(box, {-0.5f, 0.0f, -0.5f}, {1, 0, 0}, {0, 1, 0});
   addQuad(box, {-0.5f, 0.0f, 0.5f}, {0, 1, 0}, {1, 0, 0});
   addQuad(box, {-0.5f, 0.0f, -0.5f}, {0, 1, 0}, {0, 0, 1});
   addQuad(box, {0.5f, 0.0f, -0.5f}, {0, 0, 1}, {0, 1, 0});
   addQuad(box, {-0.5f, 1.0f, -0.5f}, {0, 0, 1}, {1, 0, 0});
+  return box;
+}
+
+std::array<float, 12> translation(glm::vec3 t) { return {1, 0, 0, t.x, 0, 1, 0, t.y, 0, 0, 1, t.z}; }
+
+TEST(Api, MovingAnInstanceUpdatesItsTransformOnlyAndGivesTheMovedScenesMask) {
+  OwnDevice device;
+  Scene room = builtinScene();
+  const Scene box = openBox();
   const glm::vec3 light = room.lights[0].position;
   const Camera* view = room.findCamera(builtinViewNames()[0]);
   ASSERT_NE(view, nullptr);
@@ -463,10 +480,6 @@ TEST(Api, MovingAnInstanceUpdatesItsTransformOnlyAndGivesTheMovedScenesMask) {
     for (uint32_t i : box.indices) s.indices.push_back(base + i);
     s.computeBounds();
     return s;
-  };
-  auto translation = [](glm::vec3 t) {
-    std::array<float, 12> m = {1, 0, 0, t.x, 0, 1, 0, t.y, 0, 0, 1, t.z};
-    return m;
   };
   const Scene moved = placed(to);
   ReferenceFrame f(moved, *view, light, 48);
@@ -492,6 +505,59 @@ TEST(Api, MovingAnInstanceUpdatesItsTransformOnlyAndGivesTheMovedScenesMask) {
   EXPECT_EQ(cs->deviceBytes(), bytes);
   cs.reset();
   EXPECT_EQ(device.messages.load(), 0) << "validation reported messages";
+}
+
+// Once warm, recordFrame makes no host heap allocation: 1 and 4 lights, frames whose geometry did not
+// change and frames after setTransform, in the one-pass variants the options offer. Counted on this thread
+// around recordFrame alone (core/heap_count.h), on a device without the validation layer, which allocates
+// in the calls it checks.
+TEST(Api, AfterWarmUpRecordFrameMakesNoHostHeapAllocation) {
+  ASSERT_NE(threadHeapAllocations, nullptr) << "the test binary counts operator new (app/heap_count.cpp)";
+  OwnDevice device(/*validate=*/false);
+  Scene scene = builtinScene();
+  const Camera* cam = scene.findCamera(builtinViewNames()[0]);
+  ASSERT_NE(cam, nullptr);
+  const uint32_t size = 64;
+  const std::vector<glm::vec3> eight = eightLights(scene);
+  const std::vector<glm::vec3> four(eight.begin(), eight.begin() + 4), one = {eight[0]};
+  ReferenceFrame f(scene, *cam, one[0], size);
+  const Scene box = openBox();
+  const glm::vec3 at = one[0] + 0.4f * (cam->target - one[0]);
+  struct Case {
+    const char* name;
+    void (*set)(coneshadow::Options&);
+  };
+  const Case cases[] = {
+      {"defaults", [](coneshadow::Options&) {}},
+      {"sortRays off", [](coneshadow::Options& o) { o.sortRays = false; }},
+      {"earlyAccept", [](coneshadow::Options& o) { o.earlyAccept = true; }},
+      {"sphereTest", [](coneshadow::Options& o) { o.sphereTest = true; }},
+      {"frontFaceCulling", [](coneshadow::Options& o) { o.frontFaceCulling = true; }},
+  };
+  for (const Case& c : cases) {
+    coneshadow::Options options;
+    c.set(options);
+    options.framesInFlight = 2;
+    options.maxLights = 4;
+    auto cs = coneshadow::Context::create(device.desc(), options);
+    addScene(*cs, scene);
+    const uint32_t moving = cs->createInstance(
+        cs->createMesh(&box.positions[0].x, box.positions.size(), box.indices.data(), box.indices.size()),
+        translation(at).data());
+    Renderer renderer(device, size, size, options.maxLights);
+    // The warm-up: each frame slot has seen 4 lights, 1 light and a moved instance.
+    for (int k = 0; k < 4; ++k) renderer.frame(*cs, f.host, k % 2 ? one : four);
+    cs->setTransform(moving, translation(at + glm::vec3(0.25f, 0, 0)).data());
+    renderer.frame(*cs, f.host, four);
+    renderer.frame(*cs, f.host, one);
+    const uint64_t warm = renderer.heapInRecordFrame;
+    EXPECT_GT(warm, 0u) << c.name << ": the warm-up's first frame allocates; the count sees nothing";
+    for (int k = 0; k < 6; ++k) {
+      if (k % 3 == 2) cs->setTransform(moving, translation(at + glm::vec3(0.125f * float(k), 0, 0)).data());
+      renderer.frame(*cs, f.host, k % 2 ? one : four);
+    }
+    EXPECT_EQ(renderer.heapInRecordFrame - warm, 0u) << c.name << ": heap allocations in 6 warm frames";
+  }
 }
 
 TEST(Api, HostileCallsAreOneClearErrorAndRecordNothing) {

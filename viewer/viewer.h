@@ -12,6 +12,7 @@
 
 #include <glm/glm.hpp>
 
+#include "core/heap_count.h"
 #include "core/scene.h"
 #include "method/registry.h"
 
@@ -21,11 +22,6 @@ inline constexpr const char* kDisplayNames[3] = {"shaded", "mask", "diff"};
 // The lights the viewer holds at most (the public API takes up to 64 a frame; each is a layer of the
 // visibility image and of its host copy, so the viewer keeps fewer).
 inline constexpr uint32_t kMaxLights = 16;
-
-// Heap allocations (operator new) made so far on the calling thread, where the binary counts them: the
-// coneshadow executable sets this (app/heap_count.cpp); null elsewhere (tests' in-process runs), where the
-// viewer reports host allocations as not counted.
-inline uint64_t (*threadHeapAllocations)() = nullptr;
 
 // A moving scene's motion: pose(t, scene) places the scene at time t in [start, end].
 struct Animation {
