@@ -244,8 +244,9 @@ TEST(Viewer, TheConeFrameIsOneSubmissionOnePresentAndNoAllocationAndValid) {
     // The last frame's GPU times, a light each, where the queue family's timestamps are valid.
     const std::regex gpu("the cone path's GPU time, last frame \\([^)]*\\): ([0-9.e+-]+) ms\\. light 0: light term "
                          "[^;]*; light 1: light term [^;\\n]* ms\\n|the cone path's GPU times: none \\(");
-    ASSERT_TRUE(std::regex_search(r.out, m, gpu)) << r.out;
-    if (m[1].matched) { EXPECT_GT(std::stod(m[1]), 0.0) << r.out; }
+    std::smatch g;
+    ASSERT_TRUE(std::regex_search(r.out, g, gpu)) << r.out;
+    if (g[1].matched) { EXPECT_GT(std::stod(g[1]), 0.0) << r.out; }
     if (validated) continue;
     // Host heap: the coneshadow binary counts operator new on the loop's thread, ImGui its own. The
     // viewer's frame allocates nothing; the public API's recordFrame is counted apart and not held to 0
