@@ -10,6 +10,7 @@
 #include <atomic>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <sstream>
 
 #include "api/internal.h"
@@ -262,8 +263,10 @@ class Renderer {
     d.submitAndWait();
   }
 
-  // One frame of `lights` on the samples; returns a mask per light.
-  std::vector<std::vector<float>> frame(coneshadow::Context& cs, const GBuffer& g, const std::vector<glm::vec3>& lights) {
+  // One frame of `lights` on the samples; returns a mask per light. `recorded` runs between the recording
+  // and the submission.
+  std::vector<std::vector<float>> frame(coneshadow::Context& cs, const GBuffer& g, const std::vector<glm::vec3>& lights,
+                                        const std::function<void(uint64_t frame)>& recorded = {}) {
     const size_t n = size_t(w_) * h_;
     std::memcpy(uploadMap_, g.position.data(), n * 16);
     std::memcpy(static_cast<char*>(uploadMap_) + n * 16, g.normal.data(), n * 16);
@@ -292,6 +295,7 @@ class Renderer {
     out.imageExtent = {w_, h_, 1};
     vkCmdCopyImageToBuffer(d_.cb, visibility_, VK_IMAGE_LAYOUT_GENERAL, readback_, 1, &out);
     d_.transferBarrier();
+    if (recorded) recorded(f.frame);
     d_.submitAndWait();
     std::vector<std::vector<float>> masks(lights.size(), std::vector<float>(n));
     for (size_t l = 0; l < lights.size(); ++l)
@@ -475,6 +479,12 @@ TEST(Api, FrameStatsGiveEachLightsStageTimesWithinTheFramesGpuTime) {
   const coneshadow::FrameStats unrecorded = cs->frameStats(renderer.lastFrame + 5);
   EXPECT_FALSE(unrecorded.available);
   EXPECT_FALSE(unrecorded.gpuTimes);
+  // A frame recorded but not yet run: its slot's queries still hold the frame before's times, which must
+  // not pass for its own.
+  bool pendingTimes = true;
+  renderer.frame(*cs, f.host, lights, [&](uint64_t frame) { pendingTimes = cs->frameStats(frame).gpuTimes; });
+  EXPECT_FALSE(pendingTimes) << "a frame not yet submitted reported GPU times";
+  EXPECT_EQ(cs->frameStats(renderer.lastFrame).gpuTimes, timestamps) << "the same frame once it completed";
   EXPECT_STREQ(coneshadow::stageName(coneshadow::Stage::LightTerm), "light term");
   EXPECT_STREQ(coneshadow::stageName(coneshadow::Stage::Undecided), "undecided");
   cs.reset();

@@ -43,7 +43,8 @@ class Engine : public ConeEngine {
     CS_CHECK(maxLights >= 1 && maxLights <= 64, "lights a frame " << maxLights << ", not 1..64");
     framesInFlight_ = framesInFlight;
     maxLights_ = maxLights;
-    statsRing_ = vk::createBuffer(ctx_, uint64_t(framesInFlight) * maxLights * kStatsWords * 4, vk::Memory::HostVisible);
+    statsRing_ = vk::createBuffer(ctx_, (uint64_t(framesInFlight) * maxLights * kStatsWords + framesInFlight) * 4,
+                                  vk::Memory::HostVisible);
     std::memset(statsRing_.mapped, 0, statsRing_.size);
     slots_.resize(framesInFlight);
     recorder_.layout().resizeSphereSets(size_t(framesInFlight) * maxLights);
@@ -112,6 +113,7 @@ class Engine : public ConeEngine {
       cmd.copy(recorder_.traversal().stateBuffer(), statsRing_, STATE_WORDS * 4, 0, at);
       cmd.copy(recorder_.tree().shapeBuffer(), statsRing_, SHAPE_WORDS * 4, 0, at + STATE_WORDS * 4);
     }
+    cmd.fill(statsRing_, frameTag(frame), frameTagWord(slot) * 4, 4);
     cmd.barrier();  // the stats words visible to the host once the caller's submission completes
     if (es.queries) vkCmdWriteTimestamp(cmd.handle(), VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, es.queries, kFrameEnd);
     es.timed = es.queries != VK_NULL_HANDLE;
@@ -235,7 +237,10 @@ class Engine : public ConeEngine {
   // The frame's total and, into `lights`, each light's stage times; all or nothing.
   EngineFrameTimes readTimes(const Slot& es, std::vector<EngineLightStats>& lights) {
     EngineFrameTimes t;
-    if (!es.queries || !es.timed || !readQueries(es.queries, kFrameStart, 2)) return t;
+    const uint32_t slot = uint32_t(es.frame % framesInFlight_);
+    const uint32_t tag = static_cast<const uint32_t*>(statsRing_.mapped)[frameTagWord(slot)];
+    // Before its tag is written, the slot's queries may still hold the times of the frame before.
+    if (!es.queries || !es.timed || tag != frameTag(es.frame) || !readQueries(es.queries, kFrameStart, 2)) return t;
     t.totalMs = ticksToMs(ticks_[0], ticks_[2]);
     for (uint32_t l = 0; l < lights.size(); ++l) {
       const uint32_t n = es.marks[l];
@@ -251,6 +256,10 @@ class Engine : public ConeEngine {
     t.available = true;
     return t;
   }
+  // After the lights' words, a word a slot: the tag of the last frame of the slot that has run to its end on
+  // the device (never 0, the ring's initial value).
+  uint64_t frameTagWord(uint32_t slot) const { return uint64_t(framesInFlight_) * maxLights_ * kStatsWords + slot; }
+  static uint32_t frameTag(uint64_t frame) { return uint32_t(frame % 0xFFFFFFFFu) + 1; }
   const uint32_t* statsWords(uint32_t slot, uint32_t light) const {
     return static_cast<const uint32_t*>(statsRing_.mapped) + (uint64_t(slot) * maxLights_ + light) * kStatsWords;
   }

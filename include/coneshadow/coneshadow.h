@@ -139,8 +139,8 @@ struct LightStats {
 // GPU times come from timestamps the library writes into your command buffer (a query pool per frame in
 // flight, made at create; timestampPeriod converts them). They are absent (gpuTimes false, every time 0)
 // on a queue family whose timestampValidBits is 0 (a device with timestampComputeAndGraphics false may
-// have one), and when that frame's timestamps are not all available yet: frameStats reads them without
-// waiting. Inside one submission a driver may misattribute time between adjacent stages (lavapipe runs
+// have one), and while that frame has not yet run to its end on the device: frameStats reads them
+// without waiting. Inside one submission a driver may misattribute time between adjacent stages (lavapipe runs
 // work behind the command stream: a stage can read ~0 while its neighbour absorbs it); gpuMs, the frame's
 // whole span, is reliable, and all lights' stages together add up to at most gpuMs.
 struct FrameStats {
