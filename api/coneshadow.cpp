@@ -3,8 +3,10 @@
 // caller's images copied in and out around the engine's recording. docs/ARCHITECTURE.md, "The engine".
 #include "coneshadow/coneshadow.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <iterator>
 #include <string>
 
 #include "api/internal.h"
@@ -100,6 +102,20 @@ bool isIdentity(const float* m) {
 }
 
 }  // namespace
+
+// The engine times the public stages, in the same order.
+static_assert(kStageCount == cs::kEngineStages);
+static_assert(uint32_t(Stage::LightTerm) == uint32_t(cs::EngineStage::LightTerm) &&
+              uint32_t(Stage::Compact) == uint32_t(cs::EngineStage::Compact) &&
+              uint32_t(Stage::Order) == uint32_t(cs::EngineStage::Order) &&
+              uint32_t(Stage::Keys) == uint32_t(cs::EngineStage::Keys) &&
+              uint32_t(Stage::Sort) == uint32_t(cs::EngineStage::Sort) &&
+              uint32_t(Stage::Build) == uint32_t(cs::EngineStage::Build) &&
+              uint32_t(Stage::Traversal) == uint32_t(cs::EngineStage::Traversal) &&
+              uint32_t(Stage::Leaves) == uint32_t(cs::EngineStage::Leaves) &&
+              uint32_t(Stage::Undecided) == uint32_t(cs::EngineStage::Undecided));
+
+const char* stageName(Stage stage) { return cs::engineStageName(cs::EngineStage(uint32_t(stage))); }
 
 DeviceRequirements deviceRequirements() {
   const cs::vk::DeviceRequirements r = cs::vk::deviceRequirements();
@@ -281,6 +297,7 @@ void Context::recordFrame(const FrameDesc& d) {
       s.samples.normal = cs::vk::createBuffer(*s.vk, bytes);
     }
     cs::vk::Commands cmd(*s.vk, d.commandBuffer);
+    s.engine->beginFrame(cmd, d.frame);  // the frame's GPU time starts before the copies
     cmd.barrier();  // the last frame's reads of the sample buffers are done
     VkBufferImageCopy region{};
     region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
@@ -302,15 +319,19 @@ void Context::recordFrame(const FrameDesc& d) {
 FrameStats Context::frameStats(uint64_t frame) const {
   return guarded("frameStats", [&] {
     FrameStats out;
-    for (const cs::EngineLightStats& l : impl_->engine->stats(frame)) {
+    cs::EngineFrameTimes times;
+    for (const cs::EngineLightStats& l : impl_->engine->stats(frame, &times)) {
       LightStats s;
       s.litSamples = l.litSamples;
       s.pairsTested = l.pairsTested;
       s.leafTests = l.leafTests;
       s.complete = l.complete;
+      std::copy(std::begin(l.stageMs), std::end(l.stageMs), s.stageMs);
       out.lights.push_back(s);
     }
     out.available = !out.lights.empty();
+    out.gpuTimes = out.available && times.available;
+    out.gpuMs = out.gpuTimes ? times.totalMs : 0;
     return out;
   });
 }

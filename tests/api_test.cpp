@@ -10,6 +10,7 @@
 #include <atomic>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <sstream>
 
 #include "api/internal.h"
@@ -265,8 +266,10 @@ class Renderer {
     d.submitAndWait();
   }
 
-  // One frame of `lights` on the samples; returns a mask per light.
-  std::vector<std::vector<float>> frame(coneshadow::Context& cs, const GBuffer& g, const std::vector<glm::vec3>& lights) {
+  // One frame of `lights` on the samples; returns a mask per light. `recorded` runs between the recording
+  // and the submission.
+  std::vector<std::vector<float>> frame(coneshadow::Context& cs, const GBuffer& g, const std::vector<glm::vec3>& lights,
+                                        const std::function<void(uint64_t frame)>& recorded = {}) {
     const size_t n = size_t(w_) * h_;
     std::memcpy(uploadMap_, g.position.data(), n * 16);
     std::memcpy(static_cast<char*>(uploadMap_) + n * 16, g.normal.data(), n * 16);
@@ -297,6 +300,7 @@ class Renderer {
     out.imageExtent = {w_, h_, 1};
     vkCmdCopyImageToBuffer(d_.cb, visibility_, VK_IMAGE_LAYOUT_GENERAL, readback_, 1, &out);
     d_.transferBarrier();
+    if (recorded) recorded(f.frame);
     d_.submitAndWait();
     std::vector<std::vector<float>> masks(lights.size(), std::vector<float>(n));
     for (size_t l = 0; l < lights.size(); ++l)
@@ -429,6 +433,72 @@ std::vector<glm::vec3> eightLights(const Scene& s) {
     out.push_back(c + o * e);
   }
   return out;
+}
+
+// The GPU times of a frame, read once it has completed. Where the queue family's timestamps are valid
+// (lavapipe's are), every stage of every light is timed, none negative, and the lights' stages add up to at
+// most the frame's span, which is positive; reading them submits nothing and waits for nothing, the frame
+// before is still readable, and synchronization validation stays silent.
+TEST(Api, FrameStatsGiveEachLightsStageTimesWithinTheFramesGpuTime) {
+  OwnDevice device;
+  Scene scene = builtinScene();
+  const Camera* cam = scene.findCamera(builtinViewNames()[0]);
+  ASSERT_NE(cam, nullptr);
+  const uint32_t size = 64;
+  const std::vector<glm::vec3> lights = {scene.lights[0].position, eightLights(scene)[1]};
+  ReferenceFrame f(scene, *cam, lights[0], size);
+  auto cs = coneshadow::Context::create(device.desc());  // two frames in flight
+  ASSERT_EQ(coneshadow::Options{}.framesInFlight, 2u);
+  addScene(*cs, scene);
+  Renderer renderer(device, size, size, uint32_t(lights.size()));
+  vk::Context& inner = coneshadow::ContextAccess::vulkan(*cs);
+  const vk::HostCost start = inner.cost;
+  for (int k = 0; k < 3; ++k) renderer.frame(*cs, f.host, lights);
+  const coneshadow::FrameStats st = cs->frameStats(renderer.lastFrame);
+  const coneshadow::FrameStats before = cs->frameStats(renderer.lastFrame - 1);
+  const vk::HostCost after = inner.cost;
+  EXPECT_EQ((after - start).submits, 0u);
+  EXPECT_EQ((after - start).hostSyncs, 0u);
+  ASSERT_TRUE(st.available);
+  ASSERT_EQ(st.lights.size(), lights.size());
+
+  uint32_t n = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(device.physical, &n, nullptr);
+  std::vector<VkQueueFamilyProperties> families(n);
+  vkGetPhysicalDeviceQueueFamilyProperties(device.physical, &n, families.data());
+  const bool timestamps = families[device.family].timestampValidBits > 0;
+  EXPECT_EQ(st.gpuTimes, timestamps) << "GPU times where the queue family has valid timestamps, and only there";
+  EXPECT_EQ(before.gpuTimes, timestamps) << "the frame before, still in its slot";
+  double sum = 0;
+  for (size_t l = 0; l < st.lights.size(); ++l)
+    for (uint32_t s = 0; s < coneshadow::kStageCount; ++s) {
+      const double ms = st.lights[l].stageMs[s];
+      const char* name = coneshadow::stageName(coneshadow::Stage(s));
+      if (!timestamps) { EXPECT_EQ(ms, 0.0) << "light " << l << " " << name << " without timestamps"; }
+      EXPECT_GE(ms, 0.0) << "light " << l << " " << name;
+      sum += ms;
+    }
+  if (timestamps) {
+    EXPECT_GT(st.gpuMs, 0.0);
+    EXPECT_GT(sum, 0.0);
+    EXPECT_LE(sum, st.gpuMs * (1 + 1e-9)) << "the lights' stages add up to more than the frame";
+  } else {
+    EXPECT_EQ(st.gpuMs, 0.0);
+  }
+  const coneshadow::FrameStats unrecorded = cs->frameStats(renderer.lastFrame + 5);
+  EXPECT_FALSE(unrecorded.available);
+  EXPECT_FALSE(unrecorded.gpuTimes);
+  // A frame recorded but not yet run: its slot's queries still hold the frame before's times, which must
+  // not pass for its own.
+  bool pendingTimes = true;
+  renderer.frame(*cs, f.host, lights, [&](uint64_t frame) { pendingTimes = cs->frameStats(frame).gpuTimes; });
+  EXPECT_FALSE(pendingTimes) << "a frame not yet submitted reported GPU times";
+  EXPECT_EQ(cs->frameStats(renderer.lastFrame).gpuTimes, timestamps) << "the same frame once it completed";
+  EXPECT_STREQ(coneshadow::stageName(coneshadow::Stage::LightTerm), "light term");
+  EXPECT_STREQ(coneshadow::stageName(coneshadow::Stage::Undecided), "undecided");
+  cs.reset();
+  EXPECT_TRUE(device.validated) << "VK_LAYER_KHRONOS_validation is not installed";
+  EXPECT_EQ(device.messages.load(), 0) << "validation (synchronization validation on) reported messages";
 }
 
 TEST(Api, EightLightsInOneFrameEqualOneLightFramesOnTheBuiltinScene) {

@@ -241,6 +241,12 @@ TEST(Viewer, TheConeFrameIsOneSubmissionOnePresentAndNoAllocationAndValid) {
     EXPECT_EQ(std::stod(m[4]), 1.0);
     EXPECT_EQ(std::stod(m[5]), 0.0) << "the project's device allocations";
     EXPECT_EQ(std::stod(m[6]), 0.0) << "the ImGui backend's device allocations";
+    // The last frame's GPU times, a light each, where the queue family's timestamps are valid.
+    const std::regex gpu("the cone path's GPU time, last frame \\([^)]*\\): ([0-9.e+-]+) ms\\. light 0: light term "
+                         "[^;]*; light 1: light term [^;\\n]* ms\\n|the cone path's GPU times: none \\(");
+    std::smatch g;
+    ASSERT_TRUE(std::regex_search(r.out, g, gpu)) << r.out;
+    if (g[1].matched) { EXPECT_GT(std::stod(g[1]), 0.0) << r.out; }
     if (validated) continue;
     // Host heap: the coneshadow binary counts operator new on the loop's thread, ImGui its own. Neither
     // the viewer's frame nor the public API's recordFrame inside it (counted apart) allocates

@@ -22,6 +22,12 @@ class Commands;
 }  // namespace vk
 struct DeviceGBuffer;
 
+// The stages of a light's frame, each timed on the GPU between the recorder's boundaries (the public
+// API's coneshadow::Stage, in the same order).
+enum class EngineStage : uint32_t { LightTerm, Compact, Order, Keys, Sort, Build, Traversal, Leaves, Undecided, Count };
+inline constexpr uint32_t kEngineStages = uint32_t(EngineStage::Count);
+const char* engineStageName(EngineStage stage);  // "light term", "compact", ...
+
 // One light's counts of a recorded frame, read a frame or more later from the stats ring.
 struct EngineLightStats {
   uint32_t litSamples = 0;
@@ -29,6 +35,13 @@ struct EngineLightStats {
   uint64_t pairsTested = 0, pairsSurvived = 0, leafTests = 0;
   bool complete = true;  // false: the traversal's pairs passed its arena; the lit samples not shadowed by then
                          // are written as 0.5 (undecided), the next frames use smaller batches
+  double stageMs[kEngineStages] = {};  // GPU ms of each stage, where EngineFrameTimes::available
+};
+// A recorded frame's GPU time: from beginFrame to the end of record(), from timestamps; not available on a
+// queue family without valid timestamps or while the frame's timestamps are not all written.
+struct EngineFrameTimes {
+  bool available = false;
+  double totalMs = 0;
 };
 
 class ConeEngine {
@@ -54,9 +67,13 @@ class ConeEngine {
   // device (its stats slot and host-written buffers are reused). Submits nothing, waits for nothing.
   virtual void record(vk::Commands& cmd, const DeviceGBuffer& g, std::span<const glm::vec3> lights, float eps,
                       uint64_t frame, FunctionRef<void(uint32_t light, const vk::Buffer& mask)> deliver) = 0;
+  // Starts frame `frame`'s GPU time in `cmd` (its slot's queries reset, the first timestamp), for a caller
+  // whose own commands before record() belong to the frame; record() starts it where no one did.
+  virtual void beginFrame(vk::Commands& cmd, uint64_t frame) = 0;
   // The stats of a recorded frame that has completed on the device, one per light (empty for a frame that
-  // is not among the last framesInFlight recorded).
-  virtual std::vector<EngineLightStats> stats(uint64_t frame) = 0;
+  // is not among the last framesInFlight recorded); with `times`, the frame's GPU times, read without
+  // waiting (the stages' times in the lights' stats where times->available).
+  virtual std::vector<EngineLightStats> stats(uint64_t frame, EngineFrameTimes* times = nullptr) = 0;
   // Bytes of device memory held.
   virtual uint64_t bytesAllocated() const = 0;
 };

@@ -251,6 +251,7 @@ ConeRecorder::RecordedLight ConeRecorder::recordLightFrame(vk::Commands& cmd, co
   push.mode = SAMPLE_LIGHT_TERM;
   cmd.dispatch(sampleLight_, {g.position, g.normal, visibility_, visibility_}, push, grid.x, grid.y);
   cmd.barrier();
+  boundary("light term");
   const RecordedLight rec = recordLight(cmd, g, in, light, adaptive, sphereSlot, boundary);
   if (markUndecided && rec.onDevice) {
     cmd.barrier();
@@ -466,7 +467,7 @@ traversal::TraversalStats ConeRecorder::runSubmitted(const FrameInput& frame, co
     for (auto& [n, ms] : wall) stages.push_back({n, ms});
   } else if (ctx_.timestampsTrusted()) {
     stats.stageTiming = "one submission; stages from GPU timestamps";
-    for (const char* n : {"compact", "compact + keys", "keys", "sort", "build", "traversal", "leaves"})
+    for (const char* n : {"light term", "compact", "compact + keys", "order", "keys", "sort", "build", "traversal", "leaves"})
       if (const double* ms = stats.timestamp(n)) stages.push_back({n, *ms});
     for (auto& [n, ms] : wall)
       if (n != "frame") stages.push_back({n, ms});

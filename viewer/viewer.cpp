@@ -152,6 +152,7 @@ class Viewer {
   void runRegistryMethod(Shown& shown, std::vector<float>& mask, vk::Buffer& vis, MethodOutput& out);
   void recordFrame(VkCommandBuffer cb, uint32_t image);
   void afterFrame();
+  void printConeGpuTimes() const;  // --stats: the last frame's GPU stage times of the cone path, a light each
   void requestReference();
   void updateError();
   void writeScreenshot(const std::string& path);
@@ -1231,6 +1232,27 @@ void Viewer::recordFrame(VkCommandBuffer cb, uint32_t image) {
 }
 
 // After the frame's fence: the screenshot, the host snapshot for the reference and the error.
+// The loop waits for every frame, so the last one has completed; its times are there when the cone path
+// recorded it and the queue family has valid timestamps (coneshadow::FrameStats).
+void Viewer::printConeGpuTimes() const {
+  if (frame_ == 0) return;
+  const coneshadow::FrameStats st = api_->frameStats(frame_ - 1);
+  if (!st.available) return;
+  if (!st.gpuTimes) {
+    std::cout << "view stats: the cone path's GPU times: none (this queue family has no valid timestamps)\n";
+    return;
+  }
+  std::cout << "view stats: the cone path's GPU time, last frame (timestamps; adjacent stages may trade time on "
+               "lavapipe): " << st.gpuMs << " ms";
+  for (size_t l = 0; l < st.lights.size(); ++l) {
+    std::cout << (l ? "; " : ". ") << "light " << l << ":";
+    for (uint32_t s = 0; s < coneshadow::kStageCount; ++s)
+      std::cout << (s ? ", " : " ") << coneshadow::stageName(coneshadow::Stage(s)) << " " << st.lights[l].stageMs[s];
+    std::cout << " ms";
+  }
+  std::cout << "\n";
+}
+
 void Viewer::afterFrame() {
   if (captureInFlight_) {
     frameEvent_ = true;
@@ -1467,6 +1489,7 @@ int Viewer::run() {
               << vk_->deviceName() << "); mean acquire " << (steadyFrames_ ? sumAcquireMs_ / double(steadyFrames_) : 0.0)
               << " ms, submit to done " << (steadyFrames_ ? sumWaitMs_ / double(steadyFrames_) : 0.0) << " ms of which the present call "
               << (steadyFrames_ ? sumPresentMs_ / double(steadyFrames_) : 0.0) << " ms\n";
+    printConeGpuTimes();
   }
   return 0;
 }

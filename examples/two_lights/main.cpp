@@ -315,6 +315,12 @@ int main(int argc, char** argv) try {
                 (unsigned long long)stats.lights[l].pairsTested, stats.lights[l].complete ? "" : " (incomplete)");
   }
   std::printf("%zu of %zu lit pixels disagree with a double-precision ray cast\n", disagree, lit);
+  if (stats.gpuTimes) {  // timestamps in our command buffer; a stage's split from its neighbours may vary by driver
+    std::printf("the frame took %.3f ms on the GPU; sort and traversal:", stats.gpuMs);
+    for (uint32_t l = 0; l < 2; ++l)
+      std::printf(" light %u %.3f and %.3f ms%s", l, stats.lights[l].stageMs[uint32_t(coneshadow::Stage::Sort)],
+                  stats.lights[l].stageMs[uint32_t(coneshadow::Stage::Traversal)], l ? "\n" : ",");
+  }
 
   // ---- the same frame as files, for `coneshadow visibility` to answer on its own ----
   std::ofstream obj(out + "/scene.obj"), txt(out + "/samples.txt"), csv(out + "/masks.csv");

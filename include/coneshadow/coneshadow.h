@@ -112,16 +112,42 @@ struct FrameDesc {
   VkImage visibilityImage = VK_NULL_HANDLE;
 };
 
+// The stages of one light's work, in the order a frame records them: the index of LightStats::stageMs.
+enum class Stage : uint32_t {
+  LightTerm,  // the samples' light term for the light, which decides the lit pixels
+  Compact,    // the visibility set to lit, the lit pixels compacted (with their sort keys, where fused)
+  Order,      // the ray order measured on the GPU (a screen-order tree built and judged)
+  Keys,       // the rays' Hilbert keys (0 where the compaction made them)
+  Sort,       // the rays' radix sort
+  Build,      // the cone tree (and, for a far light, the triangles in its frame)
+  Traversal,  // the triangles down the cone tree, every batch
+  Leaves,     // the exact ray/triangle tests at the leaves, every batch, and the hits into the mask
+  Undecided,  // the lit pixels a traversal that outgrew its memory left undecided, marked 0.5
+};
+inline constexpr uint32_t kStageCount = 9;
+static_assert(uint32_t(Stage::Undecided) + 1 == kStageCount, "a Stage without its slot in stageMs");
+CONESHADOW_API const char* stageName(Stage stage);  // "light term", "compact", ... ("?" for no stage)
+
 struct LightStats {
   uint32_t litSamples = 0;     // pixels the light lights (the rays decided)
   uint64_t pairsTested = 0;    // (cone, triangle) pairs the traversal tested
   uint64_t leafTests = 0;      // exact ray/triangle tests at the leaves
   bool complete = true;        // false: the pairs outgrew the traversal's memory; the lit pixels no triangle
                                // had shadowed by then are 0.5 and later frames use smaller batches
+  double stageMs[kStageCount] = {};  // GPU milliseconds of each Stage (FrameStats::gpuTimes); 0: not run
 };
+// GPU times come from timestamps the library writes into your command buffer (a query pool per frame in
+// flight, made at create; timestampPeriod converts them). They are absent (gpuTimes false, every time 0)
+// on a queue family whose timestampValidBits is 0 (a device with timestampComputeAndGraphics false may
+// have one), and while that frame has not yet run to its end on the device: frameStats reads them
+// without waiting. Inside one submission a driver may misattribute time between adjacent stages (lavapipe runs
+// work behind the command stream: a stage can read ~0 while its neighbour absorbs it); gpuMs, the frame's
+// whole span, is reliable, and all lights' stages together add up to at most gpuMs.
 struct FrameStats {
-  bool available = false;         // false: that frame is not among the last framesInFlight recorded
+  bool available = false;          // false: that frame is not among the last framesInFlight recorded
   std::vector<LightStats> lights;  // one per light, in FrameDesc order
+  bool gpuTimes = false;           // the stage times and gpuMs below were measured
+  double gpuMs = 0;                // the GPU time of everything recordFrame recorded, in milliseconds
 };
 
 struct ContextAccess;
@@ -149,8 +175,8 @@ class CONESHADOW_API Context {
   // light count it allocates nothing, neither device memory nor host heap, moved instances (setTransform)
   // included; the frame after a mesh edit or a new set of instances allocates. It never submits or waits.
   void recordFrame(const FrameDesc& desc);
-  // The counts of a recorded frame (its lights in a vector: this call allocates). Call only once that
-  // frame's command buffer has completed.
+  // The counts and GPU times of a recorded frame (its lights in a vector: this call allocates). Call only
+  // once that frame's command buffer has completed; it never waits for the device.
   FrameStats frameStats(uint64_t frame) const;
   // Device memory the library holds, in bytes.
   uint64_t deviceBytes() const;
