@@ -197,10 +197,11 @@ int runRender(const Options& o) {
           << (f == n ? "\n" : "") << std::flush;
     };
   };
-  events.judged = [&](const harness::Frame&, const harness::Row& row) {
+  events.judged = [&](const harness::Frame& f, const harness::Row& row) {
     const MethodInfo& m = *spec.methods[row.method].info;
     if (!m.reference)
-      log << "  " << m.name << ": " << row.judged.runs.medianMs << " ms (" << stageText(row.judged.runs.output) << ")\n";
+      log << "  " << m.name << (several ? " under light " + std::to_string(f.light) : std::string()) << ": "
+          << row.judged.runs.medianMs << " ms (" << stageText(row.judged.runs.output) << ")\n";
   };
   harness::Results ran = harness::run(*ctx, spec, events);
 
