@@ -31,6 +31,15 @@ std::vector<FrameInput> inputsOf(std::span<const PreparedFrame* const> frames) {
   return inputs;
 }
 
+// Every light of a view run once by its method objects (LightMethods).
+std::vector<MethodOutput> runEveryLight(LightMethods methods, std::span<const FrameInput> inputs) {
+  if (methods.size() == 1) return runCountedLights(*methods.front(), inputs);
+  CS_CHECK(methods.size() == inputs.size(), methods.size() << " method objects for " << inputs.size() << " lights");
+  std::vector<MethodOutput> outs;
+  for (size_t l = 0; l < inputs.size(); ++l) outs.push_back(runCounted(*methods[l], inputs[l]));
+  return outs;
+}
+
 // A mask judged against its frame's reference and band.
 ErrorStats errorOf(const PreparedFrame& frame, const std::vector<float>& mask) {
   return compareVisibility(frame.gbuffer, mask, frame.reference.output.visibility, frame.band);
@@ -103,18 +112,19 @@ TimedRuns timeRuns(ShadowMethod& method, const FrameInput& input, uint32_t frame
                    double singleFrameAboveMs, const FrameInspector& inspect, bool lastFrame) {
   LightInspector each;
   if (inspect) each = [&](size_t, uint32_t frame, const MethodOutput& out) { inspect(frame, out); };
-  return std::move(timeLightRuns(method, {&input, 1}, frames, progress, singleFrameAboveMs, each, lastFrame).front());
+  ShadowMethod* one = &method;
+  return std::move(timeLightRuns({&one, 1}, {&input, 1}, frames, progress, singleFrameAboveMs, each, lastFrame).front());
 }
 
 // Each light's runs recorded apart. A light whose warm-up was slow enough to be its one timed frame
 // (singleFrameAboveMs) takes no more; the others' timed frames still run every light.
-std::vector<TimedRuns> timeLightRuns(ShadowMethod& method, std::span<const FrameInput> inputs, uint32_t frames,
+std::vector<TimedRuns> timeLightRuns(LightMethods methods, std::span<const FrameInput> inputs, uint32_t frames,
                                      const FrameProgress& progress, double singleFrameAboveMs,
                                      const LightInspector& inspect, bool lastFrame) {
   std::vector<RunRecorder> recorders(inputs.size(), RunRecorder(frames, singleFrameAboveMs, lastFrame));
   auto once = [&](uint32_t frame) {
     if (progress) progress(frame, frames);
-    std::vector<MethodOutput> outs = runCountedLights(method, inputs);
+    std::vector<MethodOutput> outs = runEveryLight(methods, inputs);
     if (inspect)
       for (size_t l = 0; l < outs.size(); ++l) inspect(l, frame, outs[l]);
     return outs;
@@ -187,21 +197,23 @@ std::unique_ptr<PreparedFrame> prepareFrame(vk::Context& ctx, Raster& raster, co
 Judged judge(const MethodInfo& info, ShadowMethod* method, const PreparedFrame& frame, uint32_t frames,
              const FrameProgress& progress, double singleFrameAboveMs) {
   const PreparedFrame* one = &frame;
-  return std::move(judgeLights(info, method, {&one, 1}, frames, progress, singleFrameAboveMs).front());
+  return std::move(
+      judgeLights(info, {&method, method ? 1u : 0u}, {&one, 1}, frames, progress, singleFrameAboveMs).front());
 }
 
-std::vector<Judged> judgeLights(const MethodInfo& info, ShadowMethod* method,
+std::vector<Judged> judgeLights(const MethodInfo& info, LightMethods methods,
                                 std::span<const PreparedFrame* const> frames, uint32_t timedFrames,
                                 const FrameProgress& progress, double singleFrameAboveMs) {
   std::vector<Judged> j(frames.size());
   if (info.reference) {
     for (size_t l = 0; l < frames.size(); ++l) j[l].runs = frames[l]->reference;
   } else {
-    CS_CHECK(method, "judge: no method object for " << info.name);
+    CS_CHECK(!methods.empty() && std::find(methods.begin(), methods.end(), nullptr) == methods.end(),
+             "judge: no method object for " << info.name);
     auto inspect = [&](size_t l, uint32_t, const MethodOutput& out) {
       j[l].perFrame.push_back({out.totalMs, errorOf(*frames[l], out.visibility)});
     };
-    std::vector<TimedRuns> runs = timeLightRuns(*method, inputsOf(frames), timedFrames, progress, singleFrameAboveMs,
+    std::vector<TimedRuns> runs = timeLightRuns(methods, inputsOf(frames), timedFrames, progress, singleFrameAboveMs,
                                                 inspect, info.progressive);
     for (size_t l = 0; l < frames.size(); ++l) j[l].runs = std::move(runs[l]);
   }
@@ -220,14 +232,16 @@ std::vector<Judged> judgeInterleaved(const std::vector<const MethodInfo*>& infos
                                      const std::vector<ShadowMethod*>& methods, const PreparedFrame& frame,
                                      uint32_t frames, const std::function<FrameProgress(size_t)>& progress) {
   const PreparedFrame* one = &frame;
+  std::vector<std::vector<ShadowMethod*>> objects;
+  for (ShadowMethod* m : methods) objects.push_back({m});
   std::vector<Judged> judged;
-  for (std::vector<Judged>& m : judgeInterleavedLights(infos, methods, {&one, 1}, frames, progress))
+  for (std::vector<Judged>& m : judgeInterleavedLights(infos, objects, {&one, 1}, frames, progress))
     judged.push_back(std::move(m.front()));
   return judged;
 }
 
 std::vector<std::vector<Judged>> judgeInterleavedLights(const std::vector<const MethodInfo*>& infos,
-                                                       const std::vector<ShadowMethod*>& methods,
+                                                       const std::vector<std::vector<ShadowMethod*>>& methods,
                                                        std::span<const PreparedFrame* const> frames,
                                                        uint32_t timedFrames,
                                                        const std::function<FrameProgress(size_t)>& progress) {
@@ -241,7 +255,8 @@ std::vector<std::vector<Judged>> judgeInterleavedLights(const std::vector<const 
   for (size_t k = 0; k < n; ++k) {
     recorders.emplace_back(lights, RunRecorder(timedFrames, kAlwaysTimeEveryFrame, infos[k]->progressive));
     if (progress) progresses[k] = progress(k);
-    CS_CHECK(infos[k]->reference || methods[k], "judgeInterleaved: no method object for " << infos[k]->name);
+    CS_CHECK(infos[k]->reference || (!methods[k].empty() && methods[k].front()),
+             "judgeInterleaved: no method object for " << infos[k]->name);
   }
   // One run of method k on every light, its progress shown and its error recorded frame by frame as
   // judge() does. The reference reruns each frame's own, a light at a time (its mask is the frame's
@@ -253,7 +268,7 @@ std::vector<std::vector<Judged>> judgeInterleavedLights(const std::vector<const 
       for (size_t l = 0; l < lights; ++l) outs.push_back(runCounted(*frames[l]->embree, inputs[l]));
       return outs;
     }
-    outs = runCountedLights(*methods[k], inputs);
+    outs = runEveryLight(methods[k], inputs);
     for (size_t l = 0; l < lights; ++l)
       judged[k][l].perFrame.push_back({outs[l].totalMs, errorOf(*frames[l], outs[l].visibility)});
     return outs;

@@ -57,10 +57,13 @@ using FrameInspector = std::function<void(uint32_t frame, const MethodOutput& ou
 TimedRuns timeRuns(ShadowMethod& method, const FrameInput& input, uint32_t frames, const FrameProgress& progress = {},
                    double singleFrameAboveMs = kAlwaysTimeEveryFrame, const FrameInspector& inspect = {},
                    bool lastFrame = false);
-// timeRuns on a view's lights together: each run one runCountedLights call; a TimedRuns per light, each
-// timed by its output's totalMs. inspect(light, frame, output).
+// A method's objects on a view's lights: one taking them together (ShadowMethod::sharesLights: its
+// runLights, counted by runCountedLights), or one a light, each run as alone (runCounted).
+using LightMethods = std::span<ShadowMethod* const>;
+// timeRuns on a view's lights: each run every light once; a TimedRuns per light, each timed by its
+// output's totalMs. inspect(light, frame, output).
 using LightInspector = std::function<void(size_t light, uint32_t frame, const MethodOutput& out)>;
-std::vector<TimedRuns> timeLightRuns(ShadowMethod& method, std::span<const FrameInput> inputs, uint32_t frames,
+std::vector<TimedRuns> timeLightRuns(LightMethods methods, std::span<const FrameInput> inputs, uint32_t frames,
                                      const FrameProgress& progress = {},
                                      double singleFrameAboveMs = kAlwaysTimeEveryFrame,
                                      const LightInspector& inspect = {}, bool lastFrame = false);
@@ -149,9 +152,9 @@ Judged judge(const MethodInfo& info, ShadowMethod* method, const PreparedFrame& 
 // judge(), making the method from its registry entry and settings first.
 Judged judge(const MethodInfo& info, const Settings& settings, vk::Context& ctx, const PreparedFrame& frame,
              uint32_t frames, const FrameProgress& progress = {}, double singleFrameAboveMs = kAlwaysTimeEveryFrame);
-// judge() on a view's frames, one a light, the method running their lights together (timeLightRuns): a
-// Judged a light, against that light's reference and band.
-std::vector<Judged> judgeLights(const MethodInfo& info, ShadowMethod* method,
+// judge() on a view's frames, one a light (timeLightRuns; methods empty for the reference): a Judged a
+// light, against that light's reference and band.
+std::vector<Judged> judgeLights(const MethodInfo& info, LightMethods methods,
                                 std::span<const PreparedFrame* const> frames, uint32_t timedFrames,
                                 const FrameProgress& progress = {}, double singleFrameAboveMs = kAlwaysTimeEveryFrame);
 
@@ -172,9 +175,9 @@ std::string methodDevice(const MethodInfo& info, const std::string& vulkanDevice
 std::vector<Judged> judgeInterleaved(const std::vector<const MethodInfo*>& infos,
                                      const std::vector<ShadowMethod*>& methods, const PreparedFrame& frame,
                                      uint32_t frames, const std::function<FrameProgress(size_t)>& progress = {});
-// judgeInterleaved on a view's frames, one a light, each method running their lights together: [method][light].
+// judgeInterleaved on a view's frames, one a light, each method's objects as LightMethods: [method][light].
 std::vector<std::vector<Judged>> judgeInterleavedLights(const std::vector<const MethodInfo*>& infos,
-                                                       const std::vector<ShadowMethod*>& methods,
+                                                       const std::vector<std::vector<ShadowMethod*>>& methods,
                                                        std::span<const PreparedFrame* const> frames,
                                                        uint32_t timedFrames,
                                                        const std::function<FrameProgress(size_t)>& progress = {});

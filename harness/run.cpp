@@ -90,17 +90,17 @@ void prepare(vk::Context& ctx, const RunSpec& spec, const Events& ev, std::share
   }
 }
 
-// Every method judged on a view's prepared frames, one a light: each method object made once for the view
-// runs all its lights together (ShadowMethod::runLights: the cone path records them in one submission),
-// and each light's row is judged against that light's own reference and band. A method's progress is
-// reported on the view's first frame.
+// Every method judged on a view's prepared frames, one a light, each light's row against that light's own
+// reference and band. A method that shares work between lights (ShadowMethod::sharesLights: the cone path
+// records them in one submission) is made once for the view and runs all its lights together, its progress
+// reported on the view's first frame; any other gets a fresh object a light, run as alone.
 void judgeView(vk::Context& ctx, const RunSpec& spec, const Events& ev, const std::vector<Frame*>& view) {
   std::vector<const PreparedFrame*> frames;
   for (Frame* f : view) {
     if (ev.step) ev.step(*f, "methods");
     frames.push_back(f->prepared.get());
   }
-  auto progressOf = [&](size_t k) { return ev.progress ? ev.progress(*view.front(), k) : FrameProgress{}; };
+  auto progressOf = [&](size_t k, size_t l = 0) { return ev.progress ? ev.progress(*view[l], k) : FrameProgress{}; };
   auto row = [&](const Frame& f, size_t k, Judged j) {
     const RunMethod& m = spec.methods[k];
     Row r;
@@ -112,16 +112,22 @@ void judgeView(vk::Context& ctx, const RunSpec& spec, const Events& ev, const st
     return r;
   };
   if (spec.interleave) {
-    // Every row's method made first, then their frames round-robin.
+    // Every row's method objects made first, then their frames round-robin.
     std::vector<std::unique_ptr<ShadowMethod>> owned;
     std::vector<const MethodInfo*> infos;
-    std::vector<ShadowMethod*> methods;
+    std::vector<std::vector<ShadowMethod*>> methods;
     for (const RunMethod& m : spec.methods) {
       infos.push_back(m.info);
       owned.push_back(makeMethod(m, ctx));
-      methods.push_back(owned.back().get());
+      methods.push_back({owned.back().get()});
+      if (owned.back() && !owned.back()->sharesLights())
+        while (methods.back().size() < view.size()) {
+          owned.push_back(makeMethod(m, ctx));
+          methods.back().push_back(owned.back().get());
+        }
     }
-    std::vector<std::vector<Judged>> judged = judgeInterleavedLights(infos, methods, frames, spec.frames, progressOf);
+    std::vector<std::vector<Judged>> judged =
+        judgeInterleavedLights(infos, methods, frames, spec.frames, [&](size_t k) { return progressOf(k); });
     owned.clear();
     for (size_t l = 0; l < view.size(); ++l)
       for (size_t k = 0; k < judged.size(); ++k) view[l]->rows.push_back(row(*view[l], k, std::move(judged[k][l])));
@@ -135,8 +141,19 @@ void judgeView(vk::Context& ctx, const RunSpec& spec, const Events& ev, const st
     std::vector<Judged> judged;
     std::string failure;
     try {
-      const std::unique_ptr<ShadowMethod> method = makeMethod(m, ctx);
-      judged = judgeLights(*m.info, method.get(), frames, spec.frames, progressOf(k), spec.singleFrameAboveMs);
+      std::unique_ptr<ShadowMethod> method = makeMethod(m, ctx);
+      if (!method || method->sharesLights()) {
+        ShadowMethod* one = method.get();
+        judged = judgeLights(*m.info, {&one, one ? 1u : 0u}, frames, spec.frames, progressOf(k),
+                             spec.singleFrameAboveMs);
+      } else {
+        for (size_t l = 0; l < frames.size(); ++l) {
+          if (l > 0) method = makeMethod(m, ctx);
+          judged.push_back(judge(*m.info, method.get(), *frames[l], spec.frames, progressOf(k, l),
+                                 spec.singleFrameAboveMs));
+          method.reset();  // its memory freed before the next light's
+        }
+      }
     } catch (const std::exception& e) {
       if (!spec.catchFailures) throw;
       failure = e.what();

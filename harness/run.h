@@ -1,9 +1,9 @@
 // The one run entry: every command (render, compare, compare --animate, --scaling, --light-distances),
 // every benchmark and the tests' reference frames call harness::run. It renders each view under each
 // light (the frame harness's prepareFrame: samples, epsilon, the Embree reference and its band), makes
-// every method of the run from its registry entry and judges it on the view's lights together
-// (judgeLights, or round-robin with judgeInterleavedLights: a method's runLights takes all of them), and
-// hands back one results row per (frame, method). The caller chooses the
+// every method of the run from its registry entry and judges it on the view's lights (judgeLights, or
+// round-robin with judgeInterleavedLights; a method that shares work between lights takes them all at
+// once, ShadowMethod::runLights), and hands back one results row per (frame, method). The caller chooses the
 // rows through the registry and writes what it wants of them; it names no method, not even the reference.
 // docs/ARCHITECTURE.md, "The run entry".
 #pragma once
@@ -106,7 +106,7 @@ struct Events {
   // frames are all prepared before its methods run: "methods" comes for each once the last is.
   std::function<void(const Frame&, const std::string& step)> step;
   // The progress of spec.methods[k] on a frame (k = kReferenceRuns: the frame's reference), or empty. A
-  // method runs a view's lights together: its progress is asked for on the view's first frame.
+  // method that takes a view's lights together is asked on the view's first frame.
   std::function<FrameProgress(const Frame&, size_t k)> progress;
   // A row judged (one after another: as it is judged; interleaved: all once the last is).
   std::function<void(const Frame&, const Row&)> judged;

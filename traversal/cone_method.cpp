@@ -110,6 +110,7 @@ class ConeMethod : public ShadowMethod {
   MethodOutput run(const FrameInput& frame) override { return outputOf(recorder_.runFrame(frame)); }
 
   // The view's lights in one submission (ConeRecorder::runLights), kConeMaxLightsTogether at a time.
+  bool sharesLights() const override { return true; }
   std::vector<MethodOutput> runLights(std::span<const FrameInput> frames) override {
     std::vector<MethodOutput> out;
     out.reserve(frames.size());
