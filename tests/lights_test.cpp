@@ -136,6 +136,11 @@ TEST(Lights, TwoLightFlagsGiveTwoRowsPerMethodWithTheMasksOfTwoOneLightRuns) {
       EXPECT_FALSE(fs::exists(out / (methods[m] + "_mask.png"))) << what << ": no unsuffixed image beside the lights'";
     }
     EXPECT_EQ(rows[l * 3 + 1]["error"]["misclassified_outside_band"], 0) << "the cone path is exact under light " << l;
+    // The cone path takes both lights in one frame; the cube map a light at a time, each as alone.
+    EXPECT_EQ(rows[l * 3 + 1]["stats"]["lights_in_frame"], 2);
+    EXPECT_EQ(rows[l * 3 + 1]["stats"]["submits_per_frame"], 1);
+    EXPECT_FALSE(rows[l * 3 + 2]["stats"].contains("lights_in_frame"));
+    EXPECT_EQ(rows[l * 3 + 2]["stats"]["submits_per_frame"], alone[2]["stats"]["submits_per_frame"]);
     EXPECT_FALSE(fs::exists(oneDump / "light0"));
     EXPECT_NE(r.out.find("result: cone on builtin/room light " + std::to_string(l) + " ("), std::string::npos) << r.out;
     fs::remove_all(one);
