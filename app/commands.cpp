@@ -199,9 +199,10 @@ int runRender(const Options& o) {
   };
   events.judged = [&](const harness::Frame& f, const harness::Row& row) {
     const MethodInfo& m = *spec.methods[row.method].info;
-    if (!m.reference)
-      log << "  " << m.name << (several ? " under light " + std::to_string(f.light) : std::string()) << ": "
-          << row.judged.runs.medianMs << " ms (" << stageText(row.judged.runs.output) << ")\n";
+    if (m.reference) return;
+    log << "  " << m.name;
+    if (several) log << " under light " << f.light;
+    log << ": " << row.judged.runs.medianMs << " ms (" << stageText(row.judged.runs.output) << ")\n";
   };
   harness::Results ran = harness::run(*ctx, spec, events);
 
