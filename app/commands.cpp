@@ -197,10 +197,12 @@ int runRender(const Options& o) {
           << (f == n ? "\n" : "") << std::flush;
     };
   };
-  events.judged = [&](const harness::Frame&, const harness::Row& row) {
+  events.judged = [&](const harness::Frame& f, const harness::Row& row) {
     const MethodInfo& m = *spec.methods[row.method].info;
-    if (!m.reference)
-      log << "  " << m.name << ": " << row.judged.runs.medianMs << " ms (" << stageText(row.judged.runs.output) << ")\n";
+    if (m.reference) return;
+    log << "  " << m.name;
+    if (several) log << " under light " << f.light;
+    log << ": " << row.judged.runs.medianMs << " ms (" << stageText(row.judged.runs.output) << ")\n";
   };
   harness::Results ran = harness::run(*ctx, spec, events);
 

@@ -15,17 +15,57 @@ double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+namespace {
+
+void writeCost(nlohmann::json& stats, const vk::HostCost& c) {
+  stats["submits_per_frame"] = c.submits;
+  stats["host_syncs_per_frame"] = c.hostSyncs;
+  stats["readback_bytes_per_frame"] = c.readbackBytes;
+  stats["allocations_per_frame"] = c.allocations;
+  stats["dispatches_per_frame"] = c.dispatches;
+}
+
+std::vector<FrameInput> inputsOf(std::span<const PreparedFrame* const> frames) {
+  std::vector<FrameInput> inputs;
+  for (const PreparedFrame* f : frames) inputs.push_back(f->input);
+  return inputs;
+}
+
+// Every light of a view run once by its method objects (LightMethods).
+std::vector<MethodOutput> runEveryLight(LightMethods methods, std::span<const FrameInput> inputs) {
+  if (methods.size() == 1) return runCountedLights(*methods.front(), inputs);
+  CS_CHECK(methods.size() == inputs.size(), methods.size() << " method objects for " << inputs.size() << " lights");
+  std::vector<MethodOutput> outs;
+  for (size_t l = 0; l < inputs.size(); ++l) outs.push_back(runCounted(*methods[l], inputs[l]));
+  return outs;
+}
+
+// A mask judged against its frame's reference and band.
+ErrorStats errorOf(const PreparedFrame& frame, const std::vector<float>& mask) {
+  return compareVisibility(frame.gbuffer, mask, frame.reference.output.visibility, frame.band);
+}
+
+}  // namespace
+
 MethodOutput runCounted(ShadowMethod& method, const FrameInput& input) {
   if (!input.vk) return method.run(input);
   const vk::HostCost before = input.vk->cost;
   MethodOutput out = method.run(input);
-  const vk::HostCost c = input.vk->cost - before;
-  out.stats["submits_per_frame"] = c.submits;
-  out.stats["host_syncs_per_frame"] = c.hostSyncs;
-  out.stats["readback_bytes_per_frame"] = c.readbackBytes;
-  out.stats["allocations_per_frame"] = c.allocations;
-  out.stats["dispatches_per_frame"] = c.dispatches;
+  writeCost(out.stats, input.vk->cost - before);
   return out;
+}
+
+std::vector<MethodOutput> runCountedLights(ShadowMethod& method, std::span<const FrameInput> inputs) {
+  vk::Context* ctx = inputs.empty() ? nullptr : inputs.front().vk;
+  const vk::HostCost before = ctx ? ctx->cost : vk::HostCost{};
+  std::vector<MethodOutput> outs = method.runLights(inputs);
+  CS_CHECK(outs.size() == inputs.size(),
+           method.name() << ": " << outs.size() << " outputs for a frame of " << inputs.size() << " lights");
+  for (MethodOutput& out : outs) {
+    if (ctx) writeCost(out.stats, ctx->cost - before);
+    if (inputs.size() > 1) out.stats["lights_in_frame"] = inputs.size();
+  }
+  return outs;
 }
 
 RunRecorder::RunRecorder(uint32_t frames, double singleFrameAboveMs, bool lastFrame)
@@ -70,18 +110,41 @@ TimedRuns RunRecorder::finish() {
 
 TimedRuns timeRuns(ShadowMethod& method, const FrameInput& input, uint32_t frames, const FrameProgress& progress,
                    double singleFrameAboveMs, const FrameInspector& inspect, bool lastFrame) {
-  RunRecorder r(frames, singleFrameAboveMs, lastFrame);
-  if (progress) progress(0, frames);
-  const MethodOutput first = runCounted(method, input);
-  if (inspect) inspect(0, first);
-  r.warmUp(first);
-  for (uint32_t i = 0; i < r.timedFrames(); ++i) {
-    if (progress) progress(i + 1, frames);
-    MethodOutput out = runCounted(method, input);
-    if (inspect) inspect(i + 1, out);
-    r.add(std::move(out));
+  LightInspector each;
+  if (inspect) each = [&](size_t, uint32_t frame, const MethodOutput& out) { inspect(frame, out); };
+  ShadowMethod* one = &method;
+  return std::move(timeLightRuns({&one, 1}, {&input, 1}, frames, progress, singleFrameAboveMs, each, lastFrame).front());
+}
+
+// Each light's runs recorded apart. A light whose warm-up was slow enough to be its one timed frame
+// (singleFrameAboveMs) takes no more; the others' timed frames still run every light.
+std::vector<TimedRuns> timeLightRuns(LightMethods methods, std::span<const FrameInput> inputs, uint32_t frames,
+                                     const FrameProgress& progress, double singleFrameAboveMs,
+                                     const LightInspector& inspect, bool lastFrame) {
+  std::vector<RunRecorder> recorders(inputs.size(), RunRecorder(frames, singleFrameAboveMs, lastFrame));
+  auto once = [&](uint32_t frame) {
+    if (progress) progress(frame, frames);
+    std::vector<MethodOutput> outs = runEveryLight(methods, inputs);
+    if (inspect)
+      for (size_t l = 0; l < outs.size(); ++l) inspect(l, frame, outs[l]);
+    return outs;
+  };
+  uint32_t timed = 0;
+  {
+    const std::vector<MethodOutput> first = once(0);
+    for (size_t l = 0; l < first.size(); ++l) {
+      recorders[l].warmUp(first[l]);
+      timed = std::max(timed, recorders[l].timedFrames());
+    }
   }
-  return r.finish();
+  for (uint32_t i = 0; i < timed; ++i) {
+    std::vector<MethodOutput> outs = once(i + 1);
+    for (size_t l = 0; l < outs.size(); ++l)
+      if (i < recorders[l].timedFrames()) recorders[l].add(std::move(outs[l]));
+  }
+  std::vector<TimedRuns> runs;
+  for (RunRecorder& r : recorders) runs.push_back(r.finish());
+  return runs;
 }
 
 FrameInput frameInputOf(const Scene& scene, const GBuffer& gbuffer, const DeviceGBuffer& device, vk::Context& ctx,
@@ -133,18 +196,28 @@ std::unique_ptr<PreparedFrame> prepareFrame(vk::Context& ctx, Raster& raster, co
 
 Judged judge(const MethodInfo& info, ShadowMethod* method, const PreparedFrame& frame, uint32_t frames,
              const FrameProgress& progress, double singleFrameAboveMs) {
-  Judged j;
+  const PreparedFrame* one = &frame;
+  return std::move(
+      judgeLights(info, {&method, method ? 1u : 0u}, {&one, 1}, frames, progress, singleFrameAboveMs).front());
+}
+
+std::vector<Judged> judgeLights(const MethodInfo& info, LightMethods methods,
+                                std::span<const PreparedFrame* const> frames, uint32_t timedFrames,
+                                const FrameProgress& progress, double singleFrameAboveMs) {
+  std::vector<Judged> j(frames.size());
   if (info.reference) {
-    j.runs = frame.reference;
+    for (size_t l = 0; l < frames.size(); ++l) j[l].runs = frames[l]->reference;
   } else {
-    CS_CHECK(method, "judge: no method object for " << info.name);
-    auto inspect = [&](uint32_t, const MethodOutput& out) {
-      j.perFrame.push_back({out.totalMs, compareVisibility(frame.gbuffer, out.visibility,
-                                                           frame.reference.output.visibility, frame.band)});
+    CS_CHECK(!methods.empty() && std::find(methods.begin(), methods.end(), nullptr) == methods.end(),
+             "judge: no method object for " << info.name);
+    auto inspect = [&](size_t l, uint32_t, const MethodOutput& out) {
+      j[l].perFrame.push_back({out.totalMs, errorOf(*frames[l], out.visibility)});
     };
-    j.runs = timeRuns(*method, frame.input, frames, progress, singleFrameAboveMs, inspect, info.progressive);
+    std::vector<TimedRuns> runs = timeLightRuns(methods, inputsOf(frames), timedFrames, progress, singleFrameAboveMs,
+                                                inspect, info.progressive);
+    for (size_t l = 0; l < frames.size(); ++l) j[l].runs = std::move(runs[l]);
   }
-  j.error = compareVisibility(frame.gbuffer, j.runs.output.visibility, frame.reference.output.visibility, frame.band);
+  for (size_t l = 0; l < frames.size(); ++l) j[l].error = errorOf(*frames[l], j[l].runs.output.visibility);
   return j;
 }
 
@@ -158,37 +231,62 @@ Judged judge(const MethodInfo& info, const Settings& settings, vk::Context& ctx,
 std::vector<Judged> judgeInterleaved(const std::vector<const MethodInfo*>& infos,
                                      const std::vector<ShadowMethod*>& methods, const PreparedFrame& frame,
                                      uint32_t frames, const std::function<FrameProgress(size_t)>& progress) {
+  const PreparedFrame* one = &frame;
+  std::vector<std::vector<ShadowMethod*>> objects;
+  for (ShadowMethod* m : methods) objects.push_back({m});
+  std::vector<Judged> judged;
+  for (std::vector<Judged>& m : judgeInterleavedLights(infos, objects, {&one, 1}, frames, progress))
+    judged.push_back(std::move(m.front()));
+  return judged;
+}
+
+std::vector<std::vector<Judged>> judgeInterleavedLights(const std::vector<const MethodInfo*>& infos,
+                                                       const std::vector<std::vector<ShadowMethod*>>& methods,
+                                                       std::span<const PreparedFrame* const> frames,
+                                                       uint32_t timedFrames,
+                                                       const std::function<FrameProgress(size_t)>& progress) {
   CS_CHECK(infos.size() == methods.size(), "judgeInterleaved: " << infos.size() << " methods' entries for "
                                                                 << methods.size() << " method objects");
-  const size_t n = infos.size();
-  std::vector<Judged> judged(n);
-  std::vector<RunRecorder> recorders;
+  const size_t n = infos.size(), lights = frames.size();
+  const std::vector<FrameInput> inputs = inputsOf(frames);
+  std::vector<std::vector<Judged>> judged(n, std::vector<Judged>(lights));
+  std::vector<std::vector<RunRecorder>> recorders;
   std::vector<FrameProgress> progresses(n);
-  std::vector<ShadowMethod*> run(n);
   for (size_t k = 0; k < n; ++k) {
-    recorders.emplace_back(frames, kAlwaysTimeEveryFrame, infos[k]->progressive);
+    recorders.emplace_back(lights, RunRecorder(timedFrames, kAlwaysTimeEveryFrame, infos[k]->progressive));
     if (progress) progresses[k] = progress(k);
-    // The reference reruns the frame's own (its mask is the frame's reference: Embree is deterministic).
-    run[k] = infos[k]->reference ? static_cast<ShadowMethod*>(frame.embree.get()) : methods[k];
-    CS_CHECK(run[k], "judgeInterleaved: no method object for " << infos[k]->name);
+    CS_CHECK(infos[k]->reference || (!methods[k].empty() && methods[k].front()),
+             "judgeInterleaved: no method object for " << infos[k]->name);
   }
-  // One run of method k, its progress shown and its error recorded frame by frame as judge() does.
+  // One run of method k on every light, its progress shown and its error recorded frame by frame as
+  // judge() does. The reference reruns each frame's own, a light at a time (its mask is the frame's
+  // reference: Embree is deterministic).
   auto once = [&](size_t k, uint32_t f) {
-    if (progresses[k]) progresses[k](f, frames);
-    MethodOutput out = runCounted(*run[k], frame.input);
-    if (!infos[k]->reference)
-      judged[k].perFrame.push_back({out.totalMs, compareVisibility(frame.gbuffer, out.visibility,
-                                                                   frame.reference.output.visibility, frame.band)});
-    return out;
+    if (progresses[k]) progresses[k](f, timedFrames);
+    std::vector<MethodOutput> outs;
+    if (infos[k]->reference) {
+      for (size_t l = 0; l < lights; ++l) outs.push_back(runCounted(*frames[l]->embree, inputs[l]));
+      return outs;
+    }
+    outs = runEveryLight(methods[k], inputs);
+    for (size_t l = 0; l < lights; ++l)
+      judged[k][l].perFrame.push_back({outs[l].totalMs, errorOf(*frames[l], outs[l].visibility)});
+    return outs;
   };
-  for (size_t k = 0; k < n; ++k) recorders[k].warmUp(once(k, 0));
-  for (uint32_t f = 1; f <= frames; ++f)
-    for (size_t k = 0; k < n; ++k) recorders[k].add(once(k, f));
   for (size_t k = 0; k < n; ++k) {
-    judged[k].runs = recorders[k].finish();
-    judged[k].error = compareVisibility(frame.gbuffer, judged[k].runs.output.visibility,
-                                        frame.reference.output.visibility, frame.band);
+    const std::vector<MethodOutput> outs = once(k, 0);
+    for (size_t l = 0; l < lights; ++l) recorders[k][l].warmUp(outs[l]);
   }
+  for (uint32_t f = 1; f <= timedFrames; ++f)
+    for (size_t k = 0; k < n; ++k) {
+      std::vector<MethodOutput> outs = once(k, f);
+      for (size_t l = 0; l < lights; ++l) recorders[k][l].add(std::move(outs[l]));
+    }
+  for (size_t k = 0; k < n; ++k)
+    for (size_t l = 0; l < lights; ++l) {
+      judged[k][l].runs = recorders[k][l].finish();
+      judged[k][l].error = errorOf(*frames[l], judged[k][l].runs.output.visibility);
+    }
   return judged;
 }
 

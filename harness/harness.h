@@ -11,6 +11,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,10 @@ double median(std::vector<double> values);
 // Vulkan context) in its stats under submits_per_frame, host_syncs_per_frame, readback_bytes_per_frame,
 // allocations_per_frame and dispatches_per_frame. Every command runs methods through this.
 MethodOutput runCounted(ShadowMethod& method, const FrameInput& input);
+// One run of `method` on a view's lights together (ShadowMethod::runLights: a frame a light), an output a
+// light. The host's cost is counted over that one call -- the view's frame of every light -- and written in
+// every output's stats under runCounted's keys, with lights_in_frame (the lights of the call) when above 1.
+std::vector<MethodOutput> runCountedLights(ShadowMethod& method, std::span<const FrameInput> inputs);
 
 // Called before each run of a method: frame 0 is the warm-up, then 1..frames.
 using FrameProgress = std::function<void(uint32_t frame, uint32_t frames)>;
@@ -52,6 +57,16 @@ using FrameInspector = std::function<void(uint32_t frame, const MethodOutput& ou
 TimedRuns timeRuns(ShadowMethod& method, const FrameInput& input, uint32_t frames, const FrameProgress& progress = {},
                    double singleFrameAboveMs = kAlwaysTimeEveryFrame, const FrameInspector& inspect = {},
                    bool lastFrame = false);
+// A method's objects on a view's lights: one taking them together (ShadowMethod::sharesLights: its
+// runLights, counted by runCountedLights), or one a light, each run as alone (runCounted).
+using LightMethods = std::span<ShadowMethod* const>;
+// timeRuns on a view's lights: each run every light once; a TimedRuns per light, each timed by its
+// output's totalMs. inspect(light, frame, output).
+using LightInspector = std::function<void(size_t light, uint32_t frame, const MethodOutput& out)>;
+std::vector<TimedRuns> timeLightRuns(LightMethods methods, std::span<const FrameInput> inputs, uint32_t frames,
+                                     const FrameProgress& progress = {},
+                                     double singleFrameAboveMs = kAlwaysTimeEveryFrame,
+                                     const LightInspector& inspect = {}, bool lastFrame = false);
 
 // One method's runs as timeRuns records them (timeRuns is this, in a loop), for callers that interleave
 // several methods' frames: the warm-up's output, then each timed frame's, then the summary.
@@ -137,6 +152,11 @@ Judged judge(const MethodInfo& info, ShadowMethod* method, const PreparedFrame& 
 // judge(), making the method from its registry entry and settings first.
 Judged judge(const MethodInfo& info, const Settings& settings, vk::Context& ctx, const PreparedFrame& frame,
              uint32_t frames, const FrameProgress& progress = {}, double singleFrameAboveMs = kAlwaysTimeEveryFrame);
+// judge() on a view's frames, one a light (timeLightRuns; methods empty for the reference): a Judged a
+// light, against that light's reference and band.
+std::vector<Judged> judgeLights(const MethodInfo& info, LightMethods methods,
+                                std::span<const PreparedFrame* const> frames, uint32_t timedFrames,
+                                const FrameProgress& progress = {}, double singleFrameAboveMs = kAlwaysTimeEveryFrame);
 
 // The results row of a judged method: the method's output and error, and the statistics every row
 // carries (frames, min/max, the clock, determinism, raster time, lit and band samples, the device).
@@ -155,6 +175,12 @@ std::string methodDevice(const MethodInfo& info, const std::string& vulkanDevice
 std::vector<Judged> judgeInterleaved(const std::vector<const MethodInfo*>& infos,
                                      const std::vector<ShadowMethod*>& methods, const PreparedFrame& frame,
                                      uint32_t frames, const std::function<FrameProgress(size_t)>& progress = {});
+// judgeInterleaved on a view's frames, one a light, each method's objects as LightMethods: [method][light].
+std::vector<std::vector<Judged>> judgeInterleavedLights(const std::vector<const MethodInfo*>& infos,
+                                                       const std::vector<std::vector<ShadowMethod*>>& methods,
+                                                       std::span<const PreparedFrame* const> frames,
+                                                       uint32_t timedFrames,
+                                                       const std::function<FrameProgress(size_t)>& progress = {});
 
 
 

@@ -58,8 +58,9 @@ void finish(Frame& f, const RunSpec& spec, const Events& ev, Results& res) {
   res.frames.push_back(std::move(f));
 }
 
-// One view under one light: prepared (samples, reference, band), then every method judged on it.
-void runFrame(vk::Context& ctx, const RunSpec& spec, const Events& ev, std::shared_ptr<Raster>& raster, Frame& f) {
+// One view under one light prepared: its samples, reference and band (catchFailures: a failure leaves
+// the frame its reason and no prepared frame).
+void prepare(vk::Context& ctx, const RunSpec& spec, const Events& ev, std::shared_ptr<Raster>& raster, Frame& f) {
   auto step = [&](const std::string& s) {
     if (ev.step) ev.step(f, s);
   };
@@ -86,50 +87,85 @@ void runFrame(vk::Context& ctx, const RunSpec& spec, const Events& ev, std::shar
     if (!spec.catchFailures) throw;
     f.prepared.reset();
     f.failure = e.what();
-    return;
   }
-  step("methods");
-  const PreparedFrame& frame = *f.prepared;
-  auto progressOf = [&](size_t k) { return ev.progress ? ev.progress(f, k) : FrameProgress{}; };
-  auto row = [&](size_t k, Judged j) {
+}
+
+// Every method judged on a view's prepared frames, one a light, each light's row against that light's own
+// reference and band. A method that shares work between lights (ShadowMethod::sharesLights: the cone path
+// records them in one submission) is made once for the view and runs all its lights together, its progress
+// reported on the view's first frame; any other gets a fresh object a light, run as alone.
+void judgeView(vk::Context& ctx, const RunSpec& spec, const Events& ev, const std::vector<Frame*>& view) {
+  std::vector<const PreparedFrame*> frames;
+  for (Frame* f : view) {
+    if (ev.step) ev.step(*f, "methods");
+    frames.push_back(f->prepared.get());
+  }
+  auto progressOf = [&](size_t k, size_t l = 0) { return ev.progress ? ev.progress(*view[l], k) : FrameProgress{}; };
+  auto row = [&](const Frame& f, size_t k, Judged j) {
     const RunMethod& m = spec.methods[k];
     Row r;
     r.method = k;
-    r.result = resultRow(*m.info, m.label, frame, j, m.defaults);
+    r.result = resultRow(*m.info, m.label, *f.prepared, j, m.defaults);
     r.result.stats["light_index"] = f.light;  // which of the run's lights (RunSpec::lights), and where
     r.result.stats["light"] = {f.lightPosition.x, f.lightPosition.y, f.lightPosition.z};
     r.judged = std::move(j);
     return r;
   };
   if (spec.interleave) {
-    // Every row's method made first, then their frames round-robin.
+    // Every row's method objects made first, then their frames round-robin.
     std::vector<std::unique_ptr<ShadowMethod>> owned;
     std::vector<const MethodInfo*> infos;
-    std::vector<ShadowMethod*> methods;
+    std::vector<std::vector<ShadowMethod*>> methods;
     for (const RunMethod& m : spec.methods) {
       infos.push_back(m.info);
       owned.push_back(makeMethod(m, ctx));
-      methods.push_back(owned.back().get());
+      methods.push_back({owned.back().get()});
+      if (owned.back() && !owned.back()->sharesLights())
+        while (methods.back().size() < view.size()) {
+          owned.push_back(makeMethod(m, ctx));
+          methods.back().push_back(owned.back().get());
+        }
     }
-    std::vector<Judged> judged = judgeInterleaved(infos, methods, frame, spec.frames, progressOf);
+    std::vector<std::vector<Judged>> judged =
+        judgeInterleavedLights(infos, methods, frames, spec.frames, [&](size_t k) { return progressOf(k); });
     owned.clear();
-    for (size_t k = 0; k < judged.size(); ++k) f.rows.push_back(row(k, std::move(judged[k])));
+    for (size_t l = 0; l < view.size(); ++l)
+      for (size_t k = 0; k < judged.size(); ++k) view[l]->rows.push_back(row(*view[l], k, std::move(judged[k][l])));
     if (ev.judged)
-      for (const Row& r : f.rows) ev.judged(f, r);
+      for (const Frame* f : view)
+        for (const Row& r : f->rows) ev.judged(*f, r);
     return;
   }
   for (size_t k = 0; k < spec.methods.size(); ++k) {
     const RunMethod& m = spec.methods[k];
-    Row r;
-    r.method = k;
+    std::vector<Judged> judged;
+    std::string failure;
     try {
-      r = row(k, judge(*m.info, m.settings, ctx, frame, spec.frames, progressOf(k), spec.singleFrameAboveMs));
+      std::unique_ptr<ShadowMethod> method = makeMethod(m, ctx);
+      if (!method || method->sharesLights()) {
+        ShadowMethod* one = method.get();
+        judged = judgeLights(*m.info, {&one, one ? 1u : 0u}, frames, spec.frames, progressOf(k),
+                             spec.singleFrameAboveMs);
+      } else {
+        for (size_t l = 0; l < frames.size(); ++l) {
+          if (l > 0) method = makeMethod(m, ctx);
+          judged.push_back(judge(*m.info, method.get(), *frames[l], spec.frames, progressOf(k, l),
+                                 spec.singleFrameAboveMs));
+          method.reset();  // its memory freed before the next light's
+        }
+      }
     } catch (const std::exception& e) {
       if (!spec.catchFailures) throw;
-      r.failure = e.what();
+      failure = e.what();
     }
-    f.rows.push_back(std::move(r));
-    if (ev.judged) ev.judged(f, f.rows.back());
+    for (size_t l = 0; l < view.size(); ++l) {
+      Row r;
+      r.method = k;
+      if (failure.empty()) r = row(*view[l], k, std::move(judged[l]));
+      else r.failure = failure;
+      view[l]->rows.push_back(std::move(r));
+      if (ev.judged) ev.judged(*view[l], view[l]->rows.back());
+    }
   }
 }
 
@@ -266,17 +302,23 @@ Results run(vk::Context& ctx, const RunSpec& spec, const Events& ev) {
     return res;
   }
   std::shared_ptr<Raster> raster;  // one camera pass for every frame: the scene's geometry uploaded once
-  for (size_t v = 0; v < spec.views.size(); ++v)
-    for (size_t l = 0; l < spec.lights.size(); ++l) {
-      Frame f;
+  for (size_t v = 0; v < spec.views.size(); ++v) {
+    // The view under each light prepared, then the methods on all of them.
+    std::vector<Frame> frames(spec.lights.size());
+    std::vector<Frame*> prepared;
+    for (size_t l = 0; l < frames.size(); ++l) {
+      Frame& f = frames[l];
       f.view = v;
       f.light = l;
       f.viewName = spec.views[v].name;
       f.camera = spec.views[v].camera;
       f.lightPosition = spec.lights[l];
-      runFrame(ctx, spec, ev, raster, f);
-      finish(f, spec, ev, res);
+      prepare(ctx, spec, ev, raster, f);
+      if (f.prepared) prepared.push_back(&f);
     }
+    if (!prepared.empty()) judgeView(ctx, spec, ev, prepared);
+    for (Frame& f : frames) finish(f, spec, ev, res);
+  }
   return res;
 }
 

@@ -1,8 +1,9 @@
 // The one run entry: every command (render, compare, compare --animate, --scaling, --light-distances),
 // every benchmark and the tests' reference frames call harness::run. It renders each view under each
 // light (the frame harness's prepareFrame: samples, epsilon, the Embree reference and its band), makes
-// every method of the run from its registry entry and judges it there (one after another, or round-robin
-// with judgeInterleaved), and hands back one results row per (frame, method). The caller chooses the
+// every method of the run from its registry entry and judges it on the view's lights (judgeLights, or
+// round-robin with judgeInterleavedLights; a method that shares work between lights takes them all at
+// once, ShadowMethod::runLights), and hands back one results row per (frame, method). The caller chooses the
 // rows through the registry and writes what it wants of them; it names no method, not even the reference.
 // docs/ARCHITECTURE.md, "The run entry".
 #pragma once
@@ -101,9 +102,11 @@ struct Results {
 // What run reports as it goes (each optional).
 inline constexpr size_t kReferenceRuns = SIZE_MAX;
 struct Events {
-  // Before each step of a frame: "raster", "reference", "band", "methods" (a motion: "warm-up").
+  // Before each step of a frame: "raster", "reference", "band", "methods" (a motion: "warm-up"). A view's
+  // frames are all prepared before its methods run: "methods" comes for each once the last is.
   std::function<void(const Frame&, const std::string& step)> step;
-  // The progress of spec.methods[k] on a frame (k = kReferenceRuns: the frame's reference), or empty.
+  // The progress of spec.methods[k] on a frame (k = kReferenceRuns: the frame's reference), or empty. A
+  // method that takes a view's lights together is asked on the view's first frame.
   std::function<FrameProgress(const Frame&, size_t k)> progress;
   // A row judged (one after another: as it is judged; interleaved: all once the last is).
   std::function<void(const Frame&, const Row&)> judged;

@@ -3,6 +3,7 @@
 #pragma once
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -73,6 +74,19 @@ class ShadowMethod {
   virtual ~ShadowMethod() = default;
   virtual std::string name() const = 0;
   virtual MethodOutput run(const FrameInput& frame) = 0;
+  // One view under several lights: a frame each (the same scene, camera and size; its own light and light
+  // term), an output each, in order. Each frame carries its own samples because the light term and the lit
+  // samples depend on the light. By default run() a light at a time; a method that shares work between the
+  // lights (the cone path: one submission for all of them) overrides it, its masks those of run(), and
+  // says so in sharesLights(): the harness then gives it a view's lights together, and any other method a
+  // fresh object a light, each run as alone.
+  virtual bool sharesLights() const { return false; }
+  virtual std::vector<MethodOutput> runLights(std::span<const FrameInput> frames) {
+    std::vector<MethodOutput> out;
+    out.reserve(frames.size());
+    for (const FrameInput& f : frames) out.push_back(run(f));
+    return out;
+  }
 };
 
 }  // namespace cs

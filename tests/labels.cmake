@@ -106,6 +106,7 @@ set(cs_gpu_cli_tests
   Cli.RenderRunsSeveralMethodsOnOneSetOfSamplesAndTheConePathIsExact
   Cli.RenderWritesImagesResultsAndDump
   Cli.UserScenesInObjPlyAndStlLoadAndRender
+  Lights.TheConePathRecordsAViewsLightsInOneSubmissionWithTheMasksOfOneLightRuns
   Compare.SkipsWhatTheDeviceCannotRunAndSaysWhy
   Compare.TinyBuiltinRunWritesConsistentReports
   DynamicCompare.AnimatedFileRunsOverItsKeyTimes
@@ -150,6 +151,7 @@ set(cs_slow_tests
   ConeHardCases.NonFiniteTrianglesAreDroppedAsEmbreeDropsThem
   ConeHardCases.OneHugeTriangleCoveringTheView
   ConeMethod.ALastExpansionThatOverflowsIsRedoneWithTheSameMask
+  ConeMethod.ALightThatOverflowsAFrameOfSeveralIsRunAgainAloneWithItsOneLightMask
   ConeMethod.LeafPairsOfFourSixteenOrSixtyFourRaysGiveTheSameMaskAndSkipTheLastSteps
   ConeMethod.MaskEqualsTheLeafTestOnEveryPairSortedOrNot
   ConeMethod.SpheresWrittenOnSeveralThreadsKeepTheMask

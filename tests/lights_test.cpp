@@ -1,7 +1,8 @@
 // Every point light of a scene (issue 49, item 3): --light given several times and --all-lights. Each
 // light is a frame of its own, judged against Embree for that light: one row per (method, light), with
 // the masks of separate one-light runs, the light's index and position in every row, its images and
-// dump named by its index; a single light keeps the names it always had.
+// dump named by its index; a single light keeps the names it always had. A method runs a view's lights
+// together: the cone path records them in one submission.
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -135,6 +136,11 @@ TEST(Lights, TwoLightFlagsGiveTwoRowsPerMethodWithTheMasksOfTwoOneLightRuns) {
       EXPECT_FALSE(fs::exists(out / (methods[m] + "_mask.png"))) << what << ": no unsuffixed image beside the lights'";
     }
     EXPECT_EQ(rows[l * 3 + 1]["error"]["misclassified_outside_band"], 0) << "the cone path is exact under light " << l;
+    // The cone path takes both lights in one frame; the cube map a light at a time, each as alone.
+    EXPECT_EQ(rows[l * 3 + 1]["stats"]["lights_in_frame"], 2);
+    EXPECT_EQ(rows[l * 3 + 1]["stats"]["submits_per_frame"], 1);
+    EXPECT_FALSE(rows[l * 3 + 2]["stats"].contains("lights_in_frame"));
+    EXPECT_EQ(rows[l * 3 + 2]["stats"]["submits_per_frame"], alone[2]["stats"]["submits_per_frame"]);
     EXPECT_FALSE(fs::exists(oneDump / "light0"));
     EXPECT_NE(r.out.find("result: cone on builtin/room light " + std::to_string(l) + " ("), std::string::npos) << r.out;
     fs::remove_all(one);
@@ -142,6 +148,63 @@ TEST(Lights, TwoLightFlagsGiveTwoRowsPerMethodWithTheMasksOfTwoOneLightRuns) {
   }
   fs::remove_all(out);
   fs::remove_all(dump);
+}
+
+// The cone path records a view's lights together (ShadowMethod::runLights): three lights make one
+// submission and one host wait a frame, and each light's mask is bit for bit a run of that light alone;
+// a two-pass variant (its host decides between submissions) runs a frame a light and says so.
+TEST(Lights, TheConePathRecordsAViewsLightsInOneSubmissionWithTheMasksOfOneLightRuns) {
+  const std::vector<std::string> lights = {"1,2.5,0.5", "-1.5,2,1", "0.5,3,-1"};
+  const std::string common = " --methods cone --view room --width 64 --height 64 --frames 2 --quiet";
+  std::string flags;
+  for (const std::string& l : lights) flags += " --light " + l;
+  const fs::path out = tempDir("together"), dump = tempDir("together_dump");
+  CliRun r = cli("render" + common + flags + " --out " + out.string() + " --dump " + dump.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const json rows = readJson(out / "results.json");
+  ASSERT_EQ(rows.size(), 6u) << "per light: the reference's row and the cone path's";
+  for (size_t l = 0; l < lights.size(); ++l) {
+    const std::string what = "light " + std::to_string(l);
+    const json& row = rows[2 * l + 1];
+    ASSERT_EQ(row["method"], "cone") << what;
+    const json& st = row["stats"];
+    EXPECT_EQ(st["submits_per_frame"], 1) << what << ": one submission for the view's three lights";
+    EXPECT_EQ(st["host_syncs_per_frame"], 1) << what;
+    EXPECT_EQ(st["allocations_per_frame"], 0) << what << ": warm frames allocate nothing";
+    EXPECT_EQ(st["lights_in_frame"], 3) << what;
+    EXPECT_EQ(st["lights_frame"]["together"], true) << what;
+    EXPECT_EQ(st["traversal_path"], "one submission for 3 lights") << what;
+    EXPECT_NEAR(row["total_ms"].get<double>() * 3, st["lights_frame"]["frame_ms"].get<double>(),
+                1e-6 * st["lights_frame"]["frame_ms"].get<double>())
+        << what << ": a light's time is its even share of the frame on a device without trusted timestamps";
+    const fs::path one = tempDir("alone" + std::to_string(l)), oneDump = tempDir("alone_dump" + std::to_string(l));
+    CliRun single = cli("render" + common + " --light " + lights[l] + " --out " + one.string() + " --dump " +
+                        oneDump.string());
+    ASSERT_EQ(single.code, 0) << single.out;
+    const json alone = readJson(one / "results.json");
+    EXPECT_EQ(alone[1]["stats"]["submits_per_frame"], 1) << what;
+    EXPECT_FALSE(alone[1]["stats"].contains("lights_in_frame")) << what;
+    EXPECT_EQ(row["error"], alone[1]["error"]) << what;
+    EXPECT_EQ(readBytes(dump / ("light" + std::to_string(l)) / "visibility_cone.pfm"),
+              readBytes(oneDump / "visibility_cone.pfm"))
+        << what;
+    fs::remove_all(one);
+    fs::remove_all(oneDump);
+  }
+  const fs::path twoPass = tempDir("two_pass");
+  r = cli("render" + common + flags + " --variant PreciseEATP --out " + twoPass.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const json tp = readJson(twoPass / "results.json");
+  for (size_t l = 0; l < lights.size(); ++l) {
+    const json& st = tp[2 * l + 1]["stats"];
+    EXPECT_EQ(st["lights_frame"]["together"], false) << l;
+    EXPECT_NE(st["lights_frame"]["why"].get<std::string>().find("two-pass"), std::string::npos) << st.dump();
+    EXPECT_GT(st["submits_per_frame"].get<uint64_t>(), 3u) << "several submissions a light";
+    EXPECT_EQ(tp[2 * l + 1]["error"]["misclassified_outside_band"], 0) << l;
+  }
+  fs::remove_all(out);
+  fs::remove_all(dump);
+  fs::remove_all(twoPass);
 }
 
 TEST(Lights, AllLightsTakesEveryPointLightOfTheFile) {

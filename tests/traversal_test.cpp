@@ -1252,6 +1252,54 @@ TEST(ConeMethod, ALastExpansionThatOverflowsIsRedoneWithTheSameMask) {
   }
 }
 
+// A frame of several lights (the method's runLights: one submission for all of them) in an arena too
+// small for some light's pairs: that light is run again alone, and every light's mask is its one-light
+// frame's in a roomy arena -- as it is when the roomy arena holds the three lights in one submission.
+// The batches learnt from the overflows, a later frame fits the three lights in one submission again.
+TEST(ConeMethod, ALightThatOverflowsAFrameOfSeveralIsRunAgainAloneWithItsOneLightMask) {
+  auto& ctx = test::context();
+  HeightFieldFrame field(48);
+  const std::vector<vec3> lights = {field.frame.light, vec3(0.4f, 1.2f, 0.3f), vec3(-0.5f, 0.9f, -0.2f)};
+  std::vector<DeviceGBuffer> dev(lights.size());
+  std::vector<GBuffer> host(lights.size());
+  std::vector<FrameInput> frames;
+  std::vector<std::vector<float>> want;
+  for (size_t l = 0; l < lights.size(); ++l) {
+    field.raster.render(automaticCamera(field.scene), lights[l], 48, 48, dev[l], &host[l]);
+    frames.push_back(frameInputOf(field.scene, host[l], dev[l], ctx, lights[l], field.frame.epsilon));
+    want.push_back(runCounted(*makeConeMethod(ctx), frames.back()).visibility);
+  }
+  const std::vector<MethodOutput> roomy = runCountedLights(*makeConeMethod(ctx), frames);
+  for (size_t l = 0; l < lights.size(); ++l) {
+    EXPECT_EQ(roomy[l].visibility, want[l]) << "light " << l;
+    EXPECT_EQ(roomy[l].stats["submits_per_frame"], 1) << "light " << l;
+    EXPECT_FALSE(roomy[l].stats["lights_frame"].contains("alone")) << "light " << l;
+  }
+  ConeOptions small;
+  small.traversalMemoryBytes = uint64_t(256) << 10;
+  auto method = makeConeMethod(ctx, small);
+  bool alone = false;
+  std::vector<MethodOutput> outs;
+  for (int k = 0; k < 3; ++k) {
+    outs = runCountedLights(*method, frames);
+    std::printf("  frame %d: %llu submits\n", k, (unsigned long long)outs[0].stats["submits_per_frame"].get<uint64_t>());
+    for (size_t l = 0; l < lights.size(); ++l) {
+      const nlohmann::json& lf = outs[l].stats["lights_frame"];
+      EXPECT_EQ(lf["lights"], 3) << lf.dump();
+      if (!lf["together"].get<bool>()) std::printf("    light %zu: %s\n", l, lf["why"].get<std::string>().c_str());
+      if (lf.contains("alone")) {
+        alone = true;
+        std::printf("    light %zu: %s\n", l, lf["alone"].get<std::string>().c_str());
+      }
+      EXPECT_EQ(outs[l].visibility, want[l]) << "light " << l << ", frame " << k;
+    }
+  }
+  EXPECT_TRUE(alone) << "no light overflowed: the test shows nothing";
+  // The batches learnt from the overflows: the last frame's three lights fit one submission again.
+  EXPECT_EQ(outs[0].stats["submits_per_frame"], 1);
+  EXPECT_FALSE(outs[0].stats["lights_frame"].contains("alone"));
+}
+
 // That expansion as a lane per super cluster pair (its 64 triangles in one invocation, STEP_EXPAND_SUPER,
 // which tests the super cluster's sphere, its clusters', their groups' and their triangles', each only
 // against the children the one before kept) or a lane per triangle pair: the same steps above them, fewer

@@ -36,6 +36,7 @@ KEEP=(
   Compare.SkipsWhatTheDeviceCannotRunAndSaysWhy               # CONESHADOW_HIDE_FEATURES; skipped sweep points
   TinyGltf.CameraNamesNeverBecomePathsOutsideTheOutputFolder  # camera names made file names
   Api.EightLightsInOneFrameEqualOneLightFramesOnTheBuiltinScene # the engine's frames of 2..8 lights
+  ConeMethod.ALightThatOverflowsAFrameOfSeveralIsRunAgainAloneWithItsOneLightMask # a light run again alone
 )
 
 cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" \

@@ -3,6 +3,7 @@
 // docs/ARCHITECTURE.md, "The cone path's code".
 #include "traversal/cone_method.h"
 
+#include <algorithm>
 #include <string>
 
 #include "core/error.h"
@@ -92,6 +93,12 @@ nlohmann::json statsJson(const ConeFrameStats& s) {
     j["memory_budget_bytes"] = s.memoryBudgetBytes;
     j["memory_budget_used_bytes"] = s.memoryBudgetUsedBytes;
   }
+  if (s.lights) {
+    const ConeFrameStats::Lights& l = *s.lights;
+    j["lights_frame"] = {{"lights", l.count}, {"together", l.together}, {"frame_ms", l.frameMs}, {"total_ms", l.share}};
+    if (!l.why.empty()) j["lights_frame"]["why"] = l.why;
+    if (!l.alone.empty()) j["lights_frame"]["alone"] = l.alone;
+  }
   return j;
 }
 
@@ -100,8 +107,21 @@ class ConeMethod : public ShadowMethod {
   ConeMethod(vk::Context& ctx, const ConeOptions& options) : recorder_(ctx, options) {}
   std::string name() const override { return "cone"; }
 
-  MethodOutput run(const FrameInput& frame) override {
-    ConeRecorder::Frame f = recorder_.runFrame(frame);
+  MethodOutput run(const FrameInput& frame) override { return outputOf(recorder_.runFrame(frame)); }
+
+  // The view's lights in one submission (ConeRecorder::runLights), kConeMaxLightsTogether at a time.
+  bool sharesLights() const override { return true; }
+  std::vector<MethodOutput> runLights(std::span<const FrameInput> frames) override {
+    std::vector<MethodOutput> out;
+    out.reserve(frames.size());
+    for (size_t at = 0; at < frames.size(); at += kConeMaxLightsTogether)
+      for (ConeRecorder::Frame& f : recorder_.runLights(frames.subspan(at, std::min(kConeMaxLightsTogether, frames.size() - at))))
+        out.push_back(outputOf(std::move(f)));
+    return out;
+  }
+
+ private:
+  MethodOutput outputOf(ConeRecorder::Frame f) {
     MethodOutput out;
     out.visibility = std::move(f.mask);  // 1.0f or 0.0f bits only: no NaN or inf can appear
     out.totalMs = f.totalMs;
@@ -126,7 +146,6 @@ class ConeMethod : public ShadowMethod {
     return out;
   }
 
- private:
   ConeRecorder recorder_;
 };
 

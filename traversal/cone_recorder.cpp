@@ -2,6 +2,7 @@
 #include "traversal/cone_recorder.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -287,24 +288,7 @@ ConeRecorder::Frame ConeRecorder::runFrame(const FrameInput& frame) {
   // (traversal.h): the keys, the tree and the pass tests in it, the leaves in the world.
   chooseFrame(frame.light);
   ConeFrameStats& stats = out.stats;
-  stats.triangles = layout_.triangleCount();
-  stats.trianglesDropped = layout_.droppedTriangles();
-  stats.triangleBuffers = layout_.triangles().size();
-  stats.sorted = options_.sorted;
-  stats.variant = coneVariantName(options_);
-  stats.test = options_.test == ConeTest::Sphere ? "sphere" : "precise";
-  stats.frontFaceCulling = options_.frontFaceCulling;
-  stats.earlyAccept = options_.earlyAccept && options_.test == ConeTest::Precise;
-  stats.twoPass = options_.twoPass;
-  stats.epsilon = eps;
-  stats.far = frame_.far;
-  stats.frameScale = frame_.scale;
-  if (frame_.far) {
-    stats.frameSigma = frame_.sigma;
-    stats.frameBeta = frame_.beta;
-    stats.lightDistanceHalfDiagonals =
-        frame_.distance / std::max(1e-30, 0.5 * double(glm::length(layout_.boundsHi() - layout_.boundsLo())));
-  }
+  describeFrame(stats, eps);
   const traversal::TraversalInput in = traversalInput(frame.light, eps);
   if (out.uploadMs > 0) out.stages.push_back({"upload", out.uploadMs, StageKind::Rebuild});
   if (options_.twoPass) {
@@ -327,6 +311,33 @@ ConeRecorder::Frame ConeRecorder::runFrame(const FrameInput& frame) {
     split.after = std::max(0.0, out.totalMs - split.prepareAndRecord - split.submitAndWait);
     stats.hostSplit = split;
   }
+  finishFrame(out);
+  return out;
+}
+
+void ConeRecorder::describeFrame(ConeFrameStats& stats, float eps) const {
+  stats.triangles = layout_.triangleCount();
+  stats.trianglesDropped = layout_.droppedTriangles();
+  stats.triangleBuffers = layout_.triangles().size();
+  stats.sorted = options_.sorted;
+  stats.variant = coneVariantName(options_);
+  stats.test = options_.test == ConeTest::Sphere ? "sphere" : "precise";
+  stats.frontFaceCulling = options_.frontFaceCulling;
+  stats.earlyAccept = options_.earlyAccept && options_.test == ConeTest::Precise;
+  stats.twoPass = options_.twoPass;
+  stats.epsilon = eps;
+  stats.far = frame_.far;
+  stats.frameScale = frame_.scale;
+  if (frame_.far) {
+    stats.frameSigma = frame_.sigma;
+    stats.frameBeta = frame_.beta;
+    stats.lightDistanceHalfDiagonals =
+        frame_.distance / std::max(1e-30, 0.5 * double(glm::length(layout_.boundsHi() - layout_.boundsLo())));
+  }
+}
+
+void ConeRecorder::finishFrame(Frame& out) const {
+  ConeFrameStats& stats = out.stats;
   for (StageTime& st : out.stages) {  // the ray tree is the cone path's shadow structure, rebuilt every frame
     if (st.name == "build" || st.name == "rebuild") st.kind = StageKind::Rebuild;
     if (st.name == "traversal" || st.name == "leaves") st.kind = StageKind::Lookup;
@@ -339,6 +350,174 @@ ConeRecorder::Frame ConeRecorder::runFrame(const FrameInput& frame) {
     stats.traversalBytes = traversal_->bytesAllocated();
   }
   stats.hostPeakBytes = layout_.hostPeakBytes();
+}
+
+std::vector<ConeRecorder::Frame> ConeRecorder::runLights(std::span<const FrameInput> frames) {
+  const size_t n = frames.size();
+  CS_CHECK(n >= 1 && n <= kConeMaxLightsTogether,
+           "cone: " << n << " lights in one frame; it takes 1 to " << kConeMaxLightsTogether);
+  const FrameInput& first = frames.front();
+  CS_CHECK(first.scene && first.device, "cone: the frame needs a scene and the G-buffer on the GPU");
+  for (const FrameInput& f : frames)
+    CS_CHECK(f.scene == first.scene && f.vk == first.vk && f.device && f.device->width == first.device->width &&
+                 f.device->height == first.device->height,
+             "cone: the lights of one frame share its scene, its Vulkan context and its samples' size");
+  std::vector<Frame> out;
+  out.reserve(n);
+  auto perLight = [&](const char* why) {
+    double frameMs = 0;
+    for (const FrameInput& f : frames) frameMs += out.emplace_back(runFrame(f)).totalMs;
+    if (n > 1)
+      for (Frame& o : out) o.stats.lights = ConeFrameStats::Lights{uint32_t(n), false, why, frameMs, "its own frame's", ""};
+    return std::move(out);
+  };
+  if (n == 1) return perLight("");
+  if (options_.twoPass) return perLight("two-pass decides its update on the host between submissions: a frame a light");
+  if (options_.profileStages) return perLight("--profile-stages submits every stage: a frame a light");
+  CS_CHECK(first.vk == nullptr || first.vk == &ctx_, "cone: the frame's Vulkan context is not this method's");
+  auto epsOf = [](const FrameInput& f) { return f.epsilon > 0 ? f.epsilon : EpsilonPolicy::forScene(*f.scene).eps; };
+  const uint32_t pixels = first.device->width * first.device->height;
+  const auto t0 = Clock::now();
+
+  // Once for every light: the triangles, the per-pixel buffers, the arena; a set of cluster spheres a
+  // light (written by the host at recording), and the host-visible copy of each light's mask and counters.
+  const double uploadMs = layout_.upload(first);
+  for (const FrameInput& f : frames) refuseUnreachableLight(f.light);  // before anything is recorded
+  sizeFrameBuffers(first.device->width, first.device->height);
+  if (layout_.sphereSetCount() < n) layout_.resizeSphereSets(n);
+  if (lightOrders_.size() < n) lightOrders_.resize(n);
+  const uint64_t stateAt = uint64_t(pixels) * 4, shapeAt = stateAt + STATE_WORDS * 4,
+                 orderAt = shapeAt + SHAPE_WORDS * 4, stride = (orderAt + ORDER_WORDS * 4 + 15) & ~uint64_t(15);
+  if (lightWords_.size < n * stride) {
+    lightWords_.reset();
+    lightWords_ = vk::createBuffer(ctx_, n * stride, vk::Memory::HostVisible);
+  }
+  ensureTraversal(pixels);
+  if (batchesNeeded() > kConeMaxBatches)  // every light would need the chunked traversal
+    return perLight("the traversal memory holds too few pairs for one recording: a frame a light");
+
+  std::array<OrderHistory, kConeMaxLightsTogether> before;  // a light run again alone starts from its own
+  std::vector<RecordedLight> recs;
+  recs.reserve(n);
+  timer_.restart();
+  vk::Commands cmd(ctx_, &timer_);
+  cmd.mark("start");
+  // A far light's copy of the triangles made before the first light is recorded: what the frame holds
+  // then stays, so an arena sized under a memory budget (ensureTraversal) is the same for every light.
+  for (const FrameInput& f : frames) {
+    chooseFrame(f.light);
+    if (!frame_.far) continue;
+    if (layout_.frameTrianglesStale(frame_)) layout_.recordFrameTriangles(cmd, frame_);
+    break;
+  }
+  const traversal::Traversal* arena = nullptr;
+  const Boundary none = [](const char*) {};
+  for (size_t l = 0; l < n; ++l) {
+    const FrameInput& f = frames[l];
+    before[l] = lightOrders_[l];
+    const RecordedLight& rec = recs.emplace_back(recordLightFrame(cmd, *f.device, f.light, epsOf(f),
+                                                                  measuresOrder(lightOrders_[l]), uint32_t(l), false, none));
+    if (l == 0) arena = traversal_.get();
+    CS_CHECK(traversal_.get() == arena, "cone: the arena was remade between the lights of one recording");
+    Frame& o = out.emplace_back();
+    describeFrame(o.stats, epsOf(f));  // frame_: this light's
+    describeRecording(rec, o.stats);
+    cmd.barrier();
+    const uint64_t at = l * stride;
+    cmd.copy(visibility_, lightWords_, stateAt, 0, at);
+    cmd.copy(traversal_->stateBuffer(), lightWords_, STATE_WORDS * 4, 0, at + stateAt);
+    cmd.copy(tree_.shapeBuffer(), lightWords_, SHAPE_WORDS * 4, 0, at + shapeAt);
+    if (rec.adaptive) cmd.copy(orderWords_, lightWords_, ORDER_WORDS * 4, 0, at + orderAt);
+    if (timer_.names.size() + 1 < timer_.capacity) cmd.mark("light");
+  }
+  cmd.barrier();
+  cmd.submit();
+
+  // The frame's wall clock split between the lights: by each light's GPU interval where the device's
+  // timestamps are trusted, evenly elsewhere.
+  std::vector<double> weight(n, 1.0 / double(n));
+  std::string share = "the frame's wall clock split evenly between its lights";
+  if (ctx_.timestampsTrusted()) {
+    const std::vector<std::pair<std::string, double>> iv = timer_.intervals();
+    double sum = 0;
+    for (const auto& [name, ms] : iv) sum += ms;
+    if (iv.size() == n && sum > 0) {
+      for (size_t l = 0; l < n; ++l) weight[l] = iv[l].second / sum;
+      share = "the frame's wall clock split between its lights by their GPU time (timestamps)";
+    }
+  }
+  // Each light's counters and mask, read from the host-visible copy. The arena's batch learnt from the
+  // light that needed the most pairs (an overflow first): it must fit them all.
+  const char* words = static_cast<const char*>(lightWords_.mapped);
+  auto read = [&](void* dst, uint64_t offset, uint64_t bytes) {
+    std::memcpy(dst, words + offset, bytes);
+    ctx_.cost.readbackBytes += bytes;
+  };
+  std::vector<size_t> alone;
+  size_t worst = n;
+  uint32_t worstPeak = 0;
+  bool worstOverflow = false;
+  double readbackMs = 0;
+  for (size_t l = 0; l < n; ++l) {
+    Frame& o = out[l];
+    const RecordedLight& rec = recs[l];
+    const uint64_t at = l * stride;
+    uint32_t state[STATE_WORDS], shape[SHAPE_WORDS], order[ORDER_WORDS];
+    read(state, at + stateAt, sizeof(state));
+    read(shape, at + shapeAt, sizeof(shape));
+    if (rec.adaptive) read(order, at + orderAt, sizeof(order));
+    noteCounters(shape, rec.adaptive ? order : nullptr, lightOrders_[l], o.stats);
+    const bool overflow = traversal::Traversal::overflowed(state);
+    o.stats.traversal = traversal_->statsFromState(state, shape[SHAPE_DEPTH], overflow);
+    o.stats.traversalPath = "one submission for " + std::to_string(n) + " lights";
+    if (rec.onDevice && (worst == n || overflow > worstOverflow ||
+                         (overflow == worstOverflow && state[STATE_PEAK_PAIRS] > worstPeak))) {
+      worst = l, worstPeak = state[STATE_PEAK_PAIRS], worstOverflow = overflow;
+    }
+    if (!rec.onDevice || overflow) {
+      alone.push_back(l);
+      continue;
+    }
+    const auto r0 = Clock::now();
+    o.mask.resize(pixels);
+    read(o.mask.data(), at, stateAt);
+    o.stats.readbackMs = msSince(r0);
+    readbackMs += o.stats.readbackMs;
+  }
+  if (worst < n) {
+    uint32_t state[STATE_WORDS];
+    read(state, worst * stride + stateAt, sizeof(state));
+    traversal_->learnBatch(state, out[worst].stats.traversal, layout_.triangleCount());
+  }
+  const double frameMs = msSince(t0) - readbackMs;
+  for (size_t l = 0; l < n; ++l) {
+    Frame& o = out[l];
+    o.uploadMs = uploadMs * weight[l];
+    o.totalMs = frameMs * weight[l];
+    if (uploadMs > 0) o.stages.push_back({"upload", o.uploadMs, StageKind::Rebuild});
+    o.stages.push_back({"frame", o.totalMs - o.uploadMs});
+    o.stats.stageTiming = share;
+    o.stats.lights = ConeFrameStats::Lights{uint32_t(n), true, "", frameMs, share, ""};
+  }
+  // A light whose traversal overflowed (or never fitted one recording) again, alone, from its own order
+  // history as it stood before this frame: its mask then is a one-light frame's.
+  for (size_t l : alone) {
+    const OrderHistory kept = order_;
+    order_ = before[l];
+    Frame again = runFrame(frames[l]);
+    lightOrders_[l] = order_;
+    order_ = kept;
+    again.totalMs += out[l].totalMs;
+    again.stats.lights = out[l].stats.lights;
+    again.stats.lights->alone = recs[l].onDevice ? "its pairs passed the arena on the GPU: run again alone (" +
+                                                       again.stats.traversalPath + ")"
+                                                 : "too many batches for one recording: run again alone (" +
+                                                       again.stats.traversalPath + ")";
+    for (auto it = out[l].stages.rbegin(); it != out[l].stages.rend(); ++it)
+      again.stages.insert(again.stages.begin(), {"shared " + it->name, it->ms, it->kind});
+    out[l] = std::move(again);
+  }
+  for (Frame& o : out) finishFrame(o);
   return out;
 }
 
@@ -383,15 +562,9 @@ traversal::TraversalStats ConeRecorder::runSubmitted(const FrameInput& frame, co
   // none, the screen-order tree then standing. After a frame that found the screen order loose, the next
   // kOrderRecheckFrames - 1 frames sort without measuring: a loose frame's check costs a tree build, and
   // the sort is slower on screen-ordered input than on row-major input.
-  const bool adaptive = options_.sorted && options_.adaptiveOrder &&
-                        !(orderLoose_ && framesSinceOrderCheck_ + 1 < kOrderRecheckFrames);
+  const bool adaptive = measuresOrder(order_);
   const RecordedLight rec = recordLightFrame(cmd, g, frame.light, in.eps, adaptive, 0, false, boundary);
-  stats.oneSubmission = true;
-  stats.clusters = rec.clusters && rec.onDevice;
-  stats.lastExpansionTest = options_.sphereLastExpansion && options_.test == ConeTest::Precise ? "sphere" : "precise";
-  // a lane per cluster pair or per triangle pair, where that expansion runs in the sphere-test kernel
-  stats.lastExpansionLanes = traversal::expansionLanesName(traversal_->lastExpansionLanes());
-  stats.traversalBatchTriangles = rec.batch;
+  describeRecording(rec, stats);
   readback_.clear();
   const uint32_t maskSlot = readback_.add(visibility_, uint64_t(pixels) * 4);
   const uint32_t stateSlot = readback_.add(traversal_->stateBuffer(), STATE_WORDS * 4);
@@ -407,31 +580,11 @@ traversal::TraversalStats ConeRecorder::runSubmitted(const FrameInput& frame, co
   else wall.push_back({"frame", msSince(s0)});
   addTimestamps();
 
-  uint32_t state[STATE_WORDS], shape[SHAPE_WORDS];
+  uint32_t state[STATE_WORDS], shape[SHAPE_WORDS], words[ORDER_WORDS];
   readback_.read(stateSlot, state);
   readback_.read(shapeSlot, shape);
-  const uint32_t lit = shape[SHAPE_LEAVES];
-  tree_.setShape(lit);
-  stats.litSamples = lit;
-  stats.raySort = raySortName();
-  if (options_.sorted) stats.rayKeyBits = rays_->keyBits();
-  stats.treeDepth = shape[SHAPE_DEPTH];
-  stats.treeNodes = shape[SHAPE_NODES];
-  if (adaptive) {
-    uint32_t words[ORDER_WORDS];
-    readback_.read(orderSlot, words);
-    reportOrderChoice(words, shape[SHAPE_DEPTH], stats);
-    orderLoose_ = words[ORDER_SORTED] != 0;
-    framesSinceOrderCheck_ = 0;
-  } else {
-    stats.rayOrder = options_.sorted ? "hilbert" : "screen";
-    if (options_.sorted && options_.adaptiveOrder) {
-      ++framesSinceOrderCheck_;
-      stats.rayOrderChoice = "auto: sorted without measuring (the screen order was loose " +
-                             std::to_string(framesSinceOrderCheck_) + " frame(s) ago; measured again every " +
-                             std::to_string(kOrderRecheckFrames) + " frames)";
-    }
-  }
+  if (adaptive) readback_.read(orderSlot, words);
+  noteCounters(shape, adaptive ? words : nullptr, order_, stats);
   const bool overflow = traversal::Traversal::overflowed(state);
   traversal::TraversalStats ts = traversal_->statsFromState(state, shape[SHAPE_DEPTH], overflow);
 
@@ -477,6 +630,44 @@ traversal::TraversalStats ConeRecorder::runSubmitted(const FrameInput& frame, co
     for (auto& [n, ms] : wall) stages.push_back({n, ms});
   }
   return ts;
+}
+
+// Whether a light's frame measures its ray order (runSubmitted says when and why).
+bool ConeRecorder::measuresOrder(const OrderHistory& h) const {
+  return options_.sorted && options_.adaptiveOrder && !(h.loose && h.framesSinceCheck + 1 < kOrderRecheckFrames);
+}
+
+void ConeRecorder::describeRecording(const RecordedLight& rec, ConeFrameStats& stats) const {
+  stats.oneSubmission = true;
+  stats.clusters = rec.clusters && rec.onDevice;
+  stats.lastExpansionTest = options_.sphereLastExpansion && options_.test == ConeTest::Precise ? "sphere" : "precise";
+  // a lane per cluster pair or per triangle pair, where that expansion runs in the sphere-test kernel
+  stats.lastExpansionLanes = traversal::expansionLanesName(traversal_->lastExpansionLanes());
+  stats.traversalBatchTriangles = rec.batch;
+}
+
+void ConeRecorder::noteCounters(const uint32_t* shape, const uint32_t* orderWords, OrderHistory& order,
+                                ConeFrameStats& stats) {
+  const uint32_t lit = shape[SHAPE_LEAVES];
+  tree_.setShape(lit);
+  stats.litSamples = lit;
+  stats.raySort = raySortName();
+  if (options_.sorted) stats.rayKeyBits = rays_->keyBits();
+  stats.treeDepth = shape[SHAPE_DEPTH];
+  stats.treeNodes = shape[SHAPE_NODES];
+  if (orderWords) {
+    reportOrderChoice(orderWords, shape[SHAPE_DEPTH], stats);
+    order.loose = orderWords[ORDER_SORTED] != 0;
+    order.framesSinceCheck = 0;
+  } else {
+    stats.rayOrder = options_.sorted ? "hilbert" : "screen";
+    if (options_.sorted && options_.adaptiveOrder) {
+      ++order.framesSinceCheck;
+      stats.rayOrderChoice = "auto: sorted without measuring (the screen order was loose " +
+                             std::to_string(order.framesSinceCheck) + " frame(s) ago; measured again every " +
+                             std::to_string(kOrderRecheckFrames) + " frames)";
+    }
+  }
 }
 
 // How the rays are sorted on this device: the radix sort's scheme and tile (sort::sortSchemeFor,
@@ -608,7 +799,7 @@ uint64_t ConeRecorder::heldBytes() const {
   return layout_.bytes() + (rays_ ? rays_->bytesAllocated() : 0) + visibility_.size + tree_.bytesAllocated() +
          (traversal_ ? traversal_->bytesAllocated() + traversal_->flagBytes() + traversal_->shadowedBytes() : 0) +
          readback_.bytesAllocated() + layout_.clusterSphereBytes() + (compact_ ? compact_->bytesAllocated() : 0) +
-         rayFlags_.size + remaining_.size + kept_.size + orderWords_.size;
+         rayFlags_.size + remaining_.size + kept_.size + orderWords_.size + lightWords_.size;
 }
 
 // The traversal's arena and scratch. Without a budget: --traversal-memory, made once. Under

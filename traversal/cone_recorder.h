@@ -1,12 +1,14 @@
 // The cone path's frame recorder: one light's frame recorded into a command buffer (recordLightFrame), shared
 // by the engine (cone_engine.cpp, a frame of 1..N lights in the caller's command buffer) and the bench's
-// method (runFrame: one submission, with the chunked traversal and two-pass as its fallbacks).
+// method (runFrame: one submission, with the chunked traversal and two-pass as its fallbacks; runLights: a
+// view's lights in one submission).
 // docs/ARCHITECTURE.md, "The cone path's code".
 #pragma once
 #include <chrono>
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -26,6 +28,8 @@ namespace cs {
 // Batches one recording may hold: a frame whose arena would need more is traversed chunked (the bench)
 // or refused (the engine).
 inline constexpr uint64_t kConeMaxBatches = 256;
+// Lights one bench frame records together (runLights), as the engine's frames take at most.
+inline constexpr size_t kConeMaxLightsTogether = 64;
 
 class ConeRecorder {
  public:
@@ -60,6 +64,13 @@ class ConeRecorder {
     ConeFrameStats stats;
   };
   Frame runFrame(const FrameInput& frame);
+  // A view under several lights (ShadowMethod::runLights; 1..kConeMaxLightsTogether frames of the same
+  // scene and size): the upload, the frame buffers and the arena once, then recordLightFrame a light with its
+  // mask and counters copied out after it, all in one submission with one wait. A light whose traversal
+  // needs the host between submissions (the chunked traversal: an arena too small for one recording, or
+  // pairs past it on the GPU) is run again alone (runFrame); two-pass and profiled variants, and a single
+  // light, are a runFrame each. A light's totalMs is its share of the frame (stats.lights says how).
+  std::vector<Frame> runLights(std::span<const FrameInput> frames);
 
   // Pieces the engine's frame uses around recordLightFrame.
   void refuseUnreachableLight(glm::vec3 light) const;
@@ -100,6 +111,20 @@ class ConeRecorder {
                                        const traversal::TraversalInput& in, std::vector<StageTime>& stages,
                                        ConeFrameStats& stats);
   traversal::TraversalStats traverse(const traversal::TraversalInput& in, uint32_t first, uint32_t count);
+  // The adaptive ray order's history of one light: whether its last measured frame sorted its rays, and the
+  // frames since (runFrame's light in order_, runLights' light l in lightOrders_[l]).
+  struct OrderHistory {
+    bool loose = false;
+    uint32_t framesSinceCheck = 0;
+  };
+  bool measuresOrder(const OrderHistory& h) const;
+  // What a frame's stats say before and after its submission: the settings and the light's cone frame (the
+  // frame_ chosen); the recording; the tree's shape and the ray order (orderWords: measured this frame, or
+  // null); the stages' kinds and the memory.
+  void describeFrame(ConeFrameStats& stats, float eps) const;
+  void describeRecording(const RecordedLight& rec, ConeFrameStats& stats) const;
+  void noteCounters(const uint32_t* shape, const uint32_t* orderWords, OrderHistory& order, ConeFrameStats& stats);
+  void finishFrame(Frame& out) const;
   std::string raySortName() const;
   rays::KeysPush keysPush(glm::vec3 light) const;
 
@@ -121,8 +146,10 @@ class ConeRecorder {
   // the ray order chosen on the GPU (ConeOptions::adaptiveOrder)
   vk::Kernel orderChoice_;
   vk::Buffer orderWords_;               // ORDER_* (traversal_layout.h)
-  bool orderLoose_ = false;             // the last measured frame sorted its rays
-  uint32_t framesSinceOrderCheck_ = 0;  // frames since that measurement
+  OrderHistory order_;
+  // runLights: each light's order history, and its mask and counters copied out of the one submission
+  std::vector<OrderHistory> lightOrders_;
+  vk::Buffer lightWords_;
   // two-pass
   vk::Kernel unfinished_;
   std::unique_ptr<sort::Compact> compact_;

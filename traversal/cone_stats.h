@@ -67,6 +67,18 @@ struct ConeFrameStats {
   uint64_t hostPeakBytes = 0;
   uint64_t memoryBudgetBytes = 0, memoryBudgetUsedBytes = 0;  // under a budget
 
+  // A frame of several lights of one view (ConeRecorder::runLights): how many, whether one submission
+  // recorded them all (else a frame a light, and why), the frame's wall time and how this light's totalMs
+  // is its share of it, and why this light was run again alone after the shared submission (if it was).
+  struct Lights {
+    uint32_t count = 0;
+    bool together = false;
+    std::string why;
+    double frameMs = 0;
+    std::string share, alone;
+  };
+  std::optional<Lights> lights;
+
   // Adds ms to the named interval (a new name goes last).
   void addTimestamp(const std::string& name, double ms) {
     for (auto& [n, v] : timestampMs)
