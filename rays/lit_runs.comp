@@ -12,15 +12,18 @@
 // leaders' keys) and run_expand.comp writes each run's pixels after the sort: the order is the per-ray
 // sort's, bit for bit. Here each invocation writes its leaders to leaderBits (bit k: position k leads a
 // run) and their count to runCounts, which sort/'s scan turns into the invocation's first item, and
-// every position's cell to cells, four a uvec4 store (run_items reads the leaders'). The positions go
-// four at a time, lit or not (a loop of one lit pixel an iteration, with a scalar store each, took the
-// runs twice as long on lavapipe). The faces' grids come first, from a subset of the pixels that needs
-// no compaction (ray_bounds.comp, ray_grids.comp); the grid once known, the G-buffer is read once here,
-// where lit_count.comp and a pass of its own for the runs read it twice.
+// the cells of every four positions with a lit one among them to cells, one uvec4 store (run_items reads
+// the leaders'). The positions go four at a time, lit or not (a loop of one lit pixel an iteration, with a
+// scalar store each, took the runs twice as long on lavapipe); four without geometry skip the normals,
+// the cells and the store (a branch a SIMD group skips when none of its lanes takes it: a far view's
+// empty rows). The faces' grids come first, from a subset of the pixels that needs no compaction
+// (ray_bounds.comp, ray_grids.comp); the grid once known, the G-buffer is read once here, where
+// lit_count.comp and a pass of its own for the runs read it twice.
 // bindings: 0 = position, 1 = normal (uniform texel buffers, RGBA32F: a texel per pixel), 2 = kept
 //           (uvec2[] per invocation: bits, rank in the block), 3 = counts (uint[] per block), 4 = the
-//           faces' grids (vec4 per face; world keys), 5 = leaderBits (uint[] per invocation), 6 =
-//           runCounts (uint[] per invocation), 7 = cells (uint[] per position, written four at a time)
+//           faces' grids (uniform texel buffer, RGBA32F: a texel per face; world keys), 5 = leaderBits
+//           (uint[] per invocation), 6 = runCounts (uint[] per invocation), 7 = cells (uint[] per
+//           position, written four at a time where one of the four is lit)
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
 layout(local_size_x = SCAN_THREADS) in;
@@ -28,7 +31,7 @@ layout(binding = 0) uniform samplerBuffer position;
 layout(binding = 1) uniform samplerBuffer normal;
 layout(std430, binding = 2) writeonly buffer Kept { uvec2 kept[]; };
 layout(std430, binding = 3) writeonly buffer Counts { uint counts[]; };
-layout(std430, binding = 4) readonly buffer Grids { vec4 grids[]; };
+layout(binding = 4) uniform samplerBuffer grids;
 layout(std430, binding = 5) writeonly buffer LeaderBits { uint leaderBits[]; };
 layout(std430, binding = 6) writeonly buffer RunCounts { uint runCounts[]; };
 layout(std430, binding = 7) writeonly buffer Cells { uvec4 cells4[]; };
@@ -42,15 +45,18 @@ vec4 g0, g1, g2, g3, g4, g5;
 #include "sort/workgroup_scan.glsl"
 
 uint bits = 0u;
-// Position first + k (clamped into the image: the cells of positions past it are ignored): its lit bit
-// set in `bits`, its cell returned.
-uint litCell(uint first, uint k, uint n) {
-  uint p = min(first + k, n - 1u);
-  vec4 x = texelFetch(position, int(p));
-  bits |= first + k < n && litSample(x, texelFetch(normal, int(p))) ? 1u << k : 0u;
-  return runCellAt(x.xyz);
-}
 
+// Positions first + k .. + 3 (clamped into the image; positions past it are never lit): the ones that may
+// be lit as bits 0 .. 3 (geometry: litSample with a normal that passes, so false whatever the normal
+// where the pixel is empty), their positions in x.
+uint mayBeLit4(uint first, uint k, uint n, out vec4 x[4]) {
+  uint may = 0u;
+  for (uint j = 0u; j < 4u; ++j) {
+    x[j] = texelFetch(position, int(min(first + k + j, n - 1u)));
+    may |= first + k + j < n && litSample(x[j], vec4(1.0f)) ? 1u << j : 0u;
+  }
+  return may;
+}
 void main() {
   uint n = pc.count;  // pixels
   uint b = CS_FLAT_WORKGROUP;
@@ -59,16 +65,30 @@ void main() {
   uint inv = b * SCAN_THREADS + t;
   uint first = b * SCAN_BLOCK + t * SCAN_ITEMS;
   // The six grids in registers, picked by selects: a storage load indexed by each sample's face costs
-  // every lane its own bounds-checked load on a SIMD CPU driver.
+  // every lane its own bounds-checked load on a SIMD CPU driver (and a storage load of all six, 24 of
+  // them; texel fetches are the cheap reads there).
   g0 = vec4(0.0f), g1 = g0, g2 = g0, g3 = g0, g4 = g0, g5 = g0;
   if (SPEC_FRAMED == 0u) {
-    g0 = grids[0], g1 = grids[1], g2 = grids[2], g3 = grids[3], g4 = grids[4], g5 = grids[5];
+    g0 = texelFetch(grids, 0), g1 = texelFetch(grids, 1), g2 = texelFetch(grids, 2);
+    g3 = texelFetch(grids, 3), g4 = texelFetch(grids, 4), g5 = texelFetch(grids, 5);
   }
   // A lit position leads unless the one before it is lit and in its cell.
   uint follows = 0u, last = 0u;  // bit k: position k is in position k - 1's cell; last: the cell before
   for (uint k = 0u; k < SCAN_ITEMS; k += 4u) {
-    uint c0 = litCell(first, k, n), c1 = litCell(first, k + 1u, n);
-    uint c2 = litCell(first, k + 2u, n), c3 = litCell(first, k + 3u, n);
+    vec4 x[4];
+    uint may = mayBeLit4(first, k, n, x);
+    // None of the four has geometry: none is lit, and their cells are never read (run_items reads the
+    // leaders', which are lit), nor is `last` (a position whose left neighbour is unlit leads). The
+    // branch skips the normals, the cells and the store where no lane of a SIMD group takes it.
+    if (may == 0u) continue;
+    uint lit = 0u;
+    for (uint j = 0u; j < 4u; ++j) {
+      uint p = min(first + k + j, n - 1u);
+      lit |= (may & (1u << j)) != 0u && litSample(x[j], texelFetch(normal, int(p))) ? 1u << j : 0u;
+    }
+    if (lit == 0u) continue;
+    bits |= lit << k;
+    uint c0 = runCellAt(x[0].xyz), c1 = runCellAt(x[1].xyz), c2 = runCellAt(x[2].xyz), c3 = runCellAt(x[3].xyz);
     follows |= ((c0 == last ? 1u : 0u) | (c1 == c0 ? 2u : 0u) | (c2 == c1 ? 4u : 0u) | (c3 == c2 ? 8u : 0u)) << k;
     cells4[(first + k) >> 2u] = uvec4(c0, c1, c2, c3);
     last = c3;
