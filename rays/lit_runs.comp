@@ -46,16 +46,14 @@ vec4 g0, g1, g2, g3, g4, g5;
 
 uint bits = 0u;
 
-// Positions first + k .. + 3 (clamped into the image; positions past it are never lit): the ones that may
-// be lit as bits 0 .. 3 (geometry: litSample with a normal that passes, so false whatever the normal
-// where the pixel is empty), their positions in x.
-uint mayBeLit4(uint first, uint k, uint n, out vec4 x[4]) {
-  uint may = 0u;
-  for (uint j = 0u; j < 4u; ++j) {
-    x[j] = texelFetch(position, int(min(first + k + j, n - 1u)));
-    may |= first + k + j < n && litSample(x[j], vec4(1.0f)) ? 1u << j : 0u;
-  }
-  return may;
+// Position i's texel (clamped into the image; positions past it are never lit, see mayBeLit).
+vec4 positionAt(uint i, uint n) { return texelFetch(position, int(min(i, n - 1u))); }
+// 1 where position i, at x, may be lit: it is in the image and has geometry (litSample with a normal
+// that passes: false whatever the normal where the pixel is empty).
+uint mayBeLit(vec4 x, uint i, uint n) { return i < n && litSample(x, vec4(1.0f)) ? 1u : 0u; }
+// 1 where position i, at x and possibly lit (may), is lit.
+uint litAt(vec4 x, uint i, uint n, uint may) {
+  return may & (litSample(x, texelFetch(normal, int(min(i, n - 1u)))) ? 1u : 0u);
 }
 void main() {
   uint n = pc.count;  // pixels
@@ -75,20 +73,19 @@ void main() {
   // A lit position leads unless the one before it is lit and in its cell.
   uint follows = 0u, last = 0u;  // bit k: position k is in position k - 1's cell; last: the cell before
   for (uint k = 0u; k < SCAN_ITEMS; k += 4u) {
-    vec4 x[4];
-    uint may = mayBeLit4(first, k, n, x);
+    uint i = first + k;
+    vec4 x0 = positionAt(i, n), x1 = positionAt(i + 1u, n), x2 = positionAt(i + 2u, n), x3 = positionAt(i + 3u, n);
+    uint m0 = mayBeLit(x0, i, n), m1 = mayBeLit(x1, i + 1u, n);
+    uint m2 = mayBeLit(x2, i + 2u, n), m3 = mayBeLit(x3, i + 3u, n);
     // None of the four has geometry: none is lit, and their cells are never read (run_items reads the
     // leaders', which are lit), nor is `last` (a position whose left neighbour is unlit leads). The
     // branch skips the normals, the cells and the store where no lane of a SIMD group takes it.
-    if (may == 0u) continue;
-    uint lit = 0u;
-    for (uint j = 0u; j < 4u; ++j) {
-      uint p = min(first + k + j, n - 1u);
-      lit |= (may & (1u << j)) != 0u && litSample(x[j], texelFetch(normal, int(p))) ? 1u << j : 0u;
-    }
+    if ((m0 | m1 | m2 | m3) == 0u) continue;
+    uint lit = litAt(x0, i, n, m0) | (litAt(x1, i + 1u, n, m1) << 1u) | (litAt(x2, i + 2u, n, m2) << 2u) |
+               (litAt(x3, i + 3u, n, m3) << 3u);
     if (lit == 0u) continue;
     bits |= lit << k;
-    uint c0 = runCellAt(x[0].xyz), c1 = runCellAt(x[1].xyz), c2 = runCellAt(x[2].xyz), c3 = runCellAt(x[3].xyz);
+    uint c0 = runCellAt(x0.xyz), c1 = runCellAt(x1.xyz), c2 = runCellAt(x2.xyz), c3 = runCellAt(x3.xyz);
     follows |= ((c0 == last ? 1u : 0u) | (c1 == c0 ? 2u : 0u) | (c2 == c1 ? 4u : 0u) | (c3 == c2 ? 8u : 0u)) << k;
     cells4[(first + k) >> 2u] = uvec4(c0, c1, c2, c3);
     last = c3;

@@ -32,6 +32,7 @@ void main() {
     if (floatBitsToUint(w) != floatBitsToUint(normal.w)) normals[i].w = w;
     return;
   }
-  if (state[STATE_OVERFLOW] != 0u && visibility[i] == floatBitsToUint(1.0) && litSample(texelFetch(positions, int(i)), normal))
+  if (state[STATE_OVERFLOW] != 0u && visibility[i] == floatBitsToUint(1.0) &&
+      litSample(texelFetch(positions, int(i)), normal))
     visibility[i] = floatBitsToUint(0.5);
 }
