@@ -1,5 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
 // The fused compaction of the sorted cone path, its one pass over the pixels (rays.h,
 // LitRays::recordCompactionWithKeys): lit_count.comp's work and the runs' in one read of the G-buffer.
 // Invocation t of block b owns the SCAN_ITEMS consecutive pixels from b * SCAN_BLOCK + t * SCAN_ITEMS
@@ -14,9 +15,8 @@
 // run) and their count to runCounts, which sort/'s scan turns into the invocation's first item, and
 // the cells of every four positions with a lit one among them to cells, one uvec4 store (run_items reads
 // the leaders'). The positions go four at a time, lit or not (a loop of one lit pixel an iteration, with a
-// scalar store each, took the runs twice as long on lavapipe); four without geometry skip the normals,
-// the cells and the store (a branch a SIMD group skips when none of its lanes takes it: a far view's
-// empty rows). The faces' grids come first, from a subset of the pixels that needs no compaction
+// scalar store each, took the runs twice as long on lavapipe); where no lane of a subgroup has geometry
+// among its four, the subgroup skips the normals, the cells and the store (a far view's empty rows). The faces' grids come first, from a subset of the pixels that needs no compaction
 // (ray_bounds.comp, ray_grids.comp); the grid once known, the G-buffer is read once here, where
 // lit_count.comp and a pass of its own for the runs read it twice.
 // bindings: 0 = position, 1 = normal (uniform texel buffers, RGBA32F: a texel per pixel), 2 = kept
@@ -77,13 +77,14 @@ void main() {
     vec4 x0 = positionAt(i, n), x1 = positionAt(i + 1u, n), x2 = positionAt(i + 2u, n), x3 = positionAt(i + 3u, n);
     uint m0 = mayBeLit(x0, i, n), m1 = mayBeLit(x1, i + 1u, n);
     uint m2 = mayBeLit(x2, i + 2u, n), m3 = mayBeLit(x3, i + 3u, n);
-    // None of the four has geometry: none is lit, and their cells are never read (run_items reads the
+    // No lane's four has geometry: none is lit, and their cells are never read (run_items reads the
     // leaders', which are lit), nor is `last` (a position whose left neighbour is unlit leads). The
-    // branch skips the normals, the cells and the store where no lane of a SIMD group takes it.
-    if ((m0 | m1 | m2 | m3) == 0u) continue;
+    // test is the subgroup's (subgroupOr: uniform), so the branch skips the normals, the cells and the
+    // store; a lane's own test would not (a SIMD CPU driver runs a divergent branch under a mask).
+    if (subgroupOr(m0 | m1 | m2 | m3) == 0u) continue;
     uint lit = litAt(x0, i, n, m0) | (litAt(x1, i + 1u, n, m1) << 1u) | (litAt(x2, i + 2u, n, m2) << 2u) |
                (litAt(x3, i + 3u, n, m3) << 3u);
-    if (lit == 0u) continue;
+    if (subgroupOr(lit) == 0u) continue;
     bits |= lit << k;
     uint c0 = runCellAt(x0.xyz), c1 = runCellAt(x1.xyz), c2 = runCellAt(x2.xyz), c3 = runCellAt(x3.xyz);
     follows |= ((c0 == last ? 1u : 0u) | (c1 == c0 ? 2u : 0u) | (c2 == c1 ? 4u : 0u) | (c3 == c2 ? 8u : 0u)) << k;
