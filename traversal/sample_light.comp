@@ -1,6 +1,5 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
-#extension GL_KHR_shader_subgroup_arithmetic : require
 // The engine's samples for one light (traversal/cone_engine.h). Two modes, one pixel an invocation:
 //   SAMPLE_LIGHT_TERM  normal.w = max(0, N·L̂) for the push's light, the expression the camera pass
 //                      writes (raster/gbuffer_main.glsl), so a sample is lit here exactly when it is there
@@ -24,23 +23,16 @@ layout(push_constant) uniform Push { SampleLightPush p; };
 
 void main() {
   uint i = flatIndex();
-  bool inside = i < p.count;
-  if (p.mode == SAMPLE_LIGHT_TERM) {  // every lane stays active for the subgroup's test below
-    uint at = inside ? i : 0u;
-    vec4 normal = texelFetch(normalTexels, int(at));
-    vec3 toLight = p.light.xyz - texelFetch(positions, int(at)).xyz;
+  if (i >= p.count) return;
+  vec4 normal = texelFetch(normalTexels, int(i));
+  if (p.mode == SAMPLE_LIGHT_TERM) {
+    vec3 toLight = p.light.xyz - texelFetch(positions, int(i)).xyz;
     float d = length(toLight);
     float w = d > 0.0 ? max(0.0, dot(normal.xyz, toLight / d)) : 0.0;
-    bool changed = inside && floatBitsToUint(w) != floatBitsToUint(normal.w);
-    // The subgroup's test first: a uniform branch, which a SIMD CPU driver skips, where it runs a
-    // lane's divergent one under a mask.
-    if (subgroupOr(changed ? 1u : 0u) != 0u) {
-      if (changed) normals[i].w = w;
-    }
+    if (floatBitsToUint(w) != floatBitsToUint(normal.w)) normals[i].w = w;
     return;
   }
-  if (!inside) return;
   if (state[STATE_OVERFLOW] != 0u && visibility[i] == floatBitsToUint(1.0) &&
-      litSample(texelFetch(positions, int(i)), texelFetch(normalTexels, int(i))))
+      litSample(texelFetch(positions, int(i)), normal))
     visibility[i] = floatBitsToUint(0.5);
 }
