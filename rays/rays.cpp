@@ -153,7 +153,7 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
   const bool framed = frame.framed != 0u;
   keyBits_ = framed ? kFrameKeyBits : kRayKeyBits;
   const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(pixels, SCAN_BLOCK));
-  const vk::BufferRange position = vk::texels(g.position, kPixelTexels);
+  const vk::BufferRange position = vk::texels(g.position, kPixelTexels), grids = vk::texels(grids_, kGridTexels);
   if (!framed) recordBounds(cmd, g, push);  // the faces' grids first, from the pixels alone
   // One pass over the pixels (lit_runs.comp): which are lit, and the runs of equal keys among them (every
   // pixel's key cell, four at a time, kept per pixel); the scan of the blocks' lit counts (the lit count),
@@ -161,7 +161,7 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
   // item a run as the sort's input (run_items.comp: the leader's key from its cell).
   const uint32_t invocations = blockInvocations(pixels);
   cmd.dispatch(framed ? frameLitRuns_ : litRuns_,
-               {position, vk::texels(g.normal, kPixelTexels), keptBits_, compact_.blockCounts(), vk::texels(grids_, kGridTexels), leaderBits_,
+               {position, vk::texels(g.normal, kPixelTexels), keptBits_, compact_.blockCounts(), grids, leaderBits_,
                 runCounts_, runCells_},
                push, grid.x, grid.y);
   cmd.barrier();
@@ -170,7 +170,7 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
                   vk::BufferRange(runCounts_, 0, uint64_t(invocations) * 4), sort::Count(invocations),
                   sort::GpuWord(count_, kRunsWord));
   cmd.dispatch(framed ? frameRunItems_ : runItems_,
-               {position, keptBits_, runCounts_, leaderBits_, sort_.pairInput(), vk::texels(grids_, kGridTexels), vk::texels(runCells_, kWordTexels)},
+               {position, keptBits_, runCounts_, leaderBits_, sort_.pairInput(), grids, vk::texels(runCells_, kWordTexels)},
                push, grid.x, grid.y);
   cmd.barrier();
   runsPending_ = true;
@@ -212,14 +212,15 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
   }
   if (!framed) recordBounds(cmd, g, push);  // each face's box over the subset, for its fitted grid
   const vk::Kernel& keys = framed ? frameRayKeys_ : rayKeys_;
+  const vk::BufferRange grids = vk::texels(grids_, kGridTexels);
   if (count.onDevice()) {  // as many workgroups as the device count needs (none for a count of 0)
     groups_.record(cmd, count, PIXEL_THREADS, keyArgs_, 0);
     cmd.barrier();
-    cmd.dispatchIndirect(keys, {vk::texels(g.position, kPixelTexels), samples_, keys_, countBinding, vk::texels(grids_, kGridTexels)}, &push,
+    cmd.dispatchIndirect(keys, {vk::texels(g.position, kPixelTexels), samples_, keys_, countBinding, grids}, &push,
                          sizeof(push), keyArgs_);
   } else {
     vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(count.max, PIXEL_THREADS));
-    cmd.dispatch(keys, {vk::texels(g.position, kPixelTexels), samples_, keys_, countBinding, vk::texels(grids_, kGridTexels)}, push, grid.x, grid.y);
+    cmd.dispatch(keys, {vk::texels(g.position, kPixelTexels), samples_, keys_, countBinding, grids}, push, grid.x, grid.y);
   }
   cmd.barrier();
 }
