@@ -16,9 +16,10 @@
 // the cells of every four positions with a lit one among them to cells, one uvec4 store (run_items reads
 // the leaders'). The positions go four at a time, lit or not (a loop of one lit pixel an iteration, with a
 // scalar store each, took the runs twice as long on lavapipe); where no lane of a subgroup has geometry
-// among its four, the subgroup skips the normals, the cells and the store (a far view's empty rows). The faces' grids come first, from a subset of the pixels that needs no compaction
-// (ray_bounds.comp, ray_grids.comp); the grid once known, the G-buffer is read once here, where
-// lit_count.comp and a pass of its own for the runs read it twice.
+// among its four, the subgroup skips the normals, the cells and the store (a far view's empty rows). The
+// faces' grids come first, from a subset of the pixels that needs no compaction (ray_bounds.comp,
+// ray_grids.comp); the grid once known, the G-buffer is read once here, where lit_count.comp and a pass
+// of its own for the runs read it twice.
 // bindings: 0 = position, 1 = normal (uniform texel buffers, RGBA32F: a texel per pixel), 2 = kept
 //           (uvec2[] per invocation: bits, rank in the block), 3 = counts (uint[] per block), 4 = the
 //           faces' grids (uniform texel buffer, RGBA32F: a texel per face; world keys), 5 = leaderBits
@@ -79,8 +80,8 @@ void main() {
     uint m2 = mayBeLit(x2, i + 2u, n), m3 = mayBeLit(x3, i + 3u, n);
     // No lane's four has geometry: none is lit, and their cells are never read (run_items reads the
     // leaders', which are lit), nor is `last` (a position whose left neighbour is unlit leads). The
-    // test is the subgroup's (subgroupOr: uniform), so the branch skips the normals, the cells and the
-    // store; a lane's own test would not (a SIMD CPU driver runs a divergent branch under a mask).
+    // test is the subgroup's (subgroupOr: uniform), so the lanes branch together and skip the normals,
+    // the cells and the store (a SIMD CPU driver may run a lane's divergent branch under a mask).
     if (subgroupOr(m0 | m1 | m2 | m3) == 0u) continue;
     uint lit = litAt(x0, i, n, m0) | (litAt(x1, i + 1u, n, m1) << 1u) | (litAt(x2, i + 2u, n, m2) << 2u) |
                (litAt(x3, i + 3u, n, m3) << 3u);
