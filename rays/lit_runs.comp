@@ -1,5 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
 // The fused compaction of the sorted cone path, its one pass over the pixels (rays.h,
 // LitRays::recordCompactionWithKeys): lit_count.comp's work and the runs' in one read of the G-buffer.
 // Invocation t of block b owns the SCAN_ITEMS consecutive pixels from b * SCAN_BLOCK + t * SCAN_ITEMS
@@ -12,15 +13,18 @@
 // leaders' keys) and run_expand.comp writes each run's pixels after the sort: the order is the per-ray
 // sort's, bit for bit. Here each invocation writes its leaders to leaderBits (bit k: position k leads a
 // run) and their count to runCounts, which sort/'s scan turns into the invocation's first item, and
-// every position's cell to cells, four a uvec4 store (run_items reads the leaders'). The positions go
-// four at a time, lit or not (a loop of one lit pixel an iteration, with a scalar store each, took the
-// runs twice as long on lavapipe). The faces' grids come first, from a subset of the pixels that needs
-// no compaction (ray_bounds.comp, ray_grids.comp); the grid once known, the G-buffer is read once here,
-// where lit_count.comp and a pass of its own for the runs read it twice.
+// the cells of every four positions with a lit one among them to cells, one uvec4 store (run_items reads
+// the leaders'). The positions go four at a time, lit or not (a loop of one lit pixel an iteration, with a
+// scalar store each, took the runs twice as long on lavapipe); where no lane of a subgroup has geometry
+// among its four, the subgroup skips the normals, the cells and the store (a far view's empty rows). The
+// faces' grids come first, from a subset of the pixels that needs no compaction (ray_bounds.comp,
+// ray_grids.comp); the grid once known, the G-buffer is read once here, where lit_count.comp and a pass
+// of its own for the runs read it twice.
 // bindings: 0 = position, 1 = normal (uniform texel buffers, RGBA32F: a texel per pixel), 2 = kept
 //           (uvec2[] per invocation: bits, rank in the block), 3 = counts (uint[] per block), 4 = the
-//           faces' grids (vec4 per face; world keys), 5 = leaderBits (uint[] per invocation), 6 =
-//           runCounts (uint[] per invocation), 7 = cells (uint[] per position, written four at a time)
+//           faces' grids (uniform texel buffer, RGBA32F: a texel per face; world keys), 5 = leaderBits
+//           (uint[] per invocation), 6 = runCounts (uint[] per invocation), 7 = cells (uint[] per
+//           position, written four at a time where one of the four is lit)
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
 layout(local_size_x = SCAN_THREADS) in;
@@ -28,7 +32,7 @@ layout(binding = 0) uniform samplerBuffer position;
 layout(binding = 1) uniform samplerBuffer normal;
 layout(std430, binding = 2) writeonly buffer Kept { uvec2 kept[]; };
 layout(std430, binding = 3) writeonly buffer Counts { uint counts[]; };
-layout(std430, binding = 4) readonly buffer Grids { vec4 grids[]; };
+layout(binding = 4) uniform samplerBuffer grids;
 layout(std430, binding = 5) writeonly buffer LeaderBits { uint leaderBits[]; };
 layout(std430, binding = 6) writeonly buffer RunCounts { uint runCounts[]; };
 layout(std430, binding = 7) writeonly buffer Cells { uvec4 cells4[]; };
@@ -42,15 +46,16 @@ vec4 g0, g1, g2, g3, g4, g5;
 #include "sort/workgroup_scan.glsl"
 
 uint bits = 0u;
-// Position first + k (clamped into the image: the cells of positions past it are ignored): its lit bit
-// set in `bits`, its cell returned.
-uint litCell(uint first, uint k, uint n) {
-  uint p = min(first + k, n - 1u);
-  vec4 x = texelFetch(position, int(p));
-  bits |= first + k < n && litSample(x, texelFetch(normal, int(p))) ? 1u << k : 0u;
-  return runCellAt(x.xyz);
-}
 
+// Position i's texel (clamped into the image; positions past it are never lit, see mayBeLit).
+vec4 positionAt(uint i, uint n) { return texelFetch(position, int(min(i, n - 1u))); }
+// 1 where position i, at x, may be lit: it is in the image and has geometry (litSample with a normal
+// that passes: false whatever the normal where the pixel is empty).
+uint mayBeLit(vec4 x, uint i, uint n) { return i < n && litSample(x, vec4(1.0f)) ? 1u : 0u; }
+// 1 where position i, at x and possibly lit (may), is lit.
+uint litAt(vec4 x, uint i, uint n, uint may) {
+  return may & (litSample(x, texelFetch(normal, int(min(i, n - 1u)))) ? 1u : 0u);
+}
 void main() {
   uint n = pc.count;  // pixels
   uint b = CS_FLAT_WORKGROUP;
@@ -59,16 +64,30 @@ void main() {
   uint inv = b * SCAN_THREADS + t;
   uint first = b * SCAN_BLOCK + t * SCAN_ITEMS;
   // The six grids in registers, picked by selects: a storage load indexed by each sample's face costs
-  // every lane its own bounds-checked load on a SIMD CPU driver.
+  // every lane its own bounds-checked load on a SIMD CPU driver (and a storage load of all six, 24 of
+  // them; texel fetches are the cheap reads there).
   g0 = vec4(0.0f), g1 = g0, g2 = g0, g3 = g0, g4 = g0, g5 = g0;
   if (SPEC_FRAMED == 0u) {
-    g0 = grids[0], g1 = grids[1], g2 = grids[2], g3 = grids[3], g4 = grids[4], g5 = grids[5];
+    g0 = texelFetch(grids, 0), g1 = texelFetch(grids, 1), g2 = texelFetch(grids, 2);
+    g3 = texelFetch(grids, 3), g4 = texelFetch(grids, 4), g5 = texelFetch(grids, 5);
   }
   // A lit position leads unless the one before it is lit and in its cell.
   uint follows = 0u, last = 0u;  // bit k: position k is in position k - 1's cell; last: the cell before
   for (uint k = 0u; k < SCAN_ITEMS; k += 4u) {
-    uint c0 = litCell(first, k, n), c1 = litCell(first, k + 1u, n);
-    uint c2 = litCell(first, k + 2u, n), c3 = litCell(first, k + 3u, n);
+    uint i = first + k;
+    vec4 x0 = positionAt(i, n), x1 = positionAt(i + 1u, n), x2 = positionAt(i + 2u, n), x3 = positionAt(i + 3u, n);
+    uint m0 = mayBeLit(x0, i, n), m1 = mayBeLit(x1, i + 1u, n);
+    uint m2 = mayBeLit(x2, i + 2u, n), m3 = mayBeLit(x3, i + 3u, n);
+    // No lane's four has geometry: none is lit, and their cells are never read (run_items reads the
+    // leaders', which are lit), nor is `last` (a position whose left neighbour is unlit leads). The
+    // test is the subgroup's (subgroupOr: uniform), so the lanes branch together and skip the normals,
+    // the cells and the store (a SIMD CPU driver may run a lane's divergent branch under a mask).
+    if (subgroupOr(m0 | m1 | m2 | m3) == 0u) continue;
+    uint lit = litAt(x0, i, n, m0) | (litAt(x1, i + 1u, n, m1) << 1u) | (litAt(x2, i + 2u, n, m2) << 2u) |
+               (litAt(x3, i + 3u, n, m3) << 3u);
+    if (subgroupOr(lit) == 0u) continue;
+    bits |= lit << k;
+    uint c0 = runCellAt(x0.xyz), c1 = runCellAt(x1.xyz), c2 = runCellAt(x2.xyz), c3 = runCellAt(x3.xyz);
     follows |= ((c0 == last ? 1u : 0u) | (c1 == c0 ? 2u : 0u) | (c2 == c1 ? 4u : 0u) | (c3 == c2 ? 8u : 0u)) << k;
     cells4[(first + k) >> 2u] = uvec4(c0, c1, c2, c3);
     last = c3;

@@ -4,8 +4,8 @@
 // world on its face's fitted grid and run of keys (faceKey on ray_grids.comp's grid) or in a rotated frame
 // (frameRayKey, KeysPush::framed).
 // bindings: 0 = position (uniform texel buffer, RGBA32F: a texel per pixel), 1 = samples (uint[] pixel
-//           indices), 2 = keys (uint[]), 3 = countWords (device count), 4 = the faces' grids (vec4 per
-//           face, world keys)
+//           indices), 2 = keys (uint[]), 3 = countWords (device count), 4 = the faces' grids (uniform texel
+//           buffer, RGBA32F: a texel per face, world keys)
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
 layout(local_size_x = PIXEL_THREADS) in;
@@ -13,7 +13,7 @@ layout(binding = 0) uniform samplerBuffer position;
 layout(std430, binding = 1) readonly buffer Samples { uint samples[]; };
 layout(std430, binding = 2) writeonly buffer Keys { uint keys[]; };
 layout(std430, binding = 3) readonly buffer CountWords { uint countWords[]; };
-layout(std430, binding = 4) readonly buffer Grids { vec4 grids[]; };
+layout(binding = 4) uniform samplerBuffer grids;
 layout(push_constant) uniform Push { KeysPush pc; };
 // = pc.framed, as a specialisation constant: each pipeline holds one key's code (on lavapipe a lane pays
 // for a kernel's code whether a uniform branch enters it or not, and each key has its own Hilbert loop).
@@ -32,6 +32,6 @@ void main() {
   } else {
     vec3 d = x - pc.light.xyz;
     uint face = rayFace(d);
-    keys[i] = face == 7u ? RAY_KEY_DEGENERATE : faceKey(d, face, grids[face]);
+    keys[i] = face == 7u ? RAY_KEY_DEGENERATE : faceKey(d, face, texelFetch(grids, int(face)));
   }
 }

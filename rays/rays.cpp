@@ -19,6 +19,9 @@ namespace cs::rays {
 
 // The G-buffer read as texels (vk::texels): position and normal are one vec4 a pixel.
 constexpr VkFormat kPixelTexels = VK_FORMAT_R32G32B32A32_SFLOAT;
+// The faces' key grids (ray_grids.comp writes them): a vec4 texel per face, read as texels by every kernel
+// that keys (a storage load is a bounds-checked load per lane on a SIMD CPU driver).
+constexpr VkFormat kGridTexels = VK_FORMAT_R32G32B32A32_SFLOAT;
 // The runs' words (run_items.comp and after): uint arrays read as R32UI texels.
 constexpr VkFormat kWordTexels = VK_FORMAT_R32_UINT;
 // count_'s words: the lit count, the runs' count.
@@ -150,7 +153,7 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
   const bool framed = frame.framed != 0u;
   keyBits_ = framed ? kFrameKeyBits : kRayKeyBits;
   const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(pixels, SCAN_BLOCK));
-  const vk::BufferRange position = vk::texels(g.position, kPixelTexels);
+  const vk::BufferRange position = vk::texels(g.position, kPixelTexels), grids = vk::texels(grids_, kGridTexels);
   if (!framed) recordBounds(cmd, g, push);  // the faces' grids first, from the pixels alone
   // One pass over the pixels (lit_runs.comp): which are lit, and the runs of equal keys among them (every
   // pixel's key cell, four at a time, kept per pixel); the scan of the blocks' lit counts (the lit count),
@@ -158,7 +161,7 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
   // item a run as the sort's input (run_items.comp: the leader's key from its cell).
   const uint32_t invocations = blockInvocations(pixels);
   cmd.dispatch(framed ? frameLitRuns_ : litRuns_,
-               {position, vk::texels(g.normal, kPixelTexels), keptBits_, compact_.blockCounts(), grids_, leaderBits_,
+               {position, vk::texels(g.normal, kPixelTexels), keptBits_, compact_.blockCounts(), grids, leaderBits_,
                 runCounts_, runCells_},
                push, grid.x, grid.y);
   cmd.barrier();
@@ -167,7 +170,7 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
                   vk::BufferRange(runCounts_, 0, uint64_t(invocations) * 4), sort::Count(invocations),
                   sort::GpuWord(count_, kRunsWord));
   cmd.dispatch(framed ? frameRunItems_ : runItems_,
-               {position, keptBits_, runCounts_, leaderBits_, sort_.pairInput(), grids_, vk::texels(runCells_, kWordTexels)},
+               {position, keptBits_, runCounts_, leaderBits_, sort_.pairInput(), grids, vk::texels(runCells_, kWordTexels)},
                push, grid.x, grid.y);
   cmd.barrier();
   runsPending_ = true;
@@ -209,14 +212,15 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
   }
   if (!framed) recordBounds(cmd, g, push);  // each face's box over the subset, for its fitted grid
   const vk::Kernel& keys = framed ? frameRayKeys_ : rayKeys_;
+  const vk::BufferRange grids = vk::texels(grids_, kGridTexels);
   if (count.onDevice()) {  // as many workgroups as the device count needs (none for a count of 0)
     groups_.record(cmd, count, PIXEL_THREADS, keyArgs_, 0);
     cmd.barrier();
-    cmd.dispatchIndirect(keys, {vk::texels(g.position, kPixelTexels), samples_, keys_, countBinding, grids_}, &push,
+    cmd.dispatchIndirect(keys, {vk::texels(g.position, kPixelTexels), samples_, keys_, countBinding, grids}, &push,
                          sizeof(push), keyArgs_);
   } else {
     vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(count.max, PIXEL_THREADS));
-    cmd.dispatch(keys, {vk::texels(g.position, kPixelTexels), samples_, keys_, countBinding, grids_}, push, grid.x, grid.y);
+    cmd.dispatch(keys, {vk::texels(g.position, kPixelTexels), samples_, keys_, countBinding, grids}, push, grid.x, grid.y);
   }
   cmd.barrier();
 }
@@ -250,7 +254,7 @@ bool LitRays::recordSort(vk::Commands& cmd, sort::Count count, const vk::Buffer*
   // Without the records, bindings 6 and 7 are not read or written: any valid buffers.
   cmd.dispatchIndirect(runExpand_[keepSortedKeys_ ? 1 : 0][writeRecords ? 1 : 0],
                        {vk::texels(runOrder_, kWordTexels), vk::texels(runStarts_, kWordTexels), samples_, keys_,
-                        vk::texels(sortedKeys, kWordTexels), count_,
+                        vk::texels(sortedKeys, kWordTexels), vk::texels(count_, kWordTexels),
                         vk::texels(writeRecords ? *positions : samples_, kPixelTexels),
                         writeRecords ? *records : samples_},
                        &runs, sizeof(runs), runArgs_, kRunGroupsArgs * 4);

@@ -6,11 +6,11 @@
 // (its length - 1) << RUN_PIXEL_BITS). The key is the leader's, from its cell (lit_runs.comp's cells,
 // run_cell.glsl's runCellKey): the Hilbert index once a run. A run's pixels are its leader and the lit
 // positions after it up to the next leader or the first unlit position: consecutive pixels, one key.
-// bindings: 0 = position (uniform texel buffer, RGBA32F: a texel per pixel; run_cell.glsl's), 1 = kept (uvec2[] per
-//           invocation: bits, rank in the block), 2 = runBase (uint[] per invocation: its first item, the
-//           scan of runCounts), 3 = leaderBits (uint[] per invocation), 4 = pairs (uvec2[]), 5 = the
-//           faces' grids (vec4 per face; world keys), 6 = cells (uniform texel buffer, R32UI: a pixel's
-//           key cell, lit_runs.comp)
+// bindings: 0 = position (uniform texel buffer, RGBA32F: a texel per pixel; run_cell.glsl's), 1 = kept
+//           (uvec2[] per invocation: bits, rank in the block), 2 = runBase (uint[] per invocation: its
+//           first item, the scan of runCounts), 3 = leaderBits (uint[] per invocation), 4 = pairs
+//           (uvec2[]), 5 = the faces' grids (uniform texel buffer, RGBA32F: a texel per face; world keys),
+//           6 = cells (uniform texel buffer, R32UI: a lit pixel's key cell, lit_runs.comp)
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
 layout(local_size_x = SCAN_THREADS) in;
@@ -19,7 +19,7 @@ layout(std430, binding = 1) readonly buffer Kept { uvec2 kept[]; };
 layout(std430, binding = 2) readonly buffer RunBase { uint runBase[]; };
 layout(std430, binding = 3) readonly buffer LeaderBits { uint leaderBits[]; };
 layout(std430, binding = 4) writeonly buffer Pairs { uvec2 pairs[]; };
-layout(std430, binding = 5) readonly buffer Grids { vec4 grids[]; };
+layout(binding = 5) uniform samplerBuffer grids;
 layout(binding = 6) uniform usamplerBuffer cells;
 layout(push_constant) uniform Push { KeysPush pc; };
 layout(constant_id = 0) const uint SPEC_FRAMED = 0u;
@@ -36,7 +36,8 @@ void main() {
   uint lit = kept[inv].x, item = runBase[inv];
   g0 = vec4(0.0f), g1 = g0, g2 = g0, g3 = g0, g4 = g0, g5 = g0;  // as lit_runs.comp reads them
   if (SPEC_FRAMED == 0u) {
-    g0 = grids[0], g1 = grids[1], g2 = grids[2], g3 = grids[3], g4 = grids[4], g5 = grids[5];
+    g0 = texelFetch(grids, 0), g1 = texelFetch(grids, 1), g2 = texelFetch(grids, 2);
+    g3 = texelFetch(grids, 3), g4 = texelFetch(grids, 4), g5 = texelFetch(grids, 5);
   }
   while (leaders != 0u) {
     uint k = uint(findLSB(leaders));

@@ -83,7 +83,7 @@ ConeRecorder::ConeRecorder(vk::Context& ctx, const ConeOptions& options)
   if (options.arena.pairCapacity > 0) traversal_ = std::make_unique<traversal::Traversal>(ctx, options.arena);
   else if (options.memoryBudgetBytes == 0)
     traversal_ = std::make_unique<traversal::Traversal>(ctx, options.traversalMemoryBytes);
-  sampleLight_ = vk::createKernel(ctx_, "sample light", spv_sample_light_comp, 4, sizeof(traversal::SampleLightPush));
+  sampleLight_ = vk::createKernel(ctx_, "sample light", spv_sample_light_comp, 5, sizeof(traversal::SampleLightPush));
   if (options_.sorted && options_.adaptiveOrder && !options_.twoPass) {
     orderChoice_ = vk::createKernel(ctx, "ray order choice", spv_order_choice_comp, 2, 0);
     orderWords_ = vk::createBuffer(ctx, ORDER_WORDS * 4);
@@ -250,14 +250,17 @@ ConeRecorder::RecordedLight ConeRecorder::recordLightFrame(vk::Commands& cmd, co
   push.light = glm::vec4(light, 1.0f);
   push.count = pixels;
   push.mode = SAMPLE_LIGHT_TERM;
-  cmd.dispatch(sampleLight_, {g.position, g.normal, visibility_, visibility_}, push, grid.x, grid.y);
+  // The G-buffer read as RGBA32F texels, a pixel each (the light term is written through g.normal).
+  const VkFormat pixelTexels = VK_FORMAT_R32G32B32A32_SFLOAT;
+  const vk::BufferRange positions = vk::texels(g.position, pixelTexels), normals = vk::texels(g.normal, pixelTexels);
+  cmd.dispatch(sampleLight_, {positions, g.normal, visibility_, visibility_, normals}, push, grid.x, grid.y);
   cmd.barrier();
   boundary("light term");
   const RecordedLight rec = recordLight(cmd, g, in, light, adaptive, sphereSlot, boundary);
   if (markUndecided && rec.onDevice) {
     cmd.barrier();
     push.mode = SAMPLE_UNDECIDED;
-    cmd.dispatch(sampleLight_, {g.position, g.normal, visibility_, traversal_->stateBuffer()}, push, grid.x, grid.y);
+    cmd.dispatch(sampleLight_, {positions, g.normal, visibility_, traversal_->stateBuffer(), normals}, push, grid.x, grid.y);
     cmd.barrier();
   }
   return rec;
