@@ -414,7 +414,7 @@ std::vector<ConeRecorder::Frame> ConeRecorder::runLights(std::span<const FrameIn
     break;
   }
   const traversal::Traversal* arena = nullptr;
-  const Boundary none = [](const char*) {};
+  auto none = [](const char*) {};  // named: a Boundary refers to it, never owns it
   for (size_t l = 0; l < n; ++l) {
     const FrameInput& f = frames[l];
     before[l] = lightOrders_[l];
