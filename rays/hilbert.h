@@ -301,8 +301,8 @@ CS_FN vec2 frameUV(vec3 d) { return vec2(d.x / d.z, d.y / d.z); }
 // subset's `box` of frame coordinates (face 0's words) whose side is the box's larger extent, so the box
 // spans all 2^order cells along that axis; without a box (the subset had no lit sample), the same over the
 // scene's projection `rect` (KeysPush::rect: (u0, v0, 1 / (u1 - u0), 1 / (v1 - v0))). Not on power-of-two
-// squares as a face's (fittedFaceGrid): measured in this frame, those cost more pairs, and more so the
-// further the box sits from a power-of-two square (docs/ARCHITECTURE.md, "rays/").
+// squares as a face's (fittedFaceGrid): measured in this frame, those cost more pairs, and varied with where
+// the box fell on the plane's grid of them (docs/ARCHITECTURE.md, "rays/").
 CS_FN vec4 frameKeyGrid(uvec4 box, vec4 rect, uint order) {
   vec2 lo = vec2(rect.x, rect.y), extent = vec2(1.0f / rect.z, 1.0f / rect.w);
   if (box.x != RAY_BOUNDS_EMPTY) {
