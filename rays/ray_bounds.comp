@@ -38,7 +38,6 @@ void main() {
     uint pixel = boundsSample(first + k, n);
     vec4 x = texelFetch(position, int(pixel));
     if (!litSample(x, texelFetch(normal, int(pixel)))) continue;
-    // In a rotated frame its coordinates, on face 0's words (frameKeyGrid).
     vec3 d = x.xyz - pc.light.xyz;
     if (SPEC_FRAMED != 0u) d = frameRay(x.xyz, pc.rowX, pc.rowY, pc.rowZ, pc.origin, pc.lightFrame);
     uint face = SPEC_FRAMED != 0u ? (frameRayKeyed(d) ? 0u : 7u) : rayFace(d);
