@@ -490,9 +490,14 @@ TEST(Api, FrameStatsGiveEachLightsStageTimesWithinTheFramesGpuTime) {
   EXPECT_FALSE(unrecorded.gpuTimes);
   // A frame recorded but not yet run: its slot's queries still hold the frame before's times, which must
   // not pass for its own.
-  bool pendingTimes = true;
-  renderer.frame(*cs, f.host, lights, [&](uint64_t frame) { pendingTimes = cs->frameStats(frame).gpuTimes; });
+  bool pendingTimes = true, pendingAvailable = true;
+  renderer.frame(*cs, f.host, lights, [&](uint64_t frame) {
+    const coneshadow::FrameStats pending = cs->frameStats(frame);
+    pendingTimes = pending.gpuTimes;
+    pendingAvailable = pending.available;
+  });
   EXPECT_FALSE(pendingTimes) << "a frame not yet submitted reported GPU times";
+  EXPECT_FALSE(pendingAvailable) << "a frame not yet submitted reported its counters";
   EXPECT_EQ(cs->frameStats(renderer.lastFrame).gpuTimes, timestamps) << "the same frame once it completed";
   EXPECT_STREQ(coneshadow::stageName(coneshadow::Stage::LightTerm), "light term");
   EXPECT_STREQ(coneshadow::stageName(coneshadow::Stage::Undecided), "undecided");

@@ -144,7 +144,8 @@ struct LightStats {
 // work behind the command stream: a stage can read ~0 while its neighbour absorbs it); gpuMs, the frame's
 // whole span, is reliable, and all lights' stages together add up to at most gpuMs.
 struct FrameStats {
-  bool available = false;          // false: that frame is not among the last framesInFlight recorded
+  bool available = false;          // false: that frame is not among the last framesInFlight recorded, or
+                                   // has not yet run to its end on the device (read it after your fence)
   std::vector<LightStats> lights;  // one per light, in FrameDesc order
   bool gpuTimes = false;           // the stage times and gpuMs below were measured
   double gpuMs = 0;                // the GPU time of everything recordFrame recorded, in milliseconds
