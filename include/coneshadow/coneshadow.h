@@ -179,7 +179,8 @@ class CONESHADOW_API Context {
   // The counts and GPU times of a recorded frame (its lights in a vector: this call allocates). Call only
   // once that frame's command buffer has completed; it never waits for the device.
   FrameStats frameStats(uint64_t frame) const;
-  // Device memory the library holds, in bytes.
+  // Device memory the library holds in its buffers, in bytes. Not counted: the timestamp query pools
+  // (about 530 queries a light of Options::maxLights, per frame in flight), which the driver allocates.
   uint64_t deviceBytes() const;
 
   struct Impl;
