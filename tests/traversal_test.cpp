@@ -1315,8 +1315,8 @@ TEST(ConeMethod, ALightThatOverflowsAFrameOfSeveralIsRunAgainAloneWithItsOneLigh
 // That expansion as a lane per super cluster pair (its 64 triangles in one invocation, STEP_EXPAND_SUPER,
 // which tests the super cluster's sphere, its clusters', their groups' and their triangles', each only
 // against the children the one before kept) or a lane per triangle pair: the same steps above them, fewer
-// tests in the first, no more leaf pairs, and the same mask; auto takes the first on a CPU device and
-// the second on a GPU.
+// tests in the first, no more leaf pairs, and the same mask; auto takes what its threshold says on a CPU
+// device (one batch here) and the second on a GPU.
 TEST(ConeMethod, TheLastExpansionPerClusterOrPerTriangleGivesTheSamePairsAndMask) {
   auto& ctx = test::context();
   HeightFieldFrame field(48);
@@ -1334,8 +1334,13 @@ TEST(ConeMethod, TheLastExpansionPerClusterOrPerTriangleGivesTheSamePairsAndMask
   const MethodOutput automatic = run(traversal::ExpansionLanes::Auto);
   EXPECT_EQ(cluster.stats["last_expansion_lanes"], "cluster");
   EXPECT_EQ(triangle.stats["last_expansion_lanes"], "triangle");
-  EXPECT_EQ(automatic.stats["last_expansion_lanes"],
-            ctx.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? "cluster" : "triangle");
+  const std::optional<uint32_t> minPairs = traversal::expansionLanesMinPairs(ctx);
+  const uint64_t pairs = automatic.stats["traversal"]["expansion_pairs_by_lanes"]["cluster"].get<uint64_t>() +
+                         automatic.stats["traversal"]["expansion_pairs_by_lanes"]["triangle"].get<uint64_t>();
+  EXPECT_EQ(automatic.stats["traversal"]["expansion_lanes_by_batch"]["cluster"].get<uint64_t>() +
+                automatic.stats["traversal"]["expansion_lanes_by_batch"]["triangle"].get<uint64_t>(),
+            minPairs ? 1u : 0u) << "one batch, one choice (none on a GPU)";
+  EXPECT_EQ(automatic.stats["last_expansion_lanes"], minPairs && pairs >= *minPairs ? "cluster" : "triangle");
   ASSERT_GT(cluster.stats["traversal"]["expanded_clusters"].get<uint64_t>(), 0u);
   const uint32_t depth = testedDepths(cluster);
   ASSERT_GE(depth, 4u);
@@ -1358,6 +1363,79 @@ TEST(ConeMethod, TheLastExpansionPerClusterOrPerTriangleGivesTheSamePairsAndMask
   EXPECT_LE(cluster.stats["traversal"]["leaf_pairs"].get<uint64_t>(), triangle.stats["traversal"]["leaf_pairs"].get<uint64_t>());
   EXPECT_EQ(cluster.visibility, triangle.visibility);
   EXPECT_GT(std::count(cluster.visibility.begin(), cluster.visibility.end(), 0.0f), 0);
+}
+
+// The last expansion's lanes chosen per batch on the device (ExpansionLanes::Auto, traverse_advance.comp's
+// wholeLanes) from the (super) cluster pairs where the two forms part, against a threshold (here given, so
+// on any device): from one pair every batch takes a lane per pair, above every batch's pairs a lane per
+// triangle pair, and with the threshold at the mean of a many-batch frame's (a small arena) some batches
+// take each -- the choice goes both ways within one submission. Each frame's mask is the forced forms'
+// and the one without clusters; the stats count every batch's choice and the pairs it saw.
+TEST(ConeMethod, TheLastExpansionsLanesAreChosenPerBatchEitherWayWithTheSameMask) {
+  auto& ctx = test::context();
+  HeightFieldFrame field(48);
+  const FrameInput& frame = field.frame;
+  ConeOptions plain;
+  plain.clusters = false;
+  const MethodOutput want = runCounted(*makeConeMethod(ctx, plain), frame);
+  ASSERT_GT(std::count(want.visibility.begin(), want.visibility.end(), 0.0f), 0);
+  // Frames until one runs in one submission (a small arena's first frames overflow and learn their batch).
+  auto run = [&](traversal::ExpansionLanes lanes, std::optional<uint32_t> minPairs, uint64_t memory) {
+    ConeOptions o;
+    o.lastExpansionLanes = lanes;
+    o.expansionLanesMinPairs = minPairs;
+    o.leafRays = traversal::LeafRays::Sixteen;  // four tested depths (64 rays a pair leave three)
+    if (memory) o.traversalMemoryBytes = memory;
+    auto m = makeConeMethod(ctx, o);
+    MethodOutput out;
+    for (int k = 0; k < 5; ++k) {
+      out = runCounted(*m, frame);
+      EXPECT_EQ(out.visibility, want.visibility) << traversal::expansionLanesName(lanes) << ", frame " << k;
+      if (k > 0 && out.stats["traversal_path"] == "one submission") break;
+    }
+    EXPECT_EQ(out.stats["traversal_path"], "one submission");
+    return out;
+  };
+  auto batches = [](const MethodOutput& out, const char* form) {
+    return out.stats["traversal"]["expansion_lanes_by_batch"][form].get<uint64_t>();
+  };
+  auto pairs = [](const MethodOutput& out, const char* form) {
+    return out.stats["traversal"]["expansion_pairs_by_lanes"][form].get<uint64_t>();
+  };
+  for (uint64_t memory : {uint64_t(0), uint64_t(256) << 10}) {
+    const MethodOutput cluster = run(traversal::ExpansionLanes::Auto, 1u, memory);
+    const MethodOutput triangle = run(traversal::ExpansionLanes::Auto, UINT32_MAX, memory);
+    EXPECT_EQ(cluster.stats["last_expansion_lanes"], "cluster") << memory;
+    EXPECT_EQ(triangle.stats["last_expansion_lanes"], "triangle") << memory;
+    EXPECT_GT(batches(cluster, "cluster"), 0u) << memory;
+    EXPECT_EQ(batches(cluster, "triangle"), 0u) << memory;
+    EXPECT_EQ(batches(triangle, "cluster"), 0u) << memory;
+    EXPECT_GT(batches(triangle, "triangle"), 0u) << memory;
+    // The choice is the forced form's: the same pairs (a lane per pair tests fewer).
+    const MethodOutput forced = run(traversal::ExpansionLanes::PerCluster, std::nullopt, memory);
+    EXPECT_EQ(cluster.stats["pairs_tested"], forced.stats["pairs_tested"]) << memory;
+    EXPECT_LT(cluster.stats["pairs_tested"].get<uint64_t>(), triangle.stats["pairs_tested"].get<uint64_t>()) << memory;
+    if (memory == 0) {
+      EXPECT_EQ(batches(cluster, "cluster"), 1u) << "one batch";
+      continue;
+    }
+    // Many batches: a threshold at their mean pairs splits them.
+    const uint64_t many = batches(cluster, "cluster");
+    ASSERT_GE(many, 3u);
+    const uint32_t mean = uint32_t(pairs(cluster, "cluster") / many);
+    const MethodOutput mixed = run(traversal::ExpansionLanes::Auto, mean, memory);
+    std::printf("  %llu batches; threshold %u pairs: %llu batches a lane a pair (%llu pairs), %llu a lane per triangle pair (%llu pairs)\n",
+                (unsigned long long)many, mean, (unsigned long long)batches(mixed, "cluster"),
+                (unsigned long long)pairs(mixed, "cluster"), (unsigned long long)batches(mixed, "triangle"),
+                (unsigned long long)pairs(mixed, "triangle"));
+    EXPECT_GT(batches(mixed, "cluster"), 0u);
+    EXPECT_GT(batches(mixed, "triangle"), 0u);
+    EXPECT_GE(pairs(mixed, "cluster"), uint64_t(mean) * batches(mixed, "cluster"));
+    EXPECT_LT(pairs(mixed, "triangle"), uint64_t(mean) * batches(mixed, "triangle"));
+    const uint64_t mixedTests = mixed.stats["pairs_tested"].get<uint64_t>();
+    EXPECT_LT(cluster.stats["pairs_tested"].get<uint64_t>(), mixedTests);
+    EXPECT_LT(mixedTests, triangle.stats["pairs_tested"].get<uint64_t>());
+  }
 }
 
 // The whole traversal is conservative end to end: the mask equals the leaf test run on every (triangle,

@@ -138,6 +138,7 @@ traversal::TraversalInput ConeRecorder::traversalInput(glm::vec3 light, float ep
   in.earlyAccept = options_.earlyAccept;
   in.sphereLastExpansion = options_.sphereLastExpansion;
   in.lastExpansionLanes = options_.lastExpansionLanes;
+  in.expansionLanesMinPairs = options_.expansionLanesMinPairs;
   in.leafRays = options_.leafRays;
   in.leafChoiceCosts = options_.leafChoiceCosts;
   in.leafTest = options_.leafTestFromLight
@@ -644,8 +645,6 @@ void ConeRecorder::describeRecording(const RecordedLight& rec, ConeFrameStats& s
   stats.oneSubmission = true;
   stats.clusters = rec.clusters && rec.onDevice;
   stats.lastExpansionTest = options_.sphereLastExpansion && options_.test == ConeTest::Precise ? "sphere" : "precise";
-  // a lane per cluster pair or per triangle pair, where that expansion runs in the sphere-test kernel
-  stats.lastExpansionLanes = traversal::expansionLanesName(traversal_->lastExpansionLanes());
   stats.traversalBatchTriangles = rec.batch;
 }
 
