@@ -19,6 +19,7 @@
 #include "method/epsilon.h"
 #include "tests/precise_probe.comp.h"
 #include "tests/test_context.h"
+#include "traversal/cone_engine.h"
 #include "traversal/cone_method.h"
 #include "traversal/precise_test.h"
 #include "traversal/sphere_test.h"
@@ -1310,6 +1311,49 @@ TEST(ConeMethod, ALightThatOverflowsAFrameOfSeveralIsRunAgainAloneWithItsOneLigh
   // The batches learnt from the overflows: the last frame's three lights fit one submission again.
   EXPECT_EQ(outs[0].stats["submits_per_frame"], 1);
   EXPECT_FALSE(outs[0].stats["lights_frame"].contains("alone"));
+}
+
+// The engine after a traversal whose pairs passed its arena on the GPU (it never resumes chunked): its lit
+// samples that no hit had shadowed by then are 0.5 (sample_light.comp's undecided mode). The lit samples
+// are the light's, computed in the kernels (core/shared.h litSampleFor): with the G-buffer's w garbled on
+// the device, every pixel the camera pass lit is 0 or 0.5 (0.5 where a roomy frame lights it) and every
+// other pixel 1.
+TEST(ConeEngine, AnOverflowedFrameMarksTheLightsLitSamplesNotYetShadowedUndecided) {
+  auto& ctx = test::context();
+  HeightFieldFrame field(48);
+  const std::vector<float> want = runCounted(*makeConeMethod(ctx), field.frame).visibility;
+  const uint32_t pixels = 48 * 48;
+  std::vector<vec4> garbled = field.host.normal;
+  for (size_t i = 0; i < garbled.size(); ++i) garbled[i].w = i % 2 ? -1.0f : std::nanf("");
+  vk::upload(ctx, field.dev.normal, garbled.data(), garbled.size() * sizeof(vec4));
+  ConeOptions small;
+  small.traversalMemoryBytes = uint64_t(256) << 10;
+  auto engine = makeConeEngine(ctx, small, 1, 1);
+  engine->setGeometry(field.scene, geometryRevision(field.scene));
+  vk::Buffer out = vk::createBuffer(ctx, uint64_t(pixels) * 4, vk::Memory::HostVisible);
+  vk::Commands cmd(ctx);
+  const vec3 lights[1] = {field.frame.light};
+  engine->record(cmd, field.dev, lights, field.frame.epsilon, 0,
+                 [&](uint32_t, const vk::Buffer& mask) { cmd.copy(mask, out, uint64_t(pixels) * 4); });
+  cmd.barrier();
+  cmd.submit();
+  const std::vector<EngineLightStats> st = engine->stats(0);
+  ASSERT_EQ(st.size(), 1u);
+  ASSERT_FALSE(st[0].complete) << "the arena held the frame's pairs: the test shows nothing";
+  EXPECT_EQ(st[0].litSamples, field.host.litCount());
+  std::vector<float> mask(pixels);
+  std::memcpy(mask.data(), out.mapped, uint64_t(pixels) * 4);
+  size_t undecided = 0;
+  for (uint32_t i = 0; i < pixels; ++i) {
+    if (!field.host.isLit(i)) {
+      ASSERT_EQ(mask[i], 1.0f) << "pixel " << i << " is no lit sample";
+      continue;
+    }
+    if (want[i] == 1.0f) ASSERT_EQ(mask[i], 0.5f) << "lit pixel " << i << " nothing shadows";
+    else ASSERT_TRUE(mask[i] == 0.0f || mask[i] == 0.5f) << "shadowed pixel " << i << ": " << mask[i];
+    undecided += mask[i] == 0.5f;
+  }
+  EXPECT_GT(undecided, 0u);
 }
 
 // That expansion as a lane per super cluster pair (its 64 triangles in one invocation, STEP_EXPAND_SUPER,

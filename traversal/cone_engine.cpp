@@ -24,7 +24,7 @@ namespace {
 // The stage a recorder boundary ends (ConeRecorder::Boundary's names); Count for a name it does not know.
 EngineStage stageEndedBy(const char* boundary) {
   static const std::pair<const char*, EngineStage> ends[] = {
-      {"light term", EngineStage::LightTerm}, {"compact", EngineStage::Compact}, {"compact + keys", EngineStage::Compact},
+      {"compact", EngineStage::Compact}, {"compact + keys", EngineStage::Compact},
       {"order", EngineStage::Order},          {"keys", EngineStage::Keys},       {"sort", EngineStage::Sort},
       {"build", EngineStage::Build},          {"traversal", EngineStage::Traversal}, {"leaves", EngineStage::Leaves}};
   for (const auto& [name, stage] : ends)
@@ -156,6 +156,14 @@ class Engine : public ConeEngine {
     }
     if (times) *times = readTimes(es, out);
     return out;
+  }
+
+  void recordLightTerms(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, const vk::Buffer& terms,
+                        uint64_t offset) override {
+    const uint64_t bytes = uint64_t(g.width) * g.height * 16;
+    CS_CHECK(offset + bytes <= terms.size, "light terms: " << bytes << " bytes at " << offset << " of a buffer of "
+                                                           << terms.size);
+    if (bytes) recorder_.recordLightTerms(cmd, g, light, vk::BufferRange(terms, offset, bytes));
   }
 
   uint64_t bytesAllocated() const override { return recorder_.heldBytes() + statsRing_.size; }

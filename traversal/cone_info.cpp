@@ -131,7 +131,7 @@ MethodInfo coneMethodInfo() {
        "outside the ambiguity band either way)",
        {"auto", "two-ends"}},
       {"profile-stages", "on|off",
-       "one submission per stage (light term, compact, keys, sort, build, traversal, leaves) to time each by wall clock, "
+       "one submission per stage (compact, keys, sort, build, traversal, leaves) to time each by wall clock, "
        "instead of the frame's single submission (the same mask)",
        {}},
   };

@@ -223,12 +223,12 @@ struct FrameTrianglesPush {
   uint pad0, pad1, pad2;
 };
 
-// sample_light.comp (the engine's samples): the light term of each sample for one light, and the mask's
-// undecided samples after a frame whose pairs passed the arena.
+// sample_light.comp (the engine's samples): the mask's undecided samples after a frame whose pairs passed
+// the arena, or each sample's light term written out for one light.
 struct SampleLightPush {
   vec4 light;  // xyz: the light
   uint count;  // pixels
-  uint mode;   // SAMPLE_LIGHT_TERM or SAMPLE_UNDECIDED
+  uint mode;   // SAMPLE_UNDECIDED or SAMPLE_LIGHT_TERM
   uint pad0, pad1;
 };
 #define SAMPLE_LIGHT_TERM 0u

@@ -114,8 +114,10 @@ struct FrameDesc {
 
 // The stages of one light's work, in the order a frame records them: the index of LightStats::stageMs.
 enum class Stage : uint32_t {
-  LightTerm,  // the samples' light term for the light, which decides the lit pixels
-  Compact,    // the visibility set to lit, the lit pixels compacted (with their sort keys, where fused)
+  LightTerm,  // always 0: the light term, which decides the lit pixels, is computed inside Compact (and
+              // wherever else a pixel's litness is asked); kept so the stages keep their indices
+  Compact,    // the visibility set to lit, the lit pixels found (their light term computed) and compacted
+              // (with their sort keys, where fused)
   Order,      // the ray order measured on the GPU (a screen-order tree built and judged)
   Keys,       // the rays' Hilbert keys (0 where the compaction made them)
   Sort,       // the rays' radix sort
