@@ -2,8 +2,8 @@
 // "The scene family"): scenes no rule was tuned on. Per member, in the same run: its triangles and lit
 // samples, Embree's frame (BVH build + rays, rebuilt every frame), the cone frame, their ratio, pairs
 // tested and leaf tests per lit sample, what the automatic choices chose (rays a leaf pair, the last
-// expansion's lanes, the ray order) and the samples misclassified outside the band (0: exact); then the
-// WORST ratio, naming its member, and the MEDIAN.
+// expansion's lanes -- and why, where a batch reached that expansion -- the ray order) and the samples
+// misclassified outside the band (0: exact); then the WORST ratio, naming its member, and the MEDIAN.
 //   family_bench [--members N] [--first S] [--members-list LIST] [--size 1024] [--frames 3] [--big] [--detail]
 //                [--device D] [--CONE-SETTING V ...]
 // Members family:S .. family:S+N-1 (default 1..12), or those of LIST (e.g. 3,9:tris=1M), at size² (default
@@ -120,6 +120,9 @@ int main(int argc, char** argv) {
                   (unsigned long long)j.error.misclassifiedOutsideBand, familyDescription(parseFamilyArg(m.arg)).c_str());
       const nlohmann::json& t = s["traversal"];
       std::printf("%-10s   leaf rays: %s\n", "", text(t, "leaf_rays_choice").c_str());
+      if (t.contains("expansion_lanes_by_batch") && (u64(t["expansion_lanes_by_batch"], "cluster") > 0 ||
+                                                     u64(t["expansion_lanes_by_batch"], "triangle") > 0))
+        std::printf("%-10s   last expansion's lanes: %s\n", "", text(t, "expansion_lanes_choice").c_str());
       if (detail) {  // what the leaf choice's costs are fitted to (docs/ARCHITECTURE.md, "Leaf pairs chosen per frame")
         std::printf("%-10s   per depth (tested/survived, k):", "");
         for (const nlohmann::json& p : t["passes"])

@@ -2,8 +2,9 @@
 // cone_engine.h, what libconeshadow records): for each view and N in --lights, the median wall time of
 // one submission recording N lights over that of N submissions of one light each (the same lights, the
 // same samples, the frames interleaved so a slow spell of the machine falls on both). What the N-light
-// frame shares: the geometry, its buffers and kernels, one submission and one wait; what each light
-// costs: its light term, rays, sort, tree and traversal (docs/ARCHITECTURE.md, "The engine").
+// frame shares: the geometry, its buffers and kernels, the samples (read, never written), one submission
+// and one wait; what each light costs: its rays, sort, tree and traversal (docs/ARCHITECTURE.md, "The
+// engine").
 //   lights_bench [--size 256] [--frames 5] [--scenes builtin,museum] [--lights 1,2,4,8] [--device D]
 // Prints a markdown table (docs/RESULTS.md, "Several lights a frame").
 #include <algorithm>

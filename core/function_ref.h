@@ -16,7 +16,8 @@ class FunctionRef;
 template <class R, class... Args>
 class FunctionRef<R(Args...)> {
  public:
-  FunctionRef(std::nullptr_t) noexcept {}  // NOLINT: implicit, as std::function's; calls nothing
+  // An empty reference (operator bool is false): test it before calling, as a std::function.
+  FunctionRef(std::nullptr_t) noexcept {}  // NOLINT: implicit, as std::function's
   template <class F, class = std::enable_if_t<!std::is_same_v<std::decay_t<F>, FunctionRef> &&
                                               std::is_invocable_r_v<R, F&, Args...>>>
   FunctionRef(F&& f) noexcept  // NOLINT: implicit, so a lambda is passed as it is

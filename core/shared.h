@@ -13,9 +13,15 @@
 //                  invocation's, in a one-dimensional launch of `threads`-wide workgroups spread over a 2D
 //                  grid, x first (vk::gridFor); the one place that grid is flattened.
 //   evenBits(v)    the even bits of v packed into the low 16: a Morton (Z-order) code's x (and, of v >> 1, y)
+//   lightTerm(position, normal, light)  the direct-light term max(0, N·L̂) of a surface point for a point
+//                  light: the one expression the camera pass writes into the G-buffer's normal.w
+//                  (raster/gbuffer_main.glsl) and the cone path computes for each of its lights.
 //   litSample(position, normal)  the lit-sample rule: the G-buffer has geometry at the pixel (position.w
-//                  is 1) and the direct-light term N·L there is positive (normal.w). Every method, the
-//                  compaction, the metric and GBuffer::isLit ask this function and no other.
+//                  is 1) and the direct-light term N·L there is positive (normal.w). The shadow maps, the
+//                  metric and GBuffer::isLit ask this function.
+//   litSampleFor(position, normal, light)  the same rule with the term computed for `light` (normal.w
+//                  ignored): the cone path's kernels ask this one, so no pass writes a light's term into
+//                  the samples and one G-buffer serves every light of a frame.
 #ifndef CONESHADOW_CORE_SHARED_H
 #define CONESHADOW_CORE_SHARED_H
 
@@ -82,6 +88,22 @@ uint texelWord(usamplerBuffer words, uint w) {
 
 CS_FN bool litSample(vec4 position, vec4 normal) { return position.w > 0.5f && normal.w > 0.0f; }
 
+#ifdef __cplusplus
+using glm::dot;
+using glm::length;
+using glm::max;
+#endif
+// GLSL may contract the arithmetic (no `precise`): every kernel compiles this same sequence of
+// operations, so the lit set is the same bit for bit in each of them (docs/ARCHITECTURE.md, "rays/").
+CS_FN float lightTerm(vec3 position, vec3 normal, vec3 light) {
+  vec3 toLight = light - position;
+  float d = length(toLight);
+  return d > 0.0f ? max(0.0f, dot(normal, toLight / d)) : 0.0f;
+}
+CS_FN bool litSampleFor(vec4 position, vec4 normal, vec3 light) {
+  return position.w > 0.5f && lightTerm(vec3(position), vec3(normal), light) > 0.0f;
+}
+
 CS_FN uint evenBits(uint v) {
   v &= 0x55555555u;
   v = (v | (v >> 1u)) & 0x33333333u;
@@ -95,7 +117,9 @@ CS_FN uint evenBits(uint v) {
 }  // namespace cs::shared
 namespace cs {
 using shared::evenBits;
+using shared::lightTerm;
 using shared::litSample;
+using shared::litSampleFor;
 }
 #endif
 

@@ -58,8 +58,9 @@ SampleAnswers sampleVisibility(vk::Context& ctx, SampleEngine& slot, const Scene
   g.position = vk::createBuffer(ctx, pixels * sizeof(glm::vec4));
   g.normal = vk::createBuffer(ctx, pixels * sizeof(glm::vec4));
   vk::upload(ctx, g.position, grid.position.data(), pixels * sizeof(glm::vec4));
+  vk::upload(ctx, g.normal, grid.normal.data(), pixels * sizeof(glm::vec4));  // w is not read
 
-  // The engine's masks, and each light's term as the engine wrote it into the normals' w.
+  // The engine's masks, and each light's term as the engine's kernels compute it (in the normals' w).
   std::vector<float> masks(lights.size() * pixels);
   std::vector<glm::vec4> terms(lights.size() * pixels);
   vk::Buffer maskOut = vk::createBuffer(ctx, kLightsAFrame * pixels * 4, vk::Memory::HostVisible);
@@ -67,12 +68,11 @@ SampleAnswers sampleVisibility(vk::Context& ctx, SampleEngine& slot, const Scene
   for (size_t first = 0; first < lights.size(); first += kLightsAFrame) {
     const std::span<const glm::vec3> batch = lights.subspan(first, std::min<size_t>(kLightsAFrame, lights.size() - first));
     for (int attempt = 1;; ++attempt) {
-      vk::upload(ctx, g.normal, grid.normal.data(), pixels * sizeof(glm::vec4));  // w: rewritten for each light
       vk::Commands cmd(ctx);
       const uint64_t frame = slot.frame++;
       slot.engine->record(cmd, g, batch, eps, frame, [&](uint32_t l, const vk::Buffer& mask) {
         cmd.copy(mask, maskOut, pixels * 4, 0, l * pixels * 4);
-        cmd.copy(g.normal, termOut, pixels * sizeof(glm::vec4), 0, l * pixels * sizeof(glm::vec4));
+        slot.engine->recordLightTerms(cmd, g, batch[l], termOut, l * pixels * sizeof(glm::vec4));
       });
       cmd.barrier();
       cmd.submit();

@@ -23,7 +23,7 @@ struct Context;
 struct SampleGrid {
   size_t count = 0;
   uint32_t width = 0, height = 0;
-  std::vector<glm::vec4> position, normal;  // normal: unit length, w = 0 (the engine writes each light's term there)
+  std::vector<glm::vec4> position, normal;  // normal: unit length, w = 0 (not read: the engine computes each light's term)
 };
 SampleGrid sampleGrid(std::span<const glm::vec3> points, std::span<const glm::vec3> normals);
 
@@ -39,7 +39,7 @@ struct SampleEngine {
 };
 
 // L x N answers, light-major (answer[l * count + i]). A sample is visible from a light when it faces the
-// light (the light term max(0, N.L) > 0, core/shared.h litSample) and nothing lies between; a sample that
+// light (the light term max(0, N.L) > 0, core/shared.h litSampleFor) and nothing lies between; a sample that
 // faces away is not visible, in every answer.
 struct SampleAnswers {
   size_t count = 0, lights = 0;

@@ -15,8 +15,9 @@ struct GBuffer {
   // xyz: world position (fp32); w: 1 where the pixel has geometry, 0 where it has none (xyz = 0 there).
   std::vector<glm::vec4> position;
   // xyz: world unit normal, turned to face the camera (two-sided); w: the direct-light term of the point
-  // light, max(0, N·L̂) — the "light buffer". A sample is *lit* (takes part in shadow work and in the
-  // error metric) when it has geometry and w > 0: litSample (core/shared.h), the rule every kernel asks.
+  // light, max(0, N·L̂) — the "light buffer" (core/shared.h lightTerm). A sample is *lit* (takes part in
+  // shadow work and in the error metric) when it has geometry and w > 0: litSample (core/shared.h). The
+  // cone path's kernels compute the same term for each of their lights (litSampleFor) and never read w.
   std::vector<glm::vec4> normal;
 
   size_t size() const { return size_t(width) * height; }

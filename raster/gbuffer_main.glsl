@@ -21,9 +21,7 @@ void main() {
   n = len > 0.0 ? n / len : vec3(0.0, 0.0, 1.0);
   // Two-sided: a surface seen from its back is shaded as its front.
   if (dot(n, pc.eye.xyz - worldPosition) < 0.0) n = -n;
-  vec3 toLight = pc.light.xyz - worldPosition;
-  float d = length(toLight);
-  float direct = d > 0.0 ? max(0.0, dot(n, toLight / d)) : 0.0;
+  float direct = lightTerm(worldPosition, n, pc.light.xyz);  // core/shared.h: the cone path's kernels' too
   outPosition = vec4(worldPosition, 1.0);
   outNormal = vec4(n, direct);
 #ifdef GBUFFER_TRIANGLE_ID

@@ -3,8 +3,8 @@
 // Compaction of the lit samples, step 1 (rays.h, LitRays::recordCompaction; the fused compaction,
 // recordCompactionWithKeys, does this in lit_runs.comp, with the runs):
 // which positions of the enumeration (row-major pixels, or the tiled Morton screen order of the unsorted
-// variant, SPEC_MORTON) are lit samples (geometry present and direct-light term > 0, litSample), one bit
-// each, and how many each block of SCAN_BLOCK positions holds. Invocation t of block b owns the
+// variant, SPEC_MORTON) are lit samples (geometry present and the direct-light term for pc.light > 0,
+// litSampleFor: normal.w is not read), one bit each, and how many each block of SCAN_BLOCK positions holds. Invocation t of block b owns the
 // SCAN_ITEMS consecutive positions from b * SCAN_BLOCK + t * SCAN_ITEMS; kept[b * SCAN_THREADS + t] holds
 // its bits (bit k: the k-th of them is lit) and the lit positions of the block before its own. The
 // scatter (lit_samples.comp) reads that one uvec2 instead of the G-buffer and a scan of its own (a
@@ -41,7 +41,7 @@ void main() {
       inside = inside && p.x < pc.width && p.y < pc.height;
       pixel = inside ? p.y * pc.width + p.x : 0u;
     }
-    bool lit = inside && litSample(texelFetch(position, int(pixel)), texelFetch(normal, int(pixel)));
+    bool lit = inside && litSampleFor(texelFetch(position, int(pixel)), texelFetch(normal, int(pixel)), pc.light.xyz);
     bits |= lit ? 1u << k : 0u;
   }
   uint total;

@@ -4,7 +4,7 @@
 // The fused compaction of the sorted cone path, its one pass over the pixels (rays.h,
 // LitRays::recordCompactionWithKeys): lit_count.comp's work and the runs' in one read of the G-buffer.
 // Invocation t of block b owns the SCAN_ITEMS consecutive pixels from b * SCAN_BLOCK + t * SCAN_ITEMS
-// (row-major): which are lit samples (litSample, a bit each, kept[] with the lit pixels of the block
+// (row-major): which are lit samples (litSampleFor the light, a bit each, kept[] with the lit pixels of the block
 // before its own, and the block's count, as lit_count.comp writes them), and the runs of equal keys among
 // them. A run is a stretch of consecutive lit pixels of the invocation whose rays fall in one cell of the
 // key grid (faceCellCode, frameCellCode: equal cells, equal keys); its first pixel leads it. A stable
@@ -52,9 +52,10 @@ vec4 positionAt(uint i, uint n) { return texelFetch(position, int(min(i, n - 1u)
 // 1 where position i, at x, may be lit: it is in the image and has geometry (litSample with a normal
 // that passes: false whatever the normal where the pixel is empty).
 uint mayBeLit(vec4 x, uint i, uint n) { return i < n && litSample(x, vec4(1.0f)) ? 1u : 0u; }
-// 1 where position i, at x and possibly lit (may), is lit.
+// 1 where position i, at x and possibly lit (may), is lit: its light term for pc.light, computed here
+// (litSampleFor; the G-buffer's normal.w is not read).
 uint litAt(vec4 x, uint i, uint n, uint may) {
-  return may & (litSample(x, texelFetch(normal, int(min(i, n - 1u)))) ? 1u : 0u);
+  return may & (litSampleFor(x, texelFetch(normal, int(min(i, n - 1u))), pc.light.xyz) ? 1u : 0u);
 }
 void main() {
   uint n = pc.count;  // pixels

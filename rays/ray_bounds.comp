@@ -37,7 +37,7 @@ void main() {
   for (uint k = 0u; k < RAY_BOUNDS_ITEMS && n > 0u; ++k) {
     uint pixel = boundsSample(first + k, n);
     vec4 x = texelFetch(position, int(pixel));
-    if (!litSample(x, texelFetch(normal, int(pixel)))) continue;
+    if (!litSampleFor(x, texelFetch(normal, int(pixel)), pc.light.xyz)) continue;
     vec3 d = x.xyz - pc.light.xyz;
     if (SPEC_FRAMED != 0u) d = frameRay(x.xyz, pc.rowX, pc.rowY, pc.rowZ, pc.origin, pc.lightFrame);
     uint face = SPEC_FRAMED != 0u ? (frameRayKeyed(d) ? 0u : 7u) : rayFace(d);

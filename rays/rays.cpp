@@ -120,13 +120,13 @@ uint64_t LitRays::bytesAllocated() const {
          leaderBits_.size + runCounts_.size + runArgs_.size;
 }
 
-void LitRays::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, RayOrder order) {
+void LitRays::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, RayOrder order) {
   const uint64_t pixels = uint64_t(g.width) * g.height;
   const ScreenDomain d = screenDomain(g.width, g.height, order);
   CS_CHECK(pixels <= maxPixels_ && d.size <= maxDomain_,
            "G-buffer of " << g.width << "x" << g.height << " exceeds the " << maxPixels_ << " pixels LitRays was made for");
   const bool morton = order == RayOrder::ScreenMorton;
-  const LitPush push{g.width, g.height, morton ? 1u : 0u, d.tilesX, uint32_t(d.size), 0, 0, 0};
+  const LitPush push{g.width, g.height, morton ? 1u : 0u, d.tilesX, uint32_t(d.size), 0, 0, 0, glm::vec4(light, 1.0f)};
   recordLitCount(cmd, g, push);
   const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(d.size, SCAN_BLOCK));
   cmd.dispatch(morton ? mortonLitSamples_ : litSamples_, {keptBits_, compact_.blockOffsets(), samples_}, push, grid.x,
@@ -274,7 +274,7 @@ void LitRays::record(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light,
     cmd.mark("ray sort");
     return;
   }
-  recordCompaction(cmd, g, order);
+  recordCompaction(cmd, g, light, order);
   cmd.mark("lit compaction");
   if (order != RayOrder::Hilbert) return;
   const sort::Count lit = sort::Count::device(sort::GpuWord(count_, 0), g.width * g.height);

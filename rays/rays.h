@@ -49,7 +49,9 @@ class LitRays {
   void record(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, RayOrder order);
 
   // The steps, for callers that want to time them or read the count in between.
-  void recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, RayOrder order);  // -> samples(), count
+  // The lit samples of g for `light` (core/shared.h litSampleFor: the term computed here, g.normal.w not
+  // read) -> samples(), count.
+  void recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, RayOrder order);
   void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, sort::Count count);  // -> keys()
   // The keys in a rotated frame (frameRayKey on the grid fitted to the subset, as the faces'): `frame`
   // holds KeysPush's rowX .. rect (framed = 1).

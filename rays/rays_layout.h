@@ -34,6 +34,7 @@ struct LitPush {
   uint tilesX;      // Morton tiles per row
   uint domain;      // elements enumerated: width * height, or tilesX * tilesY * tile area
   uint pad0, pad1, pad2;
+  vec4 light;       // xyz: the point light whose lit samples these are (lit_count.comp, litSampleFor)
 };
 
 // ray_bounds.comp, ray_grids.comp, ray_keys.comp, lit_runs.comp, run_items.comp
@@ -72,7 +73,7 @@ struct HilbertGridPush {
 };
 
 #ifdef __cplusplus
-static_assert(sizeof(LitPush) == 32 && offsetof(LitPush, domain) == 16, "LitPush layout");
+static_assert(sizeof(LitPush) == 48 && offsetof(LitPush, domain) == 16 && offsetof(LitPush, light) == 32, "LitPush layout");
 static_assert(sizeof(KeysPush) == 128 && offsetof(KeysPush, count) == 16 && offsetof(KeysPush, rowX) == 32,
               "KeysPush layout");
 static_assert(sizeof(HilbertGridPush) == 8, "HilbertGridPush layout");

@@ -8,6 +8,7 @@
 
 #include <array>
 #include <atomic>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <functional>
@@ -384,6 +385,10 @@ TEST(Api, AFrameInTheCallersCommandBufferEqualsTheBenchsConeMaskAndCostsTheHostN
   EXPECT_GT(st.lights[0].pairsTested, 0u);
   EXPECT_TRUE(st.lights[0].complete);
   EXPECT_FALSE(cs->frameStats(renderer.lastFrame + 5).available);
+  // The normal image's w is not read (each kernel computes the light's term): -1 and NaN there change nothing.
+  GBuffer garbled = f.host;
+  for (size_t i = 0; i < garbled.normal.size(); ++i) garbled.normal[i].w = i % 2 ? -1.0f : std::nanf("");
+  EXPECT_TRUE(sameBits(renderer.frame(*cs, garbled, {light})[0], bench)) << "the normal image's w changed the mask";
   cs.reset();
   EXPECT_TRUE(device.validated) << "VK_LAYER_KHRONOS_validation is not installed";
   EXPECT_EQ(device.messages.load(), 0) << "validation (synchronization validation on) reported messages";
@@ -476,6 +481,9 @@ TEST(Api, FrameStatsGiveEachLightsStageTimesWithinTheFramesGpuTime) {
       const char* name = coneshadow::stageName(coneshadow::Stage(s));
       if (!timestamps) { EXPECT_EQ(ms, 0.0) << "light " << l << " " << name << " without timestamps"; }
       EXPECT_GE(ms, 0.0) << "light " << l << " " << name;
+      if (coneshadow::Stage(s) == coneshadow::Stage::LightTerm) {
+        EXPECT_EQ(ms, 0.0) << "light " << l << ": the light term is computed inside the compaction, no stage of its own";
+      }
       sum += ms;
     }
   if (timestamps) {
@@ -490,9 +498,14 @@ TEST(Api, FrameStatsGiveEachLightsStageTimesWithinTheFramesGpuTime) {
   EXPECT_FALSE(unrecorded.gpuTimes);
   // A frame recorded but not yet run: its slot's queries still hold the frame before's times, which must
   // not pass for its own.
-  bool pendingTimes = true;
-  renderer.frame(*cs, f.host, lights, [&](uint64_t frame) { pendingTimes = cs->frameStats(frame).gpuTimes; });
+  bool pendingTimes = true, pendingAvailable = true;
+  renderer.frame(*cs, f.host, lights, [&](uint64_t frame) {
+    const coneshadow::FrameStats pending = cs->frameStats(frame);
+    pendingTimes = pending.gpuTimes;
+    pendingAvailable = pending.available;
+  });
   EXPECT_FALSE(pendingTimes) << "a frame not yet submitted reported GPU times";
+  EXPECT_FALSE(pendingAvailable) << "a frame not yet submitted reported its counters";
   EXPECT_EQ(cs->frameStats(renderer.lastFrame).gpuTimes, timestamps) << "the same frame once it completed";
   EXPECT_STREQ(coneshadow::stageName(coneshadow::Stage::LightTerm), "light term");
   EXPECT_STREQ(coneshadow::stageName(coneshadow::Stage::Undecided), "undecided");

@@ -849,6 +849,16 @@ struct Frame {
   glm::vec3 light;
 };
 
+// A hand-made sample's normal for `light`: facing it squarely when `lit`, facing away otherwise; w the
+// light term as the G-buffer holds it (the kernels compute it from the light, core/shared.h
+// litSampleFor, and never read w; the CPU references read w). A sample at the light is never lit.
+glm::vec4 normalFor(glm::vec3 position, glm::vec3 light, bool lit) {
+  const glm::vec3 toLight = light - position;
+  if (glm::length(toLight) == 0.0f) return glm::vec4(0, 1, 0, 0);
+  const glm::vec3 n = glm::normalize(toLight) * (lit ? 1.0f : -1.0f);
+  return glm::vec4(n, lightTerm(position, n, light));
+}
+
 Frame renderBuiltin(const std::string& view, uint32_t width, uint32_t height) {
   auto& ctx = test::context();
   static const Scene scene = builtinScene();
@@ -912,10 +922,11 @@ TEST(LitRays, MatchTheCpuReferenceInEveryOrder) {
   }
 }
 
-TEST(LitRays, SampleAtTheLightSortsLastAndEqualKeysKeepRowOrder) {
+TEST(LitRays, SampleAtTheLightIsNeverLitAndEqualKeysKeepRowOrder) {
   auto& ctx = test::context();
   const glm::vec3 light(0.5f, 2.0f, -1.0f);
-  // A 4x3 G-buffer written by hand: (offset from the light, lit?) per pixel, row-major.
+  // A 4x3 G-buffer written by hand: (offset from the light, facing it?) per pixel, row-major. A sample at
+  // the light faces nothing: its light term is 0 (core/shared.h lightTerm), so it is no lit sample.
   const std::vector<std::pair<glm::vec3, bool>> pixels = {
       {{0, 0, 0}, true},   {{1, 1, 0}, true},    {{0, -3, 0}, true},   {{2, 2, 0}, true},  // at the light; x == y tie
       {{0, 0, 5}, false},  {{-1, 1, 1}, true},   {{0, 0, -2}, true},   {{0, 0, 0}, true},  // unlit; tie -> x; at light
@@ -925,7 +936,7 @@ TEST(LitRays, SampleAtTheLightSortsLastAndEqualKeysKeepRowOrder) {
   std::vector<glm::vec4> pos, nrm;
   for (auto& [offset, lit] : pixels) {
     pos.push_back(glm::vec4(light + offset, 1.0f));
-    nrm.push_back(glm::vec4(0, 1, 0, lit ? 0.5f : 0.0f));
+    nrm.push_back(normalFor(light + offset, light, lit));
   }
   g.position = vk::createBuffer(ctx, pos.size() * 16), g.normal = vk::createBuffer(ctx, nrm.size() * 16);
   vk::upload(ctx, g.position, pos.data(), pos.size() * 16);
@@ -937,15 +948,14 @@ TEST(LitRays, SampleAtTheLightSortsLastAndEqualKeysKeepRowOrder) {
   rays.record(cmd, g, light, rays::RayOrder::Hilbert);
   cmd.submit();
   const uint32_t n = rays.readCount();
-  ASSERT_EQ(n, 10u);
+  ASSERT_EQ(n, 8u);
   std::vector<uint32_t> samples = vk::download<uint32_t>(ctx, rays.samples(), n), keys = vk::download<uint32_t>(ctx, rays.keys(), n);
   EXPECT_SAME_ARRAY(samples, rays::referenceRayOrder(host, light, rays::RayOrder::Hilbert), "hand-made G-buffer");
-  // Both samples at the light come last, in row order; so do the two +x rays of equal key (pixels 8, 10).
-  EXPECT_EQ(samples[n - 2], 0u);
-  EXPECT_EQ(samples[n - 1], 7u);
-  EXPECT_EQ(keys[n - 1], rays::kRayKeyDegenerate);
-  EXPECT_EQ(keys[n - 2], rays::kRayKeyDegenerate);
   auto at = [&](uint32_t pixel) { return std::find(samples.begin(), samples.end(), pixel) - samples.begin(); };
+  // The samples at the light (pixels 0 and 7) are not lit samples; no lit ray is degenerate.
+  EXPECT_EQ(at(0), std::ptrdiff_t(n));
+  EXPECT_EQ(at(7), std::ptrdiff_t(n));
+  for (uint32_t k : keys) EXPECT_NE(k, rays::kRayKeyDegenerate);
   EXPECT_EQ(at(10), at(8) + 1) << "equal keys keep row-major order";
   // Each key in its face's run (the faces' slots from the GPU's counts).
   const rays::FaceBounds bounds = rays::FaceBounds::fromWords(vk::download<uint32_t>(ctx, rays.bounds(), RAY_BOUNDS_WORDS));
@@ -1060,11 +1070,8 @@ TEST(RayKeys, TheFarFramesGridIsFittedToTheSubsetsBox) {
   EXPECT_EQ(sort::radixPasses(rays::kRayKeyBits), 2u);
 }
 
-// Rays within a sliver of a face (a zoomed view, a distant light): the fitted grid gives nearly every ray
-// a cell of its own, where the whole face's grid would put hundreds in one; the GPU's boxes and order
-// are the CPU reference's.
 // 96 x 80 lit samples on a 1e-3 x 1e-3 patch of face -z, 50 units from the light ((0.2, -0.1) and up of
-// its face coordinates), but for pixel 7, (0, 3, 0) from the light (face +y).
+// its face coordinates), but for pixel 7, (0, 3, 0) from the light (face +y); every normal faces the light.
 Frame sliverOfRays() {
   auto& ctx = test::context();
   Frame f{96, 80, {}, {}, glm::vec3(1.0f, -2.0f, 3.0f)};
@@ -1073,9 +1080,10 @@ Frame sliverOfRays() {
     for (uint32_t x = 0; x < f.width; ++x) {
       const glm::vec3 d(0.2f + 1e-3f * float(x) / f.width, -0.1f + 1e-3f * float(y) / f.height, -1.0f);
       pos.push_back(glm::vec4(f.light + d * 50.0f, 1.0f));
-      nrm.push_back(glm::vec4(0, 0, 1, 0.5f));
+      nrm.push_back(normalFor(glm::vec3(pos.back()), f.light, true));
     }
   pos[7] = glm::vec4(f.light + glm::vec3(0, 3, 0), 1.0f);
+  nrm[7] = normalFor(glm::vec3(pos[7]), f.light, true);
   f.device.width = f.width, f.device.height = f.height;
   f.device.position = vk::createBuffer(ctx, pos.size() * 16), f.device.normal = vk::createBuffer(ctx, nrm.size() * 16);
   vk::upload(ctx, f.device.position, pos.data(), pos.size() * 16);
@@ -1084,6 +1092,9 @@ Frame sliverOfRays() {
   return f;
 }
 
+// Rays within a sliver of a face (a zoomed view, a distant light): the fitted grid gives nearly every ray
+// a cell of its own, where the whole face's grid would put hundreds in one; the GPU's boxes and order
+// are the CPU reference's.
 TEST(LitRays, AFittedGridSeparatesRaysThatTheWholeFaceGridWouldLump) {
   auto& ctx = test::context();
   const Frame f = sliverOfRays();  // pixel 7: one ray on face +y, alone there
@@ -1168,7 +1179,7 @@ TEST(LitRays, StepsWithAHostCountMatchTheFusedRecording) {
   Frame f = renderBuiltin("room", 160, 120);
   rays::LitRays rays(ctx, f.width, f.height);
   vk::Commands cmd(ctx);
-  rays.recordCompaction(cmd, f.device, rays::RayOrder::ScreenRows);
+  rays.recordCompaction(cmd, f.device, f.light, rays::RayOrder::ScreenRows);
   cmd.submit();
   const uint32_t n = rays.readCount();  // the cone path's one readback per frame
   rays.recordKeys(cmd, f.device, f.light, n);
@@ -1226,7 +1237,7 @@ TEST(LitRays, FusedCompactionAndKeysMatchTheStepsOnSparseAndDenseFrames) {
     for (bool framed : {false, true}) {
       std::vector<glm::vec4> pos = *field, nrm(pixels);
       for (uint32_t i = 0; i < pixels; ++i) {
-        nrm[i] = glm::vec4(0, 1, 0, pattern.lit(i) ? 0.5f : 0.0f);
+        nrm[i] = normalFor(glm::vec3(pos[i]), light, pattern.lit(i));
         if (pattern.empty && !pattern.lit(i)) pos[i].w = 0.0f;
       }
       DeviceGBuffer g;
@@ -1248,7 +1259,7 @@ TEST(LitRays, FusedCompactionAndKeysMatchTheStepsOnSparseAndDenseFrames) {
                                (framed ? ", rotated frame" : ", world keys");
       // Steps: compaction, keys, sort.
       vk::Commands cmd(ctx);
-      rays.recordCompaction(cmd, g, rays::RayOrder::ScreenRows);
+      rays.recordCompaction(cmd, g, light, rays::RayOrder::ScreenRows);
       rays.recordKeys(cmd, g, push, rays.count());
       rays.recordSort(cmd, rays.count());
       cmd.submit();
@@ -1289,7 +1300,7 @@ TEST(LitRays, FusedCompactionAndKeysMatchTheStepsOnSparseAndDenseFrames) {
         EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, records, uint64_t(n) * 4), want, what << ": records");
         EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.keys(), n), keys, what << ": keys with the records");
         // Without runs to expand (the steps' sort) nothing is written and it says so.
-        rays.recordCompaction(cmd, g, rays::RayOrder::ScreenRows);
+        rays.recordCompaction(cmd, g, light, rays::RayOrder::ScreenRows);
         rays.recordKeys(cmd, g, push, rays.count());
         EXPECT_FALSE(rays.recordSort(cmd, rays.count(), &records, &g.position)) << what;
         cmd.submit();

@@ -19,6 +19,7 @@
 #include "method/epsilon.h"
 #include "tests/precise_probe.comp.h"
 #include "tests/test_context.h"
+#include "traversal/cone_engine.h"
 #include "traversal/cone_method.h"
 #include "traversal/precise_test.h"
 #include "traversal/sphere_test.h"
@@ -931,7 +932,9 @@ TEST(LeafStep, ATreeGivesTheLevelsItHas) {
 // host one submission, one wait and no allocation (views with and without shadows, a frame with no lit
 // sample); what comes back is the mask and the counters; --profile-stages gives the same mask and the
 // same counts in one submission per stage.
-TEST(ConeFrame, OneSubmissionOneHostSyncNoAllocationAfterWarmUp) {
+// The views by name (a camera of the built-in scene, or "nothing"), every one-pass variant or PreciseSorted
+// alone.
+void expectOneSubmissionFrames(const std::vector<std::string>& views, bool everyVariant) {
   auto& ctx = test::context();
   Scene scene = builtinScene();
   Raster raster(ctx, scene);
@@ -946,6 +949,7 @@ TEST(ConeFrame, OneSubmissionOneHostSyncNoAllocationAfterWarmUp) {
   nothing.up = {1, 0, 0};
   for (const View& v : {View{"wall", light}, View{"fur", light}, View{"room", vec3(-6.0f, 0.02f, 3.5f)},
                         View{"nothing", light}}) {
+    if (std::find(views.begin(), views.end(), v.name) == views.end()) continue;
     DeviceGBuffer dev;
     GBuffer host;
     const bool empty = std::string(v.name) == "nothing";
@@ -954,6 +958,7 @@ TEST(ConeFrame, OneSubmissionOneHostSyncNoAllocationAfterWarmUp) {
     FrameInput frame = frameInputOf(scene, host, dev, ctx, v.light, EpsilonPolicy::forScene(scene).eps);
     const uint64_t maskBytes = uint64_t(host.size()) * 4;
     for (const std::string& variant : coneVariantNames()) {
+      if (!everyVariant && variant != "PreciseSorted") continue;
       ConeOptions o;
       applyConeVariant(variant, o);
       if (o.twoPass) continue;
@@ -996,6 +1001,14 @@ TEST(ConeFrame, OneSubmissionOneHostSyncNoAllocationAfterWarmUp) {
       EXPECT_GE(staged.stats["submits_per_frame"].get<uint64_t>(), 6u) << what;
     }
   }
+}
+TEST(ConeFrame, OneSubmissionOneHostSyncNoAllocationAfterWarmUp) {
+  expectOneSubmissionFrames({"wall", "fur", "room", "nothing"}, /*everyVariant=*/true);
+}
+// The same for the paper's default variant on a view with shadows and one with no lit sample: the frames
+// the sanitizer pass runs (tools/sanitize.sh).
+TEST(ConeFrame, OneSubmissionForAViewWithShadowsAndOneWithNoLitSample) {
+  expectOneSubmissionFrames({"wall", "nothing"}, /*everyVariant=*/false);
 }
 
 // The ray order chosen on the GPU (ConeOptions::adaptiveOrder, order_choice.comp), in the one submission:
@@ -1300,11 +1313,54 @@ TEST(ConeMethod, ALightThatOverflowsAFrameOfSeveralIsRunAgainAloneWithItsOneLigh
   EXPECT_FALSE(outs[0].stats["lights_frame"].contains("alone"));
 }
 
+// The engine after a traversal whose pairs passed its arena on the GPU (it never resumes chunked): its lit
+// samples that no hit had shadowed by then are 0.5 (sample_light.comp's undecided mode). The lit samples
+// are the light's, computed in the kernels (core/shared.h litSampleFor): with the G-buffer's w garbled on
+// the device, every pixel the camera pass lit is 0 or 0.5 (0.5 where a roomy frame lights it) and every
+// other pixel 1.
+TEST(ConeEngine, AnOverflowedFrameMarksTheLightsLitSamplesNotYetShadowedUndecided) {
+  auto& ctx = test::context();
+  HeightFieldFrame field(48);
+  const std::vector<float> want = runCounted(*makeConeMethod(ctx), field.frame).visibility;
+  const uint32_t pixels = 48 * 48;
+  std::vector<vec4> garbled = field.host.normal;
+  for (size_t i = 0; i < garbled.size(); ++i) garbled[i].w = i % 2 ? -1.0f : std::nanf("");
+  vk::upload(ctx, field.dev.normal, garbled.data(), garbled.size() * sizeof(vec4));
+  ConeOptions small;
+  small.traversalMemoryBytes = uint64_t(256) << 10;
+  auto engine = makeConeEngine(ctx, small, 1, 1);
+  engine->setGeometry(field.scene, geometryRevision(field.scene));
+  vk::Buffer out = vk::createBuffer(ctx, uint64_t(pixels) * 4, vk::Memory::HostVisible);
+  vk::Commands cmd(ctx);
+  const vec3 lights[1] = {field.frame.light};
+  engine->record(cmd, field.dev, lights, field.frame.epsilon, 0,
+                 [&](uint32_t, const vk::Buffer& mask) { cmd.copy(mask, out, uint64_t(pixels) * 4); });
+  cmd.barrier();
+  cmd.submit();
+  const std::vector<EngineLightStats> st = engine->stats(0);
+  ASSERT_EQ(st.size(), 1u);
+  ASSERT_FALSE(st[0].complete) << "the arena held the frame's pairs: the test shows nothing";
+  EXPECT_EQ(st[0].litSamples, field.host.litCount());
+  std::vector<float> mask(pixels);
+  std::memcpy(mask.data(), out.mapped, uint64_t(pixels) * 4);
+  size_t undecided = 0;
+  for (uint32_t i = 0; i < pixels; ++i) {
+    if (!field.host.isLit(i)) {
+      ASSERT_EQ(mask[i], 1.0f) << "pixel " << i << " is no lit sample";
+      continue;
+    }
+    if (want[i] == 1.0f) ASSERT_EQ(mask[i], 0.5f) << "lit pixel " << i << " nothing shadows";
+    else ASSERT_TRUE(mask[i] == 0.0f || mask[i] == 0.5f) << "shadowed pixel " << i << ": " << mask[i];
+    undecided += mask[i] == 0.5f;
+  }
+  EXPECT_GT(undecided, 0u);
+}
+
 // That expansion as a lane per super cluster pair (its 64 triangles in one invocation, STEP_EXPAND_SUPER,
 // which tests the super cluster's sphere, its clusters', their groups' and their triangles', each only
 // against the children the one before kept) or a lane per triangle pair: the same steps above them, fewer
-// tests in the first, no more leaf pairs, and the same mask; auto takes the first on a CPU device and
-// the second on a GPU.
+// tests in the first, no more leaf pairs, and the same mask; auto takes what its threshold says on a CPU
+// device (one batch here) and the second on a GPU.
 TEST(ConeMethod, TheLastExpansionPerClusterOrPerTriangleGivesTheSamePairsAndMask) {
   auto& ctx = test::context();
   HeightFieldFrame field(48);
@@ -1322,8 +1378,13 @@ TEST(ConeMethod, TheLastExpansionPerClusterOrPerTriangleGivesTheSamePairsAndMask
   const MethodOutput automatic = run(traversal::ExpansionLanes::Auto);
   EXPECT_EQ(cluster.stats["last_expansion_lanes"], "cluster");
   EXPECT_EQ(triangle.stats["last_expansion_lanes"], "triangle");
-  EXPECT_EQ(automatic.stats["last_expansion_lanes"],
-            ctx.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? "cluster" : "triangle");
+  const std::optional<uint32_t> minPairs = traversal::expansionLanesMinPairs(ctx);
+  const uint64_t pairs = automatic.stats["traversal"]["expansion_pairs_by_lanes"]["cluster"].get<uint64_t>() +
+                         automatic.stats["traversal"]["expansion_pairs_by_lanes"]["triangle"].get<uint64_t>();
+  EXPECT_EQ(automatic.stats["traversal"]["expansion_lanes_by_batch"]["cluster"].get<uint64_t>() +
+                automatic.stats["traversal"]["expansion_lanes_by_batch"]["triangle"].get<uint64_t>(),
+            minPairs ? 1u : 0u) << "one batch, one choice (none on a GPU)";
+  EXPECT_EQ(automatic.stats["last_expansion_lanes"], minPairs && pairs >= *minPairs ? "cluster" : "triangle");
   ASSERT_GT(cluster.stats["traversal"]["expanded_clusters"].get<uint64_t>(), 0u);
   const uint32_t depth = testedDepths(cluster);
   ASSERT_GE(depth, 4u);
@@ -1348,32 +1409,102 @@ TEST(ConeMethod, TheLastExpansionPerClusterOrPerTriangleGivesTheSamePairsAndMask
   EXPECT_GT(std::count(cluster.visibility.begin(), cluster.visibility.end(), 0.0f), 0);
 }
 
+// The last expansion's lanes chosen per batch on the device (ExpansionLanes::Auto, traverse_advance.comp's
+// wholeLanes) from the (super) cluster pairs where the two forms part, against a threshold (here given, so
+// on any device): from one pair every batch takes a lane per pair, above every batch's pairs a lane per
+// triangle pair, and with the threshold at the mean of a many-batch frame's (a small arena) some batches
+// take each -- the choice goes both ways within one submission. Each frame's mask is the forced forms'
+// and the one without clusters; the stats count every batch's choice and the pairs it saw.
+TEST(ConeMethod, TheLastExpansionsLanesAreChosenPerBatchEitherWayWithTheSameMask) {
+  auto& ctx = test::context();
+  HeightFieldFrame field(48);
+  const FrameInput& frame = field.frame;
+  ConeOptions plain;
+  plain.clusters = false;
+  const MethodOutput want = runCounted(*makeConeMethod(ctx, plain), frame);
+  ASSERT_GT(std::count(want.visibility.begin(), want.visibility.end(), 0.0f), 0);
+  // Frames until one runs in one submission (a small arena's first frames overflow and learn their batch).
+  auto run = [&](traversal::ExpansionLanes lanes, std::optional<uint32_t> minPairs, uint64_t memory) {
+    ConeOptions o;
+    o.lastExpansionLanes = lanes;
+    o.expansionLanesMinPairs = minPairs;
+    o.leafRays = traversal::LeafRays::Sixteen;  // four tested depths (64 rays a pair leave three)
+    if (memory) o.traversalMemoryBytes = memory;
+    auto m = makeConeMethod(ctx, o);
+    MethodOutput out;
+    for (int k = 0; k < 5; ++k) {
+      out = runCounted(*m, frame);
+      EXPECT_EQ(out.visibility, want.visibility) << traversal::expansionLanesName(lanes) << ", frame " << k;
+      if (k > 0 && out.stats["traversal_path"] == "one submission") break;
+    }
+    EXPECT_EQ(out.stats["traversal_path"], "one submission");
+    return out;
+  };
+  auto batches = [](const MethodOutput& out, const char* form) {
+    return out.stats["traversal"]["expansion_lanes_by_batch"][form].get<uint64_t>();
+  };
+  auto pairs = [](const MethodOutput& out, const char* form) {
+    return out.stats["traversal"]["expansion_pairs_by_lanes"][form].get<uint64_t>();
+  };
+  for (uint64_t memory : {uint64_t(0), uint64_t(256) << 10}) {
+    const MethodOutput cluster = run(traversal::ExpansionLanes::Auto, 1u, memory);
+    const MethodOutput triangle = run(traversal::ExpansionLanes::Auto, UINT32_MAX, memory);
+    EXPECT_EQ(cluster.stats["last_expansion_lanes"], "cluster") << memory;
+    EXPECT_EQ(triangle.stats["last_expansion_lanes"], "triangle") << memory;
+    EXPECT_GT(batches(cluster, "cluster"), 0u) << memory;
+    EXPECT_EQ(batches(cluster, "triangle"), 0u) << memory;
+    EXPECT_EQ(batches(triangle, "cluster"), 0u) << memory;
+    EXPECT_GT(batches(triangle, "triangle"), 0u) << memory;
+    // The choice is the forced form's: the same pairs (a lane per pair tests fewer).
+    const MethodOutput forced = run(traversal::ExpansionLanes::PerCluster, std::nullopt, memory);
+    EXPECT_EQ(cluster.stats["pairs_tested"], forced.stats["pairs_tested"]) << memory;
+    EXPECT_LT(cluster.stats["pairs_tested"].get<uint64_t>(), triangle.stats["pairs_tested"].get<uint64_t>()) << memory;
+    if (memory == 0) {
+      EXPECT_EQ(batches(cluster, "cluster"), 1u) << "one batch";
+      continue;
+    }
+    // Many batches: a threshold at their mean pairs splits them.
+    const uint64_t many = batches(cluster, "cluster");
+    ASSERT_GE(many, 3u);
+    const uint32_t mean = uint32_t(pairs(cluster, "cluster") / many);
+    const MethodOutput mixed = run(traversal::ExpansionLanes::Auto, mean, memory);
+    std::printf("  %llu batches; threshold %u pairs: %llu batches a lane a pair (%llu pairs), %llu a lane per triangle pair (%llu pairs)\n",
+                (unsigned long long)many, mean, (unsigned long long)batches(mixed, "cluster"),
+                (unsigned long long)pairs(mixed, "cluster"), (unsigned long long)batches(mixed, "triangle"),
+                (unsigned long long)pairs(mixed, "triangle"));
+    EXPECT_GT(batches(mixed, "cluster"), 0u);
+    EXPECT_GT(batches(mixed, "triangle"), 0u);
+    EXPECT_GE(pairs(mixed, "cluster"), uint64_t(mean) * batches(mixed, "cluster"));
+    EXPECT_LT(pairs(mixed, "triangle"), uint64_t(mean) * batches(mixed, "triangle"));
+    const uint64_t mixedTests = mixed.stats["pairs_tested"].get<uint64_t>();
+    EXPECT_LT(cluster.stats["pairs_tested"].get<uint64_t>(), mixedTests);
+    EXPECT_LT(mixedTests, triangle.stats["pairs_tested"].get<uint64_t>());
+  }
+}
+
 // The whole traversal is conservative end to end: the mask equals the leaf test run on every (triangle,
 // lit sample) pair by brute force on the CPU (the same source), for any ray order, down to frames of a
 // single ray (a tree of depth 1), with either leaf test (traversal.h LeafTest: the one the method picks for
 // the light, and the two ends' it is told to run). On lavapipe the GPU's arithmetic is the CPU's, so equality is exact;
 // a GPU may round a division or square root differently and flip a ray grazing an edge.
-TEST(ConeMethod, MaskEqualsTheLeafTestOnEveryPairSortedOrNot) {
-  auto& ctx = test::context();
-  const bool exactDevice = ctx.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
-  struct Case {
-    Scene scene;
-    Camera cam;
-    vec3 light;
-    uint32_t w, h;
-  };
-  std::vector<Case> cases;
+struct BruteCase {
+  Scene scene;
+  Camera cam;
+  vec3 light;
+  uint32_t w, h;
+};
+// The busy scene's view of the brute-force tests, at w x h.
+BruteCase busyBruteCase(uint32_t w, uint32_t h) {
   Camera cam;
   cam.eye = {5, 6, 7};
   cam.target = {0, 0.5f, 0};
   cam.yfov = 0.9f;
-  for (auto [w, h] : {std::pair{64u, 48u}, std::pair{1u, 1u}, std::pair{2u, 2u}, std::pair{3u, 5u}})
-    cases.push_back({busyScene(), cam, vec3(0.5f, 4.0f, 1.0f), w, h});
-  Scene builtin = builtinScene();
-  cases.push_back({builtin, *builtin.findCamera("fur"), builtin.lights[0].position, 40, 40});
-  cases.push_back({builtin, *builtin.findCamera("room"), vec3(-6.0f, 0.02f, 3.5f), 40, 40});
-
-  for (const Case& c : cases) {
+  return {busyScene(), cam, vec3(0.5f, 4.0f, 1.0f), w, h};
+}
+void expectMaskEqualsTheLeafTestOnEveryPair(const std::vector<BruteCase>& cases) {
+  auto& ctx = test::context();
+  const bool exactDevice = ctx.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
+  for (const BruteCase& c : cases) {
     Raster raster(ctx, c.scene);
     DeviceGBuffer dev;
     GBuffer host;
@@ -1422,6 +1553,16 @@ TEST(ConeMethod, MaskEqualsTheLeafTestOnEveryPairSortedOrNot) {
       }
     }
   }
+}
+TEST(ConeMethod, MaskEqualsTheLeafTestOnEveryPairSortedOrNot) {
+  Scene builtin = builtinScene();
+  expectMaskEqualsTheLeafTestOnEveryPair(
+      {busyBruteCase(64, 48), {builtin, *builtin.findCamera("fur"), builtin.lights[0].position, 40, 40},
+       {builtin, *builtin.findCamera("room"), vec3(-6.0f, 0.02f, 3.5f), 40, 40}});
+}
+// The same down to frames of one, four and fifteen samples (trees of depth 1 and 2).
+TEST(ConeMethod, MaskEqualsTheLeafTestOnEveryPairInFramesOfOneToFifteenSamples) {
+  expectMaskEqualsTheLeafTestOnEveryPair({busyBruteCase(1, 1), busyBruteCase(2, 2), busyBruteCase(3, 5)});
 }
 
 }  // namespace

@@ -15,9 +15,11 @@
 #   and two-pass at the least arena are in quick tests), the look-back sort's spin count (a shader
 #   constant), the method contract, the default compare report and its screenshot (the report is written
 #   by quick compare runs too), the engine's eight lights on the museum (KEEP has them on the built-in
-#   scene). KEEP holds the slow tests that reach host code no quick test does.
-#   Cli.EveryMemoryLimit... skips itself under ASan in any case. Left out: ~440 of the suite's ~1030
-#   test-seconds in Release (~1300 s under the sanitizers, ~11 min of CI on 2 cores).
+#   scene), the one-submission frames of every variant and the brute-force masks of the larger frames (a
+#   quick test each runs their host paths: --profile-stages, a frame with no lit sample, frames of 1x1,
+#   2x2 and 3x5 samples). KEEP holds the slow tests that reach host code no quick test does.
+#   Cli.EveryMemoryLimit... skips itself under ASan in any case. Left out: ~770 of the suite's ~1320
+#   test-seconds in Release (~2300 s under the sanitizers, ~19 min of CI on 2 cores).
 # - RelWithDebInfo with -g1: line tables only. The reports' stacks keep every function and file:line,
 #   inlined frames included (only a debugger's local variables go), and the sanitized files compile
 #   25-45 % faster than with -g (measured on cone_method.cpp, cli.cpp, metrics.cpp, traversal_test.cpp).
@@ -29,8 +31,6 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
 # The slow tests that run here all the same, each for what only it reaches.
 KEEP=(
-  ConeFrame.OneSubmissionOneHostSyncNoAllocationAfterWarmUp   # --profile-stages; a frame with no lit sample
-  ConeMethod.MaskEqualsTheLeafTestOnEveryPairSortedOrNot      # frames of 1x1, 2x2 and 3x5 samples
   ConeMethod.SpheresWrittenOnSeveralThreadsKeepTheMask        # cluster spheres written on several threads
   ConeHardCases.NonFiniteTrianglesAreDroppedAsEmbreeDropsThem # the cone method dropping non-finite triangles
   Compare.SkipsWhatTheDeviceCannotRunAndSaysWhy               # CONESHADOW_HIDE_FEATURES; skipped sweep points

@@ -24,7 +24,7 @@ namespace {
 // The stage a recorder boundary ends (ConeRecorder::Boundary's names); Count for a name it does not know.
 EngineStage stageEndedBy(const char* boundary) {
   static const std::pair<const char*, EngineStage> ends[] = {
-      {"light term", EngineStage::LightTerm}, {"compact", EngineStage::Compact}, {"compact + keys", EngineStage::Compact},
+      {"compact", EngineStage::Compact}, {"compact + keys", EngineStage::Compact},
       {"order", EngineStage::Order},          {"keys", EngineStage::Keys},       {"sort", EngineStage::Sort},
       {"build", EngineStage::Build},          {"traversal", EngineStage::Traversal}, {"leaves", EngineStage::Leaves}};
   for (const auto& [name, stage] : ends)
@@ -114,6 +114,7 @@ class Engine : public ConeEngine {
       cmd.copy(recorder_.traversal().stateBuffer(), statsRing_, STATE_WORDS * 4, 0, at);
       cmd.copy(recorder_.tree().shapeBuffer(), statsRing_, SHAPE_WORDS * 4, 0, at + STATE_WORDS * 4);
     }
+    cmd.barrier();  // the tag is written after the lights' words: a host that sees it sees a whole frame
     cmd.fill(statsRing_, frameTag(frame), frameTagWord(slot) * 4, 4);
     cmd.barrier();  // the stats words visible to the host once the caller's submission completes
     if (es.queries) vkCmdWriteTimestamp(cmd.handle(), VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, es.queries, kFrameEnd);
@@ -136,7 +137,8 @@ class Engine : public ConeEngine {
     const uint32_t slot = uint32_t(frame % framesInFlight_);
     const Slot& es = slots_[slot];
     if (times) *times = {};
-    if (es.frame != frame) return out;
+    // Before its tag is written the slot's words are the frame before's, or being written.
+    if (es.frame != frame || tagOf(slot) != frameTag(frame)) return out;
     for (uint32_t l = 0; l < es.lights; ++l) {
       const uint32_t* state = statsWords(slot, l);
       const uint32_t* shape = state + STATE_WORDS;
@@ -154,6 +156,14 @@ class Engine : public ConeEngine {
     }
     if (times) *times = readTimes(es, out);
     return out;
+  }
+
+  void recordLightTerms(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, const vk::Buffer& terms,
+                        uint64_t offset) override {
+    const uint64_t bytes = uint64_t(g.width) * g.height * 16;
+    CS_CHECK(offset + bytes <= terms.size, "light terms: " << bytes << " bytes at " << offset << " of a buffer of "
+                                                           << terms.size);
+    if (bytes) recorder_.recordLightTerms(cmd, g, light, vk::BufferRange(terms, offset, bytes));
   }
 
   uint64_t bytesAllocated() const override { return recorder_.heldBytes() + statsRing_.size; }
@@ -239,9 +249,9 @@ class Engine : public ConeEngine {
   EngineFrameTimes readTimes(const Slot& es, std::vector<EngineLightStats>& lights) {
     EngineFrameTimes t;
     const uint32_t slot = uint32_t(es.frame % framesInFlight_);
-    const uint32_t tag = static_cast<const uint32_t*>(statsRing_.mapped)[frameTagWord(slot)];
     // Before its tag is written, the slot's queries may still hold the times of the frame before.
-    if (!es.queries || !es.timed || tag != frameTag(es.frame) || !readQueries(es.queries, kFrameStart, 2)) return t;
+    if (!es.queries || !es.timed || tagOf(slot) != frameTag(es.frame) || !readQueries(es.queries, kFrameStart, 2))
+      return t;
     t.totalMs = ticksToMs(ticks_[0], ticks_[2]);
     for (uint32_t l = 0; l < lights.size(); ++l) {
       const uint32_t n = es.marks[l];
@@ -261,6 +271,9 @@ class Engine : public ConeEngine {
   // the device (never 0, the ring's initial value).
   uint64_t frameTagWord(uint32_t slot) const { return uint64_t(framesInFlight_) * maxLights_ * kStatsWords + slot; }
   static uint32_t frameTag(uint64_t frame) { return uint32_t(frame % 0xFFFFFFFFu) + 1; }
+  uint32_t tagOf(uint32_t slot) const {
+    return static_cast<const volatile uint32_t*>(statsRing_.mapped)[frameTagWord(slot)];
+  }
   const uint32_t* statsWords(uint32_t slot, uint32_t light) const {
     return static_cast<const uint32_t*>(statsRing_.mapped) + (uint64_t(slot) * maxLights_ + light) * kStatsWords;
   }

@@ -23,7 +23,8 @@ class Commands;
 struct DeviceGBuffer;
 
 // The stages of a light's frame, each timed on the GPU between the recorder's boundaries (the public
-// API's coneshadow::Stage, in the same order).
+// API's coneshadow::Stage, in the same order). LightTerm ends at no boundary and reads 0: each kernel
+// computes the light's term where it needs it, the compaction first (kept so the stages keep their values).
 enum class EngineStage : uint32_t { LightTerm, Compact, Order, Keys, Sort, Build, Traversal, Leaves, Undecided, Count };
 inline constexpr uint32_t kEngineStages = uint32_t(EngineStage::Count);
 const char* engineStageName(EngineStage stage);  // "light term", "compact", ...
@@ -59,10 +60,11 @@ class ConeEngine {
   virtual void setTransforms(std::span<const EngineInstance> instances) = 0;
   // The bounds of every instance's triangles as the device holds them (lo > hi when there are none).
   virtual void bounds(glm::vec3& lo, glm::vec3& hi) const = 0;
-  // Records a frame into `cmd` (which records into the caller's command buffer): for each light l, the light
-  // term of `g` for l (g.normal.w rewritten from g.position and g.normal.xyz), the cone path, the undecided
-  // samples of an overflowed traversal, then deliver(l, visibility) records what the caller does with the
-  // mask (one uint a pixel: the bits of 1.0f lit, 0.0f shadowed, 0.5f undecided; 1.0f where not lit).
+  // Records a frame into `cmd` (which records into the caller's command buffer): for each light l, the cone
+  // path (its lit samples those of g.position and g.normal.xyz with l's term, core/shared.h litSampleFor;
+  // g is only read, its normal.w ignored), the undecided samples of an overflowed traversal, then
+  // deliver(l, visibility) records what the caller does with the mask (one uint a pixel: the bits of 1.0f
+  // lit, 0.0f shadowed, 0.5f undecided; 1.0f where not lit).
   // `frame` numbers the frames from 0; the frame `frame - framesInFlight` must have completed on the
   // device (its stats slot and host-written buffers are reused). Submits nothing, waits for nothing.
   virtual void record(vk::Commands& cmd, const DeviceGBuffer& g, std::span<const glm::vec3> lights, float eps,
@@ -74,6 +76,11 @@ class ConeEngine {
   // is not among the last framesInFlight recorded); with `times`, the frame's GPU times, read without
   // waiting (the stages' times in the lights' stats where times->available).
   virtual std::vector<EngineLightStats> stats(uint64_t frame, EngineFrameTimes* times = nullptr) = 0;
+  // Records into `cmd` each sample's (normal, light term for `light`), the term the frame's kernels compute,
+  // into `terms` from `offset` (16 bytes a pixel of g): for a caller that reports which samples face the
+  // light (harness/samples.h). No frame needs it.
+  virtual void recordLightTerms(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, const vk::Buffer& terms,
+                                uint64_t offset) = 0;
   // Bytes of device memory held.
   virtual uint64_t bytesAllocated() const = 0;
 };

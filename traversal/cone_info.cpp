@@ -114,8 +114,9 @@ MethodInfo coneMethodInfo() {
        {"sphere", "precise"}},
       {"last-expansion-lanes", "L",
        "with the sphere test there: a lane per cluster pair (its sixteen triangles) or per triangle pair; "
-       "auto (default) takes cluster on a CPU device (lavapipe), triangle on a GPU (the same mask; a cluster "
-       "lane tests its cluster first, so fewer pairs)",
+       "auto (default): on a CPU device (lavapipe) chosen per batch on the device, a lane per cluster pair "
+       "where the pairs fill the lanes it runs at once, per triangle pair below; triangle on a GPU (the same "
+       "mask; a cluster lane tests its cluster first, so fewer pairs)",
        {"auto", "cluster", "triangle"}},
       {"leaf-rays", "N",
        "rays a leaf pair covers: 4 (paper 002's leaves: the pairs of the deepest interior depth), 16 or 64 (the "
@@ -130,7 +131,7 @@ MethodInfo coneMethodInfo() {
        "outside the ambiguity band either way)",
        {"auto", "two-ends"}},
       {"profile-stages", "on|off",
-       "one submission per stage (light term, compact, keys, sort, build, traversal, leaves) to time each by wall clock, "
+       "one submission per stage (compact, keys, sort, build, traversal, leaves) to time each by wall clock, "
        "instead of the frame's single submission (the same mask)",
        {}},
   };

@@ -34,7 +34,7 @@ nlohmann::json statsJson(const ConeFrameStats& s) {
   if (s.oneSubmission) {
     j["clusters"] = s.clusters;
     j["last_expansion_test"] = s.lastExpansionTest;
-    j["last_expansion_lanes"] = s.lastExpansionLanes;
+    j["last_expansion_lanes"] = s.traversal.expansionLanes;
     j["traversal_batch_triangles"] = s.traversalBatchTriangles;
   }
   j["lit_samples"] = s.litSamples;

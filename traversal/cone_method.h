@@ -44,6 +44,7 @@ struct ConeOptions {
   bool superClusters = true;        // four clusters a super cluster (--super-clusters)
   bool sphereLastExpansion = true;  // the sphere test one depth above the leaves (--last-expansion-test)
   traversal::ExpansionLanes lastExpansionLanes = traversal::ExpansionLanes::Auto;  // --last-expansion-lanes
+  std::optional<uint32_t> expansionLanesMinPairs;  // tests: auto's lane choice from this many pairs (traversal.h)
   traversal::LeafRays leafRays = traversal::LeafRays::Auto;  // --leaf-rays (auto: chosen per batch from its counts on a CPU device)
   std::optional<traversal::LeafChoiceCosts> leafChoiceCosts;  // tests: auto's leaf choice with these costs (traversal.h)
   bool leafTestFromLight = true;  // --leaf-test auto (true) or two-ends

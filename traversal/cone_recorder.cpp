@@ -22,6 +22,7 @@ using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
 constexpr uint32_t kOne = 0x3F800000u;       // 1.0f: the visibility words start lit
+constexpr VkFormat kPixelTexels = VK_FORMAT_R32G32B32A32_SFLOAT;  // the G-buffer read as texels, a pixel each
 constexpr uint32_t kOrderRecheckFrames = 8;  // adaptive order: a loose verdict holds this many frames
 
 // Both passes' counts as one (the top-level stats of a two-pass frame, or a device frame and its chunked
@@ -138,6 +139,7 @@ traversal::TraversalInput ConeRecorder::traversalInput(glm::vec3 light, float ep
   in.earlyAccept = options_.earlyAccept;
   in.sphereLastExpansion = options_.sphereLastExpansion;
   in.lastExpansionLanes = options_.lastExpansionLanes;
+  in.expansionLanesMinPairs = options_.expansionLanesMinPairs;
   in.leafRays = options_.leafRays;
   in.leafChoiceCosts = options_.leafChoiceCosts;
   in.leafTest = options_.leafTestFromLight
@@ -161,7 +163,7 @@ bool ConeRecorder::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, g
     rays_->recordCompactionWithKeys(cmd, g, keysPush(light));
     boundary("compact + keys");
   } else {
-    rays_->recordCompaction(cmd, g, order);
+    rays_->recordCompaction(cmd, g, light, order);
     boundary("compact");
   }
   return fused;
@@ -246,24 +248,38 @@ ConeRecorder::RecordedLight ConeRecorder::recordLightFrame(vk::Commands& cmd, co
   cmd.barrier();  // the previous light's reads of every buffer reused below are done
   chooseFrame(light);
   const traversal::TraversalInput in = traversalInput(light, eps);
+  // No pass writes the light's term into the samples: every kernel that asks whether a pixel is lit
+  // computes it for this light (core/shared.h litSampleFor), so g is only read.
+  const RecordedLight rec = recordLight(cmd, g, in, light, adaptive, sphereSlot, boundary);
+  if (markUndecided && rec.onDevice) {
+    cmd.barrier();
+    traversal::SampleLightPush push{};
+    push.light = glm::vec4(light, 1.0f);
+    push.count = pixels;
+    push.mode = SAMPLE_UNDECIDED;
+    // Binding 1 (the terms) is not written in this mode: any buffer.
+    cmd.dispatch(sampleLight_,
+                 {vk::texels(g.position, kPixelTexels), visibility_, visibility_, traversal_->stateBuffer(),
+                  vk::texels(g.normal, kPixelTexels)},
+                 push, grid.x, grid.y);
+    cmd.barrier();
+  }
+  return rec;
+}
+
+void ConeRecorder::recordLightTerms(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light,
+                                    const vk::BufferRange& terms) {
+  const uint32_t pixels = g.width * g.height;
+  if (pixels == 0) return;
+  const vk::Grid grid = vk::gridFor(pixels, TRAVERSE_THREADS, ctx_.maxWorkgroups());
   traversal::SampleLightPush push{};
   push.light = glm::vec4(light, 1.0f);
   push.count = pixels;
   push.mode = SAMPLE_LIGHT_TERM;
-  // The G-buffer read as RGBA32F texels, a pixel each (the light term is written through g.normal).
-  const VkFormat pixelTexels = VK_FORMAT_R32G32B32A32_SFLOAT;
-  const vk::BufferRange positions = vk::texels(g.position, pixelTexels), normals = vk::texels(g.normal, pixelTexels);
-  cmd.dispatch(sampleLight_, {positions, g.normal, visibility_, visibility_, normals}, push, grid.x, grid.y);
-  cmd.barrier();
-  boundary("light term");
-  const RecordedLight rec = recordLight(cmd, g, in, light, adaptive, sphereSlot, boundary);
-  if (markUndecided && rec.onDevice) {
-    cmd.barrier();
-    push.mode = SAMPLE_UNDECIDED;
-    cmd.dispatch(sampleLight_, {positions, g.normal, visibility_, traversal_->stateBuffer(), normals}, push, grid.x, grid.y);
-    cmd.barrier();
-  }
-  return rec;
+  // Bindings 2 and 3 are not read in this mode: any buffers.
+  cmd.dispatch(sampleLight_,
+               {vk::texels(g.position, kPixelTexels), terms, terms, terms, vk::texels(g.normal, kPixelTexels)},
+               push, grid.x, grid.y);
 }
 
 uint64_t ConeRecorder::batchesNeeded() {
@@ -623,7 +639,7 @@ traversal::TraversalStats ConeRecorder::runSubmitted(const FrameInput& frame, co
     for (auto& [n, ms] : wall) stages.push_back({n, ms});
   } else if (ctx_.timestampsTrusted()) {
     stats.stageTiming = "one submission; stages from GPU timestamps";
-    for (const char* n : {"light term", "compact", "compact + keys", "order", "keys", "sort", "build", "traversal", "leaves"})
+    for (const char* n : {"compact", "compact + keys", "order", "keys", "sort", "build", "traversal", "leaves"})
       if (const double* ms = stats.timestamp(n)) stages.push_back({n, *ms});
     for (auto& [n, ms] : wall)
       if (n != "frame") stages.push_back({n, ms});
@@ -644,8 +660,6 @@ void ConeRecorder::describeRecording(const RecordedLight& rec, ConeFrameStats& s
   stats.oneSubmission = true;
   stats.clusters = rec.clusters && rec.onDevice;
   stats.lastExpansionTest = options_.sphereLastExpansion && options_.test == ConeTest::Precise ? "sphere" : "precise";
-  // a lane per cluster pair or per triangle pair, where that expansion runs in the sphere-test kernel
-  stats.lastExpansionLanes = traversal::expansionLanesName(traversal_->lastExpansionLanes());
   stats.traversalBatchTriangles = rec.batch;
 }
 

@@ -46,12 +46,16 @@ class ConeRecorder {
   // Called with each stage's name at its end; not kept (a lambda with captures costs no allocation).
   using Boundary = FunctionRef<void(const char*)>;
 
-  // One light of a frame as the engine records it: a barrier, the cones' frame chosen, the samples' light
-  // term for `light` (sample_light.comp writes g.normal.w with the camera pass's expression), recordLight,
-  // and with `markUndecided` an overflowed traversal's undecided lit samples written as 0.5. The bench's
-  // one-pass frame records through it too, without markUndecided (it resumes an overflow chunked).
+  // One light of a frame as the engine records it: a barrier, the cones' frame chosen, recordLight, and
+  // with `markUndecided` an overflowed traversal's undecided lit samples written as 0.5. The samples are
+  // only read (g.normal.w is ignored: each kernel computes the light's term, core/shared.h litSampleFor),
+  // so one G-buffer serves every light. The bench's one-pass frame records through it too, without
+  // markUndecided (it resumes an overflow chunked).
   RecordedLight recordLightFrame(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, float eps, bool adaptive,
                                  uint32_t sphereSlot, bool markUndecided, const Boundary& boundary);
+  // Each sample's (normal, light term for `light`) into `terms` (16 bytes a pixel): the term the frame's
+  // kernels compute, for a caller that reports it (harness/samples.h). No frame needs it.
+  void recordLightTerms(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, const vk::BufferRange& terms);
 
   // One bench frame (the method's run): the triangles uploaded when they changed, the light checked, one
   // submission of recordLightFrame and the readback -- or with profileStages a submission a stage. Fallbacks:

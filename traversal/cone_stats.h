@@ -37,7 +37,7 @@ struct ConeFrameStats {
   // One-submission frames: the clusters, the last expansion's test and lanes, the batch.
   bool oneSubmission = false;
   bool clusters = false;
-  std::string lastExpansionTest, lastExpansionLanes;
+  std::string lastExpansionTest;  // (the lanes, given or chosen per batch: traversal.expansionLanes)
   uint32_t traversalBatchTriangles = 0;
   struct HostSplit {
     double prepareAndRecord = 0, submitAndWait = 0, after = 0;

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <sstream>
+#include <thread>
 
 #include "core/error.h"
 #include "traversal/traverse_advance.comp.h"
@@ -179,6 +180,10 @@ nlohmann::json TraversalStats::toJson() const {
           {"leaf_pairs_by_rays", {{"4", leafPairsByRays[0]}, {"16", leafPairsByRays[1]}, {"64", leafPairsByRays[2]}}},
           {"leaf_rays_choice", leafChoice.empty() ? std::string("given") : leafChoice},
           {"leaf_test", leafTestName(leafTest)},
+          {"expansion_lanes", expansionLanes},
+          {"expansion_lanes_by_batch", {{"cluster", expansionsByLanes[0]}, {"triangle", expansionsByLanes[1]}}},
+          {"expansion_pairs_by_lanes", {{"cluster", expansionPairsByLanes[0]}, {"triangle", expansionPairsByLanes[1]}}},
+          {"expansion_lanes_choice", expansionLanesChoice.empty() ? std::string("given") : expansionLanesChoice},
           {"submits", submits},
           {"early_accepted_nodes", earlyAccepted},
           {"early_dropped_pairs", droppedPairs},
@@ -552,10 +557,15 @@ void Traversal::record(vk::Commands& cmd, const TraversalInput& in, std::vector<
   // kernel's, go on to the leaves.
   const bool sphereExpansion = clusters && in.test == TRAVERSE_TEST_PRECISE && in.sphereLastExpansion;
   const bool cpu = ctx_.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
-  lastExpansionLanes_ = in.lastExpansionLanes == ExpansionLanes::Auto
-                            ? (cpu ? ExpansionLanes::PerCluster : ExpansionLanes::PerTriangle)
-                            : in.lastExpansionLanes;
-  const bool wholeExpansion = lastExpansionLanes_ == ExpansionLanes::PerCluster;
+  // Auto where the device's threshold is known (or given): the lanes chosen per batch on the device.
+  expansionAuto_ = in.lastExpansionLanes == ExpansionLanes::Auto;
+  const std::optional<uint32_t> minPairs =
+      in.expansionLanesMinPairs ? in.expansionLanesMinPairs : expansionLanesMinPairs(ctx_);
+  expansionMinPairs_ = minPairs.value_or(0);
+  expansionLanes_ = in.lastExpansionLanes == ExpansionLanes::PerCluster    ? EXPANSION_PER_CLUSTER
+                    : in.lastExpansionLanes == ExpansionLanes::PerTriangle ? EXPANSION_PER_TRIANGLE
+                    : minPairs                                             ? EXPANSION_CHOSEN
+                                                                           : EXPANSION_PER_TRIANGLE;
   // Auto on a CPU device: the leaves' span chosen per batch from its counts, 64 rays the earliest.
   leafAuto_ = in.leafRays == LeafRays::Auto;
   leafChoice_ = leafAuto_ && (cpu || in.leafChoiceCosts);
@@ -583,8 +593,8 @@ void Traversal::record(vk::Commands& cmd, const TraversalInput& in, std::vector<
 
   auto advance = [&](uint32_t step, uint32_t triangles) {
     AdvancePush a{step, triangles, capacity, ctx_.maxWorkgroups(), supers ? 2u : clusters ? 1u : 0u, in.triangleCount,
-                  sphereExpansion ? 1u : 0u, wholeExpansion ? 1u : 0u, leafLevels(leafRays_), leafChoice_ ? 1u : 0u,
-                  costs.step, costs.lane};
+                  sphereExpansion ? 1u : 0u, expansionLanes_, leafLevels(leafRays_), leafChoice_ ? 1u : 0u,
+                  costs.step, costs.lane, expansionMinPairs_};
     cmd.dispatch(advance_, {shape, state_}, a, 1);
     cmd.barrier();
   };
@@ -598,10 +608,15 @@ void Traversal::record(vk::Commands& cmd, const TraversalInput& in, std::vector<
       TraversePush ps = p;
       ps.test = TRAVERSE_TEST_SPHERE;
       ps.earlyAccept = 0u;
-      cmd.dispatchIndirect(testKernel(ps, false, wholeExpansion),
-                           {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), vk::texels(src, kPairFormat), dst, state_,
-                            state_, state_, state_, spheres, vk::uniforms(state_, kStateBytes)},
-                           &ps, sizeof(ps), state_, STATE_SPHERE_ARGS * 4);
+      // A lane per triangle pair, a lane per (super) cluster pair, or both where the batch chooses (the
+      // other given no workgroups).
+      for (bool whole : {false, true}) {
+        if (expansionLanes_ != EXPANSION_CHOSEN && whole != (expansionLanes_ == EXPANSION_PER_CLUSTER)) continue;
+        cmd.dispatchIndirect(testKernel(ps, false, whole),
+                             {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), vk::texels(src, kPairFormat), dst, state_,
+                              state_, state_, state_, spheres, vk::uniforms(state_, kStateBytes)},
+                             &ps, sizeof(ps), state_, (whole ? STATE_WHOLE_ARGS : STATE_SPHERE_ARGS) * 4);
+      }
     }
     for (bool clusterKernel : {false, true}) {
       if (clusterKernel && !clusters) continue;
@@ -681,6 +696,12 @@ void Traversal::learnBatch(const uint32_t* w, uint64_t worst, uint64_t triangles
   } else if (w[STATE_PEAK_PAIRS] < capacity / 8 && used < capacity) {
     batchTriangles_ = uint32_t(std::min<uint64_t>(capacity, 2ull * used));
   }
+}
+
+std::optional<uint32_t> expansionLanesMinPairs(const vk::Context& ctx) {
+  if (ctx.properties.deviceType != VK_PHYSICAL_DEVICE_TYPE_CPU) return std::nullopt;
+  // lavapipe runs a dispatch's workgroups on a worker thread a core, each workgroup's lanes on one thread.
+  return std::max(1u, std::thread::hardware_concurrency()) * uint32_t(TRAVERSE_THREADS);
 }
 
 LeafChoiceCosts leafChoiceCosts(bool cpuDevice) {
@@ -790,6 +811,26 @@ TraversalStats Traversal::statsFromState(const uint32_t* words, uint32_t depth, 
     s.leafChoice = why.str();
   } else if (leafAuto_) {
     s.leafChoice = "auto: four on a GPU, where the choice's costs have not been measured";
+  }
+  for (uint32_t form = 0; form < 2; ++form) {
+    s.expansionsByLanes[form] = words[STATE_LANES + form];
+    s.expansionPairsByLanes[form] = words[STATE_LANES_PAIRS + form];
+  }
+  if (expansionLanes_ != EXPANSION_CHOSEN) {
+    s.expansionLanes = expansionLanesName(expansionLanes_ == EXPANSION_PER_CLUSTER ? ExpansionLanes::PerCluster
+                                                                                   : ExpansionLanes::PerTriangle);
+    if (expansionAuto_) s.expansionLanesChoice = "auto: a lane per triangle pair on a GPU, where the threshold has not been measured";
+  } else {
+    const bool none = s.expansionsByLanes[0] + s.expansionsByLanes[1] == 0;
+    s.expansionLanes = none ? "none"
+                       : expansionLanesName(s.expansionPairsByLanes[0] >= s.expansionPairsByLanes[1] ? ExpansionLanes::PerCluster
+                                                                                                     : ExpansionLanes::PerTriangle);
+    std::ostringstream why;
+    why << "per batch from its (super) cluster pairs: a lane a pair from " << expansionMinPairs_
+        << " pairs (the lanes the device runs at once), a lane per triangle pair below; batches a lane per pair "
+        << s.expansionsByLanes[0] << " (" << s.expansionPairsByLanes[0] << " pairs), per triangle pair "
+        << s.expansionsByLanes[1] << " (" << s.expansionPairsByLanes[1] << " pairs)";
+    s.expansionLanesChoice = why.str();
   }
   s.leafTests = u64(STATE_LEAF_TESTS) - w[STATE_LEAF_MISSING];
   s.leafTest = leafTest_;

@@ -123,6 +123,12 @@ struct TraversalStats {
   uint64_t leafPairsByRays[3] = {0, 0, 0};  // leaf pairs of 4, 16 and 64 rays
   std::string leafChoice;         // chosen per batch: what was chosen and why; "" when the span was given
   LeafTest leafTest = LeafTest::TwoEnds;  // the leaves' test
+  // The last expansion's lanes (ExpansionLanes): "cluster" or "triangle" -- given, or chosen per batch: the
+  // form that took the most pairs ("none" when no batch reached that expansion).
+  std::string expansionLanes;
+  uint64_t expansionsByLanes[2] = {0, 0};      // batches that took a lane per (super) cluster pair, per triangle pair
+  uint64_t expansionPairsByLanes[2] = {0, 0};  // the (super) cluster pairs those batches' choices counted
+  std::string expansionLanesChoice;            // chosen per batch: what and why; "" when given
   uint64_t submits = 0;
   uint64_t earlyAccepted = 0;     // early accept: distinct nodes found covered (and shadowed at once)
   uint64_t droppedPairs = 0;      // early accept: pairs dropped because their node had been accepted
@@ -139,12 +145,19 @@ struct TraversalStats {
 };
 
 // How the sphere-test kernel's last-depth expansion spreads over lanes (see "Clusters"): a lane per cluster
-// pair, testing its sixteen triangles (STEP_EXPAND_WHOLE), or a lane per triangle pair. Auto: per cluster
-// pair on a CPU device, where a lane costs more before any work than its tests do (docs/ARCHITECTURE.md,
-// "Clusters"); per triangle pair on a GPU, where lanes are cheap and sixteen run side by side. The same
-// mask either way; a cluster's lane tests the cluster's and groups' spheres against the children first
-// (each of sixteen lanes would repeat them), so it tests fewer pairs.
+// (or super cluster) pair, testing its triangles (STEP_EXPAND_WHOLE, STEP_EXPAND_SUPER), or a lane per
+// triangle pair. The same mask either way; a cluster's lane tests the cluster's and groups' spheres against
+// the children first (each of sixteen lanes would repeat them), so it tests fewer pairs, and a lane of the
+// test kernel costs more before any work than its tests do on lavapipe. Auto, where the threshold is known
+// (expansionLanesMinPairs: a CPU device), chosen per batch on the device from the (super) cluster pairs
+// where the two forms part: a lane per pair where they fill the lanes the device runs at once, a lane per
+// triangle pair where they are fewer (traverse_advance.comp, wholeLanes; docs/ARCHITECTURE.md, "The last
+// expansion's lanes chosen per batch"). On a GPU, where the threshold has not been measured, a lane per
+// triangle pair.
 enum class ExpansionLanes { Auto, PerCluster, PerTriangle };
+// Auto's threshold on this device, in (super) cluster pairs: the workgroups it runs at once (lavapipe: a
+// worker thread a core) times TRAVERSE_THREADS lanes; none on a GPU (unmeasured: a lane per triangle pair).
+std::optional<uint32_t> expansionLanesMinPairs(const vk::Context& ctx);
 const char* expansionLanesName(ExpansionLanes lanes);
 
 // How many rays a leaf pair covers: Four, paper 002's leaves -- the pairs of the deepest interior depth,
@@ -199,6 +212,9 @@ struct TraversalInput {
   // mask either way.
   bool sphereLastExpansion = true;
   ExpansionLanes lastExpansionLanes = ExpansionLanes::Auto;  // that expansion's lanes (see ExpansionLanes)
+  // Auto's choice from this many pairs instead of the device's threshold (tests: either outcome on any
+  // device); unset: expansionLanesMinPairs(device), and no choice on a GPU.
+  std::optional<uint32_t> expansionLanesMinPairs;
   LeafRays leafRays = LeafRays::Auto;     // rays a leaf pair covers (see LeafRays)
   // Auto's choice with these costs instead of the device's (tests: every outcome of the choice on any
   // device); unset: leafChoiceCosts(device), and no choice on a GPU.
@@ -253,9 +269,6 @@ class Traversal {
   // Whether the device path may start its batches as clusters (an arena too small for one cluster's
   // expansion turns them off for good).
   bool clustersFit() const { return clustersFit_; }
-  // What the last record() gave the sphere-test kernel's last-depth expansion: PerCluster or PerTriangle
-  // (ExpansionLanes::Auto resolved for this device).
-  ExpansionLanes lastExpansionLanes() const { return lastExpansionLanes_; }
   // The last frame's rays a leaf pair (Four, Sixteen or SixtyFour: Auto resolved for the device; a tree
   // shallower than the levels asked gives what it has, a tree of depth 1 four); with leafChoice(), the
   // most the choice could take (the stats say what it took).
@@ -304,7 +317,9 @@ class Traversal {
   bool usedClusters_ = false;    // the last record() started its batches as clusters
   bool supersFit_ = true;        // false once a one-super-cluster batch overflowed: clusters only from then on
   bool usedSupers_ = false;      // the last record() started its batches as super clusters
-  ExpansionLanes lastExpansionLanes_ = ExpansionLanes::PerTriangle;
+  uint32_t expansionLanes_ = EXPANSION_PER_TRIANGLE;  // the last record()'s AdvancePush::wholeExpansion
+  bool expansionAuto_ = false;                         // ... asked for Auto
+  uint32_t expansionMinPairs_ = 0;                     // ... with EXPANSION_CHOSEN, the threshold
   LeafRays leafRays_ = LeafRays::Four;  // the fixed span, or with leafChoice_ the earliest the choice may take
   bool leafChoice_ = false;              // the last record() chose the span per batch (AdvancePush::leafChoice)
   bool leafAuto_ = false;                // the last record() was asked for Auto

@@ -45,13 +45,19 @@
 #define STATE_COMMITTED_WORDS (1 + STATE_TEST_ARGS - STATE_ACC)
 #define STATE_ROOT_CLUSTERS 369  // the clusters pass 0 kept, scaled from the batch to the whole record (the expansion rule)
 #define STATE_ROOT_SUPERS 370    // the super clusters pass 0 kept, scaled likewise (the split rule)
-#define STATE_SPHERE_ARGS 372  // uvec4: the current step's dispatch of the sphere-test triangle kernel (AdvancePush::sphereExpansion)
+#define STATE_SPHERE_ARGS 372  // uvec4: the current step's dispatch of the sphere-test triangle kernel a lane per
+                               //   triangle pair (AdvancePush::sphereExpansion)
 #define STATE_HITS_ARGS 376    // uvec4: leaf_hits.comp's dispatch (x, y, 1, sorted rays), from the tree's shape (step 0)
 #define STATE_LEAF_BY_LEVEL 380  // + l - 1: leaf pairs of l levels (4, 16, 64 rays: l = 1, 2, 3), over the frame
 #define STATE_LEAF_SEEN 383    // + l - 2: the survival the last batch's leaf choice of l levels (2, 3) predicted, x 2^16
                                //   (at least 1); 0: no choice was made there
 #define STATE_SURVIVAL 385     // the survival of the step before the current one, x 2^16 (the leaf choice's trend)
-#define STATE_WORDS 388
+#define STATE_LANES 386        // + 0 (1): the batches whose last expansion took a lane per cluster (triangle) pair,
+                               //   over the frame (AdvancePush::wholeExpansion; traversal.h, ExpansionLanes)
+#define STATE_WHOLE_ARGS 388   // uvec4: the current step's dispatch of the sphere-test kernel a lane per (super)
+                               //   cluster pair (STEP_EXPAND_WHOLE, STEP_EXPAND_SUPER); 0 groups but for those
+#define STATE_LANES_PAIRS 392  // + 0 (1): the (super) cluster pairs those batches' choices counted, summed
+#define STATE_WORDS 396
 #define ADVANCE_END_OF_BATCH 0xFFFFFFFFu
 
 // Triangle clusters (traversal.h, "Clusters"): CLUSTER_SIZE consecutive triangles of a triangle buffer
@@ -79,15 +85,15 @@
 #define STEP_TRIANGLES 0u
 #define STEP_CLUSTERS 1u
 #define STEP_EXPAND 2u
-// The last depth's expansion in the sphere-test kernel (AdvancePush::sphereExpansion) on a CPU device
-// (AdvancePush::wholeExpansion, traversal.h ExpansionLanes): input i is (cluster, node) pair i itself, and
-// one invocation tests the cluster's sphere against the node's children, then its groups' spheres against
-// the children the cluster kept, then every triangle against the children its group kept (the step's
-// inputs are still counted per triangle pair, its tests as made: the cluster's, the groups' and the
-// triangles'). On lavapipe a lane of the test kernel costs more before it does anything than the tests
-// it makes (docs/ARCHITECTURE.md, "Clusters", has the measurement), so sixteen triangles a lane, with the
-// node's children read once, cost a fraction of sixteen lanes; on a GPU the step keeps a lane per
-// triangle pair.
+// The last depth's expansion in the sphere-test kernel (AdvancePush::sphereExpansion) as a lane per
+// cluster pair (AdvancePush::wholeExpansion, traversal.h ExpansionLanes): input i is (cluster, node) pair i
+// itself, and one invocation tests the cluster's sphere against the node's children, then its groups'
+// spheres against the children the cluster kept, then every triangle against the children its group kept
+// (the step's inputs are still counted per triangle pair, its tests as made: the cluster's, the groups'
+// and the triangles'). On lavapipe a lane of the test kernel costs more before it does anything than the
+// tests it makes (docs/ARCHITECTURE.md, "Clusters", has the measurement), so sixteen triangles a lane,
+// with the node's children read once, cost a fraction of sixteen lanes once the pairs fill the device;
+// with fewer pairs a lane per triangle pair fills more of it (EXPANSION_CHOSEN).
 #define STEP_EXPAND_WHOLE 3u
 // (super cluster, node) pairs, tested with the super cluster's sphere in the cluster kernel; pass 0 of a
 // batch that starts from super clusters (AdvancePush::clusters = 2).
@@ -97,11 +103,17 @@
 // nothing); its survivors are (cluster, child) pairs. One depth above the one where the clusters expand
 // by the expansion rule, and at the latest two depths above the leaves (traverse_advance.comp).
 #define STEP_SPLIT 5u
-// The last depth's expansion of (super cluster, node) pairs on a CPU device (AdvancePush::wholeExpansion):
+// The last depth's expansion of (super cluster, node) pairs with a lane per pair (AdvancePush::wholeExpansion):
 // a lane per super cluster pair, as STEP_EXPAND_WHOLE's per cluster pair, the super cluster's sphere
 // tested first (its inputs counted per triangle pair: SUPER_SIZE a pair). With it super clusters that
 // reach one depth above the leaves are not split two depths above: they expand there whole.
 #define STEP_EXPAND_SUPER 6u
+// AdvancePush::wholeExpansion: the last expansion's lanes, chosen per batch from its pairs -- a lane per
+// (super) cluster pair where they are at least AdvancePush::wholeMinPairs, a lane per triangle pair below
+// (traverse_advance.comp, wholeLanes; docs/ARCHITECTURE.md, "The last expansion's lanes chosen per batch").
+#define EXPANSION_PER_TRIANGLE 0u
+#define EXPANSION_PER_CLUSTER 1u
+#define EXPANSION_CHOSEN 2u
 // The expansion rule's K (traverse_advance.comp): cluster pairs expand at the first depth with more than
 // 1/K as many nodes as pass 0 kept clusters. 16 because it tests the fewest pairs over the scenes
 // bench/scale_bench measures (docs/ARCHITECTURE.md, "Clusters": K = 4, 8, 16, 32).
@@ -177,7 +189,9 @@ struct AdvancePush {
                       // 2 = as (super cluster, root) tests
   uint frameTriangles;  // the triangles of the whole record() the batch is one of (the expansion rule's scale)
   uint sphereExpansion;  // 1: an expansion step's triangle pairs go to the sphere-test kernel (STATE_SPHERE_ARGS)
-  uint wholeExpansion;   // with sphereExpansion: 1 = that step is STEP_EXPAND_WHOLE (a lane per cluster pair)
+  uint wholeExpansion;   // with sphereExpansion: EXPANSION_PER_CLUSTER = that step is STEP_EXPAND_WHOLE or
+                         // STEP_EXPAND_SUPER (a lane per pair), EXPANSION_PER_TRIANGLE = a lane per triangle pair,
+                         // EXPANSION_CHOSEN = per batch from its pairs against wholeMinPairs
   uint leafLevels;       // 1: the pairs of depth D - 1 go to the leaves (four rays each); 2 (3): those of
                          // depth D - 2 (D - 3), 16 (64) rays each, as deep as the tree goes (leafStepOf);
                          // with leafChoice, the most levels the leaves may take
@@ -185,6 +199,7 @@ struct AdvancePush {
                          // its counts (traversal.h, LeafRays::Auto; the costs below); 0: the leaves there
   float stepCost;        // the leaf choice's costs, in leaf tests (one ray against one triangle): a pair's
   float leafLaneCost;    // step (four child tests and the appends) and a leaf pair's lane before its rays
+  uint wholeMinPairs;    // EXPANSION_CHOSEN: the fewest (super) cluster pairs that take a lane a pair
 };
 
 // leaf_hits.comp: the leaves' hits into the visibility, LEAF_HITS_RAYS sorted rays an invocation (a
@@ -208,12 +223,12 @@ struct FrameTrianglesPush {
   uint pad0, pad1, pad2;
 };
 
-// sample_light.comp (the engine's samples): the light term of each sample for one light, and the mask's
-// undecided samples after a frame whose pairs passed the arena.
+// sample_light.comp (the engine's samples): the mask's undecided samples after a frame whose pairs passed
+// the arena, or each sample's light term written out for one light.
 struct SampleLightPush {
   vec4 light;  // xyz: the light
   uint count;  // pixels
-  uint mode;   // SAMPLE_LIGHT_TERM or SAMPLE_UNDECIDED
+  uint mode;   // SAMPLE_UNDECIDED or SAMPLE_LIGHT_TERM
   uint pad0, pad1;
 };
 #define SAMPLE_LIGHT_TERM 0u
@@ -222,7 +237,7 @@ struct SampleLightPush {
 #ifdef __cplusplus
 static_assert(sizeof(SampleLightPush) == 32, "SampleLightPush layout");
 static_assert(sizeof(FrameTrianglesPush) == 96, "FrameTrianglesPush layout");
-static_assert(sizeof(AdvancePush) == 48, "AdvancePush layout");
+static_assert(sizeof(AdvancePush) == 52, "AdvancePush layout");
 static_assert(sizeof(LeafHitsPush) == 16, "LeafHitsPush layout");
 static_assert(STATE_ACC + STATE_ACC_WORDS * STATE_MAX_STEPS <= STATE_LEAF_PAIRS && STATE_TEST_ARGS % 4 == 0 &&
                   STATE_LEAF_ARGS % 4 == 0 && STATE_LEAF_ARGS + 4 * (STATE_MAX_STEPS + 1) <= STATE_WORDS,

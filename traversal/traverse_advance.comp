@@ -12,7 +12,9 @@
 //  - writes step c's count, its TraversePush fields from the tree's shape, and the indirect arguments of
 //    its test (the cluster or the triangle kernel), or of the leaves at c = D, and clears the step counters;
 //  - with the leaf choice (AdvancePush::leafChoice), from c = D on to the tree's depth, chooses from the
-//    step's own counts between the leaves now and one more depth first (leafChoice below).
+//    step's own counts between the leaves now and one more depth first (leafChoice below);
+//  - with the lanes chosen (AdvancePush::wholeExpansion), where the last expansion's two forms part,
+//    chooses its lanes from the pairs there (wholeLanes below).
 // bindings: 0 = shape words (SHAPE_*, conetree/tree_shape.comp), 1 = state words (STAT_*, STATE_*)
 #include "conetree/cone_layout.h"
 #include "traversal/traversal_layout.h"
@@ -46,6 +48,19 @@ bool leavesNow(uint c, uint treeDepth, uint n, float survival) {
   float now = p.leafLaneCost + rays;
   float deeper = p.stepCost + 4.0 * survival * (p.leafLaneCost + 0.25 * rays);
   return !(deeper < now) || 4.0 * survival * float(n) > 0.75 * float(p.capacity);
+}
+
+// The last expansion's lanes (traversal.h, ExpansionLanes; docs/ARCHITECTURE.md, "The last expansion's
+// lanes chosen per batch"), decided once a batch where the two forms part, from the n (super) cluster pairs
+// there: a lane per pair (the cluster's and groups' spheres tested once for their triangles) where the
+// pairs alone fill the device's lanes, a lane per triangle pair (sixteen times the lanes) where they do
+// not. Counted per frame for the stats.
+bool wholeLanes(uint n) {
+  bool whole = p.wholeExpansion == EXPANSION_PER_CLUSTER || (p.wholeExpansion == EXPANSION_CHOSEN && n >= p.wholeMinPairs);
+  uint form = whole ? 0u : 1u;
+  state[STATE_LANES + form] += 1u;
+  state[STATE_LANES_PAIRS + form] += n;
+  return whole;
 }
 
 void writeArgs(uint at, uint items, uint count, uint groupSize) {
@@ -119,8 +134,9 @@ void main() {
       // Triangle pairs stay triangle pairs.
       // Super cluster pairs split into their clusters' pairs one step before the clusters would expand by
       // the rule below (so clusters expand where they would have without super clusters), and otherwise
-      // at the latest two depths above the leaves -- but for a CPU device's whole-cluster lanes, which
-      // take the super cluster pairs that reach one depth above the leaves as they are (STEP_EXPAND_SUPER).
+      // at the latest two depths above the leaves -- but where the last expansion takes a lane per pair
+      // (wholeLanes), which takes the super cluster pairs that reach one depth above the leaves as they
+      // are (STEP_EXPAND_SUPER).
       if (was == STEP_SUPER && n > 0u) {
         if (c == 1u) {
           uint batchSupers = (state[STATE_BATCH_TRIANGLES] + SUPER_SIZE - 1u) >> SUPER_SHIFT;
@@ -130,8 +146,8 @@ void main() {
           // (the expansion rule's count: at most SUPER_CLUSTERS clusters a super cluster kept)
           state[STATE_ROOT_CLUSTERS] = uint(min(kept * SUPER_CLUSTERS, uint64_t(0xFFFFFFFFu)));
         }
-        bool whole = p.sphereExpansion != 0u && p.wholeExpansion != 0u;
-        if (whole && c + 1u >= depth) {
+        // Super cluster pairs reach the last depth unsplit only where their lanes were chosen below.
+        if (p.sphereExpansion != 0u && p.wholeExpansion != EXPANSION_PER_TRIANGLE && c + 1u >= depth) {
           mode = STEP_EXPAND_SUPER;
           add64(STATE_EXPANDED, n * SUPER_CLUSTERS);
           // A lane a pair, read from the arena where they were written: only the step's 32-bit count of
@@ -142,7 +158,9 @@ void main() {
           }
         } else {
           bool expandNext = uint64_t(shape[SHAPE_COUNTS + c + 1u]) * EXPAND_NODES_PER_CLUSTER > uint64_t(state[STATE_ROOT_CLUSTERS]);
-          bool split = whole ? expandNext && c + 2u < depth : expandNext || c + 2u >= depth;
+          // Two depths above the leaves the lanes part: a lane per triangle pair splits the pairs here, a
+          // lane per pair keeps them whole for one more depth (the choice, from these pairs).
+          bool split = c + 2u >= depth ? !(p.sphereExpansion != 0u && wholeLanes(n)) : expandNext;
           mode = split ? STEP_SPLIT : STEP_SUPER;
           if (split && n > (p.capacity >> 2u)) {  // (SUPER_CLUSTERS inputs a pair)
             state[STATE_OVERFLOW] = 1u;
@@ -167,8 +185,10 @@ void main() {
           }
         }
       }
-      // The last depth's expansion in the sphere-test kernel: a lane per cluster pair where the host asks.
-      if (mode == STEP_EXPAND && p.sphereExpansion != 0u && p.wholeExpansion != 0u && c + 1u >= depth)
+      // The last depth's expansion in the sphere-test kernel: a lane per cluster pair where chosen. Split
+      // super cluster pairs chose a lane per triangle pair a depth above.
+      if (mode == STEP_EXPAND && p.sphereExpansion != 0u && c + 1u >= depth && was == STEP_CLUSTERS && n > 0u &&
+          wholeLanes(n))
         mode = STEP_EXPAND_WHOLE;
       count = mode == STEP_EXPAND ? n << CLUSTER_SHIFT : (mode == STEP_SPLIT ? n << 2u : n);
     }
@@ -177,6 +197,7 @@ void main() {
   writeArgs(STATE_TEST_ARGS, 0u, 0u, TRAVERSE_THREADS);
   writeArgs(STATE_CLUSTER_ARGS, 0u, 0u, TRAVERSE_THREADS);
   writeArgs(STATE_SPHERE_ARGS, 0u, 0u, TRAVERSE_THREADS);
+  writeArgs(STATE_WHOLE_ARGS, 0u, 0u, TRAVERSE_THREADS);
   if (c <= STATE_MAX_STEPS) writeArgs(STATE_LEAF_ARGS + 4u * c, 0u, 0u, TRAVERSE_THREADS);
   state[STATE_COUNT] = 0u;
   // The leaves take the pairs at step D, or with the choice at the first step from D on where it says so
@@ -197,8 +218,11 @@ void main() {
     state[STATE_COUNT] = count;
     // The step's test: the cluster kernel for cluster pairs, the triangle kernel otherwise, or the
     // sphere-test triangle kernel for an expansion one depth above the leaves when the host asks for it
-    // (traversal.h, "Clusters"). All are recorded; the others get zero workgroups.
+    // (traversal.h, "Clusters"), a lane per triangle pair or a lane per (super) cluster pair. All are
+    // recorded; the others get zero workgroups.
+    bool whole = mode == STEP_EXPAND_WHOLE || mode == STEP_EXPAND_SUPER;
     uint args = mode == STEP_CLUSTERS || mode == STEP_SUPER || mode == STEP_SPLIT ? STATE_CLUSTER_ARGS
+                : whole ? STATE_WHOLE_ARGS
                 : (mode != STEP_TRIANGLES && p.sphereExpansion != 0u && c + 1u >= depth ? STATE_SPHERE_ARGS : STATE_TEST_ARGS);
     writeArgs(args, count, count, TRAVERSE_THREADS);
     state[STATE_CHILD_OFFSET] = shape[SHAPE_OFFSETS + c];

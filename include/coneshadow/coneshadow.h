@@ -114,8 +114,10 @@ struct FrameDesc {
 
 // The stages of one light's work, in the order a frame records them: the index of LightStats::stageMs.
 enum class Stage : uint32_t {
-  LightTerm,  // the samples' light term for the light, which decides the lit pixels
-  Compact,    // the visibility set to lit, the lit pixels compacted (with their sort keys, where fused)
+  LightTerm,  // always 0: the light term, which decides the lit pixels, is computed inside Compact (and
+              // wherever else a pixel's litness is asked); kept so the stages keep their indices
+  Compact,    // the visibility set to lit, the lit pixels found (their light term computed) and compacted
+              // (with their sort keys, where fused)
   Order,      // the ray order measured on the GPU (a screen-order tree built and judged)
   Keys,       // the rays' Hilbert keys (0 where the compaction made them)
   Sort,       // the rays' radix sort
@@ -144,7 +146,8 @@ struct LightStats {
 // work behind the command stream: a stage can read ~0 while its neighbour absorbs it); gpuMs, the frame's
 // whole span, is reliable, and all lights' stages together add up to at most gpuMs.
 struct FrameStats {
-  bool available = false;          // false: that frame is not among the last framesInFlight recorded
+  bool available = false;          // false: that frame is not among the last framesInFlight recorded, or
+                                   // has not yet run to its end on the device (read it after your fence)
   std::vector<LightStats> lights;  // one per light, in FrameDesc order
   bool gpuTimes = false;           // the stage times and gpuMs below were measured
   double gpuMs = 0;                // the GPU time of everything recordFrame recorded, in milliseconds
@@ -178,7 +181,8 @@ class CONESHADOW_API Context {
   // The counts and GPU times of a recorded frame (its lights in a vector: this call allocates). Call only
   // once that frame's command buffer has completed; it never waits for the device.
   FrameStats frameStats(uint64_t frame) const;
-  // Device memory the library holds, in bytes.
+  // Device memory the library holds in its buffers, in bytes. Not counted: the timestamp query pools
+  // (about 530 queries a light of Options::maxLights, per frame in flight), which the driver allocates.
   uint64_t deviceBytes() const;
 
   struct Impl;
