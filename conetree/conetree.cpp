@@ -99,7 +99,7 @@ FrameChoice chooseFrame(glm::vec3 light, glm::vec3 lo, glm::vec3 hi) {
   // and that lateral offset over both; as an angle from the light, over the nearest distance to the bounds.
   f.sigma = float(std::ldexp(2.0 * r + std::abs(lf.x) + std::abs(lf.y), -16));
   f.beta = float(double(f.sigma) / (D - r - double(f.sigma)) * (1.0 + std::ldexp(1.0, -10)));
-  // Ray keys over the bounds' projection onto z = 1 in the frame.
+  // The bounds' projection onto z = 1 in the frame: the ray keys' grid starts from a square holding it.
   double u0 = INFINITY, u1 = -INFINITY, v0 = INFINITY, v1 = -INFINITY;
   for (int k = 0; k < 8; ++k) {
     const glm::dvec3 corner((k & 1) ? hi.x : lo.x, (k & 2) ? hi.y : lo.y, (k & 4) ? hi.z : lo.z);

@@ -20,6 +20,8 @@
 //   light, whose rays span a sliver of a face, still gets cells as fine as its rays. Against the 2^12 grid
 //   on every face of 27 bits and three passes it replaced, about the same pairs tested for a radix pass
 //   saved (docs/ARCHITECTURE.md, "rays/", has the measurements).
+// In the cone path's far-light frame the same 18 bits key one fitted grid over the rays' frame coordinates
+// instead of the faces' (frameRayKey, below).
 // Degenerate rays (zero length: a sample at the light; or a non-finite direction) get
 // RAY_KEY_DEGENERATE = 2^18 - 1, so they sort after all others: a real key is at most RAY_KEY_LAST (the
 // last cell of runs that fill the key space shares the key of the cell before it, its neighbour on the
@@ -41,15 +43,13 @@
 #define RAY_KEY_LAST 0x3FFFEu  // the largest key of a real direction
 #define RAY_KEY_MAX_ORDER 9    // a face's grid: 2^9 x 2^9 cells at most (one face fills the key space) ...
 #define RAY_KEY_MIN_ORDER 7    // ... and 2^7 x 2^7 at least, for a face the subset reached
-// The key in the far-light frame (frameRayKey): a 2^15 x 2^15 grid, 30 bits, four passes.
-#define FRAME_KEY_BITS 31
-#define FRAME_KEY_DEGENERATE 0x7FFFFFFFu
 #if RAY_KEY_MAX_ORDER > 12
 #error "faceCellCode keeps a cell's coordinates in 12 bits each"
 #endif
 // The box of a face: words 4 * face + (0 .. 3) hold orderedBits of the minimum of u, of v, of -u and of
 // -v over the face's samples of the subset (atomicMin; all ones, RAY_BOUNDS_EMPTY, while it has none).
-// Word RAY_BOUNDS_COUNTS + face counts the subset's samples on the face (zero before the pass).
+// Word RAY_BOUNDS_COUNTS + face counts the subset's samples on the face (zero before the pass). In the
+// far-light frame the frame's coordinates (frameUV) take face 0's words, the other faces stay empty.
 #define RAY_BOUNDS_SAMPLES 16384u  // at most 2^16: boundsSample multiplies below it in 32 bits (rays.cpp)
 #define RAY_BOUNDS_WORDS 32u
 #define RAY_BOUNDS_COUNTS 24u
@@ -269,28 +269,62 @@ CS_FN uint rayKey(vec3 d) {
   return faceRayKey(d, face, wholeFaceGrid(slot.x), slot);
 }
 
-// The ray key in a rotated frame (the cone path's far-light frame, traversal/traversal.h): d_f = the ray
-// in frame coordinates, all rays within a few degrees of +z. Hilbert index (order 15, 30 bits) of the
-// cell of (d_f.x / d_f.z, d_f.y / d_f.z) mapped by rect = (u0, v0, 1 / (u1 - u0), 1 / (v1 - v0)) onto
-// [0, 1]^2 (values outside clamped to the edge cells): the whole grid spans the scene's projection, where
-// the face grid of rayKey would give a far light's rays a handful of cells. Degenerate (d_f.z <= 0 or not
-// finite): FRAME_KEY_DEGENERATE.
-// frameRayKey in two steps, as faceKey's: the cell's code, (x << 15) | y, or FRAME_KEY_DEGENERATE; its key.
-CS_FN uint frameCellCode(vec3 d, vec4 rect) {
-  if (!(d.z > 0.0f) || !(abs(d.x) <= CS_FLT_MAX && abs(d.y) <= CS_FLT_MAX && d.z <= CS_FLT_MAX))
-    return FRAME_KEY_DEGENERATE;
-  float u = (d.x / d.z - rect.x) * rect.z;
-  float v = (d.y / d.z - rect.y) * rect.w;
-  float n = 32768.0f;  // 2^15
-  uint x = uint(clamp(floor(u * n), 0.0f, n - 1.0f));
-  uint y = uint(clamp(floor(v * n), 0.0f, n - 1.0f));
-  return (x << 15u) | y;
-}
-CS_FN uint frameCodeKey(uint code) {
-  return code == FRAME_KEY_DEGENERATE ? code : hilbertIndex(code >> 15u, code & 0x7FFFu, 15u);
-}
-CS_FN uint frameRayKey(vec3 d, vec4 rect) { return frameCodeKey(frameCellCode(d, rect)); }
+// The ray key in a rotated frame (the cone path's far-light frame, traversal/traversal.h): all rays
+// within a few degrees of the frame's +z, each ray d_f put in the frame by frameRay and keyed on its
+// frame coordinates (d_f.x / d_f.z, d_f.y / d_f.z) (frameUV) -- the whole key space one face, as a
+// light outside the view gives the world key: a Hilbert curve over a 2^RAY_KEY_MAX_ORDER square grid
+// (18 bits, two radix passes), min'ed with RAY_KEY_LAST so RAY_KEY_DEGENERATE (d_f.z <= 0, non-finite)
+// sorts last. The grid is fitted to the subset's box of frame coordinates (ray_bounds.comp, face 0's
+// words; frameKeyGrid), its cells square; samples outside the box go to the edge cells. It replaced a
+// 2^15 x 2^15 grid over the scene's projection (31 bits, four passes, and neighbours rarely in one cell, so
+// the runs saved nothing); the measurements are in docs/ARCHITECTURE.md, "rays/".
+#define FRAME_CODE_DEGENERATE (7u << 24u)  // frameCellCode of a degenerate ray (as a face code's face 7)
 
+// The ray to position x in the frame (cone_layout.h ConeFrame): S R (x - origin) - lightFrame, R's rows
+// in rowX .. rowZ, the shear in rowY.w and rowZ.w.
+CS_FN vec3 frameRay(vec3 x, vec4 rowX, vec4 rowY, vec4 rowZ, vec4 origin, vec4 lightFrame) {
+  vec3 d = x - vec3(origin);
+  vec3 f = vec3(dot(vec3(rowX), d), dot(vec3(rowY), d), dot(vec3(rowZ), d));
+  f.x -= rowY.w * f.z;  // the frame's shear
+  f.y -= rowZ.w * f.z;
+  return f - vec3(lightFrame);
+}
+// Whether a ray in the frame has a key cell: d_f.z > 0, d_f finite and so its frame coordinates.
+CS_FN bool frameRayKeyed(vec3 d) {
+  if (!(d.z > 0.0f) || !(abs(d.x) <= CS_FLT_MAX && abs(d.y) <= CS_FLT_MAX && d.z <= CS_FLT_MAX)) return false;
+  return abs(d.x / d.z) <= CS_FLT_MAX && abs(d.y / d.z) <= CS_FLT_MAX;
+}
+CS_FN vec2 frameUV(vec3 d) { return vec2(d.x / d.z, d.y / d.z); }
+
+// The frame's key grid as ray_grids.comp writes it for the keys kernels, faceKeyGrid's form (u0, v0,
+// scale, slot: the run starts at key 0, so the slot is the order): a square at the lower corner of the
+// subset's `box` of frame coordinates (face 0's words) whose side is the box's larger extent, so the box
+// spans all 2^order cells along that axis; without a box (the subset had no lit sample), the same over the
+// scene's projection `rect` (KeysPush::rect: (u0, v0, 1 / (u1 - u0), 1 / (v1 - v0))). Not on power-of-two
+// squares as a face's (fittedFaceGrid): measured in this frame, those cost more pairs, and varied with where
+// the box fell on the plane's grid of them (docs/ARCHITECTURE.md, "rays/").
+CS_FN vec4 frameKeyGrid(uvec4 box, vec4 rect, uint order) {
+  vec2 lo = vec2(rect.x, rect.y), extent = vec2(1.0f / rect.z, 1.0f / rect.w);
+  if (box.x != RAY_BOUNDS_EMPTY) {
+    lo = vec2(fromOrderedBits(box.x), fromOrderedBits(box.y));
+    extent = vec2(-fromOrderedBits(box.z), -fromOrderedBits(box.w)) - lo;
+  }
+  // A box of one direction: any cells (its rays share one; those the subset missed go to the edges).
+  float side = max(max(extent.x, extent.y), 1e-30f);
+  return vec4(lo.x, lo.y, float(1u << order) / side, float(order));
+}
+// frameRayKey in two steps, as faceKey's: frameCellCode names d's cell, (x << 12) | y (FRAME_CODE_DEGENERATE
+// where it has none), frameCodeKey turns the code into the key: equal codes, equal keys.
+CS_FN uint frameCellCode(vec3 d, vec4 keyGrid) {
+  if (!frameRayKeyed(d)) return FRAME_CODE_DEGENERATE;
+  uvec2 c = gridCell(frameUV(d), vec4(keyGrid.x, keyGrid.y, keyGrid.z, keyGrid.z), uint(keyGrid.w) & 15u);
+  return (c.x << 12u) | c.y;
+}
+CS_FN uint frameCodeKey(uint code, vec4 keyGrid) {
+  if (code == FRAME_CODE_DEGENERATE) return RAY_KEY_DEGENERATE;
+  return min(hilbertIndex((code >> 12u) & 0xFFFu, code & 0xFFFu, uint(keyGrid.w) & 15u), uint(RAY_KEY_LAST));
+}
+CS_FN uint frameRayKey(vec3 d, vec4 keyGrid) { return frameCodeKey(frameCellCode(d, keyGrid), keyGrid); }
 
 // The pixel (x, y) at position i of the unsorted screen order over tiles of 2^MORTON_TILE_BITS pixels
 // a side, tilesX tiles per row. May lie outside the image when its size is not a multiple of the tile.
@@ -314,6 +348,12 @@ using glsl::rayCell;
 using glsl::rayFace;
 using glsl::rayKey;
 using glsl::frameRayKey;
+using glsl::frameCellCode;
+using glsl::frameCodeKey;
+using glsl::frameKeyGrid;
+using glsl::frameRay;
+using glsl::frameRayKeyed;
+using glsl::frameUV;
 using glsl::rayFaceUV;
 using glsl::wholeFaceGrid;
 using glsl::gridCell;
@@ -332,8 +372,6 @@ using glsl::screenTileOrigin;
 constexpr uint32_t kRayKeyDegenerate = RAY_KEY_DEGENERATE;
 constexpr uint32_t kRayKeyBits = RAY_KEY_BITS;
 constexpr uint32_t kRayKeyLast = RAY_KEY_LAST;
-constexpr uint32_t kFrameKeyBits = FRAME_KEY_BITS;
-constexpr uint32_t kFrameKeyDegenerate = FRAME_KEY_DEGENERATE;
 }  // namespace cs::rays
 #endif
 #endif

@@ -17,14 +17,14 @@
 // the leaders'). The positions go four at a time, lit or not (a loop of one lit pixel an iteration, with a
 // scalar store each, took the runs twice as long on lavapipe); where no lane of a subgroup has geometry
 // among its four, the subgroup skips the normals, the cells and the store (a far view's empty rows). The
-// faces' grids come first, from a subset of the pixels that needs no compaction (ray_bounds.comp,
+// key grids come first, from a subset of the pixels that needs no compaction (ray_bounds.comp,
 // ray_grids.comp); the grid once known, the G-buffer is read once here, where lit_count.comp and a pass
 // of its own for the runs read it twice.
 // bindings: 0 = position, 1 = normal (uniform texel buffers, RGBA32F: a texel per pixel), 2 = kept
 //           (uvec2[] per invocation: bits, rank in the block), 3 = counts (uint[] per block), 4 = the
-//           faces' grids (uniform texel buffer, RGBA32F: a texel per face; world keys), 5 = leaderBits
-//           (uint[] per invocation), 6 = runCounts (uint[] per invocation), 7 = cells (uint[] per
-//           position, written four at a time where one of the four is lit)
+//           key grids (uniform texel buffer, RGBA32F: a texel per face; a rotated frame's in texel 0),
+//           5 = leaderBits (uint[] per invocation), 6 = runCounts (uint[] per invocation), 7 = cells
+//           (uint[] per position, written four at a time where one of the four is lit)
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
 layout(local_size_x = SCAN_THREADS) in;
@@ -67,9 +67,9 @@ void main() {
   // The six grids in registers, picked by selects: a storage load indexed by each sample's face costs
   // every lane its own bounds-checked load on a SIMD CPU driver (and a storage load of all six, 24 of
   // them; texel fetches are the cheap reads there).
-  g0 = vec4(0.0f), g1 = g0, g2 = g0, g3 = g0, g4 = g0, g5 = g0;
+  g0 = texelFetch(grids, 0), g1 = vec4(0.0f), g2 = g1, g3 = g1, g4 = g1, g5 = g1;  // a rotated frame: g0 alone
   if (SPEC_FRAMED == 0u) {
-    g0 = texelFetch(grids, 0), g1 = texelFetch(grids, 1), g2 = texelFetch(grids, 2);
+    g1 = texelFetch(grids, 1), g2 = texelFetch(grids, 2);
     g3 = texelFetch(grids, 3), g4 = texelFetch(grids, 4), g5 = texelFetch(grids, 5);
   }
   // A lit position leads unless the one before it is lit and in its cell.

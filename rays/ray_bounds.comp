@@ -3,7 +3,8 @@
 // The fitted box of each face for the ray keys (rays/hilbert.h, RAY_BOUNDS_SAMPLES): the face
 // coordinates of the lit pixels among RAY_BOUNDS_SAMPLES pixels spread evenly over the frame's
 // (boundsSample of the pixel count, row-major), each invocation taking RAY_BOUNDS_ITEMS of them, and how
-// many of them each face has (the faces' runs of keys, faceKeySlot). An invocation keeps its own minima
+// many of them each face has (the faces' runs of keys, faceKeySlot); in the far-light frame (SPEC_FRAMED)
+// the box of their frame coordinates instead (frameUV, face 0's words). An invocation keeps its own minima
 // and counts per face, the workgroup merges them in shared memory and adds them to the buffer with one
 // atomicMin (atomicAdd) a word. The subset comes from the G-buffer alone, before any compaction: the
 // fused compaction (lit_runs.comp) keys the pixels in the same pass that finds which are lit.
@@ -17,6 +18,8 @@ layout(binding = 0) uniform samplerBuffer position;
 layout(binding = 1) uniform samplerBuffer normal;
 layout(std430, binding = 2) buffer Bounds { uint bounds[]; };
 layout(push_constant) uniform Push { KeysPush pc; };
+// = pc.framed: the box of the rays' coordinates in the rotated frame (ray_keys.comp).
+layout(constant_id = 0) const uint SPEC_FRAMED = 0u;
 
 shared uint box[24];
 shared uint faceCounts[6];
@@ -36,9 +39,10 @@ void main() {
     vec4 x = texelFetch(position, int(pixel));
     if (!litSampleFor(x, texelFetch(normal, int(pixel)), pc.light.xyz)) continue;
     vec3 d = x.xyz - pc.light.xyz;
-    uint face = rayFace(d);
+    if (SPEC_FRAMED != 0u) d = frameRay(x.xyz, pc.rowX, pc.rowY, pc.rowZ, pc.origin, pc.lightFrame);
+    uint face = SPEC_FRAMED != 0u ? (frameRayKeyed(d) ? 0u : 7u) : rayFace(d);
     if (face == 7u) continue;
-    vec2 uv = rayFaceUV(d, face);
+    vec2 uv = SPEC_FRAMED != 0u ? frameUV(d) : rayFaceUV(d, face);
     least[face] = min(least[face], uvec4(orderedBits(uv.x), orderedBits(uv.y), orderedBits(-uv.x), orderedBits(-uv.y)));
     ++seen[face];
   }

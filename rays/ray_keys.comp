@@ -2,10 +2,10 @@
 #extension GL_GOOGLE_include_directive : require
 // The Hilbert ray key (rays/hilbert.h) of every compacted sample: ray = light -> position[sample], in the
 // world on its face's fitted grid and run of keys (faceKey on ray_grids.comp's grid) or in a rotated frame
-// (frameRayKey, KeysPush::framed).
+// (frameRayKey on the frame's fitted grid, KeysPush::framed).
 // bindings: 0 = position (uniform texel buffer, RGBA32F: a texel per pixel), 1 = samples (uint[] pixel
-//           indices), 2 = keys (uint[]), 3 = countWords (device count), 4 = the faces' grids (uniform texel
-//           buffer, RGBA32F: a texel per face, world keys)
+//           indices), 2 = keys (uint[]), 3 = countWords (device count), 4 = the key grids (uniform texel
+//           buffer, RGBA32F: a texel per face; a rotated frame's in texel 0)
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
 layout(local_size_x = PIXEL_THREADS) in;
@@ -24,11 +24,8 @@ void main() {
   uint i = CS_FLAT_INDEX(PIXEL_THREADS);
   if (i >= countOf(pc.count, pc.countIndex, pc.flags)) return;
   vec3 x = texelFetch(position, int(samples[i])).xyz;
-  if (SPEC_FRAMED != 0u) {  // S R (x - origin) - lightFrame: the ray in the rotated frame
-    vec3 d = x - pc.origin.xyz;
-    vec3 f = vec3(dot(pc.rowX.xyz, d), dot(pc.rowY.xyz, d), dot(pc.rowZ.xyz, d));
-    f.xy -= vec2(pc.rowY.w, pc.rowZ.w) * f.z;  // the frame's shear (cone_layout.h, ConeFrame)
-    keys[i] = frameRayKey(f - pc.lightFrame.xyz, pc.rect);
+  if (SPEC_FRAMED != 0u) {
+    keys[i] = frameRayKey(frameRay(x, pc.rowX, pc.rowY, pc.rowZ, pc.origin, pc.lightFrame), texelFetch(grids, 0));
   } else {
     vec3 d = x - pc.light.xyz;
     uint face = rayFace(d);

@@ -78,7 +78,8 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
       groups_(ctx),
       runScan_(ctx, blockInvocations(maxPixels_)),
       itemScan_(ctx, std::max(maxPixels_, 1u)) {
-  rayBounds_ = vk::createKernel(ctx, "ray_bounds", spv_ray_bounds_comp, 3, sizeof(KeysPush));
+  rayBounds_ = vk::createKernel(ctx, "ray_bounds", spv_ray_bounds_comp, 3, sizeof(KeysPush), {{0, 0u}});
+  frameRayBounds_ = vk::createKernel(ctx, "ray_bounds (frame)", spv_ray_bounds_comp, 3, sizeof(KeysPush), {{0, 1u}});
   rayGrids_ = vk::createKernel(ctx, "ray_grids", spv_ray_grids_comp, 2, sizeof(KeysPush));
   rayKeys_ = vk::createKernel(ctx, "ray_keys", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 0u}});
   frameRayKeys_ = vk::createKernel(ctx, "ray_keys (frame)", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 1u}});
@@ -151,10 +152,10 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
   KeysPush push = frame;
   push.count = uint32_t(pixels);  // lit_runs, run_items (and ray_bounds, recordBounds): the pixels
   const bool framed = frame.framed != 0u;
-  keyBits_ = framed ? kFrameKeyBits : kRayKeyBits;
+  keyBits_ = kRayKeyBits;
   const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(pixels, SCAN_BLOCK));
   const vk::BufferRange position = vk::texels(g.position, kPixelTexels), grids = vk::texels(grids_, kGridTexels);
-  if (!framed) recordBounds(cmd, g, push);  // the faces' grids first, from the pixels alone
+  recordBounds(cmd, g, push);  // the key grids first, from the pixels alone
   // One pass over the pixels (lit_runs.comp): which are lit, and the runs of equal keys among them (every
   // pixel's key cell, four at a time, kept per pixel); the scan of the blocks' lit counts (the lit count),
   // each invocation's first run (the scan of its runs' counts, their total the runs' count), then one
@@ -182,7 +183,8 @@ void LitRays::recordBounds(vk::Commands& cmd, const DeviceGBuffer& g, const Keys
   cmd.barrier();
   KeysPush push = keys;
   push.count = g.width * g.height;  // the subset is spread over the pixels
-  cmd.dispatch(rayBounds_, {vk::texels(g.position, kPixelTexels), vk::texels(g.normal, kPixelTexels), bounds_}, push,
+  cmd.dispatch(keys.framed ? frameRayBounds_ : rayBounds_,
+               {vk::texels(g.position, kPixelTexels), vk::texels(g.normal, kPixelTexels), bounds_}, push,
                RAY_BOUNDS_GROUPS);
   cmd.barrier();
   cmd.dispatch(rayGrids_, {bounds_, grids_}, push, 1);
@@ -202,7 +204,7 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
   push.countIndex = count.word.index;
   push.flags = count.onDevice() ? FLAG_COUNT_FROM_BUFFER : 0u;
   const bool framed = frame.framed != 0u;
-  keyBits_ = framed ? kFrameKeyBits : kRayKeyBits;
+  keyBits_ = kRayKeyBits;
   runsPending_ = false;
   vk::BufferRange countBinding = count.onDevice() ? vk::BufferRange() : vk::BufferRange(count_);
   if (count.onDevice()) {
@@ -210,7 +212,7 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
     countBinding.offset = 0;
     countBinding.range = (VkDeviceSize(count.word.index) + 1) * 4;
   }
-  if (!framed) recordBounds(cmd, g, push);  // each face's box over the subset, for its fitted grid
+  recordBounds(cmd, g, push);  // each face's (or the frame's) box over the subset, for its fitted grid
   const vk::Kernel& keys = framed ? frameRayKeys_ : rayKeys_;
   const vk::BufferRange grids = vk::texels(grids_, kGridTexels);
   if (count.onDevice()) {  // as many workgroups as the device count needs (none for a count of 0)
@@ -284,7 +286,21 @@ void LitRays::record(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light,
 
 uint32_t LitRays::readCount() const { return vk::download<uint32_t>(ctx_, count_, 1)[0]; }
 
+namespace {
+// The ray to position x under `keys`: from the light in the world, or in the rotated frame (frameRay).
+glm::vec3 keyedRay(glm::vec3 x, const KeysPush& keys) {
+  return keys.framed ? frameRay(x, keys.rowX, keys.rowY, keys.rowZ, keys.origin, keys.lightFrame)
+                     : x - glm::vec3(keys.light);
+}
+}  // namespace
+
 FaceBounds referenceBounds(const GBuffer& g, glm::vec3 light) {
+  KeysPush keys{};
+  keys.light = glm::vec4(light, 1.0f);
+  return referenceBounds(g, keys);
+}
+
+FaceBounds referenceBounds(const GBuffer& g, const KeysPush& keys) {
   FaceBounds b;
   b.boxes.fill(glm::uvec4(RAY_BOUNDS_EMPTY));
   b.counts.fill(0);
@@ -292,10 +308,10 @@ FaceBounds referenceBounds(const GBuffer& g, glm::vec3 light) {
   for (uint32_t j = 0; j < RAY_BOUNDS_SAMPLES && n > 0; ++j) {
     const uint32_t pixel = boundsSample(j, n);
     if (!g.isLit(pixel)) continue;
-    const glm::vec3 d = glm::vec3(g.position[pixel]) - light;
-    const uint32_t face = rayFace(d);
+    const glm::vec3 d = keyedRay(glm::vec3(g.position[pixel]), keys);
+    const uint32_t face = keys.framed ? (frameRayKeyed(d) ? 0u : 7u) : rayFace(d);
     if (face == 7) continue;
-    const glm::vec2 uv = rayFaceUV(d, face);
+    const glm::vec2 uv = keys.framed ? frameUV(d) : rayFaceUV(d, face);
     b.boxes[face] =
         glm::min(b.boxes[face], glm::uvec4(orderedBits(uv.x), orderedBits(uv.y), orderedBits(-uv.x), orderedBits(-uv.y)));
     ++b.counts[face];
@@ -320,7 +336,14 @@ glm::vec4 FaceBounds::keyGrid(uint32_t face) const {
   return faceKeyGrid(boxes.at(face), faceKeySlot(face, c));
 }
 
+glm::vec4 FaceBounds::frameGrid(glm::vec4 rect) const { return frameKeyGrid(boxes[0], rect, RAY_KEY_MAX_ORDER); }
+
 std::vector<uint32_t> referenceRayOrder(const GBuffer& g, glm::vec3 light, RayOrder order) {
+  if (order == RayOrder::Hilbert) {
+    KeysPush keys{};
+    keys.light = glm::vec4(light, 1.0f);
+    return referenceRayOrder(g, keys);
+  }
   std::vector<uint32_t> samples;
   if (order == RayOrder::ScreenMorton) {
     const ScreenDomain d = screenDomain(g.width, g.height, order);
@@ -332,18 +355,22 @@ std::vector<uint32_t> referenceRayOrder(const GBuffer& g, glm::vec3 light, RayOr
   }
   for (uint32_t i = 0; i < g.size(); ++i)
     if (g.isLit(i)) samples.push_back(i);
-  if (order == RayOrder::Hilbert) {
-    const FaceBounds bounds = referenceBounds(g, light);
-    std::array<glm::vec4, 6> grids;
-    for (uint32_t face = 0; face < 6; ++face) grids[face] = bounds.keyGrid(face);
-    std::vector<uint32_t> keys(g.size());
-    for (uint32_t s : samples) {
-      const glm::vec3 d = glm::vec3(g.position[s]) - light;
-      const uint32_t face = rayFace(d);
-      keys[s] = face == 7 ? kRayKeyDegenerate : faceKey(d, face, grids[face]);
-    }
-    std::stable_sort(samples.begin(), samples.end(), [&](uint32_t a, uint32_t b) { return keys[a] < keys[b]; });
+  return samples;
+}
+
+std::vector<uint32_t> referenceRayOrder(const GBuffer& g, const KeysPush& keys) {
+  std::vector<uint32_t> samples = referenceRayOrder(g, glm::vec3(keys.light), RayOrder::ScreenRows);
+  const FaceBounds bounds = referenceBounds(g, keys);
+  std::array<glm::vec4, 6> grids;
+  for (uint32_t face = 0; face < 6; ++face) grids[face] = bounds.keyGrid(face);
+  const glm::vec4 frame = bounds.frameGrid(keys.rect);
+  std::vector<uint32_t> key(g.size());
+  for (uint32_t s : samples) {
+    const glm::vec3 d = keyedRay(glm::vec3(g.position[s]), keys);
+    const uint32_t face = rayFace(d);
+    key[s] = keys.framed ? frameRayKey(d, frame) : face == 7 ? kRayKeyDegenerate : faceKey(d, face, grids[face]);
   }
+  std::stable_sort(samples.begin(), samples.end(), [&](uint32_t a, uint32_t b) { return key[a] < key[b]; });
   return samples;
 }
 

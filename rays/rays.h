@@ -53,10 +53,11 @@ class LitRays {
   // read) -> samples(), count.
   void recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, RayOrder order);
   void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, sort::Count count);  // -> keys()
-  // The keys in a rotated frame (frameRayKey): `frame` holds KeysPush's rowX .. rect (framed = 1).
+  // The keys in a rotated frame (frameRayKey on the grid fitted to the subset, as the faces'): `frame`
+  // holds KeysPush's rowX .. rect (framed = 1).
   void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& frame, sort::Count count);
-  // Compaction and keys in one (row-major order; the sorted path): the faces' boxes and grids first (world
-  // keys: from the subset of the pixels recordKeys takes too, which needs no compaction), then one pass
+  // Compaction and keys in one (row-major order; the sorted path): the faces' (or the rotated frame's)
+  // boxes and grids first (from the subset of the pixels recordKeys takes too, which needs no compaction), then one pass
   // over the pixels (lit_runs.comp) marks the lit ones, counts them per block (the scan of the counts
   // gives the lit count), keys every pixel and finds the runs of equal keys (consecutive lit pixels of
   // one invocation's SCAN_ITEMS whose keys agree: 65-80 % of the lit pixels of a render follow a
@@ -70,9 +71,8 @@ class LitRays {
   bool fusedKeys() const { return sort_.pairInputs() && maxPixels_ <= (1u << RUN_PIXEL_BITS); }
   void recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& keys);
   // Sorts (keys(), samples()) by key -- or, after recordCompactionWithKeys, its runs into them (`count`
-  // then is count()): the key bits of the last recording's kind (RAY_KEY_BITS or, in a rotated frame,
-  // FRAME_KEY_BITS). Given `records` (16 bytes a pixel of the G-buffer's capacity) and the G-buffer's
-  // `positions`, a sort of runs also writes each sorted ray's record, uvec4(float bits of its position,
+  // then is count()): the key bits of the last recording (RAY_KEY_BITS in either frame). Given `records`
+  // (16 bytes a pixel of the G-buffer's capacity) and the G-buffer's `positions`, a sort of runs also writes each sorted ray's record, uvec4(float bits of its position,
   // its pixel), as conetree::ConeTree::rays() holds them (read in pixel order here, where the tree's build
   // would gather them in the sorted order), in place of samples(), which it leaves as it was (the records
   // hold the pixels). Returns whether it wrote them (a sort of runs only; otherwise samples() as always).
@@ -84,9 +84,9 @@ class LitRays {
 
   const vk::Buffer& samples() const { return samples_; }
   const vk::Buffer& keys() const { return keys_; }
-  const vk::Buffer& bounds() const { return bounds_; }  // the faces' boxes and counts (RAY_BOUNDS_WORDS uint)
-  // The bits of the keys the last recordKeys or recordCompactionWithKeys made (RAY_KEY_BITS, or
-  // FRAME_KEY_BITS in a rotated frame): the sort takes sort::radixPasses of them.
+  const vk::Buffer& bounds() const { return bounds_; }  // the fitted boxes and counts (RAY_BOUNDS_WORDS uint)
+  // The bits of the keys the last recordKeys or recordCompactionWithKeys made (RAY_KEY_BITS, in the world
+  // and in a rotated frame): the sort takes sort::radixPasses of them.
   uint32_t keyBits() const { return keyBits_; }
   const sort::RadixSort& sorter() const { return sort_; }
   const vk::Buffer& countBuffer() const { return count_; }
@@ -102,7 +102,7 @@ class LitRays {
   sort::Compact compact_;
   sort::RadixSort sort_;
   sort::IndirectGroups groups_;  // a device count: the keys launch only the workgroups it needs
-  vk::Kernel rayBounds_, rayGrids_;            // the faces' fitted boxes and grids (ray_bounds, ray_grids.comp)
+  vk::Kernel rayBounds_, frameRayBounds_, rayGrids_;  // the fitted boxes and grids (ray_bounds, ray_grids.comp)
   vk::Kernel rayKeys_, frameRayKeys_;          // the world's keys, a rotated frame's (ray_keys.comp SPEC_FRAMED)
   // Compaction: lit_count.comp and lit_samples.comp, row-major or Morton (SPEC_MORTON).
   vk::Kernel litCount_, mortonLitCount_, litSamples_, mortonLitSamples_;
@@ -135,11 +135,16 @@ struct FaceBounds {
   std::array<uint32_t, 6> counts;
   static FaceBounds fromWords(const std::vector<uint32_t>& words);  // RAY_BOUNDS_WORDS, as downloaded
   glm::vec4 keyGrid(uint32_t face) const;
+  glm::vec4 frameGrid(glm::vec4 rect) const;  // in a rotated frame: its grid (frameKeyGrid over face 0's box)
 };
-// CPU reference of ray_bounds.comp: the faces' boxes and counts over the lit pixels of the subset.
+// CPU reference of ray_bounds.comp: the faces' boxes and counts over the lit pixels of the subset; under
+// `keys` also in a rotated frame (framed: the box of the frame coordinates in face 0's words).
 FaceBounds referenceBounds(const GBuffer& g, glm::vec3 light);
+FaceBounds referenceBounds(const GBuffer& g, const KeysPush& keys);
 
-// CPU reference of the whole step (tests, debugging): lit samples of `g` in the given order.
+// CPU reference of the whole step (tests, debugging): lit samples of `g` in the given order; in Hilbert
+// order under `keys` also in a rotated frame.
 std::vector<uint32_t> referenceRayOrder(const GBuffer& g, glm::vec3 light, RayOrder order);
+std::vector<uint32_t> referenceRayOrder(const GBuffer& g, const KeysPush& keys);
 
 }  // namespace cs::rays

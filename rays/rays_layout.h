@@ -37,7 +37,7 @@ struct LitPush {
   vec4 light;       // xyz: the point light whose lit samples these are (lit_count.comp, litSampleFor)
 };
 
-// ray_keys.comp
+// ray_bounds.comp, ray_grids.comp, ray_keys.comp, lit_runs.comp, run_items.comp
 struct KeysPush {
   vec4 light;       // xyz: the point light
   uint count;       // rays, or their upper bound when FLAG_COUNT_FROM_BUFFER is set
@@ -48,7 +48,8 @@ struct KeysPush {
   vec4 rowX, rowY, rowZ;  // the frame's rotation, rows (world -> frame); rowY.w, rowZ.w its shear (ConeFrame)
   vec4 origin;            // xyz: the frame's origin (world)
   vec4 lightFrame;        // xyz: the light in the frame
-  vec4 rect;              // (u0, v0, 1 / (u1 - u0), 1 / (v1 - v0)): what the keys' grid covers of z = 1
+  vec4 rect;              // (u0, v0, 1 / (u1 - u0), 1 / (v1 - v0)): the scene's projection on z = 1, which
+                          // the frame's key grid starts from (frameKeyGrid, ray_grids.comp)
 };
 
 // run_items.comp, run_expand.comp (LitRays::recordCompactionWithKeys: the sort takes one item a run of

@@ -9,8 +9,8 @@
 // bindings: 0 = position (uniform texel buffer, RGBA32F: a texel per pixel; run_cell.glsl's), 1 = kept
 //           (uvec2[] per invocation: bits, rank in the block), 2 = runBase (uint[] per invocation: its
 //           first item, the scan of runCounts), 3 = leaderBits (uint[] per invocation), 4 = pairs
-//           (uvec2[]), 5 = the faces' grids (uniform texel buffer, RGBA32F: a texel per face; world keys),
-//           6 = cells (uniform texel buffer, R32UI: a lit pixel's key cell, lit_runs.comp)
+//           (uvec2[]), 5 = the key grids (uniform texel buffer, RGBA32F: a texel per face; a rotated
+//           frame's in texel 0), 6 = cells (uniform texel buffer, R32UI: a lit pixel's key cell, lit_runs.comp)
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
 layout(local_size_x = SCAN_THREADS) in;
@@ -34,9 +34,9 @@ void main() {
   if (leaders == 0u) return;
   uint first = b * SCAN_BLOCK + t * SCAN_ITEMS;
   uint lit = kept[inv].x, item = runBase[inv];
-  g0 = vec4(0.0f), g1 = g0, g2 = g0, g3 = g0, g4 = g0, g5 = g0;  // as lit_runs.comp reads them
+  g0 = texelFetch(grids, 0), g1 = vec4(0.0f), g2 = g1, g3 = g1, g4 = g1, g5 = g1;  // as lit_runs.comp reads them
   if (SPEC_FRAMED == 0u) {
-    g0 = texelFetch(grids, 0), g1 = texelFetch(grids, 1), g2 = texelFetch(grids, 2);
+    g1 = texelFetch(grids, 1), g2 = texelFetch(grids, 2);
     g3 = texelFetch(grids, 3), g4 = texelFetch(grids, 4), g5 = texelFetch(grids, 5);
   }
   while (leaders != 0u) {

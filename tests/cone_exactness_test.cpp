@@ -19,8 +19,10 @@
 
 #include "judge/metrics.h"
 #include "raster/raster.h"
+#include "rays/hilbert.h"
 #include "reference/embree_reference.h"
 #include "method/epsilon.h"
+#include "sort/sort.h"
 #include "tests/cone_test_support.h"
 #include "tests/test_context.h"
 #include "traversal/cone_method.h"
@@ -485,6 +487,11 @@ TEST(ConeHardCases, FarLightsFromTenToATenThousandThousandDiagonals) {
       CaseResult r = Harness::get().run(scene, cam, light, 96, 96, what.str());
       EXPECT_EQ(r.stats["frame"].get<std::string>(), "far") << what.str();
       EXPECT_LE(r.stats["pairs_tested"].get<uint64_t>(), 2 * ownPairs) << what.str() << " (own light: " << ownPairs << ")";
+      // The far frame's key is the world's width (a grid fitted to the rays, rays/hilbert.h frameKeyGrid):
+      // its sort takes two radix passes, not the four of a grid over the whole scene's projection.
+      const uint32_t keyBits = r.stats["ray_key_bits"].get<uint32_t>();
+      EXPECT_EQ(keyBits, rays::kRayKeyBits) << what.str();
+      EXPECT_EQ(sort::radixPasses(keyBits), 2u) << what.str();
     }
   }
 }

@@ -41,6 +41,7 @@ set(cs_unit_tests
   RayKeys.FaceIsTheMajorAxisWithTiesGoingToTheLowestAxis
   RayKeys.FaceSlotsShareOutTheKeySpaceByTheSubsetsCounts
   RayKeys.OrderedBitsSortAsTheFloatsDo
+  RayKeys.TheFarFramesGridIsFittedToTheSubsetsBox
   Registry.ABuiltinNameIsTakenOnceAndEveryBuiltinDeclaresItself
   Rmsm.BackupPagesAreOneWholeLevelOfEveryFaceInUse
   Rmsm.CoarsenToFitReplacesPagesByTheirAncestors

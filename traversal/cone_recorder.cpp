@@ -688,8 +688,7 @@ void ConeRecorder::noteCounters(const uint32_t* shape, const uint32_t* orderWord
 }
 
 // How the rays are sorted on this device: the radix sort's scheme and tile (sort::sortSchemeFor,
-// sortShapeFor). The key's width is "ray_key_bits" (18 in the world frame: two passes; 31 in the far
-// frame: four).
+// sortShapeFor). The key's width is "ray_key_bits" (18 in the world and in the far frame: two passes).
 std::string ConeRecorder::raySortName() const {
   const sort::RadixSort& s = rays_->sorter();
   return std::string(sort::sortSchemeName(s.scheme())) + ", tiles of " + std::to_string(s.shape().threads) + " x " +
@@ -697,7 +696,7 @@ std::string ConeRecorder::raySortName() const {
 }
 
 // What the ray keys are made from: the light, and in the far frame its rotation and the bounds'
-// projection.
+// projection (where the frame's key grid starts; it is fitted to the rays on the device).
 rays::KeysPush ConeRecorder::keysPush(glm::vec3 light) const {
   rays::KeysPush k{};
   k.light = glm::vec4(light, 1.0f);
