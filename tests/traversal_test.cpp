@@ -857,7 +857,7 @@ TEST(ConeMethod, LeafPairsOfFourSixteenOrSixtyFourRaysGiveTheSameMaskAndSkipTheL
 
   // Auto: chosen from the frame's counts on a CPU device (ConeMethod.LeafChoice*), four on a GPU.
   const MethodOutput automatic = run(traversal::LeafRays::Auto, false);
-  if (ctx.properties.deviceType != VK_PHYSICAL_DEVICE_TYPE_CPU) EXPECT_EQ(automatic.stats["leaf_rays"], 4u);
+  if (ctx.properties.deviceType != VK_PHYSICAL_DEVICE_TYPE_CPU) { EXPECT_EQ(automatic.stats["leaf_rays"], 4u); }
   EXPECT_EQ(automatic.visibility, four.visibility);
 }
 
