@@ -282,6 +282,8 @@ class Engine : public ConeEngine {
     Slot& es = slots_[slot];
     if (es.learned) return;
     es.learned = true;
+    // A caller that broke the contract gets no learning from words that are not yet that frame's.
+    if (tagOf(slot) != frameTag(es.frame)) return;
     traversal::Traversal& t = recorder_.traversal();
     for (uint32_t l = 0; l < es.lights; ++l) {
       const uint32_t* state = statsWords(slot, l);
