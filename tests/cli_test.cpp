@@ -101,6 +101,31 @@ TEST(Cli, ATinyLightCoordinateIsAFiniteNumber) {
   fs::remove_all(out);
 }
 
+// CONESHADOW_PROFILE_DISPATCHES=1 (docs/DEVELOPING.md, "Where a frame's time goes"): the cone frame's
+// kernels each get a row of wall time and calls at exit, and the frame's mask is the one a run without
+// it gives (each dispatch submitted alone changes when the work runs, never what it computes).
+TEST(Cli, TheDispatchProfileTimesEachConeKernelAndLeavesTheMaskAlone) {
+  fs::path plain = tempDir("profile_plain"), profiled = tempDir("profile_on");
+  const std::string args = "render --method cone --view wall --width 24 --height 24 --frames 2 --quiet --profile-stages on --dump ";
+  CliRun a = cli(args + (plain / "d").string() + " --out " + plain.string());
+  CliRun b = cli(args + (profiled / "d").string() + " --out " + profiled.string(), "CONESHADOW_PROFILE_DISPATCHES=1 ");
+  ASSERT_EQ(a.code, 0) << a.out;
+  ASSERT_EQ(b.code, 0) << b.out;
+  EXPECT_EQ(a.out.find("dispatch profile"), std::string::npos) << a.out;
+  ASSERT_NE(b.out.find("dispatch profile (a submission per dispatch"), std::string::npos) << b.out;
+  for (const char* kernel : {"cone tree build", "traverse test", "radix_count", "  total"})
+    EXPECT_NE(b.out.find(kernel, b.out.find("dispatch profile")), std::string::npos) << kernel << "\n" << b.out;
+  auto bytes = [](const fs::path& f) {
+    std::ifstream in(f, std::ios::binary);
+    return std::string((std::istreambuf_iterator<char>(in)), {});
+  };
+  const std::string mask = bytes(plain / "d" / "visibility_cone.pfm");
+  EXPECT_FALSE(mask.empty());
+  EXPECT_EQ(mask, bytes(profiled / "d" / "visibility_cone.pfm"));
+  fs::remove_all(plain);
+  fs::remove_all(profiled);
+}
+
 TEST(Cli, ALightTooFarForFp32RayLengthsIsAUsageErrorBeforeAnyOutput) {
   // 2^62 is the limit (method/epsilon.h); 4e18 from the built-in scene is inside it, 5e18 past it.
   fs::path out = tempDir("farlight");

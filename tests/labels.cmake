@@ -95,6 +95,7 @@ set(cs_gpu_cli_tests
   LightDistances.* ReportScreenshot.* ResultsSchema.* Visibility.*
   AnimatedGltf.AnAnimationPastFp32RangeIsOneClearErrorNotACrash
   Cli.AFrameWhoseBandCoversItsSamplesIsUndecidedInEveryResult
+  Cli.TheDispatchProfileTimesEachConeKernelAndLeavesTheMaskAlone
   Cli.ALightTooFarForFp32RayLengthsIsAUsageErrorBeforeAnyOutput
   Cli.AProcessThatCannotStartThreadsGetsOneClearLine
   Cli.ASettingNoChosenMethodTakesIsAUsageErrorNamingIt

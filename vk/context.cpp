@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <cstdio>
 #include <csignal>
 #include <mutex>
 #include <cstring>
@@ -1196,6 +1198,63 @@ static void pushBuffers(Context& ctx, VkCommandBuffer cb, const Kernel& kernel,
   if (i) ctx.cmdPushDescriptorSet(cb, VK_PIPELINE_BIND_POINT_COMPUTE, kernel.layout, 0, i, writes);
 }
 
+namespace {
+// CONESHADOW_PROFILE_DISPATCHES=1 (a developer's switch; docs/DEVELOPING.md, "Where a frame's time goes"):
+// every dispatch of a command buffer this process owns is submitted on its own after a barrier, and the
+// wall clock of that submission (what was recorded since the last one included) is added to its kernel's
+// row; at exit the rows go to stderr, slowest first. A pipeline's first dispatch, which compiles its
+// shader on lavapipe, is counted apart. Command buffers of a caller (the engine's) are left alone.
+struct DispatchProfile {
+  struct Row {
+    double ms = 0, firstMs = 0;
+    uint64_t calls = 0;
+  };
+  std::map<std::string, Row> rows;
+  std::map<VkPipeline, bool> seen;
+  std::mutex mutex;
+  ~DispatchProfile() {
+    if (rows.empty()) return;
+    std::vector<std::pair<std::string, Row>> sorted(rows.begin(), rows.end());
+    std::sort(sorted.begin(), sorted.end(), [](const auto& a, const auto& b) { return a.second.ms > b.second.ms; });
+    double total = 0;
+    for (const auto& r : sorted) total += r.second.ms;
+    std::fprintf(stderr, "dispatch profile (a submission per dispatch; first dispatches of a pipeline apart):\n");
+    std::fprintf(stderr, "%10s %8s %12s  %s\n", "ms", "calls", "first ms", "kernel");
+    for (const auto& [name, r] : sorted)
+      std::fprintf(stderr, "%10.2f %8llu %12.2f  %s\n", r.ms, (unsigned long long)r.calls, r.firstMs, name.c_str());
+    std::fprintf(stderr, "%10.2f %8s %12s  total\n", total, "", "");
+  }
+};
+DispatchProfile* dispatchProfile() {
+  static DispatchProfile* profile = [] {
+    const char* on = std::getenv("CONESHADOW_PROFILE_DISPATCHES");
+    return on && *on && std::string(on) != "0" ? new DispatchProfile : nullptr;
+  }();
+  return profile;
+}
+// Deletes the profile (printing it) at exit, after every context has gone.
+struct DispatchProfileAtExit {
+  ~DispatchProfileAtExit() { delete dispatchProfile(); }
+} dispatchProfileAtExit;
+}  // namespace
+
+void Commands::profileDispatch(const Kernel& kernel) {
+  DispatchProfile* profile = dispatchProfile();
+  if (!profile || external_) return;
+  barrier();
+  const auto t0 = std::chrono::steady_clock::now();
+  submit();
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  std::lock_guard<std::mutex> lock(profile->mutex);
+  DispatchProfile::Row& row = profile->rows[kernel.name];
+  if (profile->seen.emplace(kernel.pipeline, true).second) {
+    row.firstMs += ms;
+  } else {
+    row.ms += ms;
+    ++row.calls;
+  }
+}
+
 void Commands::dispatch(const Kernel& kernel, std::initializer_list<BufferRange> buffers, const void* push,
                         uint32_t pushBytes, uint32_t gx, uint32_t gy, uint32_t gz) {
   CS_CHECK(pushBytes == kernel.pushBytes,
@@ -1208,6 +1267,7 @@ void Commands::dispatch(const Kernel& kernel, std::initializer_list<BufferRange>
   if (pushBytes) vkCmdPushConstants(cb_, kernel.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, pushBytes, push);
   vkCmdDispatch(cb_, gx, gy, gz);
   ctx_.cost.dispatches++;
+  profileDispatch(kernel);
 }
 
 void Commands::dispatchIndirect(const Kernel& kernel, std::initializer_list<BufferRange> buffers, const void* push,
@@ -1218,6 +1278,7 @@ void Commands::dispatchIndirect(const Kernel& kernel, std::initializer_list<Buff
   if (pushBytes) vkCmdPushConstants(cb_, kernel.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, pushBytes, push);
   vkCmdDispatchIndirect(cb_, args, offset);
   ctx_.cost.dispatches++;
+  profileDispatch(kernel);
 }
 
 void Commands::fill(const Buffer& b, uint32_t value, VkDeviceSize offset, VkDeviceSize size) {

@@ -435,6 +435,8 @@ class Commands {
 
  private:
   void begin();
+  // CONESHADOW_PROFILE_DISPATCHES: submits what was recorded and times it against the kernel (context.cpp).
+  void profileDispatch(const Kernel& kernel);
   Context& ctx_;
   Timer* timer_;
   VkCommandBuffer cb_ = VK_NULL_HANDLE;
