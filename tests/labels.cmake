@@ -17,7 +17,7 @@ set(cs_unit_tests
   Aff.* AffBart.* AnimatedScene.* AnimationSampler.* AsmTree.* AssimpModels/GltfBroken.* AutomaticCameraAndLight.*
   BuiltinMotion.* BuiltinScene.* ClusterOrder.* ClusterSphere.* ConeFrameChoice.* ConeMath.* EarlyAcceptCovered.*
   EmbreeDevice.* EmbreeReference.* EpsilonPolicy.* FrameOutput.* GeometryCheck.* GeometryRevision.*
-  GltfBrokenFolders.* GltfLoader.* Grid.* ImageIo.* LeafHitFromLight.* LeafRayHitsTriangle.* LeafStep.*
+  GltfBrokenFolders.* GltfLoader.* Grid.* ImageIo.* LeafHitFromLight.* LeafRayHitsTriangle.* LeafSphere.* LeafStep.*
   LoaderHostile.* Metrics.* ResultsTable.* Scene.* SceneFamily.* SceneLoader.* SphereConeTriangle.* ThreadPool.*
   ViewerScript.*
   TraversalArena.* Validation/TinyGltfBroken.* VariantSphereTest.* VkSpirv.*
@@ -166,6 +166,7 @@ set(cs_slow_tests
   ConeMethod.MaskEqualsTheLeafTestOnEveryPairSortedOrNot
   ConeMethod.SpheresWrittenOnSeveralThreadsKeepTheMask
   ConeMethod.TheLastExpansionsLanesAreChosenPerBatchEitherWayWithTheSameMask
+  ConeMethod.TheLeavesCullKeepsTheMaskPairsAndLeafTestsInOneSubmission
   MemoryBudget.EveryVariantKeepsItsMaskUnderATightBudget
   RadixSortLookBack.CountingAnUnpublishedTileItselfGivesTheSameSort
   Registry.EveryRegisteredMethodKeepsTheMethodContract

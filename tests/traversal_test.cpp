@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <optional>
 #include <random>
 #include <string>
@@ -638,6 +639,50 @@ TEST(LeafHitFromLight, FindsGrazingHitsOnSmallTrianglesFarFromTheLight) {
   EXPECT_GT(cases, 15000);
 }
 
+// The leaves' cull (sphere_test.h, leafRayMissesSphere) never drops a ray either leaf test hits: random
+// triangles of 10^-4 to 1 around a point of the ray (hits, and misses just past an edge), in scenes of
+// 10^-3 to 10^3 with lights 1 to 10^6 of their size away and lights among the geometry. And it does cull:
+// a triangle four of its sizes off the ray, its size over 10^-3 of its distance from the light, is dropped.
+TEST(LeafSphere, NeverCullsARayALeafTestHitsAndCullsTheFarOnes) {
+  std::mt19937 rng(20261207);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  int hits = 0, culled = 0, far = 0;
+  for (int i = 0; i < 60000; ++i) {
+    const double scale = std::pow(10.0, 6.0 * u(rng) - 3.0);
+    const dvec3 p0 = scale * (dvec3(u(rng), u(rng), u(rng)) - 0.5);
+    const dvec3 dir = glm::normalize(dvec3(u(rng), u(rng), u(rng)) - 0.5);
+    const double away = i % 4 == 0 ? 0.1 + u(rng) : std::pow(10.0, 6.0 * u(rng));
+    const vec3 pf(p0), lightf(p0 + scale * away * dir);
+    const dvec3 light(lightf), q = dvec3(pf) - light;
+    const dvec3 X = light + (0.02 + 0.96 * u(rng)) * q;
+    const double size = scale * std::pow(10.0, -4.0 * u(rng));
+    const bool off = i % 5 == 0;  // the triangle moved four sizes across the ray
+    vec3 ua, va;
+    orthonormalBasis(vec3(glm::normalize(q)), ua, va);
+    const dvec3 shift = off ? 4.0 * size * dvec3(ua) : dvec3(0.0);
+    vec3 P[3];
+    for (vec3& x : P) x = vec3(X + shift + size * (dvec3(u(rng), u(rng), u(rng)) - 0.5));
+    const float eps = float(1e-4 * scale);
+    const vec4 ray = cone::leafRay(pf, lightf);
+    if (!cone::leafRayUsable(ray, 2.0f * eps)) continue;
+    const vec3 a[3] = {P[0] - lightf, P[1] - lightf, P[2] - lightf};
+    const bool misses = cone::leafRayMissesSphere(cone::leafSphere(a[0], a[1], a[2]), vec3(ray));
+    const bool hit = cone::leafHit(pf, lightf, ray, eps, P[0], P[1], P[2]) ||
+                     cone::leafHitFromLight(pf, lightf, ray, eps, P[0], P[1], P[2]);
+    hits += hit;
+    ASSERT_FALSE(hit && misses) << "case " << i << ": scale " << scale << ", light " << away << " sizes away, triangle "
+                                << size;
+    if (off && size > 1e-3 * scale * std::max(1.0, away)) {  // clear of the margins, 2^-16 of the distance
+      far++;
+      culled += misses;
+    }
+  }
+  std::printf("  %d hits kept, %d of %d triangles off the ray culled\n", hits, culled, far);
+  EXPECT_GT(hits, 10000);
+  EXPECT_EQ(culled, far);
+  EXPECT_GT(far, 2000);
+}
+
 // The choice (traversal.h leafTestFor): from the light where it is exact, the two ends' elsewhere.
 TEST(LeafHitFromLight, RunsWhereTheLightIsAmongTheGeometry) {
   const vec3 lo(-1, 0, -2), hi(3, 2, 1);
@@ -709,6 +754,13 @@ Scene busyScene() {
 }
 
 // busyScene() at 96 x 80, seen from above, lit from above the cards.
+// The second frame of a cone method made with `o` (the first warms its batch size and pipelines).
+MethodOutput secondFrame(const ConeOptions& o, const FrameInput& frame) {
+  auto method = makeConeMethod(test::context(), o);
+  runCounted(*method, frame);
+  return runCounted(*method, frame);
+}
+
 struct BusyFrame {
   Scene scene = busyScene();
   Raster raster{test::context(), scene};
@@ -867,7 +919,6 @@ TEST(ConeMethod, LeafPairsOfFourSixteenOrSixtyFourRaysGiveTheSameMaskAndSkipTheL
 // (clusters off: with clusters the expansion rules count from the choice's first step); with costs between,
 // the stats count every leaf pair under the span it went with and say why.
 TEST(ConeMethod, LeafChoiceGivesTheSameMaskWhateverItChoosesInOneSubmission) {
-  auto& ctx = test::context();
   BusyFrame busy;
   const uint32_t depth = cone::treeDepth(uint32_t(busy.host.litCount()));
   ASSERT_GE(depth, 5u);
@@ -876,9 +927,7 @@ TEST(ConeMethod, LeafChoiceGivesTheSameMaskWhateverItChoosesInOneSubmission) {
     o.clusters = clusters;
     o.leafRays = rays;
     o.leafChoiceCosts = costs;
-    auto method = makeConeMethod(ctx, o);
-    runCounted(*method, busy.frame);
-    return runCounted(*method, busy.frame);
+    return secondFrame(o, busy.frame);
   };
   const MethodOutput four = run(traversal::LeafRays::Four, std::nullopt, false);
   const MethodOutput sixtyFour = run(traversal::LeafRays::SixtyFour, std::nullopt, false);
@@ -917,6 +966,49 @@ TEST(ConeMethod, LeafChoiceGivesTheSameMaskWhateverItChoosesInOneSubmission) {
 
 // A tree shallower than the leaf levels asked gives what it has: 64 rays a pair over a tree of depth 2
 // takes sixteen, of depth 1 four (leafStepOf).
+// The leaves' cull (traversal.h, leafCullTestsPerRay): always or never, for each span of leaf rays and in
+// one batch or many, the same mask, pairs and leaf tests in one submission; the stats count the leaf pairs
+// under each. The device's own rule counts every leaf pair under one or the other.
+TEST(ConeMethod, TheLeavesCullKeepsTheMaskPairsAndLeafTestsInOneSubmission) {
+  BusyFrame busy;
+  auto run = [&](traversal::LeafRays rays, std::optional<float> cull, uint64_t memory) {
+    ConeOptions o;
+    o.leafRays = rays;
+    o.leafCullTestsPerRay = cull;
+    o.traversalMemoryBytes = memory;
+    return secondFrame(o, busy.frame);
+  };
+  const float never = std::numeric_limits<float>::infinity();
+  // Every span, each batch's leaves from either buffer (the parity of the step that took them), and a
+  // frame of many batches.
+  const std::pair<traversal::LeafRays, uint64_t> configs[] = {{traversal::LeafRays::Four, uint64_t(256) << 10},
+                                                               {traversal::LeafRays::Sixteen, traversal::kDefaultMemoryBytes},
+                                                               {traversal::LeafRays::SixtyFour, traversal::kDefaultMemoryBytes}};
+  for (const auto& [rays, memory] : configs) {
+    {
+      const MethodOutput plain = run(rays, never, memory), culled = run(rays, 0.0f, memory);
+      const std::string what = std::to_string(plain.stats["leaf_rays"].get<uint32_t>()) + " rays, " +
+                               std::to_string(memory) + " bytes";
+      ASSERT_EQ(culled.stats["traversal_path"], "one submission") << what;
+      ASSERT_EQ(plain.stats["traversal_path"], "one submission") << what;
+      EXPECT_EQ(culled.visibility, plain.visibility) << what;
+      EXPECT_EQ(culled.stats["pairs_tested"], plain.stats["pairs_tested"]) << what;
+      EXPECT_EQ(culled.stats["leaf_tests"], plain.stats["leaf_tests"]) << what;
+      const nlohmann::json &a = plain.stats["traversal"], &b = culled.stats["traversal"];
+      ASSERT_GT(a["leaf_pairs"].get<uint64_t>(), 0u) << what;
+      EXPECT_EQ(a["leaf_pairs_by_cull"]["culled"], 0u) << what;
+      EXPECT_EQ(a["leaf_pairs_by_cull"]["not_culled"], a["leaf_pairs"]) << what;
+      EXPECT_EQ(b["leaf_pairs_by_cull"]["culled"], b["leaf_pairs"]) << what;
+      EXPECT_EQ(b["leaf_pairs_by_cull"]["not_culled"], 0u) << what;
+    }
+  }
+  const MethodOutput automatic = run(traversal::LeafRays::Auto, std::nullopt, traversal::kDefaultMemoryBytes);
+  const nlohmann::json& t = automatic.stats["traversal"];
+  EXPECT_EQ(t["leaf_pairs_by_cull"]["culled"].get<uint64_t>() + t["leaf_pairs_by_cull"]["not_culled"].get<uint64_t>(),
+            t["leaf_pairs"].get<uint64_t>());
+  EXPECT_EQ(automatic.visibility, run(traversal::LeafRays::Auto, never, traversal::kDefaultMemoryBytes).visibility);
+}
+
 TEST(LeafStep, ATreeGivesTheLevelsItHas) {
   EXPECT_EQ(traversal::leafStepOf(1, 1), 1u);
   EXPECT_EQ(traversal::leafStepOf(1, 3), 1u);

@@ -47,6 +47,7 @@ struct ConeOptions {
   std::optional<uint32_t> expansionLanesMinPairs;  // tests: auto's lane choice from this many pairs (traversal.h)
   traversal::LeafRays leafRays = traversal::LeafRays::Auto;  // --leaf-rays (auto: chosen per batch from its counts on a CPU device)
   std::optional<traversal::LeafChoiceCosts> leafChoiceCosts;  // tests: auto's leaf choice with these costs (traversal.h)
+  std::optional<float> leafCullTestsPerRay;  // tests: the leaves' cull from this many leaf tests a ray (traversal.h)
   bool leafTestFromLight = true;  // --leaf-test auto (true) or two-ends
   // --memory-budget: device buffers and host working set together (0: none); the arena gets what the
   // rest leaves, and a budget that cannot hold the frame is refused with the bytes it needs.

@@ -142,6 +142,7 @@ traversal::TraversalInput ConeRecorder::traversalInput(glm::vec3 light, float ep
   in.expansionLanesMinPairs = options_.expansionLanesMinPairs;
   in.leafRays = options_.leafRays;
   in.leafChoiceCosts = options_.leafChoiceCosts;
+  in.leafCullTestsPerRay = options_.leafCullTestsPerRay;
   in.leafTest = options_.leafTestFromLight
                     ? traversal::leafTestFor(frame_.far, layout_.boundsLo(), layout_.boundsHi(), light)
                     : traversal::LeafTest::TwoEnds;

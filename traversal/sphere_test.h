@@ -85,10 +85,37 @@ CS_FN bool facesLight(vec3 v0, vec3 v1, vec3 v2) {
   return dot(N, v0) < -4.0f * CONE_TEST_MARGIN * length(e1) * length(e2) * big;
 }
 
+// The leaves' cull of a pair's rays before their exact test (traverse_leaves.comp, SPEC_CULL): the
+// triangle's bounding sphere relative to the light (of P_i - light, world coordinates, as the leaves
+// have them), its radius widened by the sphere test's margin, CONE_TEST_MARGIN (|c| + r): leafSphere, once a
+// pair (xyz: the centre, w: the widened radius squared). leafRayMissesSphere(s, w), w = sample - light as
+// leafRay computes it: true only when the line through the light along w passes farther than that radius
+// from the centre, |c x w|^2 > R^2 |w|^2 (no square root a ray). Conservative for both leaf tests
+// (precise_test.h): a hit they report lies on their ray's line within a few ulp of the triangle's
+// coordinates relative to the end they work from. The test from the light (and leafHit from the light's
+// end) runs on this very line; leafHit takes the sample's end only when the triangle is nearer the sample
+// in the max norm, so at least 0.37 L from the light, where that line's offset from this one (the
+// rounding of w, an ulp of L) is far inside the sphere's padding (2^-16 of the vertices' distance from
+// the light). The products here round to ~ulp |c| |w|, inside the margin's 2^-16 |c| |w|. NaN, overflow
+// and a radius or ray too short for its square to stay a normal float keep the ray.
+CS_FN vec4 leafSphere(vec3 a0, vec3 a1, vec3 a2) {
+  vec4 s = boundingSphere(a0, a1, a2, 1.0f);
+  float R = s.w + CONE_TEST_MARGIN * (length(vec3(s)) + s.w);
+  return vec4(vec3(s), R > CONE_COVER_MIN_LENGTH ? R * R : CS_FLT_MAX);
+}
+
+CS_FN bool leafRayMissesSphere(vec4 s, vec3 w) {
+  vec3 x = cross(vec3(s), w);
+  float d2 = dot(x, x), l2 = dot(w, w);
+  return d2 > s.w * l2 && d2 <= CS_FLT_MAX && l2 >= 7.888609052210118e-31f;  // 2^-100
+}
+
 #ifdef __cplusplus
 }  // namespace glsl
 using glsl::boundingSphere;
 using glsl::facesLight;
+using glsl::leafRayMissesSphere;
+using glsl::leafSphere;
 using glsl::sphereConeTriangle;
 }  // namespace CONE_CPU_NAMESPACE
 #endif

@@ -5,6 +5,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <thread>
 
@@ -30,6 +31,8 @@ constexpr uint64_t kStateBytes = STATE_WORDS * 4;  // the state words, bound who
 // Levels of the tree the leaves take (leafStepOf): 1 for four rays a leaf pair, 2 for sixteen, 3 for 64.
 // The leaf choice's costs on a CPU device, in leaf tests (LeafChoiceCosts).
 constexpr float kLeafChoiceStepCost = 40.0f, kLeafChoiceLaneCost = 4.0f;
+// The leaves' cull on a CPU device: from this many leaf tests a ray (leafCullTestsPerRay).
+constexpr float kLeafCullTestsPerRay = 512.0f;
 uint32_t leafLevels(LeafRays rays) { return rays == LeafRays::SixtyFour ? 3u : rays == LeafRays::Sixteen ? 2u : 1u; }
 }  // namespace
 
@@ -180,6 +183,8 @@ nlohmann::json TraversalStats::toJson() const {
           {"leaf_pairs_by_rays", {{"4", leafPairsByRays[0]}, {"16", leafPairsByRays[1]}, {"64", leafPairsByRays[2]}}},
           {"leaf_rays_choice", leafChoice.empty() ? std::string("given") : leafChoice},
           {"leaf_test", leafTestName(leafTest)},
+          {"leaf_pairs_by_cull", {{"culled", leafPairsByCull[0]}, {"not_culled", leafPairsByCull[1]}}},
+          {"leaf_cull", leafCull.empty() ? std::string("never (the chunked traversal)") : leafCull},
           {"expansion_lanes", expansionLanes},
           {"expansion_lanes_by_batch", {{"cluster", expansionsByLanes[0]}, {"triangle", expansionsByLanes[1]}}},
           {"expansion_pairs_by_lanes", {{"cluster", expansionPairsByLanes[0]}, {"triangle", expansionPairsByLanes[1]}}},
@@ -225,9 +230,13 @@ Traversal::Traversal(vk::Context& ctx, uint64_t memoryBytes)
 Traversal::Traversal(vk::Context& ctx, const ArenaPlan& plan) : ctx_(ctx), plan_(plan) {
   CS_CHECK(plan_.pairCapacity >= kMinPairs && plan_.chunkCapacity >= 1, "traversal arena plan too small");
   batchTriangles_ = plan_.chunkCapacity;
-  leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 6, sizeof(TraversePush), {{0, 0u}});
+  leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 6, sizeof(TraversePush), {{0, 0u}, {1, 0u}});
   leavesFromLight_ = vk::createKernel(ctx, "traverse leaves (from the light)", spv_traverse_leaves_comp, 6,
-                                      sizeof(TraversePush), {{0, 1u}});
+                                      sizeof(TraversePush), {{0, 1u}, {1, 0u}});
+  leavesCull_ = vk::createKernel(ctx, "traverse leaves (culled)", spv_traverse_leaves_comp, 6, sizeof(TraversePush),
+                                 {{0, 0u}, {1, 1u}});
+  leavesFromLightCull_ = vk::createKernel(ctx, "traverse leaves (from the light, culled)", spv_traverse_leaves_comp, 6,
+                                          sizeof(TraversePush), {{0, 1u}, {1, 1u}});
   leafHits_ = vk::createKernel(ctx, "leaf hits", spv_leaf_hits_comp, 4, sizeof(LeafHitsPush));
   advance_ = vk::createKernel(ctx, "traverse advance", spv_traverse_advance_comp, 2, sizeof(AdvancePush));
   arena_ = vk::createBuffer(ctx, pairBufferBytes(plan_.pairCapacity));
@@ -384,7 +393,7 @@ void Traversal::leaves(Frame& f, uint32_t d) {
     cmd.barrier();
     f.shadowedCleared = true;
   }
-  cmd.dispatch(leafKernel(f.in->leafTest), {vk::texels(*f.in->triangles, kTexelFormat), vk::texels(arena_, kPairFormat), vk::texels(f.in->tree->rays(), kRayFormat), stats_,
+  cmd.dispatch(leafKernel(f.in->leafTest, false), {vk::texels(*f.in->triangles, kTexelFormat), vk::texels(arena_, kPairFormat), vk::texels(f.in->tree->rays(), kRayFormat), stats_,
                          vk::texels(stats_, kWordFormat), shadowed_}, p,
                g.x, g.y);
   cmd.barrier();
@@ -572,6 +581,9 @@ void Traversal::record(vk::Commands& cmd, const TraversalInput& in, std::vector<
   leafRays_ = leafChoice_ ? LeafRays::SixtyFour : resolveLeafRays(in.leafRays);
   leafCosts_ = in.leafChoiceCosts.value_or(leafChoiceCosts(cpu));
   const LeafChoiceCosts costs = leafCosts_;
+  leafCullTestsPerRay_ = in.leafCullTestsPerRay.value_or(leafCullTestsPerRay(cpu));
+  const bool leafCullNever = !(leafCullTestsPerRay_ <= std::numeric_limits<float>::max()),
+             leafCullAlways = leafCullTestsPerRay_ <= 0.0f;
   leafTest_ = in.leafTest;
   const vk::Buffer& shape = in.tree->shapeBuffer();
   const vk::Buffer* buffers[2] = {&arena_, &chunk_};  // step c writes buffers[c % 2]
@@ -594,7 +606,7 @@ void Traversal::record(vk::Commands& cmd, const TraversalInput& in, std::vector<
   auto advance = [&](uint32_t step, uint32_t triangles) {
     AdvancePush a{step, triangles, capacity, ctx_.maxWorkgroups(), supers ? 2u : clusters ? 1u : 0u, in.triangleCount,
                   sphereExpansion ? 1u : 0u, expansionLanes_, leafLevels(leafRays_), leafChoice_ ? 1u : 0u,
-                  costs.step, costs.lane, expansionMinPairs_};
+                  costs.step, costs.lane, expansionMinPairs_, leafCullTestsPerRay_};
     cmd.dispatch(advance_, {shape, state_}, a, 1);
     cmd.barrier();
   };
@@ -653,14 +665,18 @@ void Traversal::record(vk::Commands& cmd, const TraversalInput& in, std::vector<
       if (c < maxDepth) testStep(base, *buffers[(c - 1) % 2], *buffers[c % 2]);
     }
     if (boundary) boundary("traversal");
-    for (uint32_t c = 1; c <= maxDepth; ++c) {  // zero workgroups but at c = D
+    // The batch's leaves, from the buffer the step that took them wrote, with the cull or without: one
+    // of these dispatches has workgroups (none where the batch overflowed), whatever the tree's depth.
+    for (uint32_t k = 0; k < LEAF_SLOTS; ++k) {
+      const bool cull = k >= 2;
+      if (cull ? leafCullNever : leafCullAlways) continue;
       TraversePush p = base;
       p.first = 0;
-      p.countWord = STATE_LEAF_ARGS + 4 * c + 3;
+      p.countWord = STATE_LEAF_ARGS + 4 * k + 3;
       p.missingWord = STATE_LEAF_MISSING;
-      cmd.dispatchIndirect(leafKernel(in.leafTest), {vk::texels(*in.triangles, kTexelFormat), vk::texels(*buffers[(c - 1) % 2], kPairFormat), vk::texels(in.tree->rays(), kRayFormat), state_,
+      cmd.dispatchIndirect(leafKernel(in.leafTest, cull), {vk::texels(*in.triangles, kTexelFormat), vk::texels(*buffers[k % 2], kPairFormat), vk::texels(in.tree->rays(), kRayFormat), state_,
                                      vk::texels(state_, kWordFormat), shadowed_},
-                           &p, sizeof(p), state_, (STATE_LEAF_ARGS + 4 * c) * 4);
+                           &p, sizeof(p), state_, (STATE_LEAF_ARGS + 4 * k) * 4);
     }
     cmd.barrier();
     advance(ADVANCE_END_OF_BATCH, 0);
@@ -702,6 +718,11 @@ std::optional<uint32_t> expansionLanesMinPairs(const vk::Context& ctx) {
   if (ctx.properties.deviceType != VK_PHYSICAL_DEVICE_TYPE_CPU) return std::nullopt;
   // lavapipe runs a dispatch's workgroups on a worker thread a core, each workgroup's lanes on one thread.
   return std::max(1u, std::thread::hardware_concurrency()) * uint32_t(TRAVERSE_THREADS);
+}
+
+float leafCullTestsPerRay(bool cpuDevice) {
+  // Measured on lavapipe (docs/ARCHITECTURE.md, "The leaves' cull"). On a GPU, unmeasured: never.
+  return cpuDevice ? kLeafCullTestsPerRay : std::numeric_limits<float>::infinity();
 }
 
 LeafChoiceCosts leafChoiceCosts(bool cpuDevice) {
@@ -831,6 +852,14 @@ TraversalStats Traversal::statsFromState(const uint32_t* words, uint32_t depth, 
         << s.expansionsByLanes[0] << " (" << s.expansionPairsByLanes[0] << " pairs), per triangle pair "
         << s.expansionsByLanes[1] << " (" << s.expansionPairsByLanes[1] << " pairs)";
     s.expansionLanesChoice = why.str();
+  }
+  for (uint32_t k = 0; k < 2; ++k) s.leafPairsByCull[k] = w[STATE_LEAF_CULL + k];
+  {
+    std::ostringstream why;
+    if (leafCullTestsPerRay_ <= 0.0f) why << "always (given)";
+    else if (!(leafCullTestsPerRay_ <= std::numeric_limits<float>::max())) why << "never (a GPU, where the cull has not been measured, or given)";
+    else why << "per batch: where its leaf tests a ray (scaled to the frame's triangles) reach " << leafCullTestsPerRay_;
+    s.leafCull = why.str();
   }
   s.leafTests = u64(STATE_LEAF_TESTS) - w[STATE_LEAF_MISSING];
   s.leafTest = leafTest_;

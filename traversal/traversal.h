@@ -122,6 +122,8 @@ struct TraversalStats {
                                   // chosen per batch: the span that took the most leaf pairs
   uint64_t leafPairsByRays[3] = {0, 0, 0};  // leaf pairs of 4, 16 and 64 rays
   std::string leafChoice;         // chosen per batch: what was chosen and why; "" when the span was given
+  uint64_t leafPairsByCull[2] = {0, 0};  // leaf pairs whose leaves ran with the cull, without (leafCullTestsPerRay)
+  std::string leafCull;                  // the cull's rule (device path); "" on the chunked path (never)
   LeafTest leafTest = LeafTest::TwoEnds;  // the leaves' test
   // The last expansion's lanes (ExpansionLanes): "cluster" or "triangle" -- given, or chosen per batch: the
   // form that took the most pairs ("none" when no batch reached that expansion).
@@ -182,6 +184,12 @@ struct LeafChoiceCosts {
   double threshold(double rays) const { return (lane + rays - step) / (4.0 * lane + rays); }
 };
 LeafChoiceCosts leafChoiceCosts(bool cpuDevice);
+// The leaves' cull (traverse_leaves.comp): each pair's rays tested against the triangle's sphere first,
+// the exact test run on those it keeps. The same mask; it pays where nearly every leaf test misses, which
+// a batch's leaf tests per ray say (a ray is hit by few triangles): on the device path each batch takes
+// it where its leaf tests per ray, scaled to the record, reach this many (docs/ARCHITECTURE.md, "The
+// leaves' cull"). +inf on a GPU (unmeasured: never); the chunked fallback never culls.
+float leafCullTestsPerRay(bool cpuDevice);
 
 // What one traversal reads. Buffers stay owned by the caller.
 struct TraversalInput {
@@ -219,6 +227,9 @@ struct TraversalInput {
   // Auto's choice with these costs instead of the device's (tests: every outcome of the choice on any
   // device); unset: leafChoiceCosts(device), and no choice on a GPU.
   std::optional<LeafChoiceCosts> leafChoiceCosts;
+  // The leaves' cull from this many leaf tests a ray instead of the device's (tests: 0 always, +inf never);
+  // unset: leafCullTestsPerRay(device).
+  std::optional<float> leafCullTestsPerRay;
   LeafTest leafTest = LeafTest::TwoEnds;  // the leaves' test (see LeafTest; leafTestFor says when FromLight is exact)
   // With clusters: batches start as super clusters, which split into their clusters further down
   // ("Clusters"). The same mask.
@@ -308,8 +319,12 @@ class Traversal {
   const vk::Kernel& testKernel(const TraversePush& p, bool clusters, bool whole = false);
   std::unique_ptr<vk::Kernel> tests_[22];  // the test kernels per switches, the cluster kernel, the whole-cluster ones;
                                            // each with the scale a constant 1 and from the push constants
-  vk::Kernel leaves_, leavesFromLight_, advance_, leafHits_;
-  const vk::Kernel& leafKernel(LeafTest test) const { return test == LeafTest::FromLight ? leavesFromLight_ : leaves_; }
+  vk::Kernel leaves_, leavesFromLight_, leavesCull_, leavesFromLightCull_, advance_, leafHits_;
+  // The leaves' kernel for the test, with the cull (SPEC_CULL) or without.
+  const vk::Kernel& leafKernel(LeafTest test, bool cull) const {
+    return test == LeafTest::FromLight ? (cull ? leavesFromLightCull_ : leavesFromLight_) : (cull ? leavesCull_ : leaves_);
+  }
+  float leafCullTestsPerRay_ = 0;  // the last record()'s AdvancePush::leafCullTestsPerRay
   vk::Buffer arena_, chunk_, stats_, flags_, state_;
   vk::Buffer shadowed_;  // the leaves' hits: a bit per sorted ray (traverse_leaves.comp, leaf_hits.comp)
   uint32_t batchTriangles_ = 1;  // triangles per batch of the device path (learnBatch)

@@ -36,7 +36,8 @@
 #define STATE_DROPPED 148      // uint64: early accept, pairs dropped at an accepted node
 #define STATE_LEAF_TESTS 150   // uint64: (pair, ray) combinations the leaves were sent, past the last ray included
 #define STATE_TEST_ARGS 152    // uvec4: the current step's triangle-test dispatch (x, y, 1, inputs); 0 groups for cluster pairs
-#define STATE_LEAF_ARGS 156    // + 4 c: the leaves of step c (x, y, 1, leaf pairs); 0 groups but at c = D
+#define STATE_LEAF_ARGS 156    // + 4 k: the batch's leaves (x, y, 1, leaf pairs), k = the parity of the step that took them
+                               //   (its pairs' buffer) + 2 with the cull (LEAF_CULL_*); 0 groups but the one that ran
 #define STATE_MAX_STEPS 16     // steps 0 .. 15 (tree depth <= 15)
 #define STATE_CLUSTER_ARGS 224 // uvec4: the current step's cluster-test dispatch (x, y, 1, inputs); 0 groups but for cluster pairs
 #define STATE_EXPANDED 228     // uint64: (cluster, node) pairs expanded into their triangles
@@ -57,7 +58,11 @@
 #define STATE_WHOLE_ARGS 388   // uvec4: the current step's dispatch of the sphere-test kernel a lane per (super)
                                //   cluster pair (STEP_EXPAND_WHOLE, STEP_EXPAND_SUPER); 0 groups but for those
 #define STATE_LANES_PAIRS 392  // + 0 (1): the (super) cluster pairs those batches' choices counted, summed
+#define STATE_LEAF_CULL 394    // + 0 (1): leaf pairs whose leaves ran with (without) the cull, over the frame
 #define STATE_WORDS 396
+// The leaves' dispatches a batch (STATE_LEAF_ARGS): the pairs' buffer (arena or chunk, the parity of the
+// step that took them), with or without the cull (AdvancePush::leafCullTestsPerRay).
+#define LEAF_SLOTS 4u
 #define ADVANCE_END_OF_BATCH 0xFFFFFFFFu
 
 // Triangle clusters (traversal.h, "Clusters"): CLUSTER_SIZE consecutive triangles of a triangle buffer
@@ -200,6 +205,9 @@ struct AdvancePush {
   float stepCost;        // the leaf choice's costs, in leaf tests (one ray against one triangle): a pair's
   float leafLaneCost;    // step (four child tests and the appends) and a leaf pair's lane before its rays
   uint wholeMinPairs;    // EXPANSION_CHOSEN: the fewest (super) cluster pairs that take a lane a pair
+  // The leaves' cull (traverse_leaves.comp, SPEC_CULL), chosen per batch: where its leaf tests, scaled from
+  // the batch to the record's triangles, come to at least this many a ray (0: always; +inf: never).
+  float leafCullTestsPerRay;
 };
 
 // leaf_hits.comp: the leaves' hits into the visibility, LEAF_HITS_RAYS sorted rays an invocation (a
@@ -237,10 +245,10 @@ struct SampleLightPush {
 #ifdef __cplusplus
 static_assert(sizeof(SampleLightPush) == 32, "SampleLightPush layout");
 static_assert(sizeof(FrameTrianglesPush) == 96, "FrameTrianglesPush layout");
-static_assert(sizeof(AdvancePush) == 52, "AdvancePush layout");
+static_assert(sizeof(AdvancePush) == 56, "AdvancePush layout");
 static_assert(sizeof(LeafHitsPush) == 16, "LeafHitsPush layout");
 static_assert(STATE_ACC + STATE_ACC_WORDS * STATE_MAX_STEPS <= STATE_LEAF_PAIRS && STATE_TEST_ARGS % 4 == 0 &&
-                  STATE_LEAF_ARGS % 4 == 0 && STATE_LEAF_ARGS + 4 * (STATE_MAX_STEPS + 1) <= STATE_WORDS,
+                  STATE_LEAF_ARGS % 4 == 0 && STATE_LEAF_ARGS + 4 * LEAF_SLOTS <= STATE_CLUSTER_ARGS,
               "state words");
 static_assert(STATE_COMMITTED >= STATE_EXPANDED + 2 && STATE_EXPANDED >= STATE_CLUSTER_ARGS + 4 && STATE_COMMITTED + STATE_COMMITTED_WORDS <= STATE_WORDS, "committed words");
 static_assert(sizeof(TraversePush) == 112 && offsetof(TraversePush, frameVertices) == 76 && offsetof(TraversePush, first) == 16 &&

@@ -10,7 +10,9 @@
 //    every later step of the frame is a dispatch of zero workgroups: the host redoes it chunked),
 //  - at step 0, writes the indirect arguments of leaf_hits.comp (a lane per LEAF_HITS_RAYS sorted rays),
 //  - writes step c's count, its TraversePush fields from the tree's shape, and the indirect arguments of
-//    its test (the cluster or the triangle kernel), or of the leaves at c = D, and clears the step counters;
+//    its test (the cluster or the triangle kernel), or at c = D of the batch's leaves: one of LEAF_SLOTS
+//    dispatches, by the buffer step c - 1 wrote and the leaves' cull (leafCullTestsPerRay), and clears the
+//    step counters;
 //  - with the leaf choice (AdvancePush::leafChoice), from c = D on to the tree's depth, chooses from the
 //    step's own counts between the leaves now and one more depth first (leafChoice below);
 //  - with the lanes chosen (AdvancePush::wholeExpansion), where the last expansion's two forms part,
@@ -198,7 +200,8 @@ void main() {
   writeArgs(STATE_CLUSTER_ARGS, 0u, 0u, TRAVERSE_THREADS);
   writeArgs(STATE_SPHERE_ARGS, 0u, 0u, TRAVERSE_THREADS);
   writeArgs(STATE_WHOLE_ARGS, 0u, 0u, TRAVERSE_THREADS);
-  if (c <= STATE_MAX_STEPS) writeArgs(STATE_LEAF_ARGS + 4u * c, 0u, 0u, TRAVERSE_THREADS);
+  if (c == 0u)
+    for (uint k = 0u; k < LEAF_SLOTS; k++) writeArgs(STATE_LEAF_ARGS + 4u * k, 0u, 0u, TRAVERSE_THREADS);
   state[STATE_COUNT] = 0u;
   // The leaves take the pairs at step D, or with the choice at the first step from D on where it says so
   // (at the tree's depth at the latest). Expansions are done by D (the rules above count from it), so
@@ -209,7 +212,14 @@ void main() {
     state[STATE_LEAF_SEEN + treeDepth - c - 1u] = max(1u, uint(min(survival, 1.0) * 65536.0));
   if (leaves) {
     uint levels = treeDepth - c + 1u;
-    writeArgs(STATE_LEAF_ARGS + 4u * c, n, n, TRAVERSE_THREADS);
+    // The cull where the batch's leaf tests per ray, scaled to the record, say most tests miss (a ray is
+    // hit by few triangles, so thousands of tests a ray are nearly all misses the cull removes;
+    // docs/ARCHITECTURE.md, "The leaves' cull").
+    float perRay = float(n) * float(1u << (2u * levels)) * (float(p.frameTriangles) / float(max(state[STATE_BATCH_TRIANGLES], 1u))) /
+                   float(max(shape[SHAPE_LEAVES], 1u));
+    uint cull = perRay >= p.leafCullTestsPerRay ? 1u : 0u;
+    state[STATE_LEAF_CULL + 1u - cull] += n;
+    writeArgs(STATE_LEAF_ARGS + 4u * (((c - 1u) & 1u) + 2u * cull), n, n, TRAVERSE_THREADS);
     add64(STATE_LEAF_PAIRS, n);
     add64v(STATE_LEAF_TESTS, uint64_t(n) << (2u * levels));
     state[STATE_LEAF_BY_LEVEL + min(levels, 3u) - 1u] += n;

@@ -7,7 +7,9 @@
 // lavapipe's cost per invocation (more than a ray test's arithmetic) is paid once, not once a ray.
 // A hit sets the ray's bit in `shadowed` (atomicOr, idempotent: the result does not depend on order,
 // chunking or races); leaf_hits.comp puts the set bits into the visibility once the traversal's leaves
-// have run. The bits are also the leaves' hint: a pair tests only the rays not yet known shadowed.
+// have run. The bits are also the leaves' hint: a pair tests only the rays not yet known shadowed. With
+// the cull (SPEC_CULL, chosen per batch where its leaf tests per ray are many: traversal.h,
+// leafCullTestsPerRay), only those whose line meets the triangle's sphere (sphere_test.h, leafSphere).
 // Counts nothing per test (shared or global atomics per invocation cost ~15 % on lavapipe): the host
 // counts 4 (16, 64) tests per pair, and the pairs of the last node, past the last ray, count the rays they
 // lack in STAT_MISSING.
@@ -18,11 +20,15 @@
 //           every invocation reads, fetched instead of loaded from storage, 5 = shadowed (a bit per sorted
 //           ray, and a word more)
 #include "traversal/precise_test.h"
+#include "traversal/sphere_test.h"
 #include "traversal/traverse.glsl"
 
 // 1: leafHitFromLight, the triangle's share computed once for the pair's rays (traversal.h, LeafTest);
 // 0: leafHit, a ray at a time from the triangle's nearer end.
 layout(constant_id = 0) const uint SPEC_FROM_LIGHT = 0u;
+// 1: the pair's rays culled first against the triangle's sphere (leafRayMissesSphere, a few products a
+// ray), the exact test run only on the rays left; 0: every ray tested exactly.
+layout(constant_id = 1) const uint SPEC_CULL = 0u;
 
 layout(local_size_x = TRAVERSE_THREADS) in;
 layout(binding = 0) uniform samplerBuffer tris;  // RGBA32F texels, three a triangle (traverse_test.comp)
@@ -74,6 +80,29 @@ void main() {
   // (it runs both sides of every branch), so an access per ray or per hit would cost the kernel such a
   // loop each. Bit k of hits (k < 32) or of hits2 (k >= 32): ray first + k hit (at most 64 rays a pair;
   // two selects a ray, not an index into a vector, which lavapipe makes a trip through memory).
+  if (SPEC_CULL != 0u) {
+    // The pair's live rays against the sphere, four an iteration: the four of the lowest quarter-word
+    // holding a live ray (one bit pick a quarter-word, its dead rays tested too, rays past the count read
+    // the last one again: their bits are not live). A pair's exact tests then run on the live rays whose
+    // line meets the sphere, on lavapipe as often as the lane with the most of them needs.
+    vec4 s = leafSphere(P0 - light, P1 - light, P2 - light);
+    uint near = 0u, near2 = 0u;
+    for (uint lo = live, hi = live2; (lo | hi) != 0u;) {
+      uint j = (lo != 0u ? uint(findLSB(lo)) : uint(findLSB(hi)) + 32u) & ~3u;
+      if (lo != 0u) lo &= ~(15u << j); else hi &= ~(15u << (j - 32u));
+      vec3 w0 = uintBitsToFloat(texelFetch(rays, int(first + j)).xyz) - light;
+      vec3 w1 = uintBitsToFloat(texelFetch(rays, int(first + min(j + 1u, n - 1u))).xyz) - light;
+      vec3 w2 = uintBitsToFloat(texelFetch(rays, int(first + min(j + 2u, n - 1u))).xyz) - light;
+      vec3 w3 = uintBitsToFloat(texelFetch(rays, int(first + min(j + 3u, n - 1u))).xyz) - light;
+      uint m = (leafRayMissesSphere(s, w0) ? 0u : 1u) | (leafRayMissesSphere(s, w1) ? 0u : 2u) |
+               (leafRayMissesSphere(s, w2) ? 0u : 4u) | (leafRayMissesSphere(s, w3) ? 0u : 8u);
+      if (j < 32u) near |= m << j;
+      else near2 |= m << (j - 32u);
+    }
+    live &= near;
+    live2 &= near2;
+    if ((live | live2) == 0u) return;
+  }
   uint hits = 0u, hits2 = 0u;
   LeafTriangle t;
   if (SPEC_FROM_LIGHT != 0u) t = leafTriangle(P0, P1, P2, light);

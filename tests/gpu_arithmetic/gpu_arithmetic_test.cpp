@@ -115,6 +115,36 @@ TEST_P(GpuArithmetic, PreciseAndSphereTestsNeverRejectAPairTheLeafTestHits) {
   EXPECT_GT(rejected, misses / 2) << "conservative, but not trivially so";
 }
 
+// The leaves' cull drops no ray the (emulated) leaf tests hit: triangles around a point of the ray, in
+// scenes of 10^-3 to 10^3 with lights up to 10^6 of their size away (tests/traversal_test.cpp, LeafSphere).
+TEST_P(GpuArithmetic, TheLeavesCullNeverDropsARayTheLeafTestHits) {
+  std::mt19937 rng(20261207);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const int n = pairsToRun(4000) * 5;
+  int hits = 0;
+  for (int i = 0; i < n; ++i) {
+    const double scale = std::pow(10.0, 6.0 * u(rng) - 3.0);
+    const dvec3 p0 = scale * (dvec3(u(rng), u(rng), u(rng)) - 0.5);
+    const dvec3 dir = glm::normalize(dvec3(u(rng), u(rng), u(rng)) - 0.5);
+    const double away = i % 4 == 0 ? 0.1 + u(rng) : std::pow(10.0, 6.0 * u(rng));
+    const vec3 pf(p0), lightf(p0 + scale * away * dir);
+    const dvec3 light(lightf), X = light + (0.02 + 0.96 * u(rng)) * (dvec3(pf) - light);
+    const double size = scale * std::pow(10.0, -4.0 * u(rng));
+    vec3 P[3];
+    for (vec3& x : P) x = vec3(X + size * (dvec3(u(rng), u(rng), u(rng)) - 0.5));
+    const float eps = float(1e-4 * scale);
+    const vec4 ray = gpuemu::leafRay(pf, lightf);
+    if (!(ray.w > 2.0f * eps && ray.w <= FLT_MAX)) continue;
+    const bool hit = gpuemu::leafHit(pf, lightf, ray, eps, P[0], P[1], P[2]) ||
+                     gpuemu::leafHitFromLight(pf, lightf, ray, eps, P[0], P[1], P[2]);
+    hits += hit;
+    ASSERT_FALSE(hit && gpuemu::leafRayMissesSphere(P[0] - lightf, P[1] - lightf, P[2] - lightf, vec3(ray)))
+        << GetParam().name << ": case " << i << ", scale " << scale << ", light " << away << " sizes away";
+  }
+  std::printf("  %s: %d hits kept\n", GetParam().name, hits);
+  EXPECT_GT(hits, n / 8);
+}
+
 TEST_P(GpuArithmetic, FarFrameMarginsStayConservative) {
   test::FarPairGenerator gen(20261205);
   BruteForce brute = emulatedSearch();

@@ -111,6 +111,10 @@ bool sphereConeTriangle(const Cone& c, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2,
 bool leafHit(glm::vec3 p, glm::vec3 light, glm::vec4 ray, float eps, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2) {
   return twin::leafHit(p, light, ray, eps, v0, v1, v2);
 }
+bool leafRayMissesSphere(glm::vec3 a0, glm::vec3 a1, glm::vec3 a2, glm::vec3 w) {
+  return twin::leafRayMissesSphere(twin::leafSphere(a0, a1, a2), w);
+}
+
 bool leafHitFromLight(glm::vec3 p, glm::vec3 light, glm::vec4 ray, float eps, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2) {
   return twin::leafHitFromLight(p, light, ray, eps, v0, v1, v2);
 }

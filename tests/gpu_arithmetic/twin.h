@@ -52,6 +52,8 @@ bool sphereConeTriangle(const Cone& cone, glm::vec3 v0, glm::vec3 v1, glm::vec3 
 bool leafHit(glm::vec3 p, glm::vec3 light, glm::vec4 ray, float eps, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2);
 bool leafHitFromLight(glm::vec3 p, glm::vec3 light, glm::vec4 ray, float eps, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2);
 glm::vec4 leafRay(glm::vec3 p, glm::vec3 light);
+// The leaves' cull (sphere_test.h): leafRayMissesSphere(leafSphere(a0, a1, a2), w), a_i = P_i - light.
+bool leafRayMissesSphere(glm::vec3 a0, glm::vec3 a1, glm::vec3 a2, glm::vec3 w);
 Cone rayCone(glm::vec4 ray);
 Cone coneParent(const Cone* children, uint32_t n, float pad = 1.52587890625e-05f);
 Cone coneParentFar(const Cone* children, uint32_t n, float pad);  // the far frame's
