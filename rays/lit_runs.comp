@@ -1,6 +1,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
+#extension GL_KHR_shader_subgroup_vote : require
 // The fused compaction of the sorted cone path, its one pass over the pixels (rays.h,
 // LitRays::recordCompactionWithKeys): lit_count.comp's work and the runs' in one read of the G-buffer.
 // Invocation t of block b owns the SCAN_ITEMS consecutive pixels from b * SCAN_BLOCK + t * SCAN_ITEMS
@@ -24,7 +25,9 @@
 //           (uvec2[] per invocation: bits, rank in the block), 3 = counts (uint[] per block), 4 = the
 //           key grids (uniform texel buffer, RGBA32F: a texel per face; a rotated frame's in texel 0),
 //           5 = leaderBits (uint[] per invocation), 6 = runCounts (uint[] per invocation), 7 = cells
-//           (uint[] per position, written four at a time where one of the four is lit)
+//           (uint[] per position, written four at a time where one of the four is lit), 8 = the pixels
+//           that may hold geometry (uniform: uvec4 x0, y0, x1, y1 of DeviceGBuffer::geometryRect, clamped,
+//           then uvec4 width): a subgroup whose positions all lie outside reads none of them
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
 layout(local_size_x = SCAN_THREADS) in;
@@ -36,6 +39,7 @@ layout(binding = 4) uniform samplerBuffer grids;
 layout(std430, binding = 5) writeonly buffer LeaderBits { uint leaderBits[]; };
 layout(std430, binding = 6) writeonly buffer RunCounts { uint runCounts[]; };
 layout(std430, binding = 7) writeonly buffer Cells { uvec4 cells4[]; };
+layout(std140, binding = 8) uniform GeometryRect { uvec4 rect; uvec4 size; };
 layout(push_constant) uniform Push { KeysPush pc; };
 // = pc.framed, as a specialisation constant: each pipeline holds one key's code (ray_keys.comp).
 layout(constant_id = 0) const uint SPEC_FRAMED = 0u;
@@ -46,6 +50,14 @@ vec4 g0, g1, g2, g3, g4, g5;
 #include "sort/workgroup_scan.glsl"
 
 uint bits = 0u;
+
+// Whether one of positions i .. i + 3 (row-major, rows of size.x) may hold geometry: in the rect's rows
+// and, where the four stay in one row, overlapping its columns (four that wrap to the next row: by the rows).
+bool mayHoldGeometry(uint i) {
+  uint w = size.x, ya = i / w, yb = (i + 3u) / w;
+  bool rows = (ya >= rect.y && ya < rect.w) || (yb >= rect.y && yb < rect.w);
+  return rows && (ya != yb || ((i + 3u) - yb * w >= rect.x && i - ya * w < rect.z));
+}
 
 // Position i's texel (clamped into the image; positions past it are never lit, see mayBeLit).
 vec4 positionAt(uint i, uint n) { return texelFetch(position, int(min(i, n - 1u))); }
@@ -76,6 +88,9 @@ void main() {
   uint follows = 0u, last = 0u;  // bit k: position k is in position k - 1's cell; last: the cell before
   for (uint k = 0u; k < SCAN_ITEMS; k += 4u) {
     uint i = first + k;
+    // Outside the rect for every lane: none of the subgroup's positions is read (a far view's empty rows
+    // and columns, most of its image), as none is lit.
+    if (!subgroupAny(mayHoldGeometry(i))) continue;
     vec4 x0 = positionAt(i, n), x1 = positionAt(i + 1u, n), x2 = positionAt(i + 2u, n), x3 = positionAt(i + 3u, n);
     uint m0 = mayBeLit(x0, i, n), m1 = mayBeLit(x1, i + 1u, n);
     uint m2 = mayBeLit(x2, i + 2u, n), m3 = mayBeLit(x3, i + 3u, n);

@@ -87,8 +87,8 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
   mortonLitCount_ = vk::createKernel(ctx, "lit_count (Morton)", spv_lit_count_comp, 4, sizeof(LitPush), {{0, 1u}});
   litSamples_ = vk::createKernel(ctx, "lit_samples", spv_lit_samples_comp, 3, sizeof(LitPush), {{0, 0u}});
   mortonLitSamples_ = vk::createKernel(ctx, "lit_samples (Morton)", spv_lit_samples_comp, 3, sizeof(LitPush), {{0, 1u}});
-  litRuns_ = vk::createKernel(ctx, "lit_runs", spv_lit_runs_comp, 8, sizeof(KeysPush), {{0, 0u}});
-  frameLitRuns_ = vk::createKernel(ctx, "lit_runs (frame)", spv_lit_runs_comp, 8, sizeof(KeysPush), {{0, 1u}});
+  litRuns_ = vk::createKernel(ctx, "lit_runs", spv_lit_runs_comp, 9, sizeof(KeysPush), {{0, 0u}});
+  frameLitRuns_ = vk::createKernel(ctx, "lit_runs (frame)", spv_lit_runs_comp, 9, sizeof(KeysPush), {{0, 1u}});
   runItems_ = vk::createKernel(ctx, "run_items", spv_run_items_comp, 7, sizeof(KeysPush), {{0, 0u}});
   frameRunItems_ = vk::createKernel(ctx, "run_items (frame)", spv_run_items_comp, 7, sizeof(KeysPush), {{0, 1u}});
   for (uint32_t keys = 0; keys < 2; ++keys)
@@ -111,13 +111,14 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
   leaderBits_ = vk::createBuffer(ctx, uint64_t(blockInvocations(maxPixels_)) * 4);
   runCounts_ = vk::createBuffer(ctx, uint64_t(blockInvocations(maxPixels_)) * 4);
   runArgs_ = vk::createBuffer(ctx, 32, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
+  geometryRect_ = vk::createBuffer(ctx, kGeometryRectBytes);
 }
 
 uint64_t LitRays::bytesAllocated() const {
   return compact_.bytesAllocated() + sort_.bytesAllocated() + runScan_.bytesAllocated() +
          itemScan_.bytesAllocated() + samples_.size + keys_.size + count_.size + bounds_.size + grids_.size +
          keyArgs_.size + keptBits_.size + runKeys_.size + runCells_.size + runOrder_.size + runStarts_.size +
-         leaderBits_.size + runCounts_.size + runArgs_.size;
+         leaderBits_.size + runCounts_.size + runArgs_.size + geometryRect_.size;
 }
 
 void LitRays::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, RayOrder order) {
@@ -155,7 +156,12 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
   keyBits_ = kRayKeyBits;
   const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(pixels, SCAN_BLOCK));
   const vk::BufferRange position = vk::texels(g.position, kPixelTexels), grids = vk::texels(grids_, kGridTexels);
-  recordBounds(cmd, g, push);  // the key grids first, from the pixels alone
+  // The pixels that may hold geometry, clamped to the image (lit_runs reads no other), and the width.
+  const PixelRect& r = g.geometryRect;
+  const uint32_t rect[5] = {std::min(r.x0, g.width), std::min(r.y0, g.height), std::min(r.x1, g.width),
+                            std::min(r.y1, g.height), g.width};
+  for (uint32_t k = 0; k < 5; ++k) cmd.fill(geometryRect_, rect[k], (k < 4 ? k : 4) * 4, 4);
+  recordBounds(cmd, g, push);  // the key grids first, from the pixels alone (its barriers order the fills)
   // One pass over the pixels (lit_runs.comp): which are lit, and the runs of equal keys among them (every
   // pixel's key cell, four at a time, kept per pixel); the scan of the blocks' lit counts (the lit count),
   // each invocation's first run (the scan of its runs' counts, their total the runs' count), then one
@@ -163,7 +169,7 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
   const uint32_t invocations = blockInvocations(pixels);
   cmd.dispatch(framed ? frameLitRuns_ : litRuns_,
                {position, vk::texels(g.normal, kPixelTexels), keptBits_, compact_.blockCounts(), grids, leaderBits_,
-                runCounts_, runCells_},
+                runCounts_, runCells_, vk::uniforms(geometryRect_, kGeometryRectBytes)},
                push, grid.x, grid.y);
   cmd.barrier();
   compact_.recordBlockScan(cmd, uint32_t(pixels), sort::GpuWord(count_, 0));

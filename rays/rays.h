@@ -117,6 +117,9 @@ class LitRays {
   // runOrder_ (the sorted runs: leader pixel | (length - 1) << RUN_PIXEL_BITS), runStarts_ (where each
   // starts in the order), runArgs_ (indirect arguments).
   vk::Buffer runKeys_, runCells_, runOrder_, runStarts_, leaderBits_, runCounts_, runArgs_;
+  // lit_runs' binding 8: the G-buffer's geometryRect, clamped, and its width (two uvec4, std140).
+  static constexpr VkDeviceSize kGeometryRectBytes = 32;
+  vk::Buffer geometryRect_;
   bool keepSortedKeys_ = true;
   vk::Buffer keptBits_;  // lit_count.comp's bits and ranks, one uvec2 per SCAN_ITEMS positions
   // lit_count.comp over the push's enumeration, then the scan of its block counts (the lit count to count_).

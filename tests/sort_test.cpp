@@ -1229,6 +1229,8 @@ TEST(LitRays, FusedCompactionAndKeysMatchTheStepsOnSparseAndDenseFrames) {
       {"none", [](uint32_t) { return false; }},
       {"dense among empty pixels", [](uint32_t i) { return (i * 2654435761u) % 10 < 7; }, true},
       {"a few rows among empty ones", [&](uint32_t i) { return (i / w) % 37 < 3 && i % 11 != 0; }, true},
+      {"a block among empty pixels",
+       [&](uint32_t i) { return i % w >= 251 && i % w < 417 && i / w >= 97 && i / w < 301 && i % 5 != 0; }, true},
   };
   rays::LitRays rays(ctx, w, h);
   ASSERT_TRUE(rays.fusedKeys());
@@ -1282,6 +1284,23 @@ TEST(LitRays, FusedCompactionAndKeysMatchTheStepsOnSparseAndDenseFrames) {
       EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), n), samples, what << ": samples");
       EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.keys(), n), keys, what << ": keys");
       EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.bounds(), 24), bounds, what << ": the boxes");
+      // Fused, told the rect of the pixels with geometry (DeviceGBuffer::geometryRect, as the camera pass
+      // gives it): the positions outside are not read, and nothing changes.
+      if (pattern.empty) {
+        PixelRect tight{w, h, 0, 0};
+        for (uint32_t i = 0; i < pixels; ++i)
+          if (pos[i].w != 0.0f)
+            tight = {std::min(tight.x0, i % w), std::min(tight.y0, i / w), std::max(tight.x1, i % w + 1),
+                     std::max(tight.y1, i / w + 1)};
+        g.geometryRect = tight;
+        rays.recordCompactionWithKeys(cmd, g, push);
+        rays.recordSort(cmd, rays.count());
+        cmd.submit();
+        g.geometryRect = PixelRect{};
+        ASSERT_EQ(rays.readCount(), n) << what << ", within its geometry's rect";
+        EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), n), samples, what << ": samples in the rect");
+        EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.keys(), n), keys, what << ": keys in the rect");
+      }
       // Fused, writing the sorted rays' records as the cone tree's rays() holds them: the record of the
       // j-th ray is its sample's position (float bits) and pixel, in the same order; the keys as before.
       {
