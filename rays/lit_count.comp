@@ -1,5 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_vote : require
 // Compaction of the lit samples, step 1 (rays.h, LitRays::recordCompaction; the fused compaction,
 // recordCompactionWithKeys, does this in lit_runs.comp, with the runs):
 // which positions of the enumeration (row-major pixels, or the tiled Morton screen order of the unsorted
@@ -10,7 +11,8 @@
 // scatter (lit_samples.comp) reads that one uvec2 instead of the G-buffer and a scan of its own (a
 // barrier costs a CPU driver a switch per subgroup).
 // bindings: 0 = position, 1 = normal (uniform texel buffers, RGBA32F: a texel per pixel), 2 = kept
-//           (uvec2[] per invocation: bits, rank in the block), 3 = counts (uint[] per block)
+//           (uvec2[] per invocation: bits, rank in the block), 3 = counts (uint[] per block). Positions
+//           outside pc.rectX, pc.rectY (the pixels that may hold geometry) are not lit.
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
 layout(local_size_x = SCAN_THREADS) in;
@@ -33,14 +35,23 @@ void main() {
   uint bits = 0u;
   // Morton: the invocation's positions share a tile (SCAN_ITEMS divides a tile's), so one division.
   uvec2 origin = SPEC_MORTON != 0u ? screenTileOrigin(first, pc.tilesX) : uvec2(0u);
+  uvec2 rx = uvec2(pc.rectX & 0xFFFFu, pc.rectX >> 16u), ry = uvec2(pc.rectY & 0xFFFFu, pc.rectY >> 16u);
   for (uint k = 0u; k < SCAN_ITEMS; ++k) {
     uint pixel = min(first + k, n - 1u);
     bool inside = first + k < n;
+    uvec2 p;
     if (SPEC_MORTON != 0u) {
-      uvec2 p = origin + screenOffsetInTile(first + k);
+      p = origin + screenOffsetInTile(first + k);
       inside = inside && p.x < pc.width && p.y < pc.height;
       pixel = inside ? p.y * pc.width + p.x : 0u;
+    } else {
+      p.y = pixel / pc.width;
+      p.x = pixel - p.y * pc.width;
     }
+    // Outside the pixels that may hold geometry: not lit, and not read where no lane of the subgroup
+    // needs its position (a far view's empty rows and columns).
+    inside = inside && p.x >= rx.x && p.x < rx.y && p.y >= ry.x && p.y < ry.y;
+    if (!subgroupAny(inside)) continue;
     bool lit = inside && litSampleFor(texelFetch(position, int(pixel)), texelFetch(normal, int(pixel)), pc.light.xyz);
     bits |= lit ? 1u << k : 0u;
   }

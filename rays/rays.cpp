@@ -69,6 +69,14 @@ uint32_t checkedPixels(const vk::Context& ctx, uint32_t width, uint32_t height) 
 }
 }  // namespace
 
+namespace {
+// g.geometryRect within the image (the default rect is the whole image, whatever its size).
+PixelRect clampedRect(const DeviceGBuffer& g) {
+  const PixelRect& r = g.geometryRect;
+  return {std::min(r.x0, g.width), std::min(r.y0, g.height), std::min(r.x1, g.width), std::min(r.y1, g.height)};
+}
+}  // namespace
+
 LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
     : ctx_(ctx),
       maxPixels_(checkedPixels(ctx, width, height)),
@@ -127,7 +135,11 @@ void LitRays::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, glm::v
   CS_CHECK(pixels <= maxPixels_ && d.size <= maxDomain_,
            "G-buffer of " << g.width << "x" << g.height << " exceeds the " << maxPixels_ << " pixels LitRays was made for");
   const bool morton = order == RayOrder::ScreenMorton;
-  const LitPush push{g.width, g.height, morton ? 1u : 0u, d.tilesX, uint32_t(d.size), 0, 0, 0, glm::vec4(light, 1.0f)};
+  const PixelRect r = clampedRect(g);
+  CS_CHECK(g.width < 65536 && g.height < 65536,
+           "G-buffer of " << g.width << "x" << g.height << ": a side of at most 65535 pixels (LitPush's rect)");
+  const LitPush push{g.width,         g.height,           morton ? 1u : 0u, d.tilesX, uint32_t(d.size),
+                     r.x0 | r.x1 << 16, r.y0 | r.y1 << 16, 0,                 glm::vec4(light, 1.0f)};
   recordLitCount(cmd, g, push);
   const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(d.size, SCAN_BLOCK));
   cmd.dispatch(morton ? mortonLitSamples_ : litSamples_, {keptBits_, compact_.blockOffsets(), samples_}, push, grid.x,
@@ -157,9 +169,8 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
   const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(pixels, SCAN_BLOCK));
   const vk::BufferRange position = vk::texels(g.position, kPixelTexels), grids = vk::texels(grids_, kGridTexels);
   // The pixels that may hold geometry, clamped to the image (lit_runs reads no other), and the width.
-  const PixelRect& r = g.geometryRect;
-  const uint32_t rect[5] = {std::min(r.x0, g.width), std::min(r.y0, g.height), std::min(r.x1, g.width),
-                            std::min(r.y1, g.height), g.width};
+  const PixelRect r = clampedRect(g);
+  const uint32_t rect[5] = {r.x0, r.y0, r.x1, r.y1, g.width};
   for (uint32_t k = 0; k < 5; ++k) cmd.fill(geometryRect_, rect[k], (k < 4 ? k : 4) * 4, 4);
   recordBounds(cmd, g, push);  // the key grids first, from the pixels alone (its barriers order the fills)
   // One pass over the pixels (lit_runs.comp): which are lit, and the runs of equal keys among them (every

@@ -33,7 +33,9 @@ struct LitPush {
                     // kernel takes it as SPEC_MORTON (its pipeline), this copy is for the record
   uint tilesX;      // Morton tiles per row
   uint domain;      // elements enumerated: width * height, or tilesX * tilesY * tile area
-  uint pad0, pad1, pad2;
+  uint rectX, rectY;  // x0 | x1 << 16, y0 | y1 << 16: DeviceGBuffer::geometryRect, clamped (lit_count.comp
+                      // reads no position outside it)
+  uint pad2;
   vec4 light;       // xyz: the point light whose lit samples these are (lit_count.comp, litSampleFor)
 };
 
