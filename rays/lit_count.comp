@@ -1,6 +1,5 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
-#extension GL_KHR_shader_subgroup_vote : require
 // Compaction of the lit samples, step 1 (rays.h, LitRays::recordCompaction; the fused compaction,
 // recordCompactionWithKeys, does this in lit_runs.comp, with the runs):
 // which positions of the enumeration (row-major pixels, or the tiled Morton screen order of the unsorted
@@ -36,7 +35,20 @@ void main() {
   // Morton: the invocation's positions share a tile (SCAN_ITEMS divides a tile's), so one division.
   uvec2 origin = SPEC_MORTON != 0u ? screenTileOrigin(first, pc.tilesX) : uvec2(0u);
   uvec2 rx = uvec2(pc.rectX & 0xFFFFu, pc.rectX >> 16u), ry = uvec2(pc.rectY & 0xFFFFu, pc.rectY >> 16u);
-  for (uint k = 0u; k < SCAN_ITEMS; ++k) {
+  // Whether the invocation's positions can meet the rect: their box (Morton: an aligned block of the tile,
+  // from its first corner to its last) or their rows and, in one row, columns. Where they cannot, the
+  // loop below runs no iteration for this lane, and a subgroup none of whose lanes meets it reads
+  // nothing (on a SIMD CPU driver a loop's exit skips code; a branch runs it under a mask).
+  bool meets;
+  if (SPEC_MORTON != 0u) {
+    uvec2 a = origin + screenOffsetInTile(first), z = origin + screenOffsetInTile(first + SCAN_ITEMS - 1u);
+    meets = a.x < rx.y && z.x >= rx.x && a.y < ry.y && z.y >= ry.x;
+  } else {
+    uint last = min(first + SCAN_ITEMS - 1u, n - 1u), ya = first / pc.width, yb = last / pc.width;
+    meets = ya < ry.y && yb >= ry.x && (ya != yb || (last - yb * pc.width >= rx.x && first - ya * pc.width < rx.y));
+  }
+  uint items = meets && first < n ? SCAN_ITEMS : 0u;
+  for (uint k = 0u; k < items; ++k) {
     uint pixel = min(first + k, n - 1u);
     bool inside = first + k < n;
     uvec2 p;
@@ -48,10 +60,7 @@ void main() {
       p.y = pixel / pc.width;
       p.x = pixel - p.y * pc.width;
     }
-    // Outside the pixels that may hold geometry: not lit, and not read where no lane of the subgroup
-    // needs its position (a far view's empty rows and columns).
-    inside = inside && p.x >= rx.x && p.x < rx.y && p.y >= ry.x && p.y < ry.y;
-    if (!subgroupAny(inside)) continue;
+    inside = inside && p.x >= rx.x && p.x < rx.y && p.y >= ry.x && p.y < ry.y;  // outside: not lit
     bool lit = inside && litSampleFor(texelFetch(position, int(pixel)), texelFetch(normal, int(pixel)), pc.light.xyz);
     bits |= lit ? 1u << k : 0u;
   }
