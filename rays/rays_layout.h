@@ -61,6 +61,12 @@ struct KeysPush {
 #if (SCAN_ITEMS - 1) >= (1 << (32 - RUN_PIXEL_BITS))
 #error "a run (at most SCAN_ITEMS pixels) has its length less one in the bits above RUN_PIXEL_BITS"
 #endif
+// run_items.comp: an invocation takes the runs of RUN_ITEMS_SPAN lit_runs invocations, RUN_ITEMS_SPAN
+// apart, in rounds (a lit_runs block holds whole groups of RUN_ITEMS_SPAN^2 of them; at most 32 rounds).
+#define RUN_ITEMS_SPAN 8
+#if (SCAN_THREADS % (RUN_ITEMS_SPAN * RUN_ITEMS_SPAN)) != 0 || RUN_ITEMS_SPAN > 32
+#error "run_items.comp's groups of RUN_ITEMS_SPAN^2 lit_runs invocations tile a block"
+#endif
 struct RunsPush {
   uint positions;   // run_items: the pixels enumerated (row-major)
   uint items;       // the runs' upper bound (the lit samples' capacity); the count is countWords[itemsIndex]
