@@ -23,6 +23,41 @@ constexpr VkFormat kTriangleFormat = VK_FORMAT_R32_UINT;
 
 }  // namespace
 
+PixelRect geometryRectOf(const glm::mat4& viewProj, glm::vec3 lo, glm::vec3 hi, uint32_t width, uint32_t height) {
+  const PixelRect whole{0, 0, width, height};
+  if (!(lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z)) return whole;  // no geometry kept (or NaN bounds)
+  if (!std::isfinite(lo.x + lo.y + lo.z + hi.x + hi.y + hi.z)) return whole;
+  // Corners at w <= 0 project through infinity: the image then is the only bound. A corner in front of
+  // the camera but behind the near plane projects soundly (the clip only removes parts of triangles).
+  // A box wholly at w <= 0 (behind the camera) holds no point the camera sees: no pixel.
+  double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
+  const glm::dmat4 m(viewProj);
+  int behind = 0;
+  for (int c = 0; c < 8; ++c) {
+    const glm::dvec4 p = m * glm::dvec4((c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z, 1.0);
+    behind += p.w <= 0.0;
+  }
+  if (behind == 8) return PixelRect{0, 0, 0, 0};
+  for (int c = 0; c < 8; ++c) {
+    const glm::dvec4 p = m * glm::dvec4((c & 1) ? hi.x : lo.x, (c & 2) ? hi.y : lo.y, (c & 4) ? hi.z : lo.z, 1.0);
+    if (!(p.w > 1e-9 * (std::abs(p.x) + std::abs(p.y) + std::abs(p.z) + 1.0))) return whole;
+    // Framebuffer coordinates (the viewport maps NDC -1..1 onto 0..size; y already points down).
+    const double fx = (p.x / p.w * 0.5 + 0.5) * width, fy = (p.y / p.w * 0.5 + 0.5) * height;
+    x0 = std::min(x0, fx), x1 = std::max(x1, fx), y0 = std::min(y0, fy), y1 = std::max(y1, fy);
+  }
+  // A pixel is covered when its centre (x + 0.5) is inside a triangle: pixels floor(x0 - 0.5) ..
+  // ceil(x1 - 0.5); two more each side for the rasterizer's fixed-point snapping and our rounding.
+  auto lower = [](double v, uint32_t size) {
+    return uint32_t(std::clamp(std::floor(v - 0.5) - 2.0, 0.0, double(size)));
+  };
+  auto upper = [](double v, uint32_t size) {
+    return uint32_t(std::clamp(std::ceil(v - 0.5) + 3.0, 0.0, double(size)));
+  };
+  PixelRect r{lower(x0, width), lower(y0, height), upper(x1, width), upper(y1, height)};
+  if (r.x0 >= r.x1 || r.y0 >= r.y1) r = {0, 0, 0, 0};  // off screen: no pixel can hold geometry
+  return r;
+}
+
 uint32_t maxRasterPixels(const vk::Context& ctx) {
   return uint32_t(std::min<VkDeviceSize>(ctx.maxStorageBufferRange() / sizeof(glm::vec4), UINT32_MAX));
 }
@@ -237,6 +272,7 @@ RasterTiming Raster::render(const Camera& camera, glm::vec3 light, uint32_t widt
 
   RasterPush push{};
   push.viewProj = viewProjection(camera, float(width) / float(height));
+  out.geometryRect = geometryRectOf(push.viewProj, scene_.check.lo, scene_.check.hi, width, height);
   push.eye = glm::vec4(camera.eye, 1.0f);
   push.light = glm::vec4(light, 1.0f);
 

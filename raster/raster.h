@@ -15,12 +15,27 @@ namespace cs {
 // the index of the scene triangle each pixel sees (uint per pixel, CS_NO_TRIANGLE where none) on
 // devices with the geometryShader feature (a fragment stage's gl_PrimitiveID needs it); an empty buffer
 // elsewhere. Only the GPU copy carries the IDs (ASM's ID + depth test reads them there).
+// `geometryRect` bounds the pixels that may hold geometry: the cone path's compaction reads no pixel
+// outside it (a far view's scene covers a tenth of the image; the read of every pixel was its floor).
+// Whoever fills the buffers says it: the camera pass gives its geometry's projected box (geometryRectOf);
+// the whole image (the default, clamped to the size) where nothing is known.
+struct PixelRect {
+  uint32_t x0 = 0, y0 = 0, x1 = UINT32_MAX, y1 = UINT32_MAX;  // [x0, x1) x [y0, y1), clamped to the image
+};
 struct DeviceGBuffer {
   uint32_t width = 0, height = 0;
   vk::Buffer position;  // vec4 per pixel
   vk::Buffer normal;    // vec4 per pixel
   vk::Buffer triangle;  // uint per pixel; empty without triangle IDs
+  PixelRect geometryRect;
 };
+
+// The pixels of a width x height camera pass through viewProj (viewProjection) that geometry inside the
+// box [lo, hi] can cover: its eight corners projected, widened by two pixels for rounding; the whole
+// image where a corner is not in front of the camera (the box reaches behind it) or the bounds are not
+// finite; no pixel where the box is wholly behind the camera or projects off the image. Never smaller
+// than the pixels a rasterizer covers with such geometry.
+PixelRect geometryRectOf(const glm::mat4& viewProj, glm::vec3 lo, glm::vec3 hi, uint32_t width, uint32_t height);
 
 // The scene's geometry on the device, uploaded once per revision (core/scene.h: GeometryRevision) and
 // shared through FrameInput::deviceScene by every pass that draws the triangles: the camera pass and the

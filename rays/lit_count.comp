@@ -10,7 +10,8 @@
 // scatter (lit_samples.comp) reads that one uvec2 instead of the G-buffer and a scan of its own (a
 // barrier costs a CPU driver a switch per subgroup).
 // bindings: 0 = position, 1 = normal (uniform texel buffers, RGBA32F: a texel per pixel), 2 = kept
-//           (uvec2[] per invocation: bits, rank in the block), 3 = counts (uint[] per block)
+//           (uvec2[] per invocation: bits, rank in the block), 3 = counts (uint[] per block). Positions
+//           outside pc.rectX, pc.rectY (the pixels that may hold geometry) are not lit.
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
 layout(local_size_x = SCAN_THREADS) in;
@@ -33,14 +34,33 @@ void main() {
   uint bits = 0u;
   // Morton: the invocation's positions share a tile (SCAN_ITEMS divides a tile's), so one division.
   uvec2 origin = SPEC_MORTON != 0u ? screenTileOrigin(first, pc.tilesX) : uvec2(0u);
-  for (uint k = 0u; k < SCAN_ITEMS; ++k) {
+  uvec2 rx = uvec2(pc.rectX & 0xFFFFu, pc.rectX >> 16u), ry = uvec2(pc.rectY & 0xFFFFu, pc.rectY >> 16u);
+  // Whether the invocation's positions can meet the rect: their box (Morton: an aligned block of the tile,
+  // from its first corner to its last) or their rows and, in one row, columns. Where they cannot, the
+  // loop below runs no iteration for this lane, and a subgroup none of whose lanes meets it reads
+  // nothing (on a SIMD CPU driver a loop's exit skips code; a branch runs it under a mask).
+  bool meets;
+  if (SPEC_MORTON != 0u) {
+    uvec2 a = origin + screenOffsetInTile(first), z = origin + screenOffsetInTile(first + SCAN_ITEMS - 1u);
+    meets = a.x < rx.y && z.x >= rx.x && a.y < ry.y && z.y >= ry.x;
+  } else {
+    uint last = min(first + SCAN_ITEMS - 1u, n - 1u), ya = first / pc.width, yb = last / pc.width;
+    meets = ya < ry.y && yb >= ry.x && (ya != yb || (last - yb * pc.width >= rx.x && first - ya * pc.width < rx.y));
+  }
+  uint items = meets && first < n ? SCAN_ITEMS : 0u;
+  for (uint k = 0u; k < items; ++k) {
     uint pixel = min(first + k, n - 1u);
     bool inside = first + k < n;
+    uvec2 p;
     if (SPEC_MORTON != 0u) {
-      uvec2 p = origin + screenOffsetInTile(first + k);
+      p = origin + screenOffsetInTile(first + k);
       inside = inside && p.x < pc.width && p.y < pc.height;
       pixel = inside ? p.y * pc.width + p.x : 0u;
+    } else {
+      p.y = pixel / pc.width;
+      p.x = pixel - p.y * pc.width;
     }
+    inside = inside && p.x >= rx.x && p.x < rx.y && p.y >= ry.x && p.y < ry.y;  // outside: not lit
     bool lit = inside && litSampleFor(texelFetch(position, int(pixel)), texelFetch(normal, int(pixel)), pc.light.xyz);
     bits |= lit ? 1u << k : 0u;
   }

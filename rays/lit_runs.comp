@@ -1,49 +1,50 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
+#extension GL_KHR_shader_subgroup_basic : require
 // The fused compaction of the sorted cone path, its one pass over the pixels (rays.h,
-// LitRays::recordCompactionWithKeys): lit_count.comp's work and the runs' in one read of the G-buffer.
+// LitRays::recordCompactionWithKeys): the lit samples and the runs' in one read of the G-buffer.
 // Invocation t of block b owns the SCAN_ITEMS consecutive pixels from b * SCAN_BLOCK + t * SCAN_ITEMS
-// (row-major): which are lit samples (litSampleFor the light, a bit each, kept[] with the lit pixels of the block
-// before its own, and the block's count, as lit_count.comp writes them), and the runs of equal keys among
+// (row-major): which are lit samples (litSampleFor the light, a bit each) and the runs of equal keys among
 // them. A run is a stretch of consecutive lit pixels of the invocation whose rays fall in one cell of the
 // key grid (faceCellCode, frameCellCode: equal cells, equal keys); its first pixel leads it. A stable
 // sort puts a run's pixels next to each other in the order they have here (nothing else lies between
 // them in row-major order), so the sort takes one item a run (run_items.comp, which computes the
 // leaders' keys) and run_expand.comp writes each run's pixels after the sort: the order is the per-ray
-// sort's, bit for bit. Here each invocation writes its leaders to leaderBits (bit k: position k leads a
-// run) and their count to runCounts, which sort/'s scan turns into the invocation's first item, and
-// the cells of every four positions with a lit one among them to cells, one uvec4 store (run_items reads
-// the leaders'). The positions go four at a time, lit or not (a loop of one lit pixel an iteration, with a
-// scalar store each, took the runs twice as long on lavapipe); where no lane of a subgroup has geometry
-// among its four, the subgroup skips the normals, the cells and the store (a far view's empty rows). The
-// key grids come first, from a subset of the pixels that needs no compaction (ray_bounds.comp,
-// ray_grids.comp); the grid once known, the G-buffer is read once here, where lit_count.comp and a pass
-// of its own for the runs read it twice.
+// sort's, bit for bit. Here each invocation writes its lit bits and its leaders (bit k: position k leads
+// a run) to kept, one uvec2, and the leaders' count to runCounts, which sort/'s scan turns into the
+// invocation's first item; each subgroup adds its lit count to the lit count (one atomicAdd: no workgroup
+// scan and its barriers, no scan of block counts); and the cells of every four positions with a lit one
+// among them go to cells, one uvec4 store (run_items reads the leaders'). The positions go four at a
+// time; the normals, the light term, the cells and the store only for four with geometry, found by a loop
+// that reads positions until some four have it: on a SIMD CPU driver a branch runs its code for every
+// lane under a mask, even where no lane takes it, and only a loop's exit skips code, so a far view's
+// empty pixels cost little more than their position's fetch (docs/ARCHITECTURE.md, "rays/"). The key
+// grids come first, from a subset of the pixels that needs no compaction (ray_bounds.comp,
+// ray_grids.comp); the grid once known, the G-buffer is read once here.
 // bindings: 0 = position, 1 = normal (uniform texel buffers, RGBA32F: a texel per pixel), 2 = kept
-//           (uvec2[] per invocation: bits, rank in the block), 3 = counts (uint[] per block), 4 = the
-//           key grids (uniform texel buffer, RGBA32F: a texel per face; a rotated frame's in texel 0),
-//           5 = leaderBits (uint[] per invocation), 6 = runCounts (uint[] per invocation), 7 = cells
-//           (uint[] per position, written four at a time where one of the four is lit)
+//           (uvec2[] per invocation: lit bits, leaders), 3 = the lit count (uint[1], zero before the
+//           dispatch), 4 = the key grids (uniform texel buffer, RGBA32F: a texel per face; a rotated
+//           frame's in texel 0), 5 = runCounts (uint[] per invocation), 6 = cells (uint[] per position,
+//           written four at a time where one of the four is lit), 7 = the pixels that may hold geometry
+//           (uniform: uvec4 x0, y0, x1, y1 of DeviceGBuffer::geometryRect, clamped, then uvec4 width): an
+//           invocation whose positions all miss it reads none of them
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
 layout(local_size_x = SCAN_THREADS) in;
 layout(binding = 0) uniform samplerBuffer position;
 layout(binding = 1) uniform samplerBuffer normal;
 layout(std430, binding = 2) writeonly buffer Kept { uvec2 kept[]; };
-layout(std430, binding = 3) writeonly buffer Counts { uint counts[]; };
+layout(std430, binding = 3) buffer LitCount { uint litCount[]; };
 layout(binding = 4) uniform samplerBuffer grids;
-layout(std430, binding = 5) writeonly buffer LeaderBits { uint leaderBits[]; };
-layout(std430, binding = 6) writeonly buffer RunCounts { uint runCounts[]; };
-layout(std430, binding = 7) writeonly buffer Cells { uvec4 cells4[]; };
+layout(std430, binding = 5) writeonly buffer RunCounts { uint runCounts[]; };
+layout(std430, binding = 6) writeonly buffer Cells { uvec4 cells4[]; };
+layout(std140, binding = 7) uniform GeometryRect { uvec4 rect; uvec4 size; };
 layout(push_constant) uniform Push { KeysPush pc; };
 // = pc.framed, as a specialisation constant: each pipeline holds one key's code (ray_keys.comp).
 layout(constant_id = 0) const uint SPEC_FRAMED = 0u;
 vec4 g0, g1, g2, g3, g4, g5;
 #include "rays/run_cell.glsl"
-#define WG_SIZE SCAN_THREADS
-#define WG_RAKE SCAN_RAKE
-#include "sort/workgroup_scan.glsl"
 
 uint bits = 0u;
 
@@ -74,29 +75,39 @@ void main() {
   }
   // A lit position leads unless the one before it is lit and in its cell.
   uint follows = 0u, last = 0u;  // bit k: position k is in position k - 1's cell; last: the cell before
-  for (uint k = 0u; k < SCAN_ITEMS; k += 4u) {
-    uint i = first + k;
-    vec4 x0 = positionAt(i, n), x1 = positionAt(i + 1u, n), x2 = positionAt(i + 2u, n), x3 = positionAt(i + 3u, n);
-    uint m0 = mayBeLit(x0, i, n), m1 = mayBeLit(x1, i + 1u, n);
-    uint m2 = mayBeLit(x2, i + 2u, n), m3 = mayBeLit(x3, i + 3u, n);
-    // No lane's four has geometry: none is lit, and their cells are never read (run_items reads the
-    // leaders', which are lit), nor is `last` (a position whose left neighbour is unlit leads). The
-    // test is the subgroup's (subgroupOr: uniform), so the lanes branch together and skip the normals,
-    // the cells and the store (a SIMD CPU driver may run a lane's divergent branch under a mask).
-    if (subgroupOr(m0 | m1 | m2 | m3) == 0u) continue;
+  // An invocation whose positions miss the pixels that may hold geometry starts past its end: its lane
+  // leaves the loops at once, and a subgroup of such lanes reads nothing (a far view's empty rows and
+  // columns, most of its image).
+  uint end = min(first + SCAN_ITEMS - 1u, n - 1u), w = size.x, ya = first / w, yb = end / w;
+  bool meets = first < n && ya < rect.w && yb >= rect.y &&
+               (ya != yb || (end - yb * w >= rect.x && first - ya * w < rect.z));
+  uint k = meets ? 0u : uint(SCAN_ITEMS);  // the next four positions to look at
+  while (k < uint(SCAN_ITEMS)) {
+    // On four positions at a time until this invocation's four have geometry (or the end): the loop
+    // runs as often as the lane that goes furthest needs, and the code below once for the subgroup's
+    // next fours with geometry.
+    vec4 x0, x1, x2, x3;
+    uint m0, m1, m2, m3;
+    do {
+      uint i = first + k;
+      x0 = positionAt(i, n), x1 = positionAt(i + 1u, n), x2 = positionAt(i + 2u, n), x3 = positionAt(i + 3u, n);
+      m0 = mayBeLit(x0, i, n), m1 = mayBeLit(x1, i + 1u, n), m2 = mayBeLit(x2, i + 2u, n), m3 = mayBeLit(x3, i + 3u, n);
+      k += 4u;
+    } while ((m0 | m1 | m2 | m3) == 0u && k < uint(SCAN_ITEMS));
+    uint at = k - 4u, i = first + at;
     uint lit = litAt(x0, i, n, m0) | (litAt(x1, i + 1u, n, m1) << 1u) | (litAt(x2, i + 2u, n, m2) << 2u) |
                (litAt(x3, i + 3u, n, m3) << 3u);
-    if (subgroupOr(lit) == 0u) continue;
-    bits |= lit << k;
-    uint c0 = runCellAt(x0.xyz), c1 = runCellAt(x1.xyz), c2 = runCellAt(x2.xyz), c3 = runCellAt(x3.xyz);
-    follows |= ((c0 == last ? 1u : 0u) | (c1 == c0 ? 2u : 0u) | (c2 == c1 ? 4u : 0u) | (c3 == c2 ? 8u : 0u)) << k;
-    cells4[(first + k) >> 2u] = uvec4(c0, c1, c2, c3);
-    last = c3;
+    if (lit != 0u) {
+      bits |= lit << at;
+      uint c0 = runCellAt(x0.xyz), c1 = runCellAt(x1.xyz), c2 = runCellAt(x2.xyz), c3 = runCellAt(x3.xyz);
+      follows |= ((c0 == last ? 1u : 0u) | (c1 == c0 ? 2u : 0u) | (c2 == c1 ? 4u : 0u) | (c3 == c2 ? 8u : 0u)) << at;
+      cells4[i >> 2u] = uvec4(c0, c1, c2, c3);
+      last = c3;
+    }
   }
   uint leaders = bits & ~(follows & (bits << 1u));
-  leaderBits[inv] = leaders;
+  kept[inv] = uvec2(bits, leaders);
   runCounts[inv] = uint(bitCount(leaders));
-  uint total;
-  kept[inv] = uvec2(bits, workgroupExclusiveSum(uint(bitCount(bits)), total));
-  if (t == 0u) counts[b] = total;
+  uint lit = subgroupAdd(uint(bitCount(bits)));
+  if (subgroupElect() && lit != 0u) atomicAdd(litCount[0], lit);
 }

@@ -24,6 +24,8 @@ constexpr VkFormat kPixelTexels = VK_FORMAT_R32G32B32A32_SFLOAT;
 constexpr VkFormat kGridTexels = VK_FORMAT_R32G32B32A32_SFLOAT;
 // The runs' words (run_items.comp and after): uint arrays read as R32UI texels.
 constexpr VkFormat kWordTexels = VK_FORMAT_R32_UINT;
+// lit_runs' uvec2 per invocation (lit bits, leaders) as run_items reads them: two a texel.
+constexpr VkFormat kPairTexels = VK_FORMAT_R32G32B32A32_UINT;
 // count_'s words: the lit count, the runs' count.
 constexpr uint32_t kLitWord = 0, kRunsWord = 1;
 // runArgs_: indirect arguments (x, y, z) for the run kernels (a workgroup per PIXEL_THREADS runs) and
@@ -69,6 +71,14 @@ uint32_t checkedPixels(const vk::Context& ctx, uint32_t width, uint32_t height) 
 }
 }  // namespace
 
+namespace {
+// g.geometryRect within the image (the default rect is the whole image, whatever its size).
+PixelRect clampedRect(const DeviceGBuffer& g) {
+  const PixelRect& r = g.geometryRect;
+  return {std::min(r.x0, g.width), std::min(r.y0, g.height), std::min(r.x1, g.width), std::min(r.y1, g.height)};
+}
+}  // namespace
+
 LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
     : ctx_(ctx),
       maxPixels_(checkedPixels(ctx, width, height)),
@@ -89,8 +99,8 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
   mortonLitSamples_ = vk::createKernel(ctx, "lit_samples (Morton)", spv_lit_samples_comp, 3, sizeof(LitPush), {{0, 1u}});
   litRuns_ = vk::createKernel(ctx, "lit_runs", spv_lit_runs_comp, 8, sizeof(KeysPush), {{0, 0u}});
   frameLitRuns_ = vk::createKernel(ctx, "lit_runs (frame)", spv_lit_runs_comp, 8, sizeof(KeysPush), {{0, 1u}});
-  runItems_ = vk::createKernel(ctx, "run_items", spv_run_items_comp, 7, sizeof(KeysPush), {{0, 0u}});
-  frameRunItems_ = vk::createKernel(ctx, "run_items (frame)", spv_run_items_comp, 7, sizeof(KeysPush), {{0, 1u}});
+  runItems_ = vk::createKernel(ctx, "run_items", spv_run_items_comp, 6, sizeof(KeysPush), {{0, 0u}});
+  frameRunItems_ = vk::createKernel(ctx, "run_items (frame)", spv_run_items_comp, 6, sizeof(KeysPush), {{0, 1u}});
   for (uint32_t keys = 0; keys < 2; ++keys)
     for (uint32_t records = 0; records < 2; ++records)
       runExpand_[keys][records] =
@@ -108,16 +118,16 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
   runOrder_ = vk::createBuffer(ctx, words * 4);
   runCells_ = vk::createBuffer(ctx, uint64_t(blockInvocations(maxPixels_)) * SCAN_ITEMS * 4);  // whole blocks
   runStarts_ = vk::createBuffer(ctx, words * 4);
-  leaderBits_ = vk::createBuffer(ctx, uint64_t(blockInvocations(maxPixels_)) * 4);
   runCounts_ = vk::createBuffer(ctx, uint64_t(blockInvocations(maxPixels_)) * 4);
   runArgs_ = vk::createBuffer(ctx, 32, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
+  geometryRect_ = vk::createBuffer(ctx, kGeometryRectBytes);
 }
 
 uint64_t LitRays::bytesAllocated() const {
   return compact_.bytesAllocated() + sort_.bytesAllocated() + runScan_.bytesAllocated() +
          itemScan_.bytesAllocated() + samples_.size + keys_.size + count_.size + bounds_.size + grids_.size +
          keyArgs_.size + keptBits_.size + runKeys_.size + runCells_.size + runOrder_.size + runStarts_.size +
-         leaderBits_.size + runCounts_.size + runArgs_.size;
+         runCounts_.size + runArgs_.size + geometryRect_.size;
 }
 
 void LitRays::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, RayOrder order) {
@@ -126,7 +136,11 @@ void LitRays::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, glm::v
   CS_CHECK(pixels <= maxPixels_ && d.size <= maxDomain_,
            "G-buffer of " << g.width << "x" << g.height << " exceeds the " << maxPixels_ << " pixels LitRays was made for");
   const bool morton = order == RayOrder::ScreenMorton;
-  const LitPush push{g.width, g.height, morton ? 1u : 0u, d.tilesX, uint32_t(d.size), 0, 0, 0, glm::vec4(light, 1.0f)};
+  const PixelRect r = clampedRect(g);
+  CS_CHECK(g.width < 65536 && g.height < 65536,
+           "G-buffer of " << g.width << "x" << g.height << ": a side of at most 65535 pixels (LitPush's rect)");
+  const LitPush push{g.width,         g.height,           morton ? 1u : 0u, d.tilesX, uint32_t(d.size),
+                     r.x0 | r.x1 << 16, r.y0 | r.y1 << 16, 0,                 glm::vec4(light, 1.0f)};
   recordLitCount(cmd, g, push);
   const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(d.size, SCAN_BLOCK));
   cmd.dispatch(morton ? mortonLitSamples_ : litSamples_, {keptBits_, compact_.blockOffsets(), samples_}, push, grid.x,
@@ -155,24 +169,30 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
   keyBits_ = kRayKeyBits;
   const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(pixels, SCAN_BLOCK));
   const vk::BufferRange position = vk::texels(g.position, kPixelTexels), grids = vk::texels(grids_, kGridTexels);
-  recordBounds(cmd, g, push);  // the key grids first, from the pixels alone
-  // One pass over the pixels (lit_runs.comp): which are lit, and the runs of equal keys among them (every
-  // pixel's key cell, four at a time, kept per pixel); the scan of the blocks' lit counts (the lit count),
-  // each invocation's first run (the scan of its runs' counts, their total the runs' count), then one
-  // item a run as the sort's input (run_items.comp: the leader's key from its cell).
+  cmd.fill(count_, 0, kLitWord * 4, 4);  // lit_runs adds its subgroups' lit counts (recordBounds' barrier)
+  // The pixels that may hold geometry, clamped to the image (lit_runs reads no other), and the width.
+  const PixelRect r = clampedRect(g);
+  const uint32_t rect[5] = {r.x0, r.y0, r.x1, r.y1, g.width};
+  for (uint32_t k = 0; k < 5; ++k) cmd.fill(geometryRect_, rect[k], k * 4, 4);
+  recordBounds(cmd, g, push);  // the key grids first, from the pixels alone (its barriers order the fills)
+  // One pass over the pixels (lit_runs.comp): which are lit (their count to the lit word), and the runs of
+  // equal keys among them (every pixel's key cell, four at a time, kept per pixel); each invocation's
+  // first run (the scan of its runs' counts, their total the runs' count), then one item a run as the
+  // sort's input (run_items.comp: the leader's key from its cell).
   const uint32_t invocations = blockInvocations(pixels);
   cmd.dispatch(framed ? frameLitRuns_ : litRuns_,
-               {position, vk::texels(g.normal, kPixelTexels), keptBits_, compact_.blockCounts(), grids, leaderBits_,
-                runCounts_, runCells_},
+               {position, vk::texels(g.normal, kPixelTexels), keptBits_, vk::BufferRange(count_, 0, (kLitWord + 1) * 4),
+                grids, runCounts_, runCells_, vk::uniforms(geometryRect_, kGeometryRectBytes)},
                push, grid.x, grid.y);
   cmd.barrier();
-  compact_.recordBlockScan(cmd, uint32_t(pixels), sort::GpuWord(count_, 0));
   runScan_.record(cmd, vk::BufferRange(runCounts_, 0, uint64_t(invocations) * 4),
                   vk::BufferRange(runCounts_, 0, uint64_t(invocations) * 4), sort::Count(invocations),
                   sort::GpuWord(count_, kRunsWord));
+  const vk::Grid spans = sort::workgroupGrid(ctx_, sort::ceilDiv(invocations, RUN_ITEMS_SPAN * SCAN_THREADS));
   cmd.dispatch(framed ? frameRunItems_ : runItems_,
-               {position, keptBits_, runCounts_, leaderBits_, sort_.pairInput(), grids, vk::texels(runCells_, kWordTexels)},
-               push, grid.x, grid.y);
+               {position, vk::texels(keptBits_, kPairTexels), vk::texels(runCounts_, kWordTexels), sort_.pairInput(),
+                grids, vk::texels(runCells_, kWordTexels)},
+               push, spans.x, spans.y);
   cmd.barrier();
   runsPending_ = true;
 }

@@ -58,8 +58,8 @@ class LitRays {
   void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& frame, sort::Count count);
   // Compaction and keys in one (row-major order; the sorted path): the faces' (or the rotated frame's)
   // boxes and grids first (from the subset of the pixels recordKeys takes too, which needs no compaction), then one pass
-  // over the pixels (lit_runs.comp) marks the lit ones, counts them per block (the scan of the counts
-  // gives the lit count), keys every pixel and finds the runs of equal keys (consecutive lit pixels of
+  // over the pixels (lit_runs.comp) marks the lit ones, counts them (atomically, to the lit count), keys
+  // every pixel with geometry and finds the runs of equal keys (consecutive lit pixels of
   // one invocation's SCAN_ITEMS whose keys agree: 65-80 % of the lit pixels of a render follow a
   // neighbour that way), and run_items.comp writes one (key, leader pixel and length) item a run straight
   // into the sort's input. recordSort sorts the items and writes each run's pixels where the run starts
@@ -113,12 +113,16 @@ class LitRays {
   sort::Scan itemScan_;  // where each sorted run starts, from their lengths
   vk::Buffer samples_, keys_, count_, bounds_, grids_, keyArgs_;
   // The runs: runKeys_ (the sorted runs' keys, made on the first sort that keeps them: keepSortedKeys),
-  // leaderBits_ and runCounts_ (per lit_runs invocation: its leaders, their count, then its first run),
+  // runCounts_ (per lit_runs invocation: its leaders' count, then its first run),
   // runOrder_ (the sorted runs: leader pixel | (length - 1) << RUN_PIXEL_BITS), runStarts_ (where each
   // starts in the order), runArgs_ (indirect arguments).
-  vk::Buffer runKeys_, runCells_, runOrder_, runStarts_, leaderBits_, runCounts_, runArgs_;
+  vk::Buffer runKeys_, runCells_, runOrder_, runStarts_, runCounts_, runArgs_;
+  // lit_runs' binding 7: the G-buffer's geometryRect, clamped, and its width (two uvec4, std140).
+  static constexpr VkDeviceSize kGeometryRectBytes = 32;
+  vk::Buffer geometryRect_;
   bool keepSortedKeys_ = true;
-  vk::Buffer keptBits_;  // lit_count.comp's bits and ranks, one uvec2 per SCAN_ITEMS positions
+  // One uvec2 per SCAN_ITEMS positions: lit_count.comp's bits and ranks, or lit_runs.comp's bits and leaders.
+  vk::Buffer keptBits_;
   // lit_count.comp over the push's enumeration, then the scan of its block counts (the lit count to count_).
   void recordLitCount(vk::Commands& cmd, const DeviceGBuffer& g, const LitPush& push);
   // The faces' boxes over the subset of the G-buffer's pixels (ray_bounds.comp) and their grids (ray_grids.comp).

@@ -33,7 +33,9 @@ struct LitPush {
                     // kernel takes it as SPEC_MORTON (its pipeline), this copy is for the record
   uint tilesX;      // Morton tiles per row
   uint domain;      // elements enumerated: width * height, or tilesX * tilesY * tile area
-  uint pad0, pad1, pad2;
+  uint rectX, rectY;  // x0 | x1 << 16, y0 | y1 << 16: DeviceGBuffer::geometryRect, clamped (lit_count.comp
+                      // reads no position outside it)
+  uint pad2;
   vec4 light;       // xyz: the point light whose lit samples these are (lit_count.comp, litSampleFor)
 };
 
@@ -58,6 +60,12 @@ struct KeysPush {
 #define RUN_PIXEL_MASK ((1u << RUN_PIXEL_BITS) - 1u)
 #if (SCAN_ITEMS - 1) >= (1 << (32 - RUN_PIXEL_BITS))
 #error "a run (at most SCAN_ITEMS pixels) has its length less one in the bits above RUN_PIXEL_BITS"
+#endif
+// run_items.comp: an invocation takes the runs of RUN_ITEMS_SPAN lit_runs invocations, RUN_ITEMS_SPAN
+// apart, in rounds (a lit_runs block holds whole groups of RUN_ITEMS_SPAN^2 of them; at most 32 rounds).
+#define RUN_ITEMS_SPAN 8
+#if (SCAN_THREADS % (RUN_ITEMS_SPAN * RUN_ITEMS_SPAN)) != 0 || RUN_ITEMS_SPAN > 32
+#error "run_items.comp's groups of RUN_ITEMS_SPAN^2 lit_runs invocations tile a block"
 #endif
 struct RunsPush {
   uint positions;   // run_items: the pixels enumerated (row-major)

@@ -171,6 +171,61 @@ TEST(Raster, RowZeroIsTheTopOfTheImage) {
   EXPECT_TRUE(gb.hasGeometry(63 * 64 + 2));   // bottom-left corner: floor
 }
 
+// The camera pass's geometryRect (DeviceGBuffer; geometryRectOf) holds every pixel it drew geometry into,
+// whatever the view: the family's members (far views to close-ups, at a size that is not square), a
+// camera inside the scene's box (the whole image), and one looking away from it (no pixel at all); and
+// is smaller than the image where the scene is small in it (else it would save the cone path nothing).
+TEST(Raster, TheGeometryRectHoldsEveryPixelWithGeometry) {
+  auto& ctx = test::context();
+  const uint32_t w = 72, h = 40;
+  auto check = [&](const Scene& scene, const Camera& cam, const std::string& what) {
+    Raster raster(ctx, scene);
+    DeviceGBuffer dev;
+    GBuffer gb;
+    raster.render(cam, scene.boundsMax + glm::vec3(1.0f), w, h, dev, &gb);
+    const PixelRect r = dev.geometryRect;
+    EXPECT_LE(r.x1, w) << what;
+    EXPECT_LE(r.y1, h) << what;
+    uint64_t outside = 0, inside = 0;
+    for (uint32_t y = 0; y < h; ++y)
+      for (uint32_t x = 0; x < w; ++x) {
+        if (!gb.hasGeometry(y * w + x)) continue;
+        const bool in = x >= r.x0 && x < r.x1 && y >= r.y0 && y < r.y1;
+        outside += !in, inside += in;
+      }
+    EXPECT_EQ(outside, 0u) << what << ": pixels with geometry outside [" << r.x0 << ", " << r.x1 << ") x [" << r.y0
+                           << ", " << r.y1 << ")";
+    return std::pair<PixelRect, uint64_t>{r, inside};
+  };
+  uint32_t smaller = 0;
+  for (uint64_t seed = 1; seed <= 12; ++seed) {
+    FamilyParams p = familyMember(seed);
+    p.triangles = std::min<uint64_t>(p.triangles, 3000);
+    const Scene scene = familyScene(p);
+    ASSERT_FALSE(scene.cameras.empty());
+    const auto [r, inside] = check(scene, scene.cameras.front(), "family:" + std::to_string(seed));
+    EXPECT_GT(inside, 0u) << "family:" << seed;
+    smaller += uint64_t(r.x1 - r.x0) * (r.y1 - r.y0) < uint64_t(w) * h / 2;
+  }
+  EXPECT_GE(smaller, 3u) << "the far members' rects are under half the image";
+  const Scene scene = planeAndSphere();
+  Camera in;  // inside the box: corners behind the camera, the whole image
+  in.eye = {0, 1.0f, 2.0f};
+  in.target = {0, 1.0f, 0};
+  const auto [whole, seen] = check(scene, in, "a camera inside the box");
+  EXPECT_EQ(whole.x0, 0u);
+  EXPECT_EQ(whole.y0, 0u);
+  EXPECT_EQ(whole.x1, w);
+  EXPECT_EQ(whole.y1, h);
+  EXPECT_GT(seen, 0u);
+  Camera away;  // far above the scene, looking up: nothing drawn, an empty rect
+  away.eye = {0, 50.0f, 0};
+  away.target = {0, 60.0f, 0.1f};
+  const auto [none, drawn] = check(scene, away, "a camera looking away");
+  EXPECT_EQ(drawn, 0u);
+  EXPECT_TRUE(none.x0 >= none.x1 || none.y0 >= none.y1) << none.x0 << " " << none.x1 << " " << none.y0 << " " << none.y1;
+}
+
 TEST(Raster, RejectsResolutionsBeyondTheDevice) {
   auto& ctx = test::context();
   Scene scene = planeAndSphere();

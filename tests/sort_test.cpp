@@ -1229,6 +1229,8 @@ TEST(LitRays, FusedCompactionAndKeysMatchTheStepsOnSparseAndDenseFrames) {
       {"none", [](uint32_t) { return false; }},
       {"dense among empty pixels", [](uint32_t i) { return (i * 2654435761u) % 10 < 7; }, true},
       {"a few rows among empty ones", [&](uint32_t i) { return (i / w) % 37 < 3 && i % 11 != 0; }, true},
+      {"a block among empty pixels",
+       [&](uint32_t i) { return i % w >= 251 && i % w < 417 && i / w >= 97 && i / w < 301 && i % 5 != 0; }, true},
   };
   rays::LitRays rays(ctx, w, h);
   ASSERT_TRUE(rays.fusedKeys());
@@ -1282,6 +1284,47 @@ TEST(LitRays, FusedCompactionAndKeysMatchTheStepsOnSparseAndDenseFrames) {
       EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), n), samples, what << ": samples");
       EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.keys(), n), keys, what << ": keys");
       EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.bounds(), 24), bounds, what << ": the boxes");
+      // Fused, told the rect of the pixels with geometry (DeviceGBuffer::geometryRect, as the camera pass
+      // gives it): the positions outside are not read, and nothing changes.
+      if (pattern.empty) {
+        PixelRect tight{w, h, 0, 0};
+        for (uint32_t i = 0; i < pixels; ++i)
+          if (pos[i].w != 0.0f)
+            tight = {std::min(tight.x0, i % w), std::min(tight.y0, i / w), std::max(tight.x1, i % w + 1),
+                     std::max(tight.y1, i / w + 1)};
+        g.geometryRect = tight;
+        rays.recordCompactionWithKeys(cmd, g, push);
+        rays.recordSort(cmd, rays.count());
+        cmd.submit();
+        ASSERT_EQ(rays.readCount(), n) << what << ", within its geometry's rect";
+        EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), n), samples, what << ": samples in the rect");
+        EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.keys(), n), keys, what << ": keys in the rect");
+        // The screen orders' compaction (lit_count.comp) likewise, in rows and in Morton tiles.
+        for (rays::RayOrder order : {rays::RayOrder::ScreenRows, rays::RayOrder::ScreenMorton}) {
+          g.geometryRect = PixelRect{};
+          rays.recordCompaction(cmd, g, light, order);
+          cmd.submit();
+          const std::vector<uint32_t> whole = vk::download<uint32_t>(ctx, rays.samples(), rays.readCount());
+          g.geometryRect = tight;
+          rays.recordCompaction(cmd, g, light, order);
+          cmd.submit();
+          EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), rays.readCount()), whole,
+                            what << ": " << rays::rayOrderName(order) << " in the rect");
+          // A rect that leaves lit pixels out: lit_count.comp counts none outside it (which shows the
+          // rect is read; the camera pass's never leaves any out).
+          const PixelRect inner{tight.x0 + 7, tight.y0 + 5, tight.x1 - 9, tight.y1 - 3};
+          if (inner.x0 >= inner.x1 || inner.y0 >= inner.y1) continue;
+          uint32_t within = 0;
+          for (uint32_t i = 0; i < pixels; ++i)
+            within += host.isLit(i) && i % w >= inner.x0 && i % w < inner.x1 && i / w >= inner.y0 && i / w < inner.y1;
+          ASSERT_LT(within, n) << what;
+          g.geometryRect = inner;
+          rays.recordCompaction(cmd, g, light, order);
+          cmd.submit();
+          EXPECT_EQ(rays.readCount(), within) << what << ": " << rays::rayOrderName(order) << " in a smaller rect";
+        }
+        g.geometryRect = PixelRect{};
+      }
       // Fused, writing the sorted rays' records as the cone tree's rays() holds them: the record of the
       // j-th ray is its sample's position (float bits) and pixel, in the same order; the keys as before.
       {

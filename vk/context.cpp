@@ -1201,12 +1201,12 @@ static void pushBuffers(Context& ctx, VkCommandBuffer cb, const Kernel& kernel,
 namespace {
 // CONESHADOW_PROFILE_DISPATCHES=1 (a developer's switch; docs/DEVELOPING.md, "Where a frame's time goes"):
 // every dispatch of a command buffer this process owns is submitted on its own after a barrier, and the
-// wall clock of that submission (what was recorded since the last one included) is added to its kernel's
-// row; at exit the rows go to stderr, slowest first. A pipeline's first dispatch, which compiles its
+// wall clock of that submission (what was recorded since the last one included) and the process's CPU
+// time over it are added to its kernel's row; at exit the rows go to stderr, slowest first. A pipeline's first dispatch, which compiles its
 // shader on lavapipe, is counted apart. Command buffers of a caller (the engine's) are left alone.
 struct DispatchProfile {
   struct Row {
-    double ms = 0, firstMs = 0;
+    double ms = 0, cpuMs = 0, firstMs = 0;
     uint64_t calls = 0;
   };
   std::map<std::string, Row> rows;
@@ -1218,11 +1218,14 @@ struct DispatchProfile {
     std::sort(sorted.begin(), sorted.end(), [](const auto& a, const auto& b) { return a.second.ms > b.second.ms; });
     double total = 0;
     for (const auto& r : sorted) total += r.second.ms;
+    double cpu = 0;
+    for (const auto& r : sorted) cpu += r.second.cpuMs;
     std::fprintf(stderr, "dispatch profile (a submission per dispatch; first dispatches of a pipeline apart):\n");
-    std::fprintf(stderr, "%10s %8s %12s  %s\n", "ms", "calls", "first ms", "kernel");
+    std::fprintf(stderr, "%10s %10s %8s %12s  %s\n", "ms", "cpu ms", "calls", "first ms", "kernel");
     for (const auto& [name, r] : sorted)
-      std::fprintf(stderr, "%10.2f %8llu %12.2f  %s\n", r.ms, (unsigned long long)r.calls, r.firstMs, name.c_str());
-    std::fprintf(stderr, "%10.2f %8s %12s  total\n", total, "", "");
+      std::fprintf(stderr, "%10.2f %10.2f %8llu %12.2f  %s\n", r.ms, r.cpuMs, (unsigned long long)r.calls, r.firstMs,
+                   name.c_str());
+    std::fprintf(stderr, "%10.2f %10.2f %8s %12s  total\n", total, cpu, "", "");
   }
 };
 DispatchProfile* dispatchProfile() {
@@ -1242,15 +1245,25 @@ void Commands::profileDispatch(const Kernel& kernel) {
   DispatchProfile* profile = dispatchProfile();
   if (!profile || external_) return;
   barrier();
+  // The process's CPU time too: the driver's threads' work, which a loaded machine's other processes
+  // stretch in wall clock but not in CPU time (steadier there; with LP_NUM_THREADS=1, one thread's).
+  auto cpuNow = [] {
+    rusage u{};
+    getrusage(RUSAGE_SELF, &u);
+    return (u.ru_utime.tv_sec + u.ru_stime.tv_sec) * 1e3 + (u.ru_utime.tv_usec + u.ru_stime.tv_usec) * 1e-3;
+  };
+  const double c0 = cpuNow();
   const auto t0 = std::chrono::steady_clock::now();
   submit();
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  const double cpuMs = cpuNow() - c0;
   std::lock_guard<std::mutex> lock(profile->mutex);
   DispatchProfile::Row& row = profile->rows[kernel.name];
   if (profile->seen.emplace(kernel.pipeline, true).second) {
     row.firstMs += ms;
   } else {
     row.ms += ms;
+    row.cpuMs += cpuMs;
     ++row.calls;
   }
 }
