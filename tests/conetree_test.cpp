@@ -269,9 +269,10 @@ TEST(ConeTree, EveryLeafRayInsideEveryAncestorOnTheGpu) {
 }
 
 // The device build (ConeTree::recordDevice): the ray count read on the GPU, the shape written there and
-// every height an indirect dispatch recorded for the deepest tree the bound allows. Shape words equal
-// treeShape() and the nodes are bit-identical to the build from the host count, for counts well below
-// the bound (a shallower tree than recorded for), at it, and zero (no tree).
+// every height below the top an indirect dispatch recorded for the deepest tree the bound allows, the top
+// heights one workgroup's (tree_top.comp). Shape words equal treeShape() and the nodes are bit-identical
+// to the build from the host count (a dispatch a depth), for counts well below the bound (a shallower
+// tree than recorded for), at it, and zero (no tree); trees whose top starts at heights 2, 3 and 4.
 TEST(ConeTree, DeviceBuildFromTheGpuCountEqualsTheHostBuild) {
   auto& ctx = test::context();
   const glm::vec3 light(0.3f, -0.2f, 0.1f);
@@ -310,7 +311,15 @@ TEST(ConeTree, DeviceBuildFromTheGpuCountEqualsTheHostBuild) {
       EXPECT_EQ(shape[SHAPE_COUNTS + d], s.counts[d]) << n << " depth " << d;
       EXPECT_EQ(shape[SHAPE_OFFSETS + d], s.offsets[d]) << n << " depth " << d;
     }
-    for (uint32_t h = 1; h <= s.depth; ++h) EXPECT_EQ(shape[SHAPE_BUILD_ARGS + 4 * h + 3], s.counts[s.depth - h]) << h;
+    // A dispatch a height below topHeight, the rest one workgroup's (slot 0), none where the tree is lower.
+    const uint32_t top = cone::topHeight(n);
+    for (uint32_t h = 1; h <= s.depth; ++h)
+      EXPECT_EQ(shape[SHAPE_BUILD_ARGS + 4 * h + 3], h < top ? s.counts[s.depth - h] : 0u) << n << " height " << h;
+    EXPECT_EQ(shape[SHAPE_BUILD_ARGS], s.depth >= top ? 1u : 0u) << n;
+    if (s.depth >= top) {
+      EXPECT_LE(cone::countAtHeight(n, top), uint32_t(CONE_TOP_NODES)) << n;
+      EXPECT_TRUE(top == 2 || cone::countAtHeight(n, top - 1) > CONE_TOP_NODES) << n;
+    }
     {
       vk::Commands cmd(ctx);
       hostTree.record(cmd, positions, samples, n, light, minLength);
