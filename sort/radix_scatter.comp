@@ -200,8 +200,9 @@ void main() {
   if (LOOKBACK) {
     lookBack(tile, min(SORT_TILE, n - base), lowTotal);
   } else {
+    uint tiles = tableTiles(n);
     for (uint d = t; d <= pc.digitMask; d += SORT_THREADS)
-      adjust[d] = hist[d * tableTiles(n) + tile] - unpackRank(counters[slot(d % RADIX_WORDS, 0u)], d, lowTotal);
+      adjust[d] = hist[d * tiles + tile] - unpackRank(counters[slot(d % RADIX_WORDS, 0u)], d, lowTotal);
   }
   barrier();
 
