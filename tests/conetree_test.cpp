@@ -300,8 +300,13 @@ TEST(ConeTree, DeviceBuildFromTheGpuCountEqualsTheHostBuild) {
     const uint32_t words[4] = {7u, n, 9u, 9u};  // the count at word 1
     vk::upload(ctx, count, words, sizeof(words));
     {
+      const vk::HostCost before = ctx.cost;
       vk::Commands cmd(ctx);
       deviceTree.recordDevice(cmd, positions, samples, count, 1, bound, rayLight, minLength, frame);
+      // 30001 rays: depth 8, topHeight 4: the shape, heights 1-3 and the top's one (a height each: 9).
+      if (bound == 30001u) {
+        EXPECT_EQ((ctx.cost - before).dispatches, 5u);
+      }
       cmd.submit();
     }
     EXPECT_EQ(deviceTree.maxDepth(), cone::treeDepth(bound));
