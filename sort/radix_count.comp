@@ -5,7 +5,8 @@
 // output position. `tiles`, the table's row stride, is the tiles the count fills (at least one), not the
 // host's bound: with a device count the dispatch is indirect (sort::IndirectGroups: only those tiles,
 // at least one), the table has no rows of tiles that did not run, and tile 0 writes its size,
-// (digitMask + 1) * tiles, to binding 5 for the scan of the table, which then covers those entries only.
+// (digitMask + 1) * tiles (0 for no keys), to binding 5 for the scan of the table, which then covers
+// those entries only.
 // It also leaves the tile's ranking counters scanned in binding 4 (radix.glsl, kRankWords), which the
 // scatter then loads instead of counting the tile's keys a second time.
 // bindings: 0 = keys (uint[], read as uvec4), 1 = hist (uint[], (digitMask + 1) * tiles),
@@ -38,7 +39,10 @@ void main() {
   uint tiles = tableTiles(n);
   if (tile >= tiles) return;
   uint t = gl_LocalInvocationIndex;
-  if (tile == 0u && t == 0u) tableCount = (pc.digitMask + 1u) * tiles;
+  // No keys (a device count of 0: the cone path's sort on a frame that keeps screen order): an empty
+  // table, nothing to count or rank; the one tile launched only says so.
+  if (tile == 0u && t == 0u) tableCount = n == 0u ? 0u : (pc.digitMask + 1u) * tiles;
+  if (n == 0u) return;
   for (uint i = t; i < kWords + kWords / 32u; i += SORT_THREADS) counters[i] = 0u;
   barrier();
   uint first = tile * SORT_TILE + t * SORT_ITEMS;
