@@ -19,6 +19,10 @@
 #define CONESHADOW_CONETREE_CONE_LAYOUT_H
 
 #define CONE_BUILD_THREADS 64
+// The top of the tree in one dispatch (tree_top.comp): every height from topHeight() up, the lowest of
+// at most CONE_TOP_NODES nodes, built by one workgroup that keeps each level in shared memory for the
+// next, instead of a dispatch and a barrier a height over a handful of nodes.
+#define CONE_TOP_NODES 256
 
 // Division in the shared GLSL/C++ code is written CONE_DIV(a, b): a / b in both languages. Vulkan lets a
 // GPU round a division to 2.5 ulp, so tests/gpu_arithmetic_test.cpp compiles the same source again with
@@ -77,7 +81,8 @@ struct ConeFrame {
 #define SHAPE_NODES 2       // interior nodes stored, levelOffset(n, D, D)
 #define SHAPE_COUNTS 4      // + d: levelCount(n, D, d) for d = 0 .. D (0 past D)
 #define SHAPE_OFFSETS 24    // + d: levelOffset(n, D, d) for d = 0 .. D (0 past D)
-#define SHAPE_BUILD_ARGS 44 // + 4 h: the indirect dispatch (x, y, 1, nodes) building height h = 1 .. D (0 groups past D)
+#define SHAPE_BUILD_ARGS 44 // + 4 h: the indirect dispatch (x, y, 1, nodes) building height h = 1 .. topHeight - 1
+                    // (0 groups from there); + 0: tree_top.comp's (one workgroup when D >= topHeight, else none)
 #define SHAPE_MAX_DEPTH 15  // leaf ranges are 32-bit: 4^D must fit (kMaxLeaves)
 #define SHAPE_WORDS 112
 
@@ -148,6 +153,15 @@ CS_FN uvec2 childRange(uint j, uint childLevelCount) {
   return uvec2(4u * j, min(4u * j + 4u, childLevelCount));
 }
 
+// The first height tree_top.comp builds over n rays: the lowest of at most CONE_TOP_NODES nodes, and at
+// least 2 (height 1, whose children are the rays, always has its own dispatch). Heights below it have
+// their own dispatch each; a tree whose depth is below it has no top dispatch.
+CS_FN uint topHeight(uint n) {
+  uint h = 2u;
+  while (countAtHeight(n, h) > CONE_TOP_NODES) h++;
+  return h;
+}
+
 // Leaves under node j at depth d of a tree with `depth` levels over n leaves: [first, end).
 CS_FN uvec2 leafRange(uint j, uint n, uint depth, uint d) {
   uint shift = 2u * (depth - d);
@@ -166,9 +180,11 @@ using glsl::countAtHeight;
 using glsl::leafRange;
 using glsl::levelCount;
 using glsl::levelOffset;
+using glsl::topHeight;
 using glsl::treeDepth;
 static_assert(sizeof(ConeNode) == 32 && offsetof(ConeNode, sinLen) == 16, "ConeNode layout");
 static_assert(sizeof(ConeFrame) == 80, "ConeFrame layout");
+static_assert(CONE_TOP_NODES % CONE_BUILD_THREADS == 0, "tree_top.comp: whole nodes an invocation");
 static_assert(sizeof(ShapePush) == 16 && sizeof(SpreadPush) == 16, "ShapePush, SpreadPush layout");
 static_assert(SHAPE_COUNTS + SHAPE_MAX_DEPTH + 1 <= SHAPE_OFFSETS && SHAPE_OFFSETS + SHAPE_MAX_DEPTH + 1 <= SHAPE_BUILD_ARGS &&
                   SHAPE_BUILD_ARGS % 4 == 0 && SHAPE_BUILD_ARGS + 4 * (SHAPE_MAX_DEPTH + 1) <= SHAPE_WORDS,

@@ -7,6 +7,7 @@
 #include "conetree/build_level.comp.h"
 #include "conetree/tree_shape.comp.h"
 #include "conetree/tree_spread.comp.h"
+#include "conetree/tree_top.comp.h"
 #include "conetree/cone_math.h"
 #include "core/error.h"
 
@@ -45,6 +46,8 @@ ConeTree::ConeTree(vk::Context& ctx)
     for (uint32_t leaves = 0; leaves < 3; ++leaves)
       build_[far][leaves] = vk::createKernel(ctx, "cone tree build", spv_build_level_comp, 7, sizeof(BuildPush),
                                              {{0, far}, {1, leaves}});
+  for (uint32_t far = 0; far < 2; ++far)
+    top_[far] = vk::createKernel(ctx, "cone tree top", spv_tree_top_comp, 3, sizeof(BuildPush), {{0, far}});
 }
 
 const vk::Kernel& ConeTree::buildKernel(const BuildPush& p, uint32_t leaves) const {
@@ -186,7 +189,10 @@ void ConeTree::recordDevice(vk::Commands& cmd, const vk::Buffer& positions, cons
   ShapePush sp{maxCount, countIndex, ctx_.maxWorkgroups(), keepWhenZero ? 1u : 0u};
   cmd.dispatch(shapeKernel_, {vk::BufferRange(countWords, 0, (VkDeviceSize(countIndex) + 1) * 4), shapeWords_}, sp, 1);
   cmd.barrier();
-  for (uint32_t h = 1; h <= maxDepth_; ++h) {
+  // A dispatch a height below the top (the heights any count up to maxCount may need: topHeight only
+  // grows with the count), then the top's one workgroup.
+  const uint32_t separate = std::min(topHeight(maxCount) - 1, maxDepth_);
+  for (uint32_t h = 1; h <= separate; ++h) {
     BuildPush p = basePush(light, minLength, fc);
     p.height = h;
     p.fromShape = 1;
@@ -195,6 +201,14 @@ void ConeTree::recordDevice(vk::Commands& cmd, const vk::Buffer& positions, cons
                           vk::texels(shapeWords_, VK_FORMAT_R32G32B32A32_UINT), rays_,
                           vk::texels(nodes_, VK_FORMAT_R32G32B32A32_SFLOAT), vk::texels(rays_, VK_FORMAT_R32G32B32A32_UINT)},
                          &p, sizeof(p), shapeWords_, (SHAPE_BUILD_ARGS + 4 * h) * 4);
+    cmd.barrier();
+  }
+  if (maxDepth_ > separate) {
+    const BuildPush p = basePush(light, minLength, fc);
+    cmd.dispatchIndirect(top_[p.frame.rowX.w != 0.0f ? 1 : 0],
+                         {nodes_, vk::texels(shapeWords_, VK_FORMAT_R32G32B32A32_UINT),
+                          vk::texels(nodes_, VK_FORMAT_R32G32B32A32_SFLOAT)},
+                         &p, sizeof(p), shapeWords_, SHAPE_BUILD_ARGS * 4);
     cmd.barrier();
   }
 }

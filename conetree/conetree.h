@@ -1,8 +1,8 @@
 // conetree/: the cone hierarchy over the shadow rays of one frame (002 §3.1, §3.5, §4.3). The leaves are
 // the sorted rays -- a pixel index each, nothing more: a leaf's ray is rebuilt from the light and the
 // sample's position (leafRay in cone_math.h). Interior nodes are cones with their apex at the light
-// (ConeNode in cone_layout.h), built bottom-up four consecutive elements at a time, one dispatch per depth,
-// into an implicit left-balanced 4-way tree whose index maths (levels, children, leaf ranges) is in
+// (ConeNode in cone_layout.h), built bottom-up four consecutive elements at a time, one dispatch per depth
+// (on the device path, the top depths of at most CONE_TOP_NODES nodes in one), into an implicit left-balanced 4-way tree whose index maths (levels, children, leaf ranges) is in
 // cone_layout.h. Knows nothing about who walks the tree.
 #pragma once
 #include <cstdint>
@@ -63,8 +63,9 @@ class ConeTree {
               glm::vec3 light, float minLength, const FrameChoice* frame = nullptr);
 
   // The same build with the ray count on the GPU (word `countIndex` of `countWords`, clamped to
-  // `maxCount`): tree_shape.comp writes the shape (shapeBuffer(), SHAPE_* words of cone_layout.h) and
-  // every height of the deepest tree maxCount rays can have is an indirect dispatch; nothing is read
+  // `maxCount`): tree_shape.comp writes the shape (shapeBuffer(), SHAPE_* words of cone_layout.h); every
+  // height below topHeight(maxCount) is an indirect dispatch, and the heights from topHeight(count) up
+  // are one (tree_top.comp, a single workgroup, levels in shared memory); nothing is read
   // back, and the node buffer is sized for maxCount rays (so a frame allocates nothing once warm).
   // shape() is not known on the host afterwards: setShape() sets it when the count has been read back.
   // With keepWhenZero, a device count of 0 builds nothing and leaves the shape and nodes of the build
@@ -109,6 +110,7 @@ class ConeTree {
   // build_level.comp specialised: [far frame][children: nodes, rays, rays whose records are given] (its
   // SPEC_FAR, SPEC_LEAVES).
   vk::Kernel build_[2][3];
+  vk::Kernel top_[2];  // tree_top.comp: [far frame]
   vk::Kernel shapeKernel_, spread_;
   const vk::Kernel& buildKernel(const BuildPush& p, uint32_t leaves) const;  // leaves: SPEC_LEAVES
   vk::Buffer nodes_, rays_, shapeWords_;

@@ -1,8 +1,8 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 // Indirect dispatch arguments for a count that lives on the GPU: ceil(min(count, bound) / perGroup)
-// workgroups as the 2-D grid vk::gridFor makes on the host (x up to maxPerDim, then rows), so a
-// dispatch sized by an earlier kernel's output needs no host round trip. The kernel it launches indexes
+// workgroups (at least pc.minGroups) as the 2-D grid vk::gridFor makes on the host (x up to maxPerDim,
+// then rows), so a dispatch sized by an earlier kernel's output needs no host round trip. The kernel it launches indexes
 // CS_FLAT_WORKGROUP and still checks its element index against the device count (the grid's last
 // row may run past it). One invocation.
 // bindings: 0 = count words, 1 = args (uint; x, y, z at argsIndex)
@@ -15,7 +15,7 @@ layout(push_constant) uniform Push { GroupsPush pc; };
 
 void main() {
   uint n = min(countWords[pc.countIndex], pc.count);
-  uint groups = ceilDiv(n, pc.perGroup);
+  uint groups = max(ceilDiv(n, pc.perGroup), pc.minGroups);
   uint y = groups <= pc.maxPerDim ? 1u : ceilDiv(groups, pc.maxPerDim);
   uint x = groups == 0u ? 0u : ceilDiv(groups, y);
   args[pc.argsIndex] = x;

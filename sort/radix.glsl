@@ -14,6 +14,10 @@ layout(constant_id = 1) const uint SORT_ITEMS = SORT_ITEMS_CPU;
 
 uint digitOf(uint key) { return (key >> pc.shift) & pc.digitMask; }
 
+// Reduce-then-scan: the (digit, tile) table's row stride for n keys, the tiles n fills (at least one,
+// so an empty sort still has a table to scan), whatever bound sized the dispatch (radix_count.comp).
+uint tableTiles(uint n) { return max(ceilDiv(n, SORT_TILE), 1u); }
+
 // The keys come from the key binding (uint[]), or with PAIRS_IN as interleaved (key, value) pairs
 // (uvec2[], two to a RGBA32UI texel) from binding PAIR_TEXELS, a uniform texel buffer over the sort's own
 // scratch between passes: a pass stores one uvec2 per key where separate arrays take two scattered

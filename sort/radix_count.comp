@@ -2,19 +2,23 @@
 #extension GL_GOOGLE_include_directive : require
 // Radix sort, step 1 of a pass: each tile's digit histogram, written digit-major
 // (hist[digit * tiles + tile]) so one exclusive scan of the table gives every (digit, tile) its first
-// output position. Tiles past the device count write zeros; with a device count the dispatch is indirect
-// (sort::IndirectGroups: only the tiles the count fills), and tile 0 also zeroes the entries of the
-// tiles [used, tiles) that were not launched.
+// output position. `tiles`, the table's row stride, is the tiles the count fills (at least one), not the
+// host's bound: with a device count the dispatch is indirect (sort::IndirectGroups: only those tiles,
+// at least one), the table has no rows of tiles that did not run, and tile 0 writes its size,
+// (digitMask + 1) * tiles (0 for no keys), to binding 5 for the scan of the table, which then covers
+// those entries only.
 // It also leaves the tile's ranking counters scanned in binding 4 (radix.glsl, kRankWords), which the
 // scatter then loads instead of counting the tile's keys a second time.
 // bindings: 0 = keys (uint[], read as uvec4), 1 = hist (uint[], (digitMask + 1) * tiles),
 //           2 = countWords (device count), 3 = pairs (PAIRS_IN: read instead of binding 0, as a uniform
-//           texel buffer, RGBA32UI), 4 = ranks (uint[kRankWords * tiles], written as uvec4)
+//           texel buffer, RGBA32UI), 4 = ranks (uint[kRankWords * tiles], written as uvec4), 5 = the
+//           table's entry count (one uint, written by tile 0)
 #include "sort/sort_layout.h"
 layout(std430, binding = 0) readonly buffer Keys { uvec4 keys4[]; };
 layout(std430, binding = 1) writeonly buffer Hist { uint hist[]; };
 layout(std430, binding = 2) readonly buffer CountWords { uint countWords[]; };
 layout(std430, binding = 4) writeonly buffer Ranks { uvec4 ranks4[]; };
+layout(std430, binding = 5) writeonly buffer TableCount { uint tableCount; };
 layout(push_constant) uniform Push { RadixPush pc; };
 #include "sort/common.glsl"
 #define PAIR_TEXELS 3
@@ -32,7 +36,13 @@ void main() {
   uint tile = CS_FLAT_WORKGROUP;
   if (tile >= pc.tiles) return;
   uint n = countOf(pc.count, pc.countIndex, pc.flags);
+  uint tiles = tableTiles(n);
+  if (tile >= tiles) return;
   uint t = gl_LocalInvocationIndex;
+  // No keys (a device count of 0: the cone path's sort on a frame that keeps screen order): an empty
+  // table, nothing to count or rank; the one tile launched only says so.
+  if (tile == 0u && t == 0u) tableCount = n == 0u ? 0u : (pc.digitMask + 1u) * tiles;
+  if (n == 0u) return;
   for (uint i = t; i < kWords + kWords / 32u; i += SORT_THREADS) counters[i] = 0u;
   barrier();
   uint first = tile * SORT_TILE + t * SORT_ITEMS;
@@ -51,8 +61,8 @@ void main() {
   for (uint w = t; w < RADIX_WORDS; w += SORT_THREADS) {
     uint sum = 0u;
     for (uint u = 0u; u < SORT_THREADS; ++u) sum += counters[slot(w, u)];
-    if (w <= pc.digitMask) hist[w * pc.tiles + tile] = sum & 0xFFFFu;
-    if (w + RADIX_WORDS <= pc.digitMask) hist[(w + RADIX_WORDS) * pc.tiles + tile] = sum >> 16u;
+    if (w <= pc.digitMask) hist[w * tiles + tile] = sum & 0xFFFFu;
+    if (w + RADIX_WORDS <= pc.digitMask) hist[(w + RADIX_WORDS) * tiles + tile] = sum >> 16u;
   }
   // The ranks: an exclusive scan over all words in (word, invocation) order, invocation t raking words
   // t*W .. t*W+W-1 of that order (W = RADIX_WORDS) and storing its scanned words four at a time.
@@ -75,9 +85,4 @@ void main() {
     ranks4[(at + i) / 4u] = r;
   }
   if (t == 0u) ranks4[(at + kWords) / 4u] = uvec4(total & 0xFFFFu, 0u, 0u, 0u);
-  if (tile == 0u) {
-    uint used = max(ceilDiv(n, SORT_TILE), 1u);
-    uint rest = pc.tiles - min(used, pc.tiles);
-    for (uint e = t; e < rest * (pc.digitMask + 1u); e += SORT_THREADS) hist[(e / rest) * pc.tiles + used + e % rest] = 0u;
-  }
 }

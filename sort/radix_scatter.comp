@@ -1,7 +1,8 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 // Radix sort, step 3 of a pass: rank each key of the tile stably among the tile's keys of its digit and
-// write key (and value) to hist[digit * tiles + tile] + rank, the scanned histogram of step 2.
+// write key (and value) to hist[digit * tiles + tile] + rank, the scanned histogram of step 2 (tiles:
+// the tiles the count fills, radix.glsl's tableTiles).
 // Ranking: one 16-bit counter per (digit, invocation) in shared memory, two digits per word (digit d low
 // half of word d % RADIX_WORDS, high half when d >= RADIX_WORDS). Each invocation counts its own keys into
 // its own column (no atomics), one workgroup scan over the words in (word, invocation) order turns the
@@ -199,8 +200,9 @@ void main() {
   if (LOOKBACK) {
     lookBack(tile, min(SORT_TILE, n - base), lowTotal);
   } else {
+    uint tiles = tableTiles(n);
     for (uint d = t; d <= pc.digitMask; d += SORT_THREADS)
-      adjust[d] = hist[d * pc.tiles + tile] - unpackRank(counters[slot(d % RADIX_WORDS, 0u)], d, lowTotal);
+      adjust[d] = hist[d * tiles + tile] - unpackRank(counters[slot(d % RADIX_WORDS, 0u)], d, lowTotal);
   }
   barrier();
 

@@ -254,14 +254,14 @@ IndirectGroups::IndirectGroups(vk::Context& ctx)
     : ctx_(ctx), kernel_(vk::createKernel(ctx, "groups_for", spv_groups_for_comp, 2, sizeof(GroupsPush))) {}
 
 void IndirectGroups::record(vk::Commands& cmd, const Count& count, uint32_t perGroup, const vk::Buffer& args,
-                            uint32_t index) {
+                            uint32_t index, uint32_t minGroups) {
   CS_CHECK(count.onDevice() && perGroup > 0, "indirect groups need a device count and a group size");
   CS_CHECK((uint64_t(index) + 3) * 4 <= args.size, "indirect groups: arguments at " << index << " past the buffer");
   const uint32_t maxPerDim = std::min(ctx_.properties.limits.maxComputeWorkGroupCount[0],
                                       ctx_.properties.limits.maxComputeWorkGroupCount[1]);
   CS_CHECK(uint64_t(ceilDiv(count.max, perGroup)) <= uint64_t(maxPerDim) * maxPerDim,
            "indirect groups: " << count.max << " elements need more workgroups than a 2-D grid holds");
-  GroupsPush push{count.max, count.word.index, perGroup, index, maxPerDim, 0, 0, 0};
+  GroupsPush push{count.max, count.word.index, perGroup, index, maxPerDim, minGroups, 0, 0};
   cmd.dispatch(kernel_, {bindWord(count.word, args), args}, push, 1);
 }
 
@@ -311,6 +311,7 @@ RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape, SortS
   const uint64_t rankWords = uint64_t(RADIX_WORDS * shape.threads + 4) * std::max(sortTiles(capacity, shape), 1u);
   if (!lookBack) checkBinding(ctx, rankWords, 4, "radix sort ranks");
   ranks_ = lookBack ? dummyBuffer(ctx) : vk::createBuffer(ctx, rankWords * 4);
+  tableCount_ = dummyBuffer(ctx);
   dummy_ = dummyBuffer(ctx);
   args_ = vk::createBuffer(ctx, 16, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
   const uint32_t spins = lookBackSpins >= 0 ? uint32_t(lookBackSpins) : LOOKBACK_SPINS;
@@ -322,7 +323,7 @@ RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape, SortS
     if (lookBack)
       count_[in] = vk::createKernel(ctx, "radix_histogram", spv_radix_histogram_comp, 4, sizeof(RadixPush), spec);
     else
-      count_[in] = vk::createKernel(ctx, "radix_count", spv_radix_count_comp, 5, sizeof(RadixPush), spec);
+      count_[in] = vk::createKernel(ctx, "radix_count", spv_radix_count_comp, 6, sizeof(RadixPush), spec);
   }
   for (uint32_t in = 0; in < 2; ++in)
     for (uint32_t out = 0; out < 2; ++out) {
@@ -334,7 +335,7 @@ RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape, SortS
 }
 
 uint64_t RadixSort::bytesAllocated() const {
-  return scratchA_.size + scratchB_.size + hist_.size + ranks_.size + dummy_.size + args_.size +
+  return scratchA_.size + scratchB_.size + hist_.size + ranks_.size + tableCount_.size + dummy_.size + args_.size +
          (scan_ ? scan_->bytesAllocated() : 0);
 }
 
@@ -413,8 +414,8 @@ void RadixSort::recordPasses(vk::Commands& cmd, const vk::BufferRange& keys, con
   const vk::BufferRange countBinding = bindWord(count.word, dummy_);
   const vk::Grid g = groups(ctx_, tiles);
   const bool indirect = count.onDevice();
-  if (indirect) {  // the tiles the device count fills (radix_count.comp's tile 0 zeroes the others' entries)
-    groups_.record(cmd, count, shape_.tile(), args_, 0);
+  if (indirect) {  // the tiles the device count fills, at least one (radix_count.comp: the table's rows)
+    groups_.record(cmd, count, shape_.tile(), args_, 0, 1);
     cmd.barrier();
   }
   const uint32_t flags = countFlags(count) | (hasValues ? FLAG_HAS_VALUES : 0u);
@@ -445,11 +446,15 @@ void RadixSort::recordPasses(vk::Commands& cmd, const vk::BufferRange& keys, con
     // or this pass's (digit, tile) table, counted and scanned first so every (digit, tile) knows its start.
     vk::BufferRange table = range(hist_, 0, hist_.size);
     if (!lookBack) {
+      // With a device count the table has a row entry for each tile the count fills, and the scan reads
+      // how many entries that makes from the count pass (tableCount_): a sort bounded by a large capacity
+      // scans the table of the keys it has.
       const uint32_t entries = (1u << bits) * tiles;
       table = range(hist_, 0, VkDeviceSize(entries) * 4);
-      overTiles(count_[src.pairs], {src.pairs ? vk::BufferRange(dummy_) : src.keys, table, countBinding, src.texels, ranks_},
+      overTiles(count_[src.pairs],
+                {src.pairs ? vk::BufferRange(dummy_) : src.keys, table, countBinding, src.texels, ranks_, tableCount_},
                 push);
-      scan_->record(cmd, table, table, entries);
+      scan_->record(cmd, table, table, indirect ? Count::device(GpuWord(tableCount_, 0), entries) : Count(entries));
     }
     // Scatter: stable rank inside the tile, written from the tile's start of each digit.
     const vk::BufferRange none(dummy_);

@@ -208,7 +208,9 @@ class Compact {
 class IndirectGroups {
  public:
   explicit IndirectGroups(vk::Context& ctx);
-  void record(vk::Commands& cmd, const Count& count, uint32_t perGroup, const vk::Buffer& args, uint32_t index);
+  // minGroups: launch at least that many workgroups, even for a count of 0.
+  void record(vk::Commands& cmd, const Count& count, uint32_t perGroup, const vk::Buffer& args, uint32_t index,
+              uint32_t minGroups = 0);
 
  private:
   vk::Context& ctx_;
@@ -267,6 +269,7 @@ class RadixSort {
   uint32_t spins_ = LOOKBACK_SPINS;
   vk::Buffer scratchA_, scratchB_, hist_, dummy_, args_;  // hist_: the table, or the look-back workspace
   vk::Buffer ranks_;  // reduce-then-scan: each tile's scanned counters, count pass to scatter (radix.glsl)
+  vk::Buffer tableCount_;  // reduce-then-scan: a pass's table entries, the device count of its scan
 };
 
 }  // namespace cs::sort

@@ -100,7 +100,8 @@ struct GroupsPush {
   uint perGroup;    // elements a workgroup of the dispatch takes
   uint argsIndex;   // element of the args binding where (x, y, z) go
   uint maxPerDim;   // the device's workgroups per grid dimension
-  uint pad0, pad1, pad2;
+  uint minGroups;   // at least this many workgroups, even for a count of 0
+  uint pad1, pad2;
 };
 
 // radix_count.comp, radix_scatter.comp

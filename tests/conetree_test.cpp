@@ -269,15 +269,25 @@ TEST(ConeTree, EveryLeafRayInsideEveryAncestorOnTheGpu) {
 }
 
 // The device build (ConeTree::recordDevice): the ray count read on the GPU, the shape written there and
-// every height an indirect dispatch recorded for the deepest tree the bound allows. Shape words equal
-// treeShape() and the nodes are bit-identical to the build from the host count, for counts well below
-// the bound (a shallower tree than recorded for), at it, and zero (no tree).
+// every height below the top an indirect dispatch recorded for the deepest tree the bound allows, the top
+// heights one workgroup's (tree_top.comp). Shape words equal treeShape() and the nodes are bit-identical
+// to the build from the host count (a dispatch a depth), for counts well below the bound (a shallower
+// tree than recorded for), at it, and zero (no tree); trees whose top starts at heights 2, 3 and 4, in
+// the world frame and in the far-light frame.
 TEST(ConeTree, DeviceBuildFromTheGpuCountEqualsTheHostBuild) {
   auto& ctx = test::context();
   const glm::vec3 light(0.3f, -0.2f, 0.1f);
   const float minLength = 2e-4f;
   cone::ConeTree hostTree(ctx), deviceTree(ctx);
+  // And in the far-light frame (its own build and top kernels), for the trees whose top has heights.
+  const glm::vec3 farLight(3000.0f, 9000.0f, 2000.0f);
+  const cone::FrameChoice farFrame = cone::chooseFrame(farLight, glm::vec3(-50.0f), glm::vec3(50.0f));
+  ASSERT_TRUE(farFrame.far);
+  for (const bool far : {false, true})
   for (uint32_t n : {0u, 1u, 3u, 4u, 5u, 16u, 17u, 1000u, 4097u, 30001u}) {
+    if (far && n < 1000u) continue;
+    const glm::vec3 rayLight = far ? farLight : light;
+    const cone::FrameChoice* frame = far ? &farFrame : nullptr;
     const uint32_t bound = n == 30001u ? n : 4 * n + 77;
     std::vector<glm::vec4> pos = samplePositions(std::max(bound, 1u), light, n + 1);
     std::vector<uint32_t> order(std::max(bound, 1u));
@@ -290,8 +300,13 @@ TEST(ConeTree, DeviceBuildFromTheGpuCountEqualsTheHostBuild) {
     const uint32_t words[4] = {7u, n, 9u, 9u};  // the count at word 1
     vk::upload(ctx, count, words, sizeof(words));
     {
+      const vk::HostCost before = ctx.cost;
       vk::Commands cmd(ctx);
-      deviceTree.recordDevice(cmd, positions, samples, count, 1, bound, light, minLength);
+      deviceTree.recordDevice(cmd, positions, samples, count, 1, bound, rayLight, minLength, frame);
+      // 30001 rays: depth 8, topHeight 4: the shape, heights 1-3 and the top's one (a height each: 9).
+      if (bound == 30001u) {
+        EXPECT_EQ((ctx.cost - before).dispatches, 5u);
+      }
       cmd.submit();
     }
     EXPECT_EQ(deviceTree.maxDepth(), cone::treeDepth(bound));
@@ -310,15 +325,23 @@ TEST(ConeTree, DeviceBuildFromTheGpuCountEqualsTheHostBuild) {
       EXPECT_EQ(shape[SHAPE_COUNTS + d], s.counts[d]) << n << " depth " << d;
       EXPECT_EQ(shape[SHAPE_OFFSETS + d], s.offsets[d]) << n << " depth " << d;
     }
-    for (uint32_t h = 1; h <= s.depth; ++h) EXPECT_EQ(shape[SHAPE_BUILD_ARGS + 4 * h + 3], s.counts[s.depth - h]) << h;
+    // A dispatch a height below topHeight, the rest one workgroup's (slot 0), none where the tree is lower.
+    const uint32_t top = cone::topHeight(n);
+    for (uint32_t h = 1; h <= s.depth; ++h)
+      EXPECT_EQ(shape[SHAPE_BUILD_ARGS + 4 * h + 3], h < top ? s.counts[s.depth - h] : 0u) << n << " height " << h;
+    EXPECT_EQ(shape[SHAPE_BUILD_ARGS], s.depth >= top ? 1u : 0u) << n;
+    if (s.depth >= top) {
+      EXPECT_LE(cone::countAtHeight(n, top), uint32_t(CONE_TOP_NODES)) << n;
+      EXPECT_TRUE(top == 2 || cone::countAtHeight(n, top - 1) > CONE_TOP_NODES) << n;
+    }
     {
       vk::Commands cmd(ctx);
-      hostTree.record(cmd, positions, samples, n, light, minLength);
+      hostTree.record(cmd, positions, samples, n, rayLight, minLength, frame);
       cmd.submit();
     }
     const std::vector<ConeNode> a = vk::download<ConeNode>(ctx, hostTree.nodes(), s.nodes());
     const std::vector<ConeNode> b = vk::download<ConeNode>(ctx, deviceTree.nodes(), s.nodes());
-    EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(ConeNode)), 0) << "n=" << n;
+    EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(ConeNode)), 0) << "n=" << n << (far ? ", far frame" : "");
     // Both builds leave each sorted ray as the leaves read it: its sample's position bits, its pixel.
     for (const cone::ConeTree* tree : {&hostTree, &deviceTree}) {
       const std::vector<glm::uvec4> rays = vk::download<glm::uvec4>(ctx, tree->rays(), n);

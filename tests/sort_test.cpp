@@ -581,6 +581,17 @@ TEST(IndirectGroups, WriteTheHostsGridForTheDeviceCount) {
     EXPECT_EQ(got[1], 99u) << "words before the arguments stay";
     EXPECT_EQ(got[5], 99u) << "words after them stay";
   }
+  // At least minGroups workgroups (the radix sort's one tile for an empty count), more where the count needs them.
+  for (const uint32_t count : {0u, 1u, 200u}) {
+    vk::Buffer words = gpuArray(ctx, {count}), args = gpuArray(ctx, std::vector<uint32_t>(4, 99));
+    vk::Commands cmd(ctx);
+    groups.record(cmd, Count::device(GpuWord(words, 0), 1000), 64, args, 0, 2);
+    cmd.barrier();
+    cmd.submit();
+    const std::vector<uint32_t> got = vk::download<uint32_t>(ctx, args, 4);
+    EXPECT_EQ(got[0], std::max(2u, (count + 63) / 64)) << count;
+    EXPECT_EQ(got[1], 1u) << count;
+  }
 }
 
 // ---- Hilbert index and ray keys -----------------------------------------------------------------
