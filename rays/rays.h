@@ -50,7 +50,8 @@ class LitRays {
 
   // The steps, for callers that want to time them or read the count in between.
   // The lit samples of g for `light` (core/shared.h litSampleFor: the term computed here, g.normal.w not
-  // read) -> samples(), count.
+  // read) -> samples(), count. Here and in recordCompactionWithKeys no position outside g.geometryRect
+  // counts or is read where a whole invocation's positions lie outside it (raster.h, DeviceGBuffer).
   void recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, RayOrder order);
   void recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, sort::Count count);  // -> keys()
   // The keys in a rotated frame (frameRayKey on the grid fitted to the subset, as the faces'): `frame`
