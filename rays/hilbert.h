@@ -340,6 +340,13 @@ CS_FN uvec2 screenOffsetInTile(uint i) {
   return uvec2(evenBits(local), evenBits(local >> 1u));
 }
 CS_FN uvec2 screenOrderPixel(uint i, uint tilesX) { return screenTileOrigin(i, tilesX) + screenOffsetInTile(i); }
+// Whether row-major positions first .. last (rows of `width`) can meet the pixel rect (x0, y0, x1, y1),
+// exclusive ends: in its rows and, where they stay in one row, overlapping its columns (a stretch that
+// wraps to the next row: by the rows alone). lit_runs.comp and lit_count.comp skip a stretch that cannot.
+CS_FN bool rowStretchMeetsRect(uint first, uint last, uint width, uvec4 rect) {
+  uint ya = first / width, yb = last / width;
+  return ya < rect.w && yb >= rect.y && (ya != yb || (last - yb * width >= rect.x && first - ya * width < rect.z));
+}
 
 #ifdef __cplusplus
 }  // namespace glsl
@@ -368,6 +375,7 @@ using glsl::faceKeyGrid;
 using glsl::faceKey;
 using glsl::screenOffsetInTile;
 using glsl::screenOrderPixel;
+using glsl::rowStretchMeetsRect;
 using glsl::screenTileOrigin;
 constexpr uint32_t kRayKeyDegenerate = RAY_KEY_DEGENERATE;
 constexpr uint32_t kRayKeyBits = RAY_KEY_BITS;

@@ -44,8 +44,7 @@ void main() {
     uvec2 a = origin + screenOffsetInTile(first), z = origin + screenOffsetInTile(first + SCAN_ITEMS - 1u);
     meets = a.x < rx.y && z.x >= rx.x && a.y < ry.y && z.y >= ry.x;
   } else {
-    uint last = min(first + SCAN_ITEMS - 1u, n - 1u), ya = first / pc.width, yb = last / pc.width;
-    meets = ya < ry.y && yb >= ry.x && (ya != yb || (last - yb * pc.width >= rx.x && first - ya * pc.width < rx.y));
+    meets = rowStretchMeetsRect(first, min(first + SCAN_ITEMS - 1u, n - 1u), pc.width, uvec4(rx.x, ry.x, rx.y, ry.y));
   }
   uint items = meets && first < n ? SCAN_ITEMS : 0u;
   for (uint k = 0u; k < items; ++k) {

@@ -78,9 +78,7 @@ void main() {
   // An invocation whose positions miss the pixels that may hold geometry starts past its end: its lane
   // leaves the loops at once, and a subgroup of such lanes reads nothing (a far view's empty rows and
   // columns, most of its image).
-  uint end = min(first + SCAN_ITEMS - 1u, n - 1u), w = size.x, ya = first / w, yb = end / w;
-  bool meets = first < n && ya < rect.w && yb >= rect.y &&
-               (ya != yb || (end - yb * w >= rect.x && first - ya * w < rect.z));
+  bool meets = first < n && rowStretchMeetsRect(first, min(first + SCAN_ITEMS - 1u, n - 1u), size.x, rect);
   uint k = meets ? 0u : uint(SCAN_ITEMS);  // the next four positions to look at
   while (k < uint(SCAN_ITEMS)) {
     // On four positions at a time until this invocation's four have geometry (or the end): the loop
