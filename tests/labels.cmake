@@ -18,7 +18,7 @@ set(cs_unit_tests
   BuiltinMotion.* BuiltinScene.* ClusterOrder.* ClusterSphere.* ConeFrameChoice.* ConeMath.* EarlyAcceptCovered.*
   EmbreeDevice.* EmbreeReference.* EpsilonPolicy.* FrameOutput.* GeometryCheck.* GeometryRevision.*
   GltfBrokenFolders.* GltfLoader.* Grid.* ImageIo.* LeafHitFromLight.* LeafRayHitsTriangle.* LeafSphere.* LeafStep.*
-  LoaderHostile.* Metrics.* ResultsTable.* Scene.* SceneFamily.* SceneLoader.* SphereConeTriangle.* ThreadPool.*
+  ChildProcess.* LoaderHostile.* Metrics.* ResultsTable.* Scene.* SceneFamily.* SceneLoader.* SphereConeTriangle.* ThreadPool.*
   ViewerScript.*
   TraversalArena.* Validation/TinyGltfBroken.* VariantSphereTest.* VkSpirv.*
   AnimatedGltf.BrokenAnimationsFailWithOneClearError

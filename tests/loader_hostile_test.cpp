@@ -254,6 +254,25 @@ TEST_F(LoaderHostile, AssimpNaNVerticesBadIndicesAndHugeNumbersAreErrors) {
             3u);
 }
 
+// ---- what slips past the checks and crashes assimp ---------------------------------------------------
+
+// A Collada file whose float_array says count="0" over three coordinates: assimp 5.2.5 dereferences a null
+// pointer on it. Whatever assimp does with it, the caller gets a scene or one line, and lives on.
+TEST_F(LoaderHostile, AFileThatCrashesAssimpIsOneLineAndTheCallerGoesOn) {
+  const std::string path = write("crash.dae", collada(1, "0"));
+  std::ostringstream warn;
+  try {
+    const Scene s = loadSceneFile(path, warn);
+    EXPECT_GT(s.indices.size(), 0u);
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("crash.dae"), std::string::npos) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  }
+  // The same loader, in the same process, reads a good file after it.
+  EXPECT_EQ(loadSceneFile(write("good.dae", collada(1)), warn).indices.size(), 3u);
+}
+
 // A binary little-endian PLY's header and its 3 float vertices, for `faces` faces read by `listLine`.
 std::string plyVertices(size_t faces, const std::string& listLine = "property list uchar int vertex_indices") {
   std::string s = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
