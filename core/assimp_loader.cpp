@@ -235,7 +235,7 @@ std::string failureAnswer(const Error& e) {
 }
 
 // In the reader process: assimp reads the file, and its scene is copied out as a RawScene.
-std::string readInChild(const std::string& path) {
+std::string readInChild(const std::string& path, uint64_t memory) {
   try {
     Assimp::Importer importer;
     auto* files = new GuardedFiles(path);
@@ -250,6 +250,7 @@ std::string readInChild(const std::string& path) {
     if (files->refused) throw *files->refused;
     if (!s || !s->mRootNode) {
       const std::string why = oneLineClipped(importer.GetErrorString(), 160);
+      if (why.find("bad_alloc") != std::string::npos) throw std::bad_alloc();
       // Points and lines are dropped on reading (SortByPType); a file of nothing else has no meshes left.
       if (why.find("No meshes remaining") != std::string::npos)
         throw Error("the file has no triangles (assimp: " + why + ")", path, "give a scene with triangle meshes");
@@ -318,7 +319,9 @@ std::string readInChild(const std::string& path) {
   } catch (const Error& e) {
     return failureAnswer(e);
   } catch (const std::bad_alloc&) {
-    return failureAnswer(Error("out of memory while loading", path, "the file is too large or malformed"));
+    return failureAnswer(Error("assimp ran out of memory reading it (it may use " + std::to_string(memory >> 20) +
+                                   " MiB: 1 GiB and 128 bytes a byte of file)",
+                               path, "the file is malformed, or too large for assimp: convert it to glTF"));
   } catch (const std::exception& e) {
     return failureAnswer(Error("assimp failed: " + oneLineClipped(e.what(), 160), path, "the file is malformed; re-export it"));
   }
@@ -398,8 +401,10 @@ Scene buildScene(const RawScene& raw, const std::string& path, std::ostream& war
         ++skipped;
         continue;
       }
-      const uint32_t base = uint32_t(scene.positions.size());
       const size_t vertices = mesh.vertices.size();
+      if (scene.positions.size() + vertices > UINT32_MAX)
+        throw Error("the flattened scene has more than 2^32 vertices", path, "coneshadow indexes vertices with 32 bits");
+      const uint32_t base = uint32_t(scene.positions.size());
       const bool normals = mesh.normals.size() == vertices && invertible;
       for (size_t v = 0; v < vertices; ++v) {
         const glm::vec3& p = mesh.vertices[v];
@@ -511,12 +516,16 @@ Scene buildScene(const RawScene& raw, const std::string& path, std::ostream& war
 }
 
 // assimp runs in a reader process: a file that crashes it, or makes it allocate without end, ends that
-// process, and the caller gets one line. It may grow by the machine's memory and use two minutes of CPU
-// plus a second per MiB of file.
+// process, and the caller gets one line. Its bounds, from the file's size: memory 1 GiB plus 128 bytes a
+// byte of file (the most a format needs is about 64: an OBJ face line of 8 bytes becomes a face object,
+// three vertices with normals and the triangulated copy; docs/ARCHITECTURE.md, "Scenes"), at most the
+// machine's; CPU two minutes plus a second per MiB.
 Scene readAssimp(const std::string& path, std::ostream& warn) {
   const std::string bytes = readSceneBytes(path);
   checkAssimpInput(path, bytes);
-  const ChildResult child = runInChild([&] { return readInChild(path); }, physicalMemoryBytes(), 120 + unsigned(bytes.size() >> 20));
+  uint64_t memory = (uint64_t(1) << 30) + 128 * uint64_t(bytes.size());
+  if (const uint64_t machine = physicalMemoryBytes()) memory = std::min(memory, machine);
+  const ChildResult child = runInChild([&] { return readInChild(path, memory); }, memory, 120 + unsigned(bytes.size() >> 20));
   if (!child.completed)
     throw Error("assimp's reader process " + child.how + " while reading it", path,
                 "the file is malformed or too large for assimp; re-export it, or convert it to glTF");

@@ -136,7 +136,10 @@ ChildResult runInChild(const std::function<std::string()>& work, uint64_t memory
     result.completed = true;
   } else if (WIFEXITED(status)) {
     switch (WEXITSTATUS(status)) {
-      case kOutOfMemory: result.how = "ran out of memory"; break;
+      case kOutOfMemory:
+        result.how = "ran out of memory";
+        if (memoryBytes) result.how += " (it may use " + std::to_string(memoryBytes >> 20) + " MiB)";
+        break;
       case kThrew: result.how = "failed with an unexpected exception"; break;
       case kWriteFailed: result.how = "could not send its result"; break;
       default: result.how = "stopped with exit status " + std::to_string(WEXITSTATUS(status)); break;
