@@ -256,19 +256,24 @@ TEST_F(LoaderHostile, AssimpNaNVerticesBadIndicesAndHugeNumbersAreErrors) {
 
 // ---- what slips past the checks and crashes assimp ---------------------------------------------------
 
+// What assimp makes of `path` may change with its version: a scene with triangles, or one line naming the file.
+void loadsOrIsOneLine(const std::string& path) {
+  std::ostringstream warn;
+  try {
+    EXPECT_GT(loadSceneFile(path, warn).indices.size(), 0u);
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(fs::path(path).filename().string()), std::string::npos) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  }
+}
+
 // A Collada file whose float_array says count="0" over three coordinates: assimp 5.2.5 dereferences a null
 // pointer on it. Whatever assimp does with it, the caller gets a scene or one line, and lives on.
 TEST_F(LoaderHostile, AFileThatCrashesAssimpIsOneLineAndTheCallerGoesOn) {
   const std::string path = write("crash.dae", collada(1, "0"));
+  loadsOrIsOneLine(path);
   std::ostringstream warn;
-  try {
-    const Scene s = loadSceneFile(path, warn);
-    EXPECT_GT(s.indices.size(), 0u);
-  } catch (const Error& e) {
-    const std::string what = e.what();
-    EXPECT_NE(what.find("crash.dae"), std::string::npos) << what;
-    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
-  }
   // The same loader, in the same process, reads a good file after it.
   EXPECT_EQ(loadSceneFile(write("good.dae", collada(1)), warn).indices.size(), 3u);
 }
@@ -285,15 +290,7 @@ TEST_F(LoaderHostile, AFileThatMakesAssimpAllocateWithoutEndIsOneLine) {
   ASSERT_NE(at, std::string::npos);
   dae[at + 3] = char(0xff);
   const std::string path = write("alloc.dae", dae);
-  std::ostringstream warn;
-  try {
-    const Scene s = loadSceneFile(path, warn);
-    EXPECT_GT(s.indices.size(), 0u);
-  } catch (const Error& e) {
-    const std::string what = e.what();
-    EXPECT_NE(what.find("alloc.dae"), std::string::npos) << what;
-    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
-  }
+  loadsOrIsOneLine(path);
 #endif
 }
 
