@@ -15,14 +15,6 @@
 
 #include "core/error.h"
 
-#if defined(__SANITIZE_ADDRESS__)
-#define CS_ADDRESS_SANITIZER 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define CS_ADDRESS_SANITIZER 1
-#endif
-#endif
-
 namespace cs {
 
 namespace {
@@ -31,7 +23,7 @@ namespace {
 constexpr int kThrew = 70, kOutOfMemory = 71, kWriteFailed = 72;
 
 // The caller's virtual size: the child's bound on its address space is this plus its allowance.
-[[maybe_unused]] uint64_t virtualBytes() {
+uint64_t virtualBytes() {
   FILE* f = std::fopen("/proc/self/statm", "r");
   if (!f) return 0;
   unsigned long long pages = 0;
@@ -43,15 +35,13 @@ constexpr int kThrew = 70, kOutOfMemory = 71, kWriteFailed = 72;
 [[noreturn]] void childMain(int out, const std::function<std::string()>& work, uint64_t memoryBytes, unsigned seconds) {
   const int devnull = ::open("/dev/null", O_WRONLY);
   if (devnull >= 0) ::dup2(devnull, STDERR_FILENO);
-#ifndef CS_ADDRESS_SANITIZER
+  // Over the caller's virtual size, which holds what a sanitizer reserved at start-up: the bound is on
+  // what the child adds.
   if (memoryBytes) {
     const rlim_t most = rlim_t(virtualBytes() + memoryBytes);
     const rlimit bound{most, most};
     ::setrlimit(RLIMIT_AS, &bound);
   }
-#else
-  (void)memoryBytes;
-#endif
   if (seconds) {
     const rlimit cpu{rlim_t(seconds), rlim_t(seconds) + 1};
     ::setrlimit(RLIMIT_CPU, &cpu);

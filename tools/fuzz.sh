@@ -5,6 +5,9 @@
 # test models (broken ones included), each run for CONESHADOW_FUZZ_SECONDS (default 60). A crash, sanitizer
 # report, exception other than cs::Error, hang (over 25 s on one input) or memory blow-up (over 2 GiB) fails
 # the run and prints the input that reproduces it: `build-fuzz/<loader>_fuzzer FILE` runs it again.
+# assimp parses in a reader process (core/child_process.h): what crashes it there is the loader's one-line
+# error, not a finding, though libFuzzer in that process may still leave an oom- or crash- file in
+# build-fuzz/findings; the run's verdict is its exit status.
 # Installs what it needs that is missing (as tools/setup.sh does), so the test suite never needs clang.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
