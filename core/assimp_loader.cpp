@@ -221,14 +221,15 @@ struct Reader {
 
 std::string failureAnswer(const Error& e) {
   // The message without the parts Error's constructor adds around it.
-  std::string what = e.what();
-  if (!e.where.empty() && what.rfind(e.where + ": ", 0) == 0) what.erase(0, e.where.size() + 2);
-  const std::string tail = " (" + e.hint + ")";
-  if (!e.hint.empty() && what.size() >= tail.size() && what.compare(what.size() - tail.size(), tail.size(), tail) == 0)
-    what.erase(what.size() - tail.size());
+  const std::string_view full = e.what();
+  const std::string head = e.where + ": ", tail = " (" + e.hint + ")";
+  std::string_view what = full;
+  if (!e.where.empty() && what.substr(0, head.size()) == head) what.remove_prefix(head.size());
+  if (!e.hint.empty() && what.size() >= tail.size() && what.substr(what.size() - tail.size()) == tail)
+    what.remove_suffix(tail.size());
   Writer w;
   w.pod(Answer::Failure);
-  w.text(what);
+  w.text(std::string(what));
   w.text(e.where);
   w.text(e.hint);
   return w.bytes;
