@@ -3,12 +3,15 @@
 #include "core/child_process.h"
 
 #include <fcntl.h>
+#include <poll.h>
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <new>
@@ -104,7 +107,22 @@ ChildResult runInChild(const std::function<std::string()>& work, uint64_t memory
   ::close(fds[1]);
   ChildResult result;
   char buffer[1 << 16];
+  // A child blocked without using CPU (a lock some other thread of the caller held at the fork) meets
+  // no CPU bound: the caller waits twice that long in wall-clock time, then ends it.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2 * uint64_t(seconds));
+  bool overdue = false;
   for (;;) {
+    if (seconds) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+      pollfd ready{fds[0], POLLIN, 0};
+      const int polled = left.count() > 0 ? ::poll(&ready, 1, int(std::min<int64_t>(left.count(), 1 << 30))) : 0;
+      if (polled < 0 && errno == EINTR) continue;
+      if (polled == 0) {
+        ::kill(pid, SIGKILL);
+        overdue = true;
+        break;
+      }
+    }
     const ssize_t n = ::read(fds[0], buffer, sizeof buffer);
     if (n > 0) {
       result.bytes.append(buffer, size_t(n));
@@ -122,7 +140,9 @@ ChildResult runInChild(const std::function<std::string()>& work, uint64_t memory
       return result;
     }
   }
-  if (WIFEXITED(status) && WEXITSTATUS(status) == 0) {
+  if (overdue) {
+    result.how = "did not finish within " + std::to_string(2 * uint64_t(seconds)) + " s";
+  } else if (WIFEXITED(status) && WEXITSTATUS(status) == 0) {
     result.completed = true;
   } else if (WIFEXITED(status)) {
     switch (WEXITSTATUS(status)) {

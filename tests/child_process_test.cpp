@@ -1,7 +1,9 @@
 // runInChild (core/child_process.h): what a child returns arrives whole, and a crash, an exception or an
 // allocation without end there comes back as a status while the caller goes on.
 #include <signal.h>
+#include <unistd.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <new>
 #include <string>
@@ -58,6 +60,17 @@ TEST(ChildProcess, AnAllocationWithoutEndEndsTheChildNotTheCaller) {
 #else
   EXPECT_EQ(r.how, "ran out of memory (it may use 1024 MiB)");
 #endif
+}
+
+TEST(ChildProcess, AChildThatBlocksIsEndedAfterTwiceItsCpuBound) {
+  const auto start = std::chrono::steady_clock::now();
+  const ChildResult r = runInChild([]() -> std::string {
+    ::pause();  // waits without using CPU, as on a lock no thread of the child will release
+    return "never";
+  }, 0, 1);
+  EXPECT_FALSE(r.completed);
+  EXPECT_EQ(r.how, "did not finish within 2 s");
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(60));
 }
 
 }  // namespace
