@@ -348,6 +348,16 @@ CS_FN bool rowStretchMeetsRect(uint first, uint last, uint width, uvec4 rect) {
   return ya < rect.w && yb >= rect.y && (ya != yb || (last - yb * width >= rect.x && first - ya * width < rect.z));
 }
 
+// The fused compaction's enumeration of the pixels that may hold geometry (LitRays::recordCompactionWithKeys,
+// rectDomain): the rect's rows top to bottom, each as `span` positions (its width rounded up to a whole
+// SCAN_ITEMS, so an invocation's positions lie in one row: consecutive pixels); position i's pixel, of a
+// row of the image `width` wide. Positions past the rect's width in their row (i % span >= x1 - x0) are
+// padding: never lit. The lit pixels come in row-major order, as over the whole image.
+CS_FN uint rectDomainPixel(uint i, uvec4 rect, uint span, uint width) {
+  uint row = i / span;
+  return (rect.y + row) * width + rect.x + (i - row * span);
+}
+
 #ifdef __cplusplus
 }  // namespace glsl
 using glsl::hilbertIndex;
@@ -376,6 +386,7 @@ using glsl::faceKey;
 using glsl::screenOffsetInTile;
 using glsl::screenOrderPixel;
 using glsl::rowStretchMeetsRect;
+using glsl::rectDomainPixel;
 using glsl::screenTileOrigin;
 constexpr uint32_t kRayKeyDegenerate = RAY_KEY_DEGENERATE;
 constexpr uint32_t kRayKeyBits = RAY_KEY_BITS;

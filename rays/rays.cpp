@@ -60,12 +60,26 @@ ScreenDomain screenDomain(uint32_t width, uint32_t height, RayOrder order) {
   return d;
 }
 
+RectDomain rectDomain(const PixelRect& r) {
+  RectDomain d;
+  if (r.x0 >= r.x1 || r.y0 >= r.y1) return d;  // one row of padding: no position is read
+  d.x0 = r.x0, d.y0 = r.y0, d.x1 = r.x1, d.y1 = r.y1;
+  d.span = sort::ceilDiv(r.x1 - r.x0, SCAN_ITEMS) * SCAN_ITEMS;
+  d.size = uint64_t(r.y1 - r.y0) * d.span;
+  return d;
+}
+
+uint64_t maxRectDomain(uint32_t width, uint32_t height) {
+  return std::max<uint64_t>(uint64_t(height) * (sort::ceilDiv(width, SCAN_ITEMS) * SCAN_ITEMS), SCAN_ITEMS);
+}
+
 namespace {
 // Invocations of lit_count.comp (and lit_runs.comp) over `positions` row-major positions: whole blocks.
 uint32_t blockInvocations(uint64_t positions) { return sort::ceilDiv(positions, SCAN_BLOCK) * SCAN_THREADS; }
 
 uint32_t checkedPixels(const vk::Context& ctx, uint32_t width, uint32_t height) {
-  uint64_t domain = std::max(screenDomain(width, height, RayOrder::ScreenMorton).size, uint64_t(width) * height);
+  uint64_t domain = std::max({screenDomain(width, height, RayOrder::ScreenMorton).size, uint64_t(width) * height,
+                              maxRectDomain(width, height)});
   sort::checkBinding(ctx, domain, 4, "lit samples");
   return uint32_t(uint64_t(width) * height);
 }
@@ -82,11 +96,12 @@ PixelRect clampedRect(const DeviceGBuffer& g) {
 LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
     : ctx_(ctx),
       maxPixels_(checkedPixels(ctx, width, height)),
-      maxDomain_(std::max(screenDomain(width, height, RayOrder::ScreenMorton).size, uint64_t(maxPixels_))),
+      maxDomain_(std::max({screenDomain(width, height, RayOrder::ScreenMorton).size, uint64_t(maxPixels_),
+                           maxRectDomain(width, height)})),
       compact_(ctx, uint32_t(maxDomain_)),
       sort_(ctx, maxPixels_),
       groups_(ctx),
-      runScan_(ctx, blockInvocations(maxPixels_)),
+      runScan_(ctx, blockInvocations(maxRectDomain(width, height))),
       itemScan_(ctx, std::max(maxPixels_, 1u)) {
   rayBounds_ = vk::createKernel(ctx, "ray_bounds", spv_ray_bounds_comp, 3, sizeof(KeysPush), {{0, 0u}});
   frameRayBounds_ = vk::createKernel(ctx, "ray_bounds (frame)", spv_ray_bounds_comp, 3, sizeof(KeysPush), {{0, 1u}});
@@ -99,8 +114,8 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
   mortonLitSamples_ = vk::createKernel(ctx, "lit_samples (Morton)", spv_lit_samples_comp, 3, sizeof(LitPush), {{0, 1u}});
   litRuns_ = vk::createKernel(ctx, "lit_runs", spv_lit_runs_comp, 8, sizeof(KeysPush), {{0, 0u}});
   frameLitRuns_ = vk::createKernel(ctx, "lit_runs (frame)", spv_lit_runs_comp, 8, sizeof(KeysPush), {{0, 1u}});
-  runItems_ = vk::createKernel(ctx, "run_items", spv_run_items_comp, 6, sizeof(KeysPush), {{0, 0u}});
-  frameRunItems_ = vk::createKernel(ctx, "run_items (frame)", spv_run_items_comp, 6, sizeof(KeysPush), {{0, 1u}});
+  runItems_ = vk::createKernel(ctx, "run_items", spv_run_items_comp, 7, sizeof(KeysPush), {{0, 0u}});
+  frameRunItems_ = vk::createKernel(ctx, "run_items (frame)", spv_run_items_comp, 7, sizeof(KeysPush), {{0, 1u}});
   for (uint32_t keys = 0; keys < 2; ++keys)
     for (uint32_t records = 0; records < 2; ++records)
       runExpand_[keys][records] =
@@ -116,9 +131,10 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
   keptBits_ = vk::createBuffer(ctx, uint64_t(sort::ceilDiv(maxDomain_, SCAN_BLOCK)) * SCAN_THREADS * 8);
   const uint64_t words = std::max(maxPixels_, 1u);
   runOrder_ = vk::createBuffer(ctx, words * 4);
-  runCells_ = vk::createBuffer(ctx, uint64_t(blockInvocations(maxPixels_)) * SCAN_ITEMS * 4);  // whole blocks
+  const uint32_t runInvocations = blockInvocations(maxRectDomain(width, height));
+  runCells_ = vk::createBuffer(ctx, uint64_t(runInvocations) * SCAN_ITEMS * 4);  // whole blocks
   runStarts_ = vk::createBuffer(ctx, words * 4);
-  runCounts_ = vk::createBuffer(ctx, uint64_t(blockInvocations(maxPixels_)) * 4);
+  runCounts_ = vk::createBuffer(ctx, uint64_t(runInvocations) * 4);
   runArgs_ = vk::createBuffer(ctx, 32, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
   geometryRect_ = vk::createBuffer(ctx, kGeometryRectBytes);
 }
@@ -164,22 +180,23 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
            "G-buffer of " << g.width << "x" << g.height << " exceeds the " << maxPixels_ << " pixels LitRays was made for");
   CS_CHECK(fusedKeys(), "compaction with keys: the sort takes no pairs on this device (LitRays::fusedKeys)");
   KeysPush push = frame;
-  push.count = uint32_t(pixels);  // lit_runs, run_items (and ray_bounds, recordBounds): the pixels
+  push.count = uint32_t(pixels);  // lit_runs (its fetches' clamp) and ray_bounds (recordBounds): the pixels
   const bool framed = frame.framed != 0u;
   keyBits_ = kRayKeyBits;
-  const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(pixels, SCAN_BLOCK));
+  // The positions: the rows of the pixels that may hold geometry (rectDomain), not the image.
+  const RectDomain d = rectDomain(clampedRect(g));
+  CS_CHECK(d.size <= maxRectDomain(g.width, g.height), "rect domain of " << d.size << " positions");
+  const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(d.size, SCAN_BLOCK));
   const vk::BufferRange position = vk::texels(g.position, kPixelTexels), grids = vk::texels(grids_, kGridTexels);
   cmd.fill(count_, 0, kLitWord * 4, 4);  // lit_runs adds its subgroups' lit counts (recordBounds' barrier)
-  // The pixels that may hold geometry, clamped to the image (lit_runs reads no other), and the width.
-  const PixelRect r = clampedRect(g);
-  const uint32_t rect[5] = {r.x0, r.y0, r.x1, r.y1, g.width};
-  for (uint32_t k = 0; k < 5; ++k) cmd.fill(geometryRect_, rect[k], k * 4, 4);
+  const uint32_t words[7] = {d.x0, d.y0, d.x1, d.y1, g.width, d.span, uint32_t(d.size)};
+  for (uint32_t k = 0; k < 7; ++k) cmd.fill(geometryRect_, words[k], k * 4, 4);
   recordBounds(cmd, g, push);  // the key grids first, from the pixels alone (its barriers order the fills)
-  // One pass over the pixels (lit_runs.comp): which are lit (their count to the lit word), and the runs of
-  // equal keys among them (every pixel's key cell, four at a time, kept per pixel); each invocation's
+  // One pass over the positions (lit_runs.comp): which are lit (their count to the lit word), and the runs
+  // of equal keys among them (every pixel's key cell, four at a time, kept per position); each invocation's
   // first run (the scan of its runs' counts, their total the runs' count), then one item a run as the
   // sort's input (run_items.comp: the leader's key from its cell).
-  const uint32_t invocations = blockInvocations(pixels);
+  const uint32_t invocations = blockInvocations(d.size);
   cmd.dispatch(framed ? frameLitRuns_ : litRuns_,
                {position, vk::texels(g.normal, kPixelTexels), keptBits_, vk::BufferRange(count_, 0, (kLitWord + 1) * 4),
                 grids, runCounts_, runCells_, vk::uniforms(geometryRect_, kGeometryRectBytes)},
@@ -191,7 +208,7 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
   const vk::Grid spans = sort::workgroupGrid(ctx_, sort::ceilDiv(invocations, RUN_ITEMS_SPAN * SCAN_THREADS));
   cmd.dispatch(framed ? frameRunItems_ : runItems_,
                {position, vk::texels(keptBits_, kPairTexels), vk::texels(runCounts_, kWordTexels), sort_.pairInput(),
-                grids, vk::texels(runCells_, kWordTexels)},
+                grids, vk::texels(runCells_, kWordTexels), vk::uniforms(geometryRect_, kGeometryRectBytes)},
                push, spans.x, spans.y);
   cmd.barrier();
   runsPending_ = true;

@@ -38,6 +38,20 @@ struct ScreenDomain {
 };
 ScreenDomain screenDomain(uint32_t width, uint32_t height, RayOrder order);
 
+// What the fused compaction (recordCompactionWithKeys) enumerates: the rows of `rect` (the pixels that may
+// hold geometry, clamped to the image), each padded to `span` positions, a whole SCAN_ITEMS
+// (rectDomainPixel); an empty rect as one row of padding. Its kernels, its scan and its workgroups scale
+// with the rect, not the image: a far view's scene covers a tenth of the image, and the per-invocation
+// work over the rest was most of the pass (docs/ARCHITECTURE.md, "rays/").
+struct RectDomain {
+  uint32_t x0 = 0, y0 = 0, x1 = 0, y1 = 1;  // the rect (x1 - x0 pixels of a row are real, the rest padding)
+  uint32_t span = SCAN_ITEMS;               // positions a row
+  uint64_t size = SCAN_ITEMS;               // positions enumerated: rows * span
+};
+RectDomain rectDomain(const PixelRect& clamped);
+// The most positions rectDomain gives for an image of width x height.
+uint64_t maxRectDomain(uint32_t width, uint32_t height);
+
 class LitRays {
  public:
   // Scratch for G-buffers of up to width x height pixels in any order.
@@ -118,7 +132,8 @@ class LitRays {
   // runOrder_ (the sorted runs: leader pixel | (length - 1) << RUN_PIXEL_BITS), runStarts_ (where each
   // starts in the order), runArgs_ (indirect arguments).
   vk::Buffer runKeys_, runCells_, runOrder_, runStarts_, runCounts_, runArgs_;
-  // lit_runs' binding 7: the G-buffer's geometryRect, clamped, and its width (two uvec4, std140).
+  // lit_runs' binding 7, run_items' 6: the enumeration (rectDomain) as two uvec4 (std140): the rect
+  // (x0, y0, x1, y1), then the image's width, the span and the positions.
   static constexpr VkDeviceSize kGeometryRectBytes = 32;
   vk::Buffer geometryRect_;
   bool keepSortedKeys_ = true;

@@ -933,6 +933,40 @@ TEST(LitRays, MatchTheCpuReferenceInEveryOrder) {
   }
 }
 
+// The fused compaction's enumeration (rectDomain, rectDomainPixel): its real positions are the rect's
+// pixels, each once, in row-major order; its rows are whole invocations (an invocation's positions are
+// consecutive pixels of one row); an empty rect enumerates padding alone; no rect of an image exceeds
+// maxRectDomain (the buffers' size).
+TEST(LitRays, TheRectDomainEnumeratesTheRectsPixelsInRowOrder) {
+  struct Case {
+    uint32_t width, height;
+    PixelRect rect;
+  };
+  const Case cases[] = {{700, 523, {0, 0, 700, 523}},  {700, 523, {251, 97, 417, 301}}, {64, 64, {0, 0, 64, 64}},
+                        {64, 64, {32, 5, 64, 6}},      {1024, 1024, {279, 391, 763, 685}}, {33, 2, {32, 1, 33, 2}},
+                        {700, 523, {0, 0, 0, 0}},      {700, 523, {10, 10, 10, 400}}};
+  for (const Case& c : cases) {
+    const rays::RectDomain d = rays::rectDomain(c.rect);
+    const std::string what = std::to_string(c.rect.x0) + "," + std::to_string(c.rect.y0) + " .. " +
+                             std::to_string(c.rect.x1) + "," + std::to_string(c.rect.y1);
+    EXPECT_EQ(d.span % SCAN_ITEMS, 0u) << what;
+    EXPECT_EQ(d.size % d.span, 0u) << what;
+    EXPECT_LE(d.size, rays::maxRectDomain(c.width, c.height)) << what;
+    std::vector<uint32_t> real;
+    const glm::uvec4 r(d.x0, d.y0, d.x1, d.y1);
+    for (uint32_t i = 0; i < d.size; ++i)
+      if (i % d.span < d.x1 - d.x0) real.push_back(rays::rectDomainPixel(i, r, d.span, c.width));
+    std::vector<uint32_t> want;
+    for (uint32_t y = c.rect.y0; y < c.rect.y1; ++y)
+      for (uint32_t x = c.rect.x0; x < c.rect.x1; ++x) want.push_back(y * c.width + x);
+    EXPECT_EQ(real, want) << what;
+    for (uint32_t i = 0; i + SCAN_ITEMS <= d.size; i += SCAN_ITEMS)  // an invocation: one row, consecutive
+      EXPECT_EQ(rays::rectDomainPixel(i + SCAN_ITEMS - 1, r, d.span, c.width),
+                rays::rectDomainPixel(i, r, d.span, c.width) + SCAN_ITEMS - 1)
+          << what << ", position " << i;
+  }
+}
+
 TEST(LitRays, SampleAtTheLightIsNeverLitAndEqualKeysKeepRowOrder) {
   auto& ctx = test::context();
   const glm::vec3 light(0.5f, 2.0f, -1.0f);
@@ -1310,6 +1344,12 @@ TEST(LitRays, FusedCompactionAndKeysMatchTheStepsOnSparseAndDenseFrames) {
         ASSERT_EQ(rays.readCount(), n) << what << ", within its geometry's rect";
         EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), n), samples, what << ": samples in the rect");
         EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.keys(), n), keys, what << ": keys in the rect");
+        // An empty rect: no position is read, nothing is lit, and the sort takes no run.
+        g.geometryRect = PixelRect{0, 0, 0, 0};
+        rays.recordCompactionWithKeys(cmd, g, push);
+        rays.recordSort(cmd, rays.count());
+        cmd.submit();
+        EXPECT_EQ(rays.readCount(), 0u) << what << ", in an empty rect";
         // The screen orders' compaction (lit_count.comp) likewise, in rows and in Morton tiles.
         for (rays::RayOrder order : {rays::RayOrder::ScreenRows, rays::RayOrder::ScreenMorton}) {
           g.geometryRect = PixelRect{};
