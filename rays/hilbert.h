@@ -196,6 +196,20 @@ CS_FN uint boundsSample(uint j, uint n) {
   return j * (n / RAY_BOUNDS_SAMPLES) + (j * (n % RAY_BOUNDS_SAMPLES)) / RAY_BOUNDS_SAMPLES;
 }
 
+// The first of the subset's members at or after pixel p (n pixels, p <= n): the least j with
+// boundsSample(j, n) >= p, ceil(p RAY_BOUNDS_SAMPLES / n) (RAY_BOUNDS_SAMPLES past the last), by long
+// division in 32 bits whatever n. ray_bounds.comp takes the members of a row of the rect from it.
+CS_FN uint firstBoundsSampleFrom(uint p, uint n) {
+  uint q = 0u, r = p;  // r < n throughout (p == n: the end)
+  if (r >= n) return RAY_BOUNDS_SAMPLES;
+  for (uint bit = 1u; bit < RAY_BOUNDS_SAMPLES; bit <<= 1u) {  // RAY_BOUNDS_SAMPLES is a power of two
+    bool carry = r >= n - r;  // 2 r >= n without overflow
+    r = carry ? r - (n - r) : r + r;
+    q = q + q + (carry ? 1u : 0u);
+  }
+  return q + (r != 0u ? 1u : 0u);
+}
+
 // The size of the run of keys `face` gets, as the order k of its 2^k x 2^k grid, from the subset's samples
 // on each face (counts, the bounds' words RAY_BOUNDS_COUNTS ..): the faces ranked by count (ties to the
 // lower face), each taking the largest order whose run leaves 4^RAY_KEY_MIN_ORDER keys for every face
@@ -379,6 +393,7 @@ using glsl::fromOrderedBits;
 using glsl::fittedFaceGrid;
 using glsl::zoomOrigin;
 using glsl::boundsSample;
+using glsl::firstBoundsSampleFrom;
 using glsl::faceRayKey;
 using glsl::faceKeySlot;
 using glsl::faceKeyGrid;

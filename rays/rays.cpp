@@ -33,8 +33,7 @@ constexpr uint32_t kLitWord = 0, kRunsWord = 1;
 constexpr uint32_t kRunGroupsArgs = 0, kRunScanArgs = 4;
 
 static_assert(RAY_BOUNDS_SAMPLES <= 65536u, "boundsSample: j * (n % RAY_BOUNDS_SAMPLES) in 32 bits");
-static_assert(RAY_BOUNDS_THREADS * RAY_BOUNDS_ITEMS * RAY_BOUNDS_GROUPS == RAY_BOUNDS_SAMPLES,
-              "ray_bounds.comp's grid covers the subset once");
+static_assert((RAY_BOUNDS_SAMPLES & (RAY_BOUNDS_SAMPLES - 1u)) == 0u, "firstBoundsSampleFrom: a power of two");
 static_assert(RAY_BOUNDS_COUNTS >= 24 && RAY_BOUNDS_COUNTS % 4 == 0 && RAY_BOUNDS_WORDS >= RAY_BOUNDS_COUNTS + 6,
               "four words for each of six faces, then a count each");
 
@@ -73,6 +72,10 @@ uint64_t maxRectDomain(uint32_t width, uint32_t height) {
   return std::max<uint64_t>(uint64_t(height) * (sort::ceilDiv(width, SCAN_ITEMS) * SCAN_ITEMS), SCAN_ITEMS);
 }
 
+uint32_t rayBoundsGroups(const RectDomain& d) {
+  return std::clamp<uint32_t>(sort::ceilDiv(d.y1 - d.y0, RAY_BOUNDS_THREADS), 1u, RAY_BOUNDS_GROUPS);
+}
+
 namespace {
 // Invocations of lit_count.comp (and lit_runs.comp) over `positions` row-major positions: whole blocks.
 uint32_t blockInvocations(uint64_t positions) { return sort::ceilDiv(positions, SCAN_BLOCK) * SCAN_THREADS; }
@@ -103,8 +106,8 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
       groups_(ctx),
       runScan_(ctx, blockInvocations(maxRectDomain(width, height))),
       itemScan_(ctx, std::max(maxPixels_, 1u)) {
-  rayBounds_ = vk::createKernel(ctx, "ray_bounds", spv_ray_bounds_comp, 3, sizeof(KeysPush), {{0, 0u}});
-  frameRayBounds_ = vk::createKernel(ctx, "ray_bounds (frame)", spv_ray_bounds_comp, 3, sizeof(KeysPush), {{0, 1u}});
+  rayBounds_ = vk::createKernel(ctx, "ray_bounds", spv_ray_bounds_comp, 4, sizeof(KeysPush), {{0, 0u}});
+  frameRayBounds_ = vk::createKernel(ctx, "ray_bounds (frame)", spv_ray_bounds_comp, 4, sizeof(KeysPush), {{0, 1u}});
   rayGrids_ = vk::createKernel(ctx, "ray_grids", spv_ray_grids_comp, 2, sizeof(KeysPush));
   rayKeys_ = vk::createKernel(ctx, "ray_keys", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 0u}});
   frameRayKeys_ = vk::createKernel(ctx, "ray_keys (frame)", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 1u}});
@@ -189,9 +192,7 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
   const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(d.size, SCAN_BLOCK));
   const vk::BufferRange position = vk::texels(g.position, kPixelTexels), grids = vk::texels(grids_, kGridTexels);
   cmd.fill(count_, 0, kLitWord * 4, 4);  // lit_runs adds its subgroups' lit counts (recordBounds' barrier)
-  const uint32_t words[7] = {d.x0, d.y0, d.x1, d.y1, g.width, d.span, uint32_t(d.size)};
-  for (uint32_t k = 0; k < 7; ++k) cmd.fill(geometryRect_, words[k], k * 4, 4);
-  recordBounds(cmd, g, push);  // the key grids first, from the pixels alone (its barriers order the fills)
+  recordBounds(cmd, g, push);  // the key grids first, from the pixels alone, and the enumeration's words
   // One pass over the positions (lit_runs.comp): which are lit (their count to the lit word), and the runs
   // of equal keys among them (every pixel's key cell, four at a time, kept per position); each invocation's
   // first run (the scan of its runs' counts, their total the runs' count), then one item a run as the
@@ -217,12 +218,18 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
 void LitRays::recordBounds(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& keys) {
   cmd.fill(bounds_, RAY_BOUNDS_EMPTY, 0, RAY_BOUNDS_COUNTS * 4);  // the boxes empty, the counts zero
   cmd.fill(bounds_, 0, RAY_BOUNDS_COUNTS * 4, bounds_.size - RAY_BOUNDS_COUNTS * 4);
+  // The pixels that may hold geometry (ray_bounds reads the subset's members in them) and the fused
+  // compaction's enumeration of them (lit_runs, run_items: rectDomain).
+  const RectDomain d = rectDomain(clampedRect(g));
+  const uint32_t words[7] = {d.x0, d.y0, d.x1, d.y1, g.width, d.span, uint32_t(d.size)};
+  for (uint32_t k = 0; k < 7; ++k) cmd.fill(geometryRect_, words[k], k * 4, 4);
   cmd.barrier();
   KeysPush push = keys;
   push.count = g.width * g.height;  // the subset is spread over the pixels
   cmd.dispatch(keys.framed ? frameRayBounds_ : rayBounds_,
-               {vk::texels(g.position, kPixelTexels), vk::texels(g.normal, kPixelTexels), bounds_}, push,
-               RAY_BOUNDS_GROUPS);
+               {vk::texels(g.position, kPixelTexels), vk::texels(g.normal, kPixelTexels), bounds_,
+                vk::uniforms(geometryRect_, kGeometryRectBytes)},
+               push, rayBoundsGroups(d));
   cmd.barrier();
   cmd.dispatch(rayGrids_, {bounds_, grids_}, push, 1);
   cmd.barrier();

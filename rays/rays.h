@@ -51,6 +51,10 @@ struct RectDomain {
 RectDomain rectDomain(const PixelRect& clamped);
 // The most positions rectDomain gives for an image of width x height.
 uint64_t maxRectDomain(uint32_t width, uint32_t height);
+// ray_bounds.comp's workgroups for the rect: an invocation a row, RAY_BOUNDS_GROUPS at most (then an
+// invocation takes every RAY_BOUNDS_GROUPS * RAY_BOUNDS_THREADS-th row); each workgroup's merge of its
+// boxes costs the same however few rows it has.
+uint32_t rayBoundsGroups(const RectDomain& d);
 
 class LitRays {
  public:
@@ -132,8 +136,8 @@ class LitRays {
   // runOrder_ (the sorted runs: leader pixel | (length - 1) << RUN_PIXEL_BITS), runStarts_ (where each
   // starts in the order), runArgs_ (indirect arguments).
   vk::Buffer runKeys_, runCells_, runOrder_, runStarts_, runCounts_, runArgs_;
-  // lit_runs' binding 7, run_items' 6: the enumeration (rectDomain) as two uvec4 (std140): the rect
-  // (x0, y0, x1, y1), then the image's width, the span and the positions.
+  // lit_runs' binding 7, run_items' 6, ray_bounds' 3: the enumeration (rectDomain) as two uvec4 (std140):
+  // the rect (x0, y0, x1, y1), then the image's width, the span and the positions (recordBounds fills it).
   static constexpr VkDeviceSize kGeometryRectBytes = 32;
   vk::Buffer geometryRect_;
   bool keepSortedKeys_ = true;
@@ -141,7 +145,8 @@ class LitRays {
   vk::Buffer keptBits_;
   // lit_count.comp over the push's enumeration, then the scan of its block counts (the lit count to count_).
   void recordLitCount(vk::Commands& cmd, const DeviceGBuffer& g, const LitPush& push);
-  // The faces' boxes over the subset of the G-buffer's pixels (ray_bounds.comp) and their grids (ray_grids.comp).
+  // The faces' boxes over the subset of the G-buffer's pixels (ray_bounds.comp, which reads the members in
+  // g.geometryRect) and their grids (ray_grids.comp); the enumeration's words (geometryRect_) first.
   void recordBounds(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& keys);
   uint32_t keyBits_ = RAY_KEY_BITS;  // of the keys the last recordKeys (or recordCompactionWithKeys) recorded
   bool runsPending_ = false;         // the last recording left its runs' items in the sort's input

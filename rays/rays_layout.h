@@ -7,10 +7,10 @@
 
 // Per-pixel kernels (ray keys, test kernels).
 #define PIXEL_THREADS 256
-// ray_bounds.comp: RAY_BOUNDS_GROUPS workgroups of RAY_BOUNDS_THREADS, each invocation RAY_BOUNDS_ITEMS
-// samples of the subset (their product is RAY_BOUNDS_SAMPLES, rays/hilbert.h).
+// ray_bounds.comp: up to RAY_BOUNDS_GROUPS workgroups of RAY_BOUNDS_THREADS (rays.h rayBoundsGroups), each
+// invocation the subset's members (RAY_BOUNDS_SAMPLES, rays/hilbert.h) in every invocations'-th row of the
+// pixels that may hold geometry.
 #define RAY_BOUNDS_THREADS 64
-#define RAY_BOUNDS_ITEMS 16
 #define RAY_BOUNDS_GROUPS 16
 
 // Unsorted ("screen") order: square tiles of 2^MORTON_TILE_BITS pixels a side, row-major, Morton

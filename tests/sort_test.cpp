@@ -1014,6 +1014,26 @@ TEST(LitRays, SampleAtTheLightIsNeverLitAndEqualKeysKeepRowOrder) {
   EXPECT_TRUE(inRun(keys[at(5)], 1)) << "|x| == |y| == |z| goes to -x";
 }
 
+// ray_bounds.comp reads a row's members of the subset from firstBoundsSampleFrom: the least j whose
+// pixel (boundsSample) is at or after p, for pixel counts below, at and far above RAY_BOUNDS_SAMPLES (up
+// to 2^32 - 1, where p RAY_BOUNDS_SAMPLES leaves 32 bits).
+TEST(RayKeys, FirstBoundsSampleFromIsTheFirstSubsetMemberAtOrAfterAPixel) {
+  std::mt19937 rng(5);
+  for (uint32_t n : {1u, 7u, 1000u, 16383u, 16384u, 16385u, 700u * 523u, 1u << 20, 4000000u, 0xFFFFFFFFu}) {
+    std::vector<uint32_t> ps = {0, n / 2, n - 1, n};
+    for (int k = 0; k < 200; ++k) ps.push_back(uint32_t(uint64_t(rng()) % (uint64_t(n) + 1)));
+    for (uint32_t p : ps) {
+      uint32_t want = RAY_BOUNDS_SAMPLES;  // by bisection over the monotone boundsSample
+      for (uint32_t lo = 0, hi = RAY_BOUNDS_SAMPLES; lo < hi;) {
+        const uint32_t mid = (lo + hi) / 2;
+        if (rays::boundsSample(mid, n) >= p) want = mid, hi = mid;
+        else lo = mid + 1;
+      }
+      ASSERT_EQ(rays::firstBoundsSampleFrom(p, n), want) << "pixel " << p << " of " << n;
+    }
+  }
+}
+
 TEST(RayKeys, OrderedBitsSortAsTheFloatsDo) {
   const float inf = std::numeric_limits<float>::infinity(), tiny = std::numeric_limits<float>::denorm_min();
   std::vector<float> v = {-inf, -CS_FLT_MAX, -1.0f, -tiny, -0.0f, 0.0f, tiny, 1e-30f, 1.0f, CS_FLT_MAX, inf};
@@ -1329,6 +1349,7 @@ TEST(LitRays, FusedCompactionAndKeysMatchTheStepsOnSparseAndDenseFrames) {
       EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), n), samples, what << ": samples");
       EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.keys(), n), keys, what << ": keys");
       EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.bounds(), 24), bounds, what << ": the boxes");
+      const std::vector<uint32_t> wholeBounds = vk::download<uint32_t>(ctx, rays.bounds(), RAY_BOUNDS_WORDS);
       // Fused, told the rect of the pixels with geometry (DeviceGBuffer::geometryRect, as the camera pass
       // gives it): the positions outside are not read, and nothing changes.
       if (pattern.empty) {
@@ -1344,6 +1365,9 @@ TEST(LitRays, FusedCompactionAndKeysMatchTheStepsOnSparseAndDenseFrames) {
         ASSERT_EQ(rays.readCount(), n) << what << ", within its geometry's rect";
         EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), n), samples, what << ": samples in the rect");
         EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.keys(), n), keys, what << ": keys in the rect");
+        EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.bounds(), RAY_BOUNDS_WORDS),
+                          wholeBounds,
+                          what << ": the boxes and counts from the subset's members in the rect");
         // An empty rect: no position is read, nothing is lit, and the sort takes no run.
         g.geometryRect = PixelRect{0, 0, 0, 0};
         rays.recordCompactionWithKeys(cmd, g, push);
