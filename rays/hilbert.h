@@ -354,6 +354,11 @@ CS_FN uvec2 screenOffsetInTile(uint i) {
   return uvec2(evenBits(local), evenBits(local >> 1u));
 }
 CS_FN uvec2 screenOrderPixel(uint i, uint tilesX) { return screenTileOrigin(i, tilesX) + screenOffsetInTile(i); }
+// The same in a window of the image's tiles tilesX wide whose first tile is (firstTile & 0xFFFF,
+// firstTile >> 16) (rays.h ScreenDomain): its tiles in the image's order.
+CS_FN uvec2 windowTileOrigin(uint i, uint tilesX, uint firstTile) {
+  return screenTileOrigin(i, tilesX) + (uvec2(firstTile & 0xFFFFu, firstTile >> 16u) << uint(MORTON_TILE_BITS));
+}
 // Whether row-major positions first .. last (rows of `width`) can meet the pixel rect (x0, y0, x1, y1),
 // exclusive ends: in its rows and, where they stay in one row, overlapping its columns (a stretch that
 // wraps to the next row: by the rows alone). lit_runs.comp and lit_count.comp skip a stretch that cannot.
@@ -403,6 +408,7 @@ using glsl::screenOrderPixel;
 using glsl::rowStretchMeetsRect;
 using glsl::rectDomainPixel;
 using glsl::screenTileOrigin;
+using glsl::windowTileOrigin;
 constexpr uint32_t kRayKeyDegenerate = RAY_KEY_DEGENERATE;
 constexpr uint32_t kRayKeyBits = RAY_KEY_BITS;
 constexpr uint32_t kRayKeyLast = RAY_KEY_LAST;

@@ -88,6 +88,21 @@ uint32_t checkedPixels(const vk::Context& ctx, uint32_t width, uint32_t height) 
 }
 }  // namespace
 
+ScreenDomain screenDomain(uint32_t width, uint32_t height, RayOrder order, const PixelRect& r) {
+  ScreenDomain d = screenDomain(width, height, order);
+  if (order != RayOrder::ScreenMorton) return d;
+  const uint32_t tile = 1u << MORTON_TILE_BITS;
+  if (r.x0 >= r.x1 || r.y0 >= r.y1) {  // no pixel can be lit: one tile, whose positions the rect test drops
+    d.tilesX = d.tilesY = 1;
+  } else {
+    d.tileX0 = r.x0 / tile, d.tileY0 = r.y0 / tile;
+    d.tilesX = sort::ceilDiv(r.x1, tile) - d.tileX0;
+    d.tilesY = sort::ceilDiv(r.y1, tile) - d.tileY0;
+  }
+  d.size = uint64_t(d.tilesX) * d.tilesY * tile * tile;
+  return d;
+}
+
 namespace {
 // g.geometryRect within the image (the default rect is the whole image, whatever its size).
 PixelRect clampedRect(const DeviceGBuffer& g) {
@@ -151,15 +166,16 @@ uint64_t LitRays::bytesAllocated() const {
 
 void LitRays::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, RayOrder order) {
   const uint64_t pixels = uint64_t(g.width) * g.height;
-  const ScreenDomain d = screenDomain(g.width, g.height, order);
+  const PixelRect r = clampedRect(g);
+  const ScreenDomain d = screenDomain(g.width, g.height, order, r);  // Morton: the rect's tiles
   CS_CHECK(pixels <= maxPixels_ && d.size <= maxDomain_,
            "G-buffer of " << g.width << "x" << g.height << " exceeds the " << maxPixels_ << " pixels LitRays was made for");
   const bool morton = order == RayOrder::ScreenMorton;
-  const PixelRect r = clampedRect(g);
   CS_CHECK(g.width < 65536 && g.height < 65536,
            "G-buffer of " << g.width << "x" << g.height << ": a side of at most 65535 pixels (LitPush's rect)");
-  const LitPush push{g.width,         g.height,           morton ? 1u : 0u, d.tilesX, uint32_t(d.size),
-                     r.x0 | r.x1 << 16, r.y0 | r.y1 << 16, 0,                 glm::vec4(light, 1.0f)};
+  const LitPush push{g.width,           g.height,           morton ? 1u : 0u,
+                     d.tilesX,          uint32_t(d.size),   r.x0 | r.x1 << 16,
+                     r.y0 | r.y1 << 16, d.tileX0 | d.tileY0 << 16, glm::vec4(light, 1.0f)};
   recordLitCount(cmd, g, push);
   const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(d.size, SCAN_BLOCK));
   cmd.dispatch(morton ? mortonLitSamples_ : litSamples_, {keptBits_, compact_.blockOffsets(), samples_}, push, grid.x,

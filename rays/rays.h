@@ -34,9 +34,15 @@ const char* rayOrderName(RayOrder order);
 // (positions outside it are never lit).
 struct ScreenDomain {
   uint32_t tilesX = 0, tilesY = 0;  // Morton tiles per row / column (0 for row-major)
+  uint32_t tileX0 = 0, tileY0 = 0;  // the first tile's column and row (a window of the image's tiles)
   uint64_t size = 0;                // positions enumerated
 };
 ScreenDomain screenDomain(uint32_t width, uint32_t height, RayOrder order);
+// In Morton order, only the window of tiles that meet `clamped` (the pixels that may hold geometry, within
+// the image; an empty rect: the first tile), in the same order: the same lit samples in the same order
+// from the positions of the rect's tiles instead of the image's (a far view's scene covers a tenth of it).
+// Row-major: the image, as above.
+ScreenDomain screenDomain(uint32_t width, uint32_t height, RayOrder order, const PixelRect& clamped);
 
 // What the fused compaction (recordCompactionWithKeys) enumerates: the rows of `rect` (the pixels that may
 // hold geometry, clamped to the image), each padded to `span` positions, a whole SCAN_ITEMS

@@ -35,7 +35,8 @@ struct LitPush {
   uint domain;      // elements enumerated: width * height, or tilesX * tilesY * tile area
   uint rectX, rectY;  // x0 | x1 << 16, y0 | y1 << 16: DeviceGBuffer::geometryRect, clamped (lit_count.comp
                       // reads no position outside it)
-  uint pad2;
+  uint firstTile;   // Morton: tileX0 | tileY0 << 16, the enumeration's first tile (ScreenDomain: the
+                    // window of tiles that meet the rect)
   vec4 light;       // xyz: the point light whose lit samples these are (lit_count.comp, litSampleFor)
 };
 

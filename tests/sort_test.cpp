@@ -179,6 +179,30 @@ TEST(SortSizing, ScreenDomainCoversTheImageWithWholeMortonTiles) {
   }
 }
 
+// The Morton enumeration of the tiles that meet a rect (screenDomain with the rect) holds the rect's
+// pixels in the image's enumeration order: the same samples in the same order, from fewer positions.
+TEST(SortSizing, TheMortonWindowOfARectKeepsItsPixelsInTheImagesOrder) {
+  const uint32_t w = 300, h = 200;
+  const PixelRect rects[] = {{0, 0, 300, 200}, {70, 20, 130, 150}, {64, 64, 128, 128}, {299, 199, 300, 200},
+                             {10, 10, 10, 20}};
+  const rays::ScreenDomain whole = rays::screenDomain(w, h, rays::RayOrder::ScreenMorton);
+  for (const PixelRect& r : rects) {
+    auto inRect = [&](glm::uvec2 p) { return p.x >= r.x0 && p.x < r.x1 && p.y >= r.y0 && p.y < r.y1; };
+    std::vector<uint32_t> want, got;
+    for (uint32_t i = 0; i < whole.size; ++i)
+      if (glm::uvec2 p = rays::screenOrderPixel(i, whole.tilesX); inRect(p)) want.push_back(p.y * w + p.x);
+    const rays::ScreenDomain d = rays::screenDomain(w, h, rays::RayOrder::ScreenMorton, r);
+    EXPECT_LE(d.size, whole.size);
+    const uint32_t first = d.tileX0 | d.tileY0 << 16;
+    for (uint32_t i = 0; i < d.size; ++i) {
+      const glm::uvec2 p = rays::windowTileOrigin(i, d.tilesX, first) + rays::screenOffsetInTile(i);
+      if (inRect(p)) got.push_back(p.y * w + p.x);
+    }
+    EXPECT_EQ(got, want) << r.x0 << "," << r.y0 << " .. " << r.x1 << "," << r.y1;
+  }
+  EXPECT_EQ(rays::screenDomain(w, h, rays::RayOrder::ScreenMorton, {70, 20, 130, 150}).size, 2u * 3 * 64 * 64);
+}
+
 // ---- scan ---------------------------------------------------------------------------------------
 
 TEST(Scan, MatchesCpuOnEveryLengthForRandomZeroAndOneInputs) {
