@@ -72,10 +72,6 @@ uint64_t maxRectDomain(uint32_t width, uint32_t height) {
   return std::max<uint64_t>(uint64_t(height) * (sort::ceilDiv(width, SCAN_ITEMS) * SCAN_ITEMS), SCAN_ITEMS);
 }
 
-uint32_t rayBoundsGroups(const RectDomain& d) {
-  return std::clamp<uint32_t>(sort::ceilDiv(d.y1 - d.y0, RAY_BOUNDS_THREADS), 1u, RAY_BOUNDS_GROUPS);
-}
-
 namespace {
 // Invocations of lit_count.comp (and lit_runs.comp) over `positions` row-major positions: whole blocks.
 uint32_t blockInvocations(uint64_t positions) { return sort::ceilDiv(positions, SCAN_BLOCK) * SCAN_THREADS; }
@@ -245,7 +241,7 @@ void LitRays::recordBounds(vk::Commands& cmd, const DeviceGBuffer& g, const Keys
   cmd.dispatch(keys.framed ? frameRayBounds_ : rayBounds_,
                {vk::texels(g.position, kPixelTexels), vk::texels(g.normal, kPixelTexels), bounds_,
                 vk::uniforms(geometryRect_, kGeometryRectBytes)},
-               push, rayBoundsGroups(d));
+               push, RAY_BOUNDS_GROUPS);
   cmd.barrier();
   cmd.dispatch(rayGrids_, {bounds_, grids_}, push, 1);
   cmd.barrier();

@@ -57,10 +57,6 @@ struct RectDomain {
 RectDomain rectDomain(const PixelRect& clamped);
 // The most positions rectDomain gives for an image of width x height.
 uint64_t maxRectDomain(uint32_t width, uint32_t height);
-// ray_bounds.comp's workgroups for the rect: an invocation a row, RAY_BOUNDS_GROUPS at most (then an
-// invocation takes every RAY_BOUNDS_GROUPS * RAY_BOUNDS_THREADS-th row); each workgroup's merge of its
-// boxes costs the same however few rows it has.
-uint32_t rayBoundsGroups(const RectDomain& d);
 
 class LitRays {
  public:
