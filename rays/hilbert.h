@@ -196,6 +196,20 @@ CS_FN uint boundsSample(uint j, uint n) {
   return j * (n / RAY_BOUNDS_SAMPLES) + (j * (n % RAY_BOUNDS_SAMPLES)) / RAY_BOUNDS_SAMPLES;
 }
 
+// The first of the subset's members at or after pixel p (n pixels, p <= n): the least j with
+// boundsSample(j, n) >= p, ceil(p RAY_BOUNDS_SAMPLES / n) (RAY_BOUNDS_SAMPLES past the last), by long
+// division in 32 bits whatever n. ray_bounds.comp takes the members of a row of the rect from it.
+CS_FN uint firstBoundsSampleFrom(uint p, uint n) {
+  uint q = 0u, r = p;  // r < n throughout (p == n: the end)
+  if (r >= n) return RAY_BOUNDS_SAMPLES;
+  for (uint bit = 1u; bit < RAY_BOUNDS_SAMPLES; bit <<= 1u) {  // RAY_BOUNDS_SAMPLES is a power of two
+    bool carry = r >= n - r;  // 2 r >= n without overflow
+    r = carry ? r - (n - r) : r + r;
+    q = q + q + (carry ? 1u : 0u);
+  }
+  return q + (r != 0u ? 1u : 0u);
+}
+
 // The size of the run of keys `face` gets, as the order k of its 2^k x 2^k grid, from the subset's samples
 // on each face (counts, the bounds' words RAY_BOUNDS_COUNTS ..): the faces ranked by count (ties to the
 // lower face), each taking the largest order whose run leaves 4^RAY_KEY_MIN_ORDER keys for every face
@@ -340,12 +354,27 @@ CS_FN uvec2 screenOffsetInTile(uint i) {
   return uvec2(evenBits(local), evenBits(local >> 1u));
 }
 CS_FN uvec2 screenOrderPixel(uint i, uint tilesX) { return screenTileOrigin(i, tilesX) + screenOffsetInTile(i); }
+// The same in a window of the image's tiles tilesX wide whose first tile is (firstTile & 0xFFFF,
+// firstTile >> 16) (rays.h ScreenDomain): its tiles in the image's order.
+CS_FN uvec2 windowTileOrigin(uint i, uint tilesX, uint firstTile) {
+  return screenTileOrigin(i, tilesX) + (uvec2(firstTile & 0xFFFFu, firstTile >> 16u) << uint(MORTON_TILE_BITS));
+}
 // Whether row-major positions first .. last (rows of `width`) can meet the pixel rect (x0, y0, x1, y1),
 // exclusive ends: in its rows and, where they stay in one row, overlapping its columns (a stretch that
 // wraps to the next row: by the rows alone). lit_runs.comp and lit_count.comp skip a stretch that cannot.
 CS_FN bool rowStretchMeetsRect(uint first, uint last, uint width, uvec4 rect) {
   uint ya = first / width, yb = last / width;
   return ya < rect.w && yb >= rect.y && (ya != yb || (last - yb * width >= rect.x && first - ya * width < rect.z));
+}
+
+// The fused compaction's enumeration of the pixels that may hold geometry (LitRays::recordCompactionWithKeys,
+// rectDomain): the rect's rows top to bottom, each as `span` positions (its width rounded up to a whole
+// SCAN_ITEMS, so an invocation's positions lie in one row: consecutive pixels); position i's pixel, of a
+// row of the image `width` wide. Positions past the rect's width in their row (i % span >= x1 - x0) are
+// padding: never lit. The lit pixels come in row-major order, as over the whole image.
+CS_FN uint rectDomainPixel(uint i, uvec4 rect, uint span, uint width) {
+  uint row = i / span;
+  return (rect.y + row) * width + rect.x + (i - row * span);
 }
 
 #ifdef __cplusplus
@@ -369,6 +398,7 @@ using glsl::fromOrderedBits;
 using glsl::fittedFaceGrid;
 using glsl::zoomOrigin;
 using glsl::boundsSample;
+using glsl::firstBoundsSampleFrom;
 using glsl::faceRayKey;
 using glsl::faceKeySlot;
 using glsl::faceKeyGrid;
@@ -376,7 +406,9 @@ using glsl::faceKey;
 using glsl::screenOffsetInTile;
 using glsl::screenOrderPixel;
 using glsl::rowStretchMeetsRect;
+using glsl::rectDomainPixel;
 using glsl::screenTileOrigin;
+using glsl::windowTileOrigin;
 constexpr uint32_t kRayKeyDegenerate = RAY_KEY_DEGENERATE;
 constexpr uint32_t kRayKeyBits = RAY_KEY_BITS;
 constexpr uint32_t kRayKeyLast = RAY_KEY_LAST;

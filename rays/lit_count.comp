@@ -3,7 +3,7 @@
 // Compaction of the lit samples, step 1 (rays.h, LitRays::recordCompaction; the fused compaction,
 // recordCompactionWithKeys, does this in lit_runs.comp, with the runs):
 // which positions of the enumeration (row-major pixels, or the tiled Morton screen order of the unsorted
-// variant, SPEC_MORTON) are lit samples (geometry present and the direct-light term for pc.light > 0,
+// variant, SPEC_MORTON, over the tiles that meet the rect: rays.h ScreenDomain) are lit samples (geometry present and the direct-light term for pc.light > 0,
 // litSampleFor: normal.w is not read), one bit each, and how many each block of SCAN_BLOCK positions holds. Invocation t of block b owns the
 // SCAN_ITEMS consecutive positions from b * SCAN_BLOCK + t * SCAN_ITEMS; kept[b * SCAN_THREADS + t] holds
 // its bits (bit k: the k-th of them is lit) and the lit positions of the block before its own. The
@@ -33,7 +33,7 @@ void main() {
   uint first = b * SCAN_BLOCK + t * SCAN_ITEMS;
   uint bits = 0u;
   // Morton: the invocation's positions share a tile (SCAN_ITEMS divides a tile's), so one division.
-  uvec2 origin = SPEC_MORTON != 0u ? screenTileOrigin(first, pc.tilesX) : uvec2(0u);
+  uvec2 origin = SPEC_MORTON != 0u ? windowTileOrigin(first, pc.tilesX, pc.firstTile) : uvec2(0u);
   uvec2 rx = uvec2(pc.rectX & 0xFFFFu, pc.rectX >> 16u), ry = uvec2(pc.rectY & 0xFFFFu, pc.rectY >> 16u);
   // Whether the invocation's positions can meet the rect: their box (Morton: an aligned block of the tile,
   // from its first corner to its last) or their rows and, in one row, columns. Where they cannot, the

@@ -23,7 +23,7 @@ void main() {
   uvec2 mine = kept[b * SCAN_THREADS + t];
   uint bits = mine.x, at = offsets[b] + mine.y;
   // Morton: the invocation's positions share a tile (SCAN_ITEMS divides a tile's), so one division.
-  uvec2 origin = SPEC_MORTON != 0u && bits != 0u ? screenTileOrigin(first, pc.tilesX) : uvec2(0u);
+  uvec2 origin = SPEC_MORTON != 0u && bits != 0u ? windowTileOrigin(first, pc.tilesX, pc.firstTile) : uvec2(0u);
   while (bits != 0u) {
     uint i = first + uint(findLSB(bits));
     bits &= bits - 1u;

@@ -2,21 +2,26 @@
 #extension GL_GOOGLE_include_directive : require
 // The fitted box of each face for the ray keys (rays/hilbert.h, RAY_BOUNDS_SAMPLES): the face
 // coordinates of the lit pixels among RAY_BOUNDS_SAMPLES pixels spread evenly over the frame's
-// (boundsSample of the pixel count, row-major), each invocation taking RAY_BOUNDS_ITEMS of them, and how
-// many of them each face has (the faces' runs of keys, faceKeySlot); in the far-light frame (SPEC_FRAMED)
+// (boundsSample of the pixel count, row-major), and how many of them each face has (the faces' runs of keys, faceKeySlot); in the far-light frame (SPEC_FRAMED)
 // the box of their frame coordinates instead (frameUV, face 0's words). An invocation keeps its own minima
 // and counts per face, the workgroup merges them in shared memory and adds them to the buffer with one
 // atomicMin (atomicAdd) a word. The subset comes from the G-buffer alone, before any compaction: the
-// fused compaction (lit_runs.comp) keys the pixels in the same pass that finds which are lit.
+// fused compaction (lit_runs.comp) keys the pixels in the same pass that finds which are lit. Only the
+// members inside the pixels that may hold geometry are read (the others are never lit): an invocation
+// takes rows of the rect, RAY_BOUNDS_GROUPS * RAY_BOUNDS_THREADS apart, and in each the members between
+// the rect's columns (firstBoundsSampleFrom), so a far view pays for its scene's rect; the boxes and
+// counts are those of the whole subset (rays.cpp referenceBounds), bit for bit.
 // bindings: 0 = position, 1 = normal (uniform texel buffers, RGBA32F: a texel per pixel), 2 = bounds
-//           (RAY_BOUNDS_WORDS uint: the boxes all ones, the counts zero before the dispatch); pc.count:
-//           the pixels
+//           (RAY_BOUNDS_WORDS uint: the boxes all ones, the counts zero before the dispatch), 3 = the rect
+//           (uniform: uvec4 x0, y0, x1, y1 of DeviceGBuffer::geometryRect, clamped; uvec4 the image's
+//           width, ...: lit_runs.comp's binding 7); pc.count: the pixels
 #include "rays/rays_layout.h"
 #include "rays/hilbert.h"
 layout(local_size_x = RAY_BOUNDS_THREADS) in;
 layout(binding = 0) uniform samplerBuffer position;
 layout(binding = 1) uniform samplerBuffer normal;
 layout(std430, binding = 2) buffer Bounds { uint bounds[]; };
+layout(std140, binding = 3) uniform Domain { uvec4 rect; uvec4 size; };
 layout(push_constant) uniform Push { KeysPush pc; };
 // = pc.framed: the box of the rays' coordinates in the rotated frame (ray_keys.comp).
 layout(constant_id = 0) const uint SPEC_FRAMED = 0u;
@@ -33,9 +38,11 @@ void main() {
   uvec4 least[6];
   uint seen[6];
   for (uint f = 0u; f < 6u; ++f) least[f] = uvec4(RAY_BOUNDS_EMPTY), seen[f] = 0u;
-  uint first = (gl_WorkGroupID.x * RAY_BOUNDS_THREADS + t) * RAY_BOUNDS_ITEMS;
-  for (uint k = 0u; k < RAY_BOUNDS_ITEMS && n > 0u; ++k) {
-    uint pixel = boundsSample(first + k, n);
+  uint inv = gl_WorkGroupID.x * RAY_BOUNDS_THREADS + t;
+  for (uint y = rect.y + inv; y < rect.w && n > 0u; y += uint(RAY_BOUNDS_GROUPS * RAY_BOUNDS_THREADS))
+  for (uint j = firstBoundsSampleFrom(y * size.x + rect.x, n), end = firstBoundsSampleFrom(y * size.x + rect.z, n);
+       j < end; ++j) {
+    uint pixel = boundsSample(j, n);
     vec4 x = texelFetch(position, int(pixel));
     if (!litSampleFor(x, texelFetch(normal, int(pixel)), pc.light.xyz)) continue;
     vec3 d = x.xyz - pc.light.xyz;

@@ -33,8 +33,7 @@ constexpr uint32_t kLitWord = 0, kRunsWord = 1;
 constexpr uint32_t kRunGroupsArgs = 0, kRunScanArgs = 4;
 
 static_assert(RAY_BOUNDS_SAMPLES <= 65536u, "boundsSample: j * (n % RAY_BOUNDS_SAMPLES) in 32 bits");
-static_assert(RAY_BOUNDS_THREADS * RAY_BOUNDS_ITEMS * RAY_BOUNDS_GROUPS == RAY_BOUNDS_SAMPLES,
-              "ray_bounds.comp's grid covers the subset once");
+static_assert((RAY_BOUNDS_SAMPLES & (RAY_BOUNDS_SAMPLES - 1u)) == 0u, "firstBoundsSampleFrom: a power of two");
 static_assert(RAY_BOUNDS_COUNTS >= 24 && RAY_BOUNDS_COUNTS % 4 == 0 && RAY_BOUNDS_WORDS >= RAY_BOUNDS_COUNTS + 6,
               "four words for each of six faces, then a count each");
 
@@ -60,16 +59,45 @@ ScreenDomain screenDomain(uint32_t width, uint32_t height, RayOrder order) {
   return d;
 }
 
+RectDomain rectDomain(const PixelRect& r) {
+  RectDomain d;
+  if (r.x0 >= r.x1 || r.y0 >= r.y1) return d;  // one row of padding: no position is read
+  d.x0 = r.x0, d.y0 = r.y0, d.x1 = r.x1, d.y1 = r.y1;
+  d.span = sort::ceilDiv(r.x1 - r.x0, SCAN_ITEMS) * SCAN_ITEMS;
+  d.size = uint64_t(r.y1 - r.y0) * d.span;
+  return d;
+}
+
+uint64_t maxRectDomain(uint32_t width, uint32_t height) {
+  return std::max<uint64_t>(uint64_t(height) * (sort::ceilDiv(width, SCAN_ITEMS) * SCAN_ITEMS), SCAN_ITEMS);
+}
+
 namespace {
 // Invocations of lit_count.comp (and lit_runs.comp) over `positions` row-major positions: whole blocks.
 uint32_t blockInvocations(uint64_t positions) { return sort::ceilDiv(positions, SCAN_BLOCK) * SCAN_THREADS; }
 
 uint32_t checkedPixels(const vk::Context& ctx, uint32_t width, uint32_t height) {
-  uint64_t domain = std::max(screenDomain(width, height, RayOrder::ScreenMorton).size, uint64_t(width) * height);
+  uint64_t domain = std::max({screenDomain(width, height, RayOrder::ScreenMorton).size, uint64_t(width) * height,
+                              maxRectDomain(width, height)});
   sort::checkBinding(ctx, domain, 4, "lit samples");
   return uint32_t(uint64_t(width) * height);
 }
 }  // namespace
+
+ScreenDomain screenDomain(uint32_t width, uint32_t height, RayOrder order, const PixelRect& r) {
+  ScreenDomain d = screenDomain(width, height, order);
+  if (order != RayOrder::ScreenMorton) return d;
+  const uint32_t tile = 1u << MORTON_TILE_BITS;
+  if (r.x0 >= r.x1 || r.y0 >= r.y1) {  // no pixel can be lit: one tile, whose positions the rect test drops
+    d.tilesX = d.tilesY = 1;
+  } else {
+    d.tileX0 = r.x0 / tile, d.tileY0 = r.y0 / tile;
+    d.tilesX = sort::ceilDiv(r.x1, tile) - d.tileX0;
+    d.tilesY = sort::ceilDiv(r.y1, tile) - d.tileY0;
+  }
+  d.size = uint64_t(d.tilesX) * d.tilesY * tile * tile;
+  return d;
+}
 
 namespace {
 // g.geometryRect within the image (the default rect is the whole image, whatever its size).
@@ -82,14 +110,15 @@ PixelRect clampedRect(const DeviceGBuffer& g) {
 LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
     : ctx_(ctx),
       maxPixels_(checkedPixels(ctx, width, height)),
-      maxDomain_(std::max(screenDomain(width, height, RayOrder::ScreenMorton).size, uint64_t(maxPixels_))),
+      maxDomain_(std::max({screenDomain(width, height, RayOrder::ScreenMorton).size, uint64_t(maxPixels_),
+                           maxRectDomain(width, height)})),
       compact_(ctx, uint32_t(maxDomain_)),
       sort_(ctx, maxPixels_),
       groups_(ctx),
-      runScan_(ctx, blockInvocations(maxPixels_)),
+      runScan_(ctx, blockInvocations(maxRectDomain(width, height))),
       itemScan_(ctx, std::max(maxPixels_, 1u)) {
-  rayBounds_ = vk::createKernel(ctx, "ray_bounds", spv_ray_bounds_comp, 3, sizeof(KeysPush), {{0, 0u}});
-  frameRayBounds_ = vk::createKernel(ctx, "ray_bounds (frame)", spv_ray_bounds_comp, 3, sizeof(KeysPush), {{0, 1u}});
+  rayBounds_ = vk::createKernel(ctx, "ray_bounds", spv_ray_bounds_comp, 4, sizeof(KeysPush), {{0, 0u}});
+  frameRayBounds_ = vk::createKernel(ctx, "ray_bounds (frame)", spv_ray_bounds_comp, 4, sizeof(KeysPush), {{0, 1u}});
   rayGrids_ = vk::createKernel(ctx, "ray_grids", spv_ray_grids_comp, 2, sizeof(KeysPush));
   rayKeys_ = vk::createKernel(ctx, "ray_keys", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 0u}});
   frameRayKeys_ = vk::createKernel(ctx, "ray_keys (frame)", spv_ray_keys_comp, 5, sizeof(KeysPush), {{0, 1u}});
@@ -99,8 +128,8 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
   mortonLitSamples_ = vk::createKernel(ctx, "lit_samples (Morton)", spv_lit_samples_comp, 3, sizeof(LitPush), {{0, 1u}});
   litRuns_ = vk::createKernel(ctx, "lit_runs", spv_lit_runs_comp, 8, sizeof(KeysPush), {{0, 0u}});
   frameLitRuns_ = vk::createKernel(ctx, "lit_runs (frame)", spv_lit_runs_comp, 8, sizeof(KeysPush), {{0, 1u}});
-  runItems_ = vk::createKernel(ctx, "run_items", spv_run_items_comp, 6, sizeof(KeysPush), {{0, 0u}});
-  frameRunItems_ = vk::createKernel(ctx, "run_items (frame)", spv_run_items_comp, 6, sizeof(KeysPush), {{0, 1u}});
+  runItems_ = vk::createKernel(ctx, "run_items", spv_run_items_comp, 7, sizeof(KeysPush), {{0, 0u}});
+  frameRunItems_ = vk::createKernel(ctx, "run_items (frame)", spv_run_items_comp, 7, sizeof(KeysPush), {{0, 1u}});
   for (uint32_t keys = 0; keys < 2; ++keys)
     for (uint32_t records = 0; records < 2; ++records)
       runExpand_[keys][records] =
@@ -116,9 +145,10 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
   keptBits_ = vk::createBuffer(ctx, uint64_t(sort::ceilDiv(maxDomain_, SCAN_BLOCK)) * SCAN_THREADS * 8);
   const uint64_t words = std::max(maxPixels_, 1u);
   runOrder_ = vk::createBuffer(ctx, words * 4);
-  runCells_ = vk::createBuffer(ctx, uint64_t(blockInvocations(maxPixels_)) * SCAN_ITEMS * 4);  // whole blocks
+  const uint32_t runInvocations = blockInvocations(maxRectDomain(width, height));
+  runCells_ = vk::createBuffer(ctx, uint64_t(runInvocations) * SCAN_ITEMS * 4);  // whole blocks
   runStarts_ = vk::createBuffer(ctx, words * 4);
-  runCounts_ = vk::createBuffer(ctx, uint64_t(blockInvocations(maxPixels_)) * 4);
+  runCounts_ = vk::createBuffer(ctx, uint64_t(runInvocations) * 4);
   runArgs_ = vk::createBuffer(ctx, 32, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
   geometryRect_ = vk::createBuffer(ctx, kGeometryRectBytes);
 }
@@ -132,15 +162,16 @@ uint64_t LitRays::bytesAllocated() const {
 
 void LitRays::recordCompaction(vk::Commands& cmd, const DeviceGBuffer& g, glm::vec3 light, RayOrder order) {
   const uint64_t pixels = uint64_t(g.width) * g.height;
-  const ScreenDomain d = screenDomain(g.width, g.height, order);
+  const PixelRect r = clampedRect(g);
+  const ScreenDomain d = screenDomain(g.width, g.height, order, r);  // Morton: the rect's tiles
   CS_CHECK(pixels <= maxPixels_ && d.size <= maxDomain_,
            "G-buffer of " << g.width << "x" << g.height << " exceeds the " << maxPixels_ << " pixels LitRays was made for");
   const bool morton = order == RayOrder::ScreenMorton;
-  const PixelRect r = clampedRect(g);
   CS_CHECK(g.width < 65536 && g.height < 65536,
            "G-buffer of " << g.width << "x" << g.height << ": a side of at most 65535 pixels (LitPush's rect)");
-  const LitPush push{g.width,         g.height,           morton ? 1u : 0u, d.tilesX, uint32_t(d.size),
-                     r.x0 | r.x1 << 16, r.y0 | r.y1 << 16, 0,                 glm::vec4(light, 1.0f)};
+  const LitPush push{g.width,           g.height,           morton ? 1u : 0u,
+                     d.tilesX,          uint32_t(d.size),   r.x0 | r.x1 << 16,
+                     r.y0 | r.y1 << 16, d.tileX0 | d.tileY0 << 16, glm::vec4(light, 1.0f)};
   recordLitCount(cmd, g, push);
   const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(d.size, SCAN_BLOCK));
   cmd.dispatch(morton ? mortonLitSamples_ : litSamples_, {keptBits_, compact_.blockOffsets(), samples_}, push, grid.x,
@@ -164,22 +195,21 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
            "G-buffer of " << g.width << "x" << g.height << " exceeds the " << maxPixels_ << " pixels LitRays was made for");
   CS_CHECK(fusedKeys(), "compaction with keys: the sort takes no pairs on this device (LitRays::fusedKeys)");
   KeysPush push = frame;
-  push.count = uint32_t(pixels);  // lit_runs, run_items (and ray_bounds, recordBounds): the pixels
+  push.count = uint32_t(pixels);  // lit_runs (its fetches' clamp) and ray_bounds (recordBounds): the pixels
   const bool framed = frame.framed != 0u;
   keyBits_ = kRayKeyBits;
-  const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(pixels, SCAN_BLOCK));
+  // The positions: the rows of the pixels that may hold geometry (rectDomain), not the image.
+  const RectDomain d = rectDomain(clampedRect(g));
+  CS_CHECK(d.size <= maxRectDomain(g.width, g.height), "rect domain of " << d.size << " positions");
+  const vk::Grid grid = sort::workgroupGrid(ctx_, sort::ceilDiv(d.size, SCAN_BLOCK));
   const vk::BufferRange position = vk::texels(g.position, kPixelTexels), grids = vk::texels(grids_, kGridTexels);
   cmd.fill(count_, 0, kLitWord * 4, 4);  // lit_runs adds its subgroups' lit counts (recordBounds' barrier)
-  // The pixels that may hold geometry, clamped to the image (lit_runs reads no other), and the width.
-  const PixelRect r = clampedRect(g);
-  const uint32_t rect[5] = {r.x0, r.y0, r.x1, r.y1, g.width};
-  for (uint32_t k = 0; k < 5; ++k) cmd.fill(geometryRect_, rect[k], k * 4, 4);
-  recordBounds(cmd, g, push);  // the key grids first, from the pixels alone (its barriers order the fills)
-  // One pass over the pixels (lit_runs.comp): which are lit (their count to the lit word), and the runs of
-  // equal keys among them (every pixel's key cell, four at a time, kept per pixel); each invocation's
+  recordBounds(cmd, g, push);  // the key grids first, from the pixels alone, and the enumeration's words
+  // One pass over the positions (lit_runs.comp): which are lit (their count to the lit word), and the runs
+  // of equal keys among them (every pixel's key cell, four at a time, kept per position); each invocation's
   // first run (the scan of its runs' counts, their total the runs' count), then one item a run as the
   // sort's input (run_items.comp: the leader's key from its cell).
-  const uint32_t invocations = blockInvocations(pixels);
+  const uint32_t invocations = blockInvocations(d.size);
   cmd.dispatch(framed ? frameLitRuns_ : litRuns_,
                {position, vk::texels(g.normal, kPixelTexels), keptBits_, vk::BufferRange(count_, 0, (kLitWord + 1) * 4),
                 grids, runCounts_, runCells_, vk::uniforms(geometryRect_, kGeometryRectBytes)},
@@ -191,7 +221,7 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
   const vk::Grid spans = sort::workgroupGrid(ctx_, sort::ceilDiv(invocations, RUN_ITEMS_SPAN * SCAN_THREADS));
   cmd.dispatch(framed ? frameRunItems_ : runItems_,
                {position, vk::texels(keptBits_, kPairTexels), vk::texels(runCounts_, kWordTexels), sort_.pairInput(),
-                grids, vk::texels(runCells_, kWordTexels)},
+                grids, vk::texels(runCells_, kWordTexels), vk::uniforms(geometryRect_, kGeometryRectBytes)},
                push, spans.x, spans.y);
   cmd.barrier();
   runsPending_ = true;
@@ -200,12 +230,18 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
 void LitRays::recordBounds(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& keys) {
   cmd.fill(bounds_, RAY_BOUNDS_EMPTY, 0, RAY_BOUNDS_COUNTS * 4);  // the boxes empty, the counts zero
   cmd.fill(bounds_, 0, RAY_BOUNDS_COUNTS * 4, bounds_.size - RAY_BOUNDS_COUNTS * 4);
+  // The pixels that may hold geometry (ray_bounds reads the subset's members in them) and the fused
+  // compaction's enumeration of them (lit_runs, run_items: rectDomain).
+  const RectDomain d = rectDomain(clampedRect(g));
+  const uint32_t words[7] = {d.x0, d.y0, d.x1, d.y1, g.width, d.span, uint32_t(d.size)};
+  for (uint32_t k = 0; k < 7; ++k) cmd.fill(geometryRect_, words[k], k * 4, 4);
   cmd.barrier();
   KeysPush push = keys;
   push.count = g.width * g.height;  // the subset is spread over the pixels
   cmd.dispatch(keys.framed ? frameRayBounds_ : rayBounds_,
-               {vk::texels(g.position, kPixelTexels), vk::texels(g.normal, kPixelTexels), bounds_}, push,
-               RAY_BOUNDS_GROUPS);
+               {vk::texels(g.position, kPixelTexels), vk::texels(g.normal, kPixelTexels), bounds_,
+                vk::uniforms(geometryRect_, kGeometryRectBytes)},
+               push, RAY_BOUNDS_GROUPS);
   cmd.barrier();
   cmd.dispatch(rayGrids_, {bounds_, grids_}, push, 1);
   cmd.barrier();

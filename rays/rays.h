@@ -34,9 +34,29 @@ const char* rayOrderName(RayOrder order);
 // (positions outside it are never lit).
 struct ScreenDomain {
   uint32_t tilesX = 0, tilesY = 0;  // Morton tiles per row / column (0 for row-major)
+  uint32_t tileX0 = 0, tileY0 = 0;  // the first tile's column and row (a window of the image's tiles)
   uint64_t size = 0;                // positions enumerated
 };
 ScreenDomain screenDomain(uint32_t width, uint32_t height, RayOrder order);
+// In Morton order, only the window of tiles that meet `clamped` (the pixels that may hold geometry, within
+// the image; an empty rect: the first tile), in the same order: the same lit samples in the same order
+// from the positions of the rect's tiles instead of the image's (a far view's scene covers a tenth of it).
+// Row-major: the image, as above.
+ScreenDomain screenDomain(uint32_t width, uint32_t height, RayOrder order, const PixelRect& clamped);
+
+// What the fused compaction (recordCompactionWithKeys) enumerates: the rows of `rect` (the pixels that may
+// hold geometry, clamped to the image), each padded to `span` positions, a whole SCAN_ITEMS
+// (rectDomainPixel); an empty rect as one row of padding. Its kernels, its scan and its workgroups scale
+// with the rect, not the image: a far view's scene covers a tenth of the image, and the per-invocation
+// work over the rest was most of the pass (docs/ARCHITECTURE.md, "rays/").
+struct RectDomain {
+  uint32_t x0 = 0, y0 = 0, x1 = 0, y1 = 1;  // the rect (x1 - x0 pixels of a row are real, the rest padding)
+  uint32_t span = SCAN_ITEMS;               // positions a row
+  uint64_t size = SCAN_ITEMS;               // positions enumerated: rows * span
+};
+RectDomain rectDomain(const PixelRect& clamped);
+// The most positions rectDomain gives for an image of width x height.
+uint64_t maxRectDomain(uint32_t width, uint32_t height);
 
 class LitRays {
  public:
@@ -118,7 +138,8 @@ class LitRays {
   // runOrder_ (the sorted runs: leader pixel | (length - 1) << RUN_PIXEL_BITS), runStarts_ (where each
   // starts in the order), runArgs_ (indirect arguments).
   vk::Buffer runKeys_, runCells_, runOrder_, runStarts_, runCounts_, runArgs_;
-  // lit_runs' binding 7: the G-buffer's geometryRect, clamped, and its width (two uvec4, std140).
+  // lit_runs' binding 7, run_items' 6, ray_bounds' 3: the enumeration (rectDomain) as two uvec4 (std140):
+  // the rect (x0, y0, x1, y1), then the image's width, the span and the positions (recordBounds fills it).
   static constexpr VkDeviceSize kGeometryRectBytes = 32;
   vk::Buffer geometryRect_;
   bool keepSortedKeys_ = true;
@@ -126,7 +147,8 @@ class LitRays {
   vk::Buffer keptBits_;
   // lit_count.comp over the push's enumeration, then the scan of its block counts (the lit count to count_).
   void recordLitCount(vk::Commands& cmd, const DeviceGBuffer& g, const LitPush& push);
-  // The faces' boxes over the subset of the G-buffer's pixels (ray_bounds.comp) and their grids (ray_grids.comp).
+  // The faces' boxes over the subset of the G-buffer's pixels (ray_bounds.comp, which reads the members in
+  // g.geometryRect) and their grids (ray_grids.comp); the enumeration's words (geometryRect_) first.
   void recordBounds(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& keys);
   uint32_t keyBits_ = RAY_KEY_BITS;  // of the keys the last recordKeys (or recordCompactionWithKeys) recorded
   bool runsPending_ = false;         // the last recording left its runs' items in the sort's input

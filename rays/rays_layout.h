@@ -7,10 +7,10 @@
 
 // Per-pixel kernels (ray keys, test kernels).
 #define PIXEL_THREADS 256
-// ray_bounds.comp: RAY_BOUNDS_GROUPS workgroups of RAY_BOUNDS_THREADS, each invocation RAY_BOUNDS_ITEMS
-// samples of the subset (their product is RAY_BOUNDS_SAMPLES, rays/hilbert.h).
+// ray_bounds.comp: RAY_BOUNDS_GROUPS workgroups of RAY_BOUNDS_THREADS, each invocation the subset's
+// members (RAY_BOUNDS_SAMPLES, rays/hilbert.h) in every (RAY_BOUNDS_GROUPS * RAY_BOUNDS_THREADS)-th row of
+// the pixels that may hold geometry.
 #define RAY_BOUNDS_THREADS 64
-#define RAY_BOUNDS_ITEMS 16
 #define RAY_BOUNDS_GROUPS 16
 
 // Unsorted ("screen") order: square tiles of 2^MORTON_TILE_BITS pixels a side, row-major, Morton
@@ -35,7 +35,8 @@ struct LitPush {
   uint domain;      // elements enumerated: width * height, or tilesX * tilesY * tile area
   uint rectX, rectY;  // x0 | x1 << 16, y0 | y1 << 16: DeviceGBuffer::geometryRect, clamped (lit_count.comp
                       // reads no position outside it)
-  uint pad2;
+  uint firstTile;   // Morton: tileX0 | tileY0 << 16, the enumeration's first tile (ScreenDomain: the
+                    // window of tiles that meet the rect)
   vec4 light;       // xyz: the point light whose lit samples these are (lit_count.comp, litSampleFor)
 };
 

@@ -6,19 +6,21 @@
 // host's bound: with a device count the dispatch is indirect (sort::IndirectGroups: only those tiles,
 // at least one), the table has no rows of tiles that did not run, and tile 0 writes its size,
 // (digitMask + 1) * tiles (0 for no keys), to binding 5 for the scan of the table, which then covers
-// those entries only.
+// those entries only, and after it the indirect arguments of the scan's level-0 grid (sort::Count::
+// withGroups): max(1, ceil(size / SCAN_BLOCK)) workgroups, where a grid for the capacity's table
+// launched them all (a far view's few runs fill a few tiles of a table sized for every pixel).
 // It also leaves the tile's ranking counters scanned in binding 4 (radix.glsl, kRankWords), which the
 // scatter then loads instead of counting the tile's keys a second time.
 // bindings: 0 = keys (uint[], read as uvec4), 1 = hist (uint[], (digitMask + 1) * tiles),
 //           2 = countWords (device count), 3 = pairs (PAIRS_IN: read instead of binding 0, as a uniform
 //           texel buffer, RGBA32UI), 4 = ranks (uint[kRankWords * tiles], written as uvec4), 5 = the
-//           table's entry count (one uint, written by tile 0)
+//           table's entry count, then its scan's grid x, y, 1 (four uint, written by tile 0)
 #include "sort/sort_layout.h"
 layout(std430, binding = 0) readonly buffer Keys { uvec4 keys4[]; };
 layout(std430, binding = 1) writeonly buffer Hist { uint hist[]; };
 layout(std430, binding = 2) readonly buffer CountWords { uint countWords[]; };
 layout(std430, binding = 4) writeonly buffer Ranks { uvec4 ranks4[]; };
-layout(std430, binding = 5) writeonly buffer TableCount { uint tableCount; };
+layout(std430, binding = 5) writeonly buffer TableCount { uint tableCount[4]; };
 layout(push_constant) uniform Push { RadixPush pc; };
 #include "sort/common.glsl"
 #define PAIR_TEXELS 3
@@ -41,7 +43,15 @@ void main() {
   uint t = gl_LocalInvocationIndex;
   // No keys (a device count of 0: the cone path's sort on a frame that keeps screen order): an empty
   // table, nothing to count or rank; the one tile launched only says so.
-  if (tile == 0u && t == 0u) tableCount = n == 0u ? 0u : (pc.digitMask + 1u) * tiles;
+  if (tile == 0u && t == 0u) {
+    uint entries = n == 0u ? 0u : (pc.digitMask + 1u) * tiles;
+    // The grid as vk::gridFor makes it, rows past 65535 workgroups (every device's least limit a side).
+    uint groups = max(ceilDiv(entries, uint(SCAN_BLOCK)), 1u), y = ceilDiv(groups, 65535u);
+    tableCount[0] = entries;
+    tableCount[1] = ceilDiv(groups, y);
+    tableCount[2] = y;
+    tableCount[3] = 1u;
+  }
   if (n == 0u) return;
   for (uint i = t; i < kWords + kWords / 32u; i += SORT_THREADS) counters[i] = 0u;
   barrier();

@@ -311,7 +311,7 @@ RadixSort::RadixSort(vk::Context& ctx, uint32_t capacity, SortShape shape, SortS
   const uint64_t rankWords = uint64_t(RADIX_WORDS * shape.threads + 4) * std::max(sortTiles(capacity, shape), 1u);
   if (!lookBack) checkBinding(ctx, rankWords, 4, "radix sort ranks");
   ranks_ = lookBack ? dummyBuffer(ctx) : vk::createBuffer(ctx, rankWords * 4);
-  tableCount_ = dummyBuffer(ctx);
+  tableCount_ = vk::createBuffer(ctx, 16, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
   dummy_ = dummyBuffer(ctx);
   args_ = vk::createBuffer(ctx, 16, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
   const uint32_t spins = lookBackSpins >= 0 ? uint32_t(lookBackSpins) : LOOKBACK_SPINS;
@@ -454,7 +454,10 @@ void RadixSort::recordPasses(vk::Commands& cmd, const vk::BufferRange& keys, con
       overTiles(count_[src.pairs],
                 {src.pairs ? vk::BufferRange(dummy_) : src.keys, table, countBinding, src.texels, ranks_, tableCount_},
                 push);
-      scan_->record(cmd, table, table, indirect ? Count::device(GpuWord(tableCount_, 0), entries) : Count(entries));
+      // (and its level-0 grid from the count pass's arguments after the count: the workgroups it needs)
+      scan_->record(cmd, table, table,
+                    indirect ? Count::device(GpuWord(tableCount_, 0), entries).withGroups(tableCount_.buffer, 4)
+                             : Count(entries));
     }
     // Scatter: stable rank inside the tile, written from the tile's start of each digit.
     const vk::BufferRange none(dummy_);

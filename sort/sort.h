@@ -269,7 +269,8 @@ class RadixSort {
   uint32_t spins_ = LOOKBACK_SPINS;
   vk::Buffer scratchA_, scratchB_, hist_, dummy_, args_;  // hist_: the table, or the look-back workspace
   vk::Buffer ranks_;  // reduce-then-scan: each tile's scanned counters, count pass to scatter (radix.glsl)
-  vk::Buffer tableCount_;  // reduce-then-scan: a pass's table entries, the device count of its scan
+  vk::Buffer tableCount_;  // reduce-then-scan: a pass's table entries, the device count of its scan, and
+                           // its scan's level-0 grid (x, y, 1: indirect arguments at byte 4)
 };
 
 }  // namespace cs::sort

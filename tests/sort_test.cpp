@@ -179,6 +179,30 @@ TEST(SortSizing, ScreenDomainCoversTheImageWithWholeMortonTiles) {
   }
 }
 
+// The Morton enumeration of the tiles that meet a rect (screenDomain with the rect) holds the rect's
+// pixels in the image's enumeration order: the same samples in the same order, from fewer positions.
+TEST(SortSizing, TheMortonWindowOfARectKeepsItsPixelsInTheImagesOrder) {
+  const uint32_t w = 300, h = 200;
+  const PixelRect rects[] = {{0, 0, 300, 200}, {70, 20, 130, 150}, {64, 64, 128, 128}, {299, 199, 300, 200},
+                             {10, 10, 10, 20}};
+  const rays::ScreenDomain whole = rays::screenDomain(w, h, rays::RayOrder::ScreenMorton);
+  for (const PixelRect& r : rects) {
+    auto inRect = [&](glm::uvec2 p) { return p.x >= r.x0 && p.x < r.x1 && p.y >= r.y0 && p.y < r.y1; };
+    std::vector<uint32_t> want, got;
+    for (uint32_t i = 0; i < whole.size; ++i)
+      if (glm::uvec2 p = rays::screenOrderPixel(i, whole.tilesX); inRect(p)) want.push_back(p.y * w + p.x);
+    const rays::ScreenDomain d = rays::screenDomain(w, h, rays::RayOrder::ScreenMorton, r);
+    EXPECT_LE(d.size, whole.size);
+    const uint32_t first = d.tileX0 | d.tileY0 << 16;
+    for (uint32_t i = 0; i < d.size; ++i) {
+      const glm::uvec2 p = rays::windowTileOrigin(i, d.tilesX, first) + rays::screenOffsetInTile(i);
+      if (inRect(p)) got.push_back(p.y * w + p.x);
+    }
+    EXPECT_EQ(got, want) << r.x0 << "," << r.y0 << " .. " << r.x1 << "," << r.y1;
+  }
+  EXPECT_EQ(rays::screenDomain(w, h, rays::RayOrder::ScreenMorton, {70, 20, 130, 150}).size, 2u * 3 * 64 * 64);
+}
+
 // ---- scan ---------------------------------------------------------------------------------------
 
 TEST(Scan, MatchesCpuOnEveryLengthForRandomZeroAndOneInputs) {
@@ -933,6 +957,40 @@ TEST(LitRays, MatchTheCpuReferenceInEveryOrder) {
   }
 }
 
+// The fused compaction's enumeration (rectDomain, rectDomainPixel): its real positions are the rect's
+// pixels, each once, in row-major order; its rows are whole invocations (an invocation's positions are
+// consecutive pixels of one row); an empty rect enumerates padding alone; no rect of an image exceeds
+// maxRectDomain (the buffers' size).
+TEST(LitRays, TheRectDomainEnumeratesTheRectsPixelsInRowOrder) {
+  struct Case {
+    uint32_t width, height;
+    PixelRect rect;
+  };
+  const Case cases[] = {{700, 523, {0, 0, 700, 523}},  {700, 523, {251, 97, 417, 301}}, {64, 64, {0, 0, 64, 64}},
+                        {64, 64, {32, 5, 64, 6}},      {1024, 1024, {279, 391, 763, 685}}, {33, 2, {32, 1, 33, 2}},
+                        {700, 523, {0, 0, 0, 0}},      {700, 523, {10, 10, 10, 400}}};
+  for (const Case& c : cases) {
+    const rays::RectDomain d = rays::rectDomain(c.rect);
+    const std::string what = std::to_string(c.rect.x0) + "," + std::to_string(c.rect.y0) + " .. " +
+                             std::to_string(c.rect.x1) + "," + std::to_string(c.rect.y1);
+    EXPECT_EQ(d.span % SCAN_ITEMS, 0u) << what;
+    EXPECT_EQ(d.size % d.span, 0u) << what;
+    EXPECT_LE(d.size, rays::maxRectDomain(c.width, c.height)) << what;
+    std::vector<uint32_t> real;
+    const glm::uvec4 r(d.x0, d.y0, d.x1, d.y1);
+    for (uint32_t i = 0; i < d.size; ++i)
+      if (i % d.span < d.x1 - d.x0) real.push_back(rays::rectDomainPixel(i, r, d.span, c.width));
+    std::vector<uint32_t> want;
+    for (uint32_t y = c.rect.y0; y < c.rect.y1; ++y)
+      for (uint32_t x = c.rect.x0; x < c.rect.x1; ++x) want.push_back(y * c.width + x);
+    EXPECT_EQ(real, want) << what;
+    for (uint32_t i = 0; i + SCAN_ITEMS <= d.size; i += SCAN_ITEMS)  // an invocation: one row, consecutive
+      EXPECT_EQ(rays::rectDomainPixel(i + SCAN_ITEMS - 1, r, d.span, c.width),
+                rays::rectDomainPixel(i, r, d.span, c.width) + SCAN_ITEMS - 1)
+          << what << ", position " << i;
+  }
+}
+
 TEST(LitRays, SampleAtTheLightIsNeverLitAndEqualKeysKeepRowOrder) {
   auto& ctx = test::context();
   const glm::vec3 light(0.5f, 2.0f, -1.0f);
@@ -978,6 +1036,26 @@ TEST(LitRays, SampleAtTheLightIsNeverLitAndEqualKeysKeepRowOrder) {
   };
   EXPECT_TRUE(inRun(keys[at(1)], 0)) << "x == y goes to +x";
   EXPECT_TRUE(inRun(keys[at(5)], 1)) << "|x| == |y| == |z| goes to -x";
+}
+
+// ray_bounds.comp reads a row's members of the subset from firstBoundsSampleFrom: the least j whose
+// pixel (boundsSample) is at or after p, for pixel counts below, at and far above RAY_BOUNDS_SAMPLES (up
+// to 2^32 - 1, where p RAY_BOUNDS_SAMPLES leaves 32 bits).
+TEST(RayKeys, FirstBoundsSampleFromIsTheFirstSubsetMemberAtOrAfterAPixel) {
+  std::mt19937 rng(5);
+  for (uint32_t n : {1u, 7u, 1000u, 16383u, 16384u, 16385u, 700u * 523u, 1u << 20, 4000000u, 0xFFFFFFFFu}) {
+    std::vector<uint32_t> ps = {0, n / 2, n - 1, n};
+    for (int k = 0; k < 200; ++k) ps.push_back(uint32_t(uint64_t(rng()) % (uint64_t(n) + 1)));
+    for (uint32_t p : ps) {
+      uint32_t want = RAY_BOUNDS_SAMPLES;  // by bisection over the monotone boundsSample
+      for (uint32_t lo = 0, hi = RAY_BOUNDS_SAMPLES; lo < hi;) {
+        const uint32_t mid = (lo + hi) / 2;
+        if (rays::boundsSample(mid, n) >= p) want = mid, hi = mid;
+        else lo = mid + 1;
+      }
+      ASSERT_EQ(rays::firstBoundsSampleFrom(p, n), want) << "pixel " << p << " of " << n;
+    }
+  }
 }
 
 TEST(RayKeys, OrderedBitsSortAsTheFloatsDo) {
@@ -1295,6 +1373,7 @@ TEST(LitRays, FusedCompactionAndKeysMatchTheStepsOnSparseAndDenseFrames) {
       EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), n), samples, what << ": samples");
       EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.keys(), n), keys, what << ": keys");
       EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.bounds(), 24), bounds, what << ": the boxes");
+      const std::vector<uint32_t> wholeBounds = vk::download<uint32_t>(ctx, rays.bounds(), RAY_BOUNDS_WORDS);
       // Fused, told the rect of the pixels with geometry (DeviceGBuffer::geometryRect, as the camera pass
       // gives it): the positions outside are not read, and nothing changes.
       if (pattern.empty) {
@@ -1310,6 +1389,15 @@ TEST(LitRays, FusedCompactionAndKeysMatchTheStepsOnSparseAndDenseFrames) {
         ASSERT_EQ(rays.readCount(), n) << what << ", within its geometry's rect";
         EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.samples(), n), samples, what << ": samples in the rect");
         EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.keys(), n), keys, what << ": keys in the rect");
+        EXPECT_SAME_ARRAY(vk::download<uint32_t>(ctx, rays.bounds(), RAY_BOUNDS_WORDS),
+                          wholeBounds,
+                          what << ": the boxes and counts from the subset's members in the rect");
+        // An empty rect: no position is read, nothing is lit, and the sort takes no run.
+        g.geometryRect = PixelRect{0, 0, 0, 0};
+        rays.recordCompactionWithKeys(cmd, g, push);
+        rays.recordSort(cmd, rays.count());
+        cmd.submit();
+        EXPECT_EQ(rays.readCount(), 0u) << what << ", in an empty rect";
         // The screen orders' compaction (lit_count.comp) likewise, in rows and in Morton tiles.
         for (rays::RayOrder order : {rays::RayOrder::ScreenRows, rays::RayOrder::ScreenMorton}) {
           g.geometryRect = PixelRect{};
