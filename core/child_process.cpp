@@ -36,6 +36,9 @@ uint64_t virtualBytes() {
 }
 
 [[noreturn]] void childMain(int out, const std::function<std::string()>& work, uint64_t memoryBytes, unsigned seconds) {
+  // The caller's handlers are the caller's: a crash reporter, a sanitizer's or a fuzzer's report, an
+  // interrupt flag. In the child a fault ends it, and the caller reads the signal.
+  for (const int sig : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL, SIGPIPE, SIGINT, SIGTERM}) ::signal(sig, SIG_DFL);
   const int devnull = ::open("/dev/null", O_WRONLY);
   if (devnull >= 0) ::dup2(devnull, STDERR_FILENO);
   // Over the caller's virtual size, which holds what a sanitizer reserved at start-up: the bound is on

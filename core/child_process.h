@@ -15,7 +15,8 @@ struct ChildResult {
 };
 
 // Runs `work` in a forked child and returns what it returned. In the child: only the calling thread
-// exists (work must not need the others), stderr goes to /dev/null, the address space may grow by at most
+// exists (work must not need the others), the fault and interrupt signals have their default actions
+// (the caller's handlers stay the caller's), stderr goes to /dev/null, the address space may grow by at most
 // `memoryBytes` over the caller's (0: no bound),
 // `seconds` of CPU time at most (0: no bound; the caller ends a child still running after twice that in
 // wall-clock time), and an exception out of `work` ends it as a failure. A
