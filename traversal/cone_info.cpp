@@ -121,7 +121,8 @@ MethodInfo coneMethodInfo() {
       {"leaf-rays", "N",
        "rays a leaf pair covers: 4 (paper 002's leaves: the pairs of the deepest interior depth), 16 or 64 (the "
        "traversal stops one or two depths earlier, its most numerous steps, and the leaves test the 16 or 64 "
-       "rays under a pair's node); auto (default) takes 64 on a CPU device (lavapipe), 4 on a GPU; a --variant "
+       "rays under a pair's node); auto (default): on a CPU device (lavapipe) chosen per batch on the device from "
+       "its counts (4, 16 or 64; leaf_rays_choice in the stats says why), 4 on a GPU; a --variant "
        "named without it takes 4, as the paper does (the same mask)",
        {"auto", "4", "16", "64"}},
       {"leaf-test", "T",
