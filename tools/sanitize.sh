@@ -23,8 +23,8 @@
 # - RelWithDebInfo with -g1: line tables only. The reports' stacks keep every function and file:line,
 #   inlined frames included (only a debugger's local variables go), and the sanitized files compile
 #   25-45 % faster than with -g (measured on cone_method.cpp, cli.cpp, metrics.cpp, traversal_test.cpp).
-# - The test files compile at -O0 (tests/CMakeLists.txt: 370 s of compiler time instead of ~1,400 at
-#   -O2, the same test times) and the executables link at a fixed address (CMakeLists.txt: a process
+# - The test files compile at -O0 (tests/CMakeLists.txt: 370 s of compiler time, about three times that
+#   at -O2, the same test times) and the executables link at a fixed address (CMakeLists.txt: a process
 #   starts in 0.35 s, not 0.9): the quick tests here 919 -> 697 s on 2 cores.
 # - The Release run's test costs (build/Testing) seed build-asan's, so ctest starts the longest first.
 # CONESHADOW_SANITIZE_ALL=1 runs every test, slow ones included; arguments (e.g. -R Cli) pick the tests
