@@ -8,7 +8,12 @@
 // not trustworthy on lavapipe), as nanoseconds per access of one invocation and as a ratio to the vec4
 // storage load in the same run, the peer every other kind is weighed against, both less a baseline
 // dispatch that computes the same indices and touches no memory.
+// Then what a dispatch costs apart from its work: --dispatches of one kind recorded in one submission
+// (a workgroup that returns at once, an indirect dispatch of zero workgroups, each followed by a barrier,
+// and a barrier alone), microseconds a dispatch against the one-workgroup dispatch in the same run. On
+// lavapipe that dispatch is its thread pool's hand-off (LP_NUM_THREADS=0 runs it on the submitting thread).
 //   access_bench [--device D] [--runs 5] [--invocations 1048576] [--per-item 16] [--elements 4194304]
+//                [--dispatches 2000]
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -43,7 +48,7 @@ double middle(std::vector<double> v) {
 int main(int argc, char** argv) {
   std::string device;
   int runs = 5;
-  uint32_t invocations = 1u << 20, perItem = 16, elements = 1u << 22;
+  uint32_t invocations = 1u << 20, perItem = 16, elements = 1u << 22, dispatches = 2000;
   try {
     for (int i = 1; i < argc; ++i) {
       const std::string a = argv[i];
@@ -53,11 +58,13 @@ int main(int argc, char** argv) {
       else if (a == "--invocations") invocations = uint32_t(std::stoul(next()));
       else if (a == "--per-item") perItem = uint32_t(std::stoul(next()));
       else if (a == "--elements") elements = uint32_t(std::stoul(next()));
+      else if (a == "--dispatches") dispatches = uint32_t(std::stoul(next()));
       else
         throw UsageError("unknown option '" + a + "' (usage: access_bench [--device D] [--runs N] [--invocations N] "
-                         "[--per-item N] [--elements N])");
+                         "[--per-item N] [--elements N] [--dispatches N])");
     }
-    if (invocations == 0 || perItem == 0 || elements == 0) throw UsageError("counts must be positive");
+    if (invocations == 0 || perItem == 0 || elements == 0 || dispatches == 0)
+      throw UsageError("counts must be positive");
     if (elements & (elements - 1)) throw UsageError("--elements must be a power of two");
     auto ctx = bench::benchContext(device);
     const uint64_t srcBytes = uint64_t(elements) * 16, outBytes = uint64_t(std::max(elements, invocations)) * 16;
@@ -110,6 +117,38 @@ int main(int argc, char** argv) {
     std::printf("\nns per access: the wall time over invocations × accesses (a scalar-load row's access is a vec4\n"
                 "read as four floats); less the baseline: what the access adds to the loop that computes its index;\n"
                 "× vec4 storage load: that, over the vec4 load's, same pattern, same run.\n");
+
+    // What a dispatch costs apart from its work: `dispatches` of one kind in one submission.
+    const char* kinds[3] = {"one workgroup that returns at once, then a barrier",
+                            "indirect, zero workgroups, then a barrier", "a barrier alone"};
+    vk::Buffer args = vk::createBuffer(*ctx, 16, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
+    {
+      const uint32_t zero[4] = {0, 1, 1, 0};
+      vk::upload(*ctx, args, zero, sizeof(zero));
+    }
+    const Push none{kBaseline, elements, 1, 0, 0, 0, 0, 0};  // no invocation passes its first test
+    double us[3];
+    for (uint32_t kind = 0; kind < 3; ++kind) {
+      std::vector<double> times;
+      for (int r = 0; r <= runs; ++r) {
+        vk::Commands cmd(*ctx);
+        for (uint32_t d = 0; d < dispatches; ++d) {
+          if (kind == 0) cmd.dispatch(kernel, {src, src, texels, out, atomics}, none, 1);
+          if (kind == 1) cmd.dispatchIndirect(kernel, {src, src, texels, out, atomics}, &none, sizeof(none), args);
+          cmd.barrier();
+        }
+        const auto t0 = std::chrono::steady_clock::now();
+        cmd.submit();
+        const double t = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
+        if (r > 0) times.push_back(t / dispatches);
+      }
+      us[kind] = middle(times);
+    }
+    std::printf("\n%u dispatches of a kind in one submission, median of %d submissions after a warm-up:\n\n"
+                "| dispatch | µs each | × one workgroup |\n| --- | ---: | ---: |\n",
+                dispatches, runs);
+    for (uint32_t kind = 0; kind < 3; ++kind)
+      std::printf("| %s | %.2f | %.3f× |\n", kinds[kind], us[kind], us[0] > 0 ? us[kind] / us[0] : 0.0);
     return 0;
   } catch (const UsageError& e) {
     std::fprintf(stderr, "access_bench: %s\n", e.what());
