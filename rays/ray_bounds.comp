@@ -8,7 +8,8 @@
 // atomicMin (atomicAdd) a word. The subset comes from the G-buffer alone, before any compaction: the
 // fused compaction (lit_runs.comp) keys the pixels in the same pass that finds which are lit. Only the
 // members inside the pixels that may hold geometry are read (the others are never lit): an invocation
-// takes rows of the rect, RAY_BOUNDS_GROUPS * RAY_BOUNDS_THREADS apart, and in each the members between
+// takes rows of the rect, (workgroups launched) * RAY_BOUNDS_THREADS apart (RAY_BOUNDS_GROUPS workgroups, or
+// fewer, none, for a frame that sorts few rays or none: rays.cpp recordBounds), and in each the members between
 // the rect's columns (firstBoundsSampleFrom), so a far view pays for its scene's rect; the boxes and
 // counts are those of the whole subset (rays.cpp referenceBounds), bit for bit.
 // bindings: 0 = position, 1 = normal (uniform texel buffers, RGBA32F: a texel per pixel), 2 = bounds
@@ -39,7 +40,7 @@ void main() {
   uint seen[6];
   for (uint f = 0u; f < 6u; ++f) least[f] = uvec4(RAY_BOUNDS_EMPTY), seen[f] = 0u;
   uint inv = gl_WorkGroupID.x * RAY_BOUNDS_THREADS + t;
-  for (uint y = rect.y + inv; y < rect.w && n > 0u; y += uint(RAY_BOUNDS_GROUPS * RAY_BOUNDS_THREADS))
+  for (uint y = rect.y + inv; y < rect.w && n > 0u; y += gl_NumWorkGroups.x * uint(RAY_BOUNDS_THREADS))
   for (uint j = firstBoundsSampleFrom(y * size.x + rect.x, n), end = firstBoundsSampleFrom(y * size.x + rect.z, n);
        j < end; ++j) {
     uint pixel = boundsSample(j, n);

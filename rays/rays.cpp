@@ -141,7 +141,7 @@ LitRays::LitRays(vk::Context& ctx, uint32_t width, uint32_t height)
   count_ = vk::createBuffer(ctx, 16);
   bounds_ = vk::createBuffer(ctx, RAY_BOUNDS_WORDS * 4);
   grids_ = vk::createBuffer(ctx, 8 * 16);
-  keyArgs_ = vk::createBuffer(ctx, 16, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
+  keyArgs_ = vk::createBuffer(ctx, 32, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
   keptBits_ = vk::createBuffer(ctx, uint64_t(sort::ceilDiv(maxDomain_, SCAN_BLOCK)) * SCAN_THREADS * 8);
   const uint64_t words = std::max(maxPixels_, 1u);
   runOrder_ = vk::createBuffer(ctx, words * 4);
@@ -227,7 +227,7 @@ void LitRays::recordCompactionWithKeys(vk::Commands& cmd, const DeviceGBuffer& g
   runsPending_ = true;
 }
 
-void LitRays::recordBounds(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& keys) {
+void LitRays::recordBounds(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& keys, const sort::Count* sortCount) {
   cmd.fill(bounds_, RAY_BOUNDS_EMPTY, 0, RAY_BOUNDS_COUNTS * 4);  // the boxes empty, the counts zero
   cmd.fill(bounds_, 0, RAY_BOUNDS_COUNTS * 4, bounds_.size - RAY_BOUNDS_COUNTS * 4);
   // The pixels that may hold geometry (ray_bounds reads the subset's members in them) and the fused
@@ -235,13 +235,21 @@ void LitRays::recordBounds(vk::Commands& cmd, const DeviceGBuffer& g, const Keys
   const RectDomain d = rectDomain(clampedRect(g));
   const uint32_t words[7] = {d.x0, d.y0, d.x1, d.y1, g.width, d.span, uint32_t(d.size)};
   for (uint32_t k = 0; k < 7; ++k) cmd.fill(geometryRect_, words[k], k * 4, 4);
+  // With the keys' count on the device: min(count, RAY_BOUNDS_GROUPS) workgroups (ray_bounds.comp strides
+  // by the workgroups launched; the boxes do not depend on how many), none where nothing will be sorted.
+  const bool indirect = sortCount && sortCount->onDevice();
+  if (indirect)
+    groups_.record(cmd, sort::Count::device(sortCount->word, RAY_BOUNDS_GROUPS), 1, keyArgs_, kBoundsArgs);
   cmd.barrier();
   KeysPush push = keys;
   push.count = g.width * g.height;  // the subset is spread over the pixels
-  cmd.dispatch(keys.framed ? frameRayBounds_ : rayBounds_,
-               {vk::texels(g.position, kPixelTexels), vk::texels(g.normal, kPixelTexels), bounds_,
-                vk::uniforms(geometryRect_, kGeometryRectBytes)},
-               push, RAY_BOUNDS_GROUPS);
+  const vk::Kernel& bounds = keys.framed ? frameRayBounds_ : rayBounds_;
+  const std::initializer_list<vk::BufferRange> bindings = {vk::texels(g.position, kPixelTexels), vk::texels(g.normal, kPixelTexels),
+                                                           bounds_, vk::uniforms(geometryRect_, kGeometryRectBytes)};
+  if (indirect)
+    cmd.dispatchIndirect(bounds, bindings, &push, sizeof(push), keyArgs_, kBoundsArgs * 4);
+  else
+    cmd.dispatch(bounds, bindings, push, RAY_BOUNDS_GROUPS);
   cmd.barrier();
   cmd.dispatch(rayGrids_, {bounds_, grids_}, push, 1);
   cmd.barrier();
@@ -268,7 +276,7 @@ void LitRays::recordKeys(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPu
     countBinding.offset = 0;
     countBinding.range = (VkDeviceSize(count.word.index) + 1) * 4;
   }
-  recordBounds(cmd, g, push);  // each face's (or the frame's) box over the subset, for its fitted grid
+  recordBounds(cmd, g, push, &count);  // each face's (or the frame's) box over the subset, for its fitted grid
   const vk::Kernel& keys = framed ? frameRayKeys_ : rayKeys_;
   const vk::BufferRange grids = vk::texels(grids_, kGridTexels);
   if (count.onDevice()) {  // as many workgroups as the device count needs (none for a count of 0)

@@ -148,8 +148,12 @@ class LitRays {
   // lit_count.comp over the push's enumeration, then the scan of its block counts (the lit count to count_).
   void recordLitCount(vk::Commands& cmd, const DeviceGBuffer& g, const LitPush& push);
   // The faces' boxes over the subset of the G-buffer's pixels (ray_bounds.comp, which reads the members in
-  // g.geometryRect) and their grids (ray_grids.comp); the enumeration's words (geometryRect_) first.
-  void recordBounds(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& keys);
+  // g.geometryRect) and their grids (ray_grids.comp); the enumeration's words (geometryRect_) first. With
+  // a device count (`sortCount`: the rays the keys will take), the boxes' workgroups are launched only
+  // where it is not 0: a frame whose measured order keeps the screen's sorts nothing and needs no grid.
+  void recordBounds(vk::Commands& cmd, const DeviceGBuffer& g, const KeysPush& keys, const sort::Count* sortCount = nullptr);
+  // keyArgs_: the keys' dispatch arguments at word 0, the boxes' (recordBounds with a device count) at word 4.
+  static constexpr uint32_t kBoundsArgs = 4;
   uint32_t keyBits_ = RAY_KEY_BITS;  // of the keys the last recordKeys (or recordCompactionWithKeys) recorded
   bool runsPending_ = false;         // the last recording left its runs' items in the sort's input
 };

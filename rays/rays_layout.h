@@ -7,9 +7,9 @@
 
 // Per-pixel kernels (ray keys, test kernels).
 #define PIXEL_THREADS 256
-// ray_bounds.comp: RAY_BOUNDS_GROUPS workgroups of RAY_BOUNDS_THREADS, each invocation the subset's
-// members (RAY_BOUNDS_SAMPLES, rays/hilbert.h) in every (RAY_BOUNDS_GROUPS * RAY_BOUNDS_THREADS)-th row of
-// the pixels that may hold geometry.
+// ray_bounds.comp: up to RAY_BOUNDS_GROUPS workgroups of RAY_BOUNDS_THREADS (fewer where the keys' device
+// count is smaller, none where it is 0), each invocation the subset's members (RAY_BOUNDS_SAMPLES,
+// rays/hilbert.h) in every (workgroups * RAY_BOUNDS_THREADS)-th row of the pixels that may hold geometry.
 #define RAY_BOUNDS_THREADS 64
 #define RAY_BOUNDS_GROUPS 16
 

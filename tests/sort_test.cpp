@@ -1312,6 +1312,13 @@ TEST(LitRays, FusedCompactionAndKeysMatchTheStepsOnSparseAndDenseFrames) {
   };
   const Pattern patterns[] = {
       {"isolated", [](uint32_t i) { return i % 9973 == 17; }},
+      // Three lit pixels, members of the boxes' subset, in the first, middle and last rows: the steps'
+      // boxes (recordKeys with the device count) from three workgroups, not RAY_BOUNDS_GROUPS, whose 192
+      // invocations stride over the 523 rows by the workgroups launched.
+      {"three", [&](uint32_t i) {
+         return i == rays::boundsSample(3, pixels) || i == rays::boundsSample(RAY_BOUNDS_SAMPLES / 2, pixels) ||
+                i == rays::boundsSample(RAY_BOUNDS_SAMPLES - 2, pixels);
+       }},
       {"last block only", [&](uint32_t i) { return i >= pixels - 300 && i % 3 != 0; }},
       {"dense", [](uint32_t i) { return (i * 2654435761u) % 10 < 7; }},
       {"all", [](uint32_t) { return true; }},
