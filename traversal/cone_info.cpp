@@ -97,8 +97,9 @@ MethodInfo coneMethodInfo() {
        "wound mesh (wrong on the built-in fur)",
        {}},
       {"ray-order", "O",
-       "auto (default: screen order when its tree is as tight as a sorted one, else sorted, chosen per frame on "
-       "the GPU), hilbert (always sorted) or screen (2x2 Morton screen order)",
+       "auto (default: screen order when its tree is as tight as a sorted one, or looser but over too few "
+       "triangles for the sort to pay, else sorted; chosen per frame on the GPU, `ray_order_choice` says why), "
+       "hilbert (always sorted) or screen (2x2 Morton screen order)",
        {"auto", "hilbert", "screen"}},
       {"traversal-memory", "BYTES", "bound on the traversal's pair buffers (default 64M; e.g. 256K)", {}},
       {"memory-budget", "BYTES",

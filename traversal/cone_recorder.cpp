@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <sstream>
 
 #include "core/error.h"
 #include "method/epsilon.h"
@@ -57,9 +58,11 @@ traversal::TraversalStats combine(const traversal::TraversalStats& a, const trav
 }
 
 // The GPU's choice of ray order: the order, and the screen-order tree's spread per depth (sum of
-// 1 - cos(half-angle), order_choice.comp) that decided it.
-void reportOrderChoice(const uint32_t* words, uint32_t depth, ConeFrameStats& stats) {
-  stats.rayOrder = words[ORDER_SORTED] ? "hilbert" : "screen";
+// 1 - cos(half-angle), order_choice.comp) that decided it, with its `triangles` and `lit` samples: the
+// stats say why (the GPU's verdict, in words; the figures as the host computes them).
+void reportOrderChoice(const uint32_t* words, uint32_t depth, uint32_t triangles, uint32_t lit, ConeFrameStats& stats) {
+  const bool sorted = words[ORDER_SORTED] != 0;
+  stats.rayOrder = sorted ? "hilbert" : "screen";
   double top = 0, deep = 0;
   stats.screenTreeSolidAngleSr.clear();
   for (uint32_t d = 0; d < depth && d <= SHAPE_MAX_DEPTH; ++d) {
@@ -68,8 +71,23 @@ void reportOrderChoice(const uint32_t* words, uint32_t depth, ConeFrameStats& st
     stats.screenTreeSolidAngleSr.push_back(sr);
     (d < ORDER_TOP_DEPTHS ? top : deep) = std::max(d < ORDER_TOP_DEPTHS ? top : deep, sr);
   }
-  stats.rayOrderChoice = "auto: measured this frame";
-  stats.screenTreeLooseness = top > 0 ? deep / top : 0.0;  // > ORDER_LOOSE_RATIO: sorted
+  const double looseness = top > 0 ? deep / top : 0.0;
+  stats.screenTreeLooseness = looseness;  // > ORDER_LOOSE_RATIO: loose
+  std::ostringstream why;
+  why << "auto: measured this frame: ";
+  const double pays = double(triangles) * (looseness - 1.0) / std::sqrt(double(std::max(lit, 1u)));
+  if (sorted)
+    why << "sorted (the screen order's tree is loose, " << looseness << " > " << ORDER_LOOSE_RATIO
+        << ", and its triangles make that cost more than the sort: triangles x (looseness - 1) / sqrt(lit) = " << pays
+        << " > " << ORDER_SORT_PAYS << ")";
+  else if (2 * deep > 3 * top)
+    why << "screen order kept (its tree is loose, " << looseness << " > " << ORDER_LOOSE_RATIO
+        << ", but its few triangles cost less over it than the sort: triangles x (looseness - 1) / sqrt(lit) = " << pays
+        << " <= " << ORDER_SORT_PAYS << ")";
+  else
+    why << "screen order kept (its tree is as tight as a sorted one: looseness " << looseness << " <= " << ORDER_LOOSE_RATIO
+        << ")";
+  stats.rayOrderChoice = why.str();
 }
 
 }  // namespace
@@ -86,7 +104,7 @@ ConeRecorder::ConeRecorder(vk::Context& ctx, const ConeOptions& options)
     traversal_ = std::make_unique<traversal::Traversal>(ctx, options.traversalMemoryBytes);
   sampleLight_ = vk::createKernel(ctx_, "sample light", spv_sample_light_comp, 5, sizeof(traversal::SampleLightPush));
   if (options_.sorted && options_.adaptiveOrder && !options_.twoPass) {
-    orderChoice_ = vk::createKernel(ctx, "ray order choice", spv_order_choice_comp, 2, 0);
+    orderChoice_ = vk::createKernel(ctx, "ray order choice", spv_order_choice_comp, 2, sizeof(OrderPush));
     orderWords_ = vk::createBuffer(ctx, ORDER_WORDS * 4);
   }
   if (options_.twoPass) unfinished_ = vk::createKernel(ctx, "unfinished rays", spv_unfinished_rays_comp, 3,
@@ -185,7 +203,8 @@ ConeRecorder::RecordedLight ConeRecorder::recordLight(vk::Commands& cmd, const D
     cmd.fill(orderWords_, 0);
     cmd.barrier();
     tree_.recordSpread(cmd, orderWords_, ORDER_SPREAD, frame_.scale);
-    cmd.dispatch(orderChoice_, {tree_.shapeBuffer(), orderWords_}, static_cast<const void*>(nullptr), 0u, 1u, 1u, 1u);
+    const OrderPush op{layout_.triangleCount()};
+    cmd.dispatch(orderChoice_, {tree_.shapeBuffer(), orderWords_}, op, 1);
     cmd.barrier();
     boundary("order");
     sortCount = sort::Count::device(sort::GpuWord(orderWords_, ORDER_SORT_COUNT), maxRays);
@@ -674,7 +693,7 @@ void ConeRecorder::noteCounters(const uint32_t* shape, const uint32_t* orderWord
   stats.treeDepth = shape[SHAPE_DEPTH];
   stats.treeNodes = shape[SHAPE_NODES];
   if (orderWords) {
-    reportOrderChoice(orderWords, shape[SHAPE_DEPTH], stats);
+    reportOrderChoice(orderWords, shape[SHAPE_DEPTH], layout_.triangleCount(), lit, stats);
     order.loose = orderWords[ORDER_SORTED] != 0;
     order.framesSinceCheck = 0;
   } else {

@@ -130,8 +130,16 @@
 #define ORDER_SORTED 1      // 1: the frame's rays were sorted; 0: the screen-order tree was kept
 #define ORDER_SPREAD 2      // + 2 d: uint64, depth d's spread in the screen-order tree (conetree's tree_spread.comp)
 #define ORDER_TOP_DEPTHS 3  // the top of the tree, against which the deeper depths' spread is compared
-#define ORDER_LOOSE_RATIO 1.5  // sorted when a deeper depth covers more than this times the top's widest
+#define ORDER_LOOSE_RATIO 1.5  // loose when a deeper depth covers more than this times the top's widest
+// A loose screen order is sorted only where the triangles make its looseness cost more than the sort:
+// triangles x (looseness - 1) > ORDER_SORT_PAYS x sqrt(lit samples) (order_choice.comp; the measurements
+// behind 8: docs/ARCHITECTURE.md, "The ray order, chosen per frame on the GPU").
+#define ORDER_SORT_PAYS 8.0
 #define ORDER_WORDS 36
+// order_choice.comp's push constant: the triangles the frame traverses.
+struct OrderPush {
+  uint triangles;
+};
 
 // TraversePush::test: the cone/triangle test of the passes (cone_method.h, ConeOptions::test).
 #define TRAVERSE_TEST_PRECISE 0u  // precise_test.h (002 §3.2)
