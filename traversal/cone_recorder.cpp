@@ -57,9 +57,13 @@ traversal::TraversalStats combine(const traversal::TraversalStats& a, const trav
   return c;
 }
 
+static_assert(ORDER_SPREAD + 2 * (SHAPE_MAX_DEPTH + 1) <= ORDER_LOOSE && ORDER_LOOSE < ORDER_WORDS,
+              "the order words: the spread of every depth, then the loose flag");
+
 // The GPU's choice of ray order: the order, and the screen-order tree's spread per depth (sum of
 // 1 - cos(half-angle), order_choice.comp) that decided it, with its `triangles` and `lit` samples: the
-// stats say why (the GPU's verdict, in words; the figures as the host computes them).
+// stats say why (the GPU's verdicts, ORDER_SORTED and ORDER_LOOSE, in words; the figures as the host
+// computes them).
 void reportOrderChoice(const uint32_t* words, uint32_t depth, uint32_t triangles, uint32_t lit, ConeFrameStats& stats) {
   const bool sorted = words[ORDER_SORTED] != 0;
   stats.rayOrder = sorted ? "hilbert" : "screen";
@@ -80,7 +84,7 @@ void reportOrderChoice(const uint32_t* words, uint32_t depth, uint32_t triangles
     why << "sorted (the screen order's tree is loose, " << looseness << " > " << ORDER_LOOSE_RATIO
         << ", and its triangles make that cost more than the sort: triangles x (looseness - 1) / sqrt(lit) = " << pays
         << " > " << ORDER_SORT_PAYS << ")";
-  else if (2 * deep > 3 * top)
+  else if (words[ORDER_LOOSE] != 0)
     why << "screen order kept (its tree is loose, " << looseness << " > " << ORDER_LOOSE_RATIO
         << ", but its few triangles cost less over it than the sort: triangles x (looseness - 1) / sqrt(lit) = " << pays
         << " <= " << ORDER_SORT_PAYS << ")";

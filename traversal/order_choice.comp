@@ -41,5 +41,6 @@ void main() {
   bool pays = float(pc.triangles) * (looseness - 1.0) > float(ORDER_SORT_PAYS) * sqrt(float(shape[SHAPE_LEAVES]));
   bool sorted = loose && pays;
   words[ORDER_SORTED] = sorted ? 1u : 0u;
+  words[ORDER_LOOSE] = loose ? 1u : 0u;
   words[ORDER_SORT_COUNT] = sorted ? shape[SHAPE_LEAVES] : 0u;
 }

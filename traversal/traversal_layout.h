@@ -135,6 +135,7 @@
 // triangles x (looseness - 1) > ORDER_SORT_PAYS x sqrt(lit samples) (order_choice.comp; the measurements
 // behind 8: docs/ARCHITECTURE.md, "The ray order, chosen per frame on the GPU").
 #define ORDER_SORT_PAYS 8.0
+#define ORDER_LOOSE 34       // 1: the screen-order tree was loose (sorted or not: the stats say which verdict)
 #define ORDER_WORDS 36
 // order_choice.comp's push constant: the triangles the frame traverses.
 struct OrderPush {
