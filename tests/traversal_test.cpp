@@ -1272,6 +1272,67 @@ TEST(ConeMethod, ClustersGoDownTheTreeUntilTheNodesAreAsFineAsThem) {
       << out.stats["pairs_tested"] << " pairs with clusters, " << ref.stats["pairs_tested"] << " without";
 }
 
+// The leaf choice asked from cluster pairs (traverse_advance.comp, deferLeaves): where clusters reach the
+// depth at which they would have to expand for leaves of 64 rays while the expansion rule would keep them
+// whole (small triangles against few rays, as on a million-triangle scene seen whole), the choice is made
+// from their survival, and "one more depth" keeps them clusters: costs that always go deeper give the
+// very passes, expansions and leaf tests of --leaf-rays 4, costs that never do those of --leaf-rays 64,
+// the device's own costs a mask bit-identical to both, all in one submission. (Without the choice from
+// the clusters, always-deeper costs expand them for 64 rays and test their triangle pairs down to four.)
+TEST(ConeMethod, TheLeafChoiceAskedFromClustersKeepsThemClustersWithTheSameMask) {
+  auto& ctx = test::context();
+  HeightFieldFrame field(96);
+  ASSERT_GT(field.host.litCount(), 1000u);
+  auto run = [&](traversal::LeafRays rays, std::optional<traversal::LeafChoiceCosts> costs) {
+    ConeOptions o;
+    o.leafRays = rays;
+    o.leafChoiceCosts = costs;
+    auto method = makeConeMethod(ctx, o);
+    runCounted(*method, field.frame);  // warm-up: the batch size settles
+    return runCounted(*method, field.frame);
+  };
+  const MethodOutput four = run(traversal::LeafRays::Four, std::nullopt);
+  const MethodOutput sixtyFour = run(traversal::LeafRays::SixtyFour, std::nullopt);
+  ASSERT_EQ(sixtyFour.visibility, four.visibility);
+  ASSERT_GT(std::count(four.visibility.begin(), four.visibility.end(), 0.0f), 0);
+  // The clusters reach the depth where the leaves of 64 rays expand them, as clusters.
+  const uint32_t depth = sixtyFour.stats["tree_depth"].get<uint32_t>();
+  ASSERT_GE(depth, 5u);
+  const nlohmann::json& at64 = sixtyFour.stats["traversal"]["passes"];
+  ASSERT_EQ(at64.size(), depth - 2);
+  ASSERT_GT(at64[depth - 4]["cluster_tests"].get<uint64_t>(), 0u);
+  // ... and below it with four rays (the rule keeps them whole there).
+  const nlohmann::json& at4 = four.stats["traversal"]["passes"];
+  ASSERT_EQ(at4.size(), depth);
+  ASSERT_GT(at4[depth - 3]["cluster_tests"].get<uint64_t>(), 0u);
+
+  const std::pair<traversal::LeafChoiceCosts, const MethodOutput*> cases[] = {{{-1e30f, 0.0f}, &four},
+                                                                            {{1e30f, 0.0f}, &sixtyFour}};
+  for (const auto& [costs, forced] : cases) {
+    const std::string what = forced == &four ? "always deeper" : "never deeper";
+    const MethodOutput got = run(traversal::LeafRays::Auto, costs);
+    EXPECT_EQ(got.stats["traversal_path"], "one submission") << what;
+    EXPECT_EQ(got.stats["submits_per_frame"], 1u) << what;
+    EXPECT_EQ(got.visibility, four.visibility) << what;
+    const nlohmann::json &t = got.stats["traversal"], &f = forced->stats["traversal"];
+    EXPECT_EQ(t["passes"], f["passes"]) << what;
+    EXPECT_EQ(t["expanded_clusters"], f["expanded_clusters"]) << what;
+    EXPECT_EQ(got.stats["leaf_tests"], forced->stats["leaf_tests"]) << what;
+    EXPECT_EQ(got.stats["leaf_rays"], forced->stats["leaf_rays"]) << what;
+    const uint64_t byClusters = t["leaf_choices_by_clusters"].get<uint64_t>();
+    if (forced == &four) {
+      EXPECT_GT(byClusters, 0u) << what;
+      EXPECT_NE(t["leaf_rays_choice"].get<std::string>().find("choices made from cluster pairs' survival"), std::string::npos)
+          << t["leaf_rays_choice"];
+    } else {
+      EXPECT_EQ(byClusters, 0u) << what;
+    }
+  }
+  const MethodOutput automatic = run(traversal::LeafRays::Auto, std::nullopt);
+  EXPECT_EQ(automatic.visibility, four.visibility);
+  EXPECT_EQ(automatic.stats["submits_per_frame"], 1u);
+}
+
 // Super clusters (traversal.h, "Clusters"): pass 0 tests every 64 triangles' sphere, not every 16's, and
 // the frame tests fewer pairs, with either lanes of the last expansion; the mask is the very mask with
 // clusters alone and without clusters.

@@ -182,6 +182,7 @@ nlohmann::json TraversalStats::toJson() const {
           {"leaf_rays", leafRays},
           {"leaf_pairs_by_rays", {{"4", leafPairsByRays[0]}, {"16", leafPairsByRays[1]}, {"64", leafPairsByRays[2]}}},
           {"leaf_rays_choice", leafChoice.empty() ? std::string("given") : leafChoice},
+          {"leaf_choices_by_clusters", leafChoicesByClusters},
           {"leaf_test", leafTestName(leafTest)},
           {"leaf_pairs_by_cull", {{"culled", leafPairsByCull[0]}, {"not_culled", leafPairsByCull[1]}}},
           {"leaf_cull", leafCull.empty() ? std::string("never (the chunked traversal)") : leafCull},
@@ -829,6 +830,13 @@ TraversalStats Traversal::statsFromState(const uint32_t* words, uint32_t depth, 
       else why << double(seen) / 65536.0;
       why << " (one more depth below " << costs.threshold(double(1u << (2 * l))) << ")";
     }
+    s.leafChoicesByClusters = w[STATE_DEFERRED];
+    if (s.leafChoicesByClusters > 0)
+      why << "; " << s.leafChoicesByClusters
+          << " choices made from cluster pairs' survival, which kept them clusters one depth further (there one more "
+             "depth below "
+          << costs.threshold(64.0, CLUSTER_SIZE) << " and " << costs.threshold(16.0, CLUSTER_SIZE) << " at 64 and 16 rays, "
+          << costs.threshold(64.0, SUPER_SIZE) << " and " << costs.threshold(16.0, SUPER_SIZE) << " for super clusters)";
     s.leafChoice = why.str();
   } else if (leafAuto_) {
     s.leafChoice = "auto: four on a GPU, where the choice's costs have not been measured";

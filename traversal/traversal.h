@@ -122,6 +122,8 @@ struct TraversalStats {
                                   // chosen per batch: the span that took the most leaf pairs
   uint64_t leafPairsByRays[3] = {0, 0, 0};  // leaf pairs of 4, 16 and 64 rays
   std::string leafChoice;         // chosen per batch: what was chosen and why; "" when the span was given
+  uint64_t leafChoicesByClusters = 0;  // chosen per batch: the batches whose choice was made from their cluster
+                                       // pairs' survival, which then went one depth further as clusters
   uint64_t leafPairsByCull[2] = {0, 0};  // leaf pairs whose leaves ran with the cull, without (leafCullTestsPerRay)
   std::string leafCull;                  // the cull's rule (device path); "" on the chunked path (never)
   LeafTest leafTest = LeafTest::TwoEnds;  // the leaves' test
@@ -181,7 +183,10 @@ enum class LeafRays { Auto, Four, Sixteen, SixtyFour };
 // one more depth wins at a step of `rays` rays a pair: (lane + rays - step) / (4 lane + rays).
 struct LeafChoiceCosts {
   float step = 0, lane = 0;
-  double threshold(double rays) const { return (lane + rays - step) / (4.0 * lane + rays); }
+  // One more depth when the survival predicted there is below this, for `rays` under a pair's node; with
+  // `shared` triangles sharing a step (the choice asked from (super) cluster pairs, deferLeaves in
+  // traverse_advance.comp), 1 for triangle pairs.
+  double threshold(double rays, double shared = 1.0) const { return (lane + rays - step / shared) / (4.0 * lane + rays); }
 };
 LeafChoiceCosts leafChoiceCosts(bool cpuDevice);
 // The leaves' cull (traverse_leaves.comp): each pair's rays tested against the triangle's sphere first,

@@ -59,7 +59,10 @@
                                //   cluster pair (STEP_EXPAND_WHOLE, STEP_EXPAND_SUPER); 0 groups but for those
 #define STATE_LANES_PAIRS 392  // + 0 (1): the (super) cluster pairs those batches' choices counted, summed
 #define STATE_LEAF_CULL 394    // + 0 (1): leaf pairs whose leaves ran with (without) the cull, over the frame
-#define STATE_WORDS 396
+#define STATE_LEAF_DEFER 396   // the current batch: depths its leaves' step moved down while clusters went on (the leaf
+                               //   choice made from the cluster pairs, traverse_advance.comp deferLeaves)
+#define STATE_DEFERRED 397     // the batches whose clusters so went on past the 64-ray step, over the frame
+#define STATE_WORDS 398
 // The leaves' dispatches a batch (STATE_LEAF_ARGS): the pairs' buffer (arena or chunk, the parity of the
 // step that took them), with or without the cull (AdvancePush::leafCullTestsPerRay).
 #define LEAF_SLOTS 4u

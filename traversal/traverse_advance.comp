@@ -14,7 +14,10 @@
 //    dispatches, by the buffer step c - 1 wrote and the leaves' cull (leafCullTestsPerRay), and clears the
 //    step counters;
 //  - with the leaf choice (AdvancePush::leafChoice), from c = D on to the tree's depth, chooses from the
-//    step's own counts between the leaves now and one more depth first (leafChoice below);
+//    step's own counts between the leaves now and one more depth first (leafChoice below); where cluster
+//    pairs reach the depth at which they would have to expand for the leaves at D, it makes that choice
+//    from the clusters' survival first, and a "one more depth" moves D down and keeps them clusters
+//    (deferLeaves below);
 //  - with the lanes chosen (AdvancePush::wholeExpansion), where the last expansion's two forms part,
 //    chooses its lanes from the pairs there (wholeLanes below).
 // bindings: 0 = shape words (SHAPE_*, conetree/tree_shape.comp), 1 = state words (STAT_*, STATE_*)
@@ -52,6 +55,33 @@ bool leavesNow(uint c, uint treeDepth, uint n, float survival) {
   return !(deeper < now) || 4.0 * survival * float(n) > 0.75 * float(p.capacity);
 }
 
+// The leaf choice made while clusters still go down (docs/ARCHITECTURE.md, "Leaf pairs chosen per
+// frame"): n (super) cluster pairs that survived step c - 1 with `survival` per test, at the last depth
+// where they may stay cluster pairs for the leaves at `depth` (ahead: two depths above it for super
+// clusters, which split there, one for clusters, which expand there), and only where the expansion rule
+// would keep them whole (else moving the leaves would change nothing). The leaves' step moves one depth
+// down when the leaf choice at `depth` says one more depth, asked for each triangle of a pair (`size`
+// of them) with the clusters' survival and the cost of a depth of cluster pairs: a step's cost shared by
+// the pair's triangles. The clusters then go on one depth as clusters and expand a depth later, where the
+// choice made after the expansion could only have tested every triangle pair once more. Not where the
+// deferred step's clusters, so estimated, would not fit their expansion (`limit` pairs).
+bool deferLeaves(uint c, uint ahead, uint depth, uint treeDepth, uint n, float survival, uint size, uint limit) {
+  if (p.leafChoice == 0u || n == 0u || c + ahead < depth || depth >= treeDepth) return false;
+  float rays = float(1u << (2u * (treeDepth - depth + 1u)));
+  float now = p.leafLaneCost + rays;
+  float deeper = p.stepCost / float(size) + 4.0 * survival * (p.leafLaneCost + 0.25 * rays);
+  return deeper < now && 4.0 * survival * float(n) <= 0.75 * float(limit);
+}
+
+// deferLeaves said so: the leaves' step one depth down, for this batch's later steps too; the survival
+// it saw is the stats' prediction at that step.
+uint deferredDepth(uint depth, uint treeDepth, float survival) {
+  state[STATE_LEAF_SEEN + treeDepth - depth - 1u] = max(1u, uint(min(survival, 1.0) * 65536.0));
+  state[STATE_LEAF_DEFER] += 1u;
+  state[STATE_DEFERRED] += 1u;
+  return depth + 1u;
+}
+
 // The last expansion's lanes (traversal.h, ExpansionLanes; docs/ARCHITECTURE.md, "The last expansion's
 // lanes chosen per batch"), decided once a batch where the two forms part, from the n (super) cluster pairs
 // there: a lane per pair (the cluster's and groups' spheres tested once for their triangles) where the
@@ -82,8 +112,10 @@ void main() {
     return;
   }
   uint treeDepth = shape[SHAPE_DEPTH];
-  uint depth = leafStepOf(treeDepth, p.leafLevels);  // (the tree's depth with four rays a leaf pair)
   uint c = p.step;
+  if (c == 0u) state[STATE_LEAF_DEFER] = 0u;
+  // (the tree's depth with four rays a leaf pair; moved down by deferLeaves)
+  uint depth = min(leafStepOf(treeDepth, p.leafLevels) + state[STATE_LEAF_DEFER], treeDepth);
   uint n = 0u;
   uint mode = STEP_TRIANGLES;
   uint count = 0u;  // the next step's inputs (an expansion: CLUSTER_SIZE per cluster pair)
@@ -148,6 +180,10 @@ void main() {
           // (the expansion rule's count: at most SUPER_CLUSTERS clusters a super cluster kept)
           state[STATE_ROOT_CLUSTERS] = uint(min(kept * SUPER_CLUSTERS, uint64_t(0xFFFFFFFFu)));
         }
+        bool expandNext = uint64_t(shape[SHAPE_COUNTS + c + 1u]) * EXPAND_NODES_PER_CLUSTER > uint64_t(state[STATE_ROOT_CLUSTERS]);
+        // Where only the leaves' depth would split them (the rule keeps them whole), the leaf choice from
+        // their survival may move the leaves down a depth.
+        if (!expandNext && deferLeaves(c, 2u, depth, treeDepth, n, survival, SUPER_SIZE, p.capacity >> SUPER_SHIFT)) depth = deferredDepth(depth, treeDepth, survival);
         // Super cluster pairs reach the last depth unsplit only where their lanes were chosen below.
         if (p.sphereExpansion != 0u && p.wholeExpansion != EXPANSION_PER_TRIANGLE && c + 1u >= depth) {
           mode = STEP_EXPAND_SUPER;
@@ -159,7 +195,6 @@ void main() {
             n = 0u;
           }
         } else {
-          bool expandNext = uint64_t(shape[SHAPE_COUNTS + c + 1u]) * EXPAND_NODES_PER_CLUSTER > uint64_t(state[STATE_ROOT_CLUSTERS]);
           // Two depths above the leaves the lanes part: a lane per triangle pair splits the pairs here, a
           // lane per pair keeps them whole for one more depth (the choice, from these pairs).
           bool split = c + 2u >= depth ? !(p.sphereExpansion != 0u && wholeLanes(n)) : expandNext;
@@ -176,8 +211,9 @@ void main() {
           state[STATE_ROOT_CLUSTERS] =
               uint(min(uint64_t(n) * frameClusters / max(batchClusters, 1u), uint64_t(0xFFFFFFFFu)));
         }
-        bool expand = c + 1u >= depth ||
-                      uint64_t(shape[SHAPE_COUNTS + c]) * EXPAND_NODES_PER_CLUSTER > uint64_t(state[STATE_ROOT_CLUSTERS]);
+        bool byRule = uint64_t(shape[SHAPE_COUNTS + c]) * EXPAND_NODES_PER_CLUSTER > uint64_t(state[STATE_ROOT_CLUSTERS]);
+        if (!byRule && deferLeaves(c, 1u, depth, treeDepth, n, survival, CLUSTER_SIZE, p.capacity >> CLUSTER_SHIFT)) depth = deferredDepth(depth, treeDepth, survival);
+        bool expand = c + 1u >= depth || byRule;
         mode = expand ? STEP_EXPAND : STEP_CLUSTERS;
         if (expand) {
           add64(STATE_EXPANDED, n);
