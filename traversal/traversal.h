@@ -122,8 +122,8 @@ struct TraversalStats {
                                   // chosen per batch: the span that took the most leaf pairs
   uint64_t leafPairsByRays[3] = {0, 0, 0};  // leaf pairs of 4, 16 and 64 rays
   std::string leafChoice;         // chosen per batch: what was chosen and why; "" when the span was given
-  uint64_t leafChoicesByClusters = 0;  // chosen per batch: the batches whose choice was made from their cluster
-                                       // pairs' survival, which then went one depth further as clusters
+  uint64_t leafChoicesByClusters = 0;  // chosen per batch: the choices made from cluster pairs' survival that
+                                       // kept them clusters one depth further (a batch may make two)
   uint64_t leafPairsByCull[2] = {0, 0};  // leaf pairs whose leaves ran with the cull, without (leafCullTestsPerRay)
   std::string leafCull;                  // the cull's rule (device path); "" on the chunked path (never)
   LeafTest leafTest = LeafTest::TwoEnds;  // the leaves' test

@@ -61,8 +61,11 @@
 #define STATE_LEAF_CULL 394    // + 0 (1): leaf pairs whose leaves ran with (without) the cull, over the frame
 #define STATE_LEAF_DEFER 396   // the current batch: depths its leaves' step moved down while clusters went on (the leaf
                                //   choice made from the cluster pairs, traverse_advance.comp deferLeaves)
-#define STATE_DEFERRED 397     // the batches whose clusters so went on past the 64-ray step, over the frame
-#define STATE_WORDS 398
+#define STATE_DEFERRED 397     // the choices that so moved a batch's leaf step down, over the frame (a batch may make two)
+#define STATE_WORDS 400        // a multiple of four: traverse_test.comp reads the words as uvec4s
+#if STATE_WORDS % 4 != 0
+#error "STATE_WORDS must be a multiple of four"
+#endif
 // The leaves' dispatches a batch (STATE_LEAF_ARGS): the pairs' buffer (arena or chunk, the parity of the
 // step that took them), with or without the cull (AdvancePush::leafCullTestsPerRay).
 #define LEAF_SLOTS 4u
