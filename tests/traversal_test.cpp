@@ -1331,6 +1331,18 @@ TEST(ConeMethod, TheLeafChoiceAskedFromClustersKeepsThemClustersWithTheSameMask)
   const MethodOutput automatic = run(traversal::LeafRays::Auto, std::nullopt);
   EXPECT_EQ(automatic.visibility, four.visibility);
   EXPECT_EQ(automatic.stats["submits_per_frame"], 1u);
+  // Under a small arena (many batches, each choosing for itself; the deferred clusters' capacity check;
+  // an overflow redone chunked) and always-deeper costs: the same mask.
+  for (uint64_t memory : {uint64_t(256) << 10, uint64_t(64) << 10}) {
+    ConeOptions o;
+    o.leafChoiceCosts = traversal::LeafChoiceCosts{-1e30f, 0.0f};
+    o.traversalMemoryBytes = memory;
+    auto method = makeConeMethod(ctx, o);
+    for (int frame = 0; frame < 2; ++frame) {
+      const MethodOutput got = runCounted(*method, field.frame);
+      EXPECT_EQ(got.visibility, four.visibility) << memory << " bytes, frame " << frame << ": " << got.stats["traversal_path"];
+    }
+  }
 }
 
 // Super clusters (traversal.h, "Clusters"): pass 0 tests every 64 triangles' sphere, not every 16's, and
