@@ -7,8 +7,8 @@
 //   family_bench [--members N] [--first S] [--members-list LIST] [--size 1024] [--frames 3] [--big] [--detail]
 //                [--device D] [--CONE-SETTING V ...]
 // Members family:S .. family:S+N-1 (default 1..12), or those of LIST (e.g. 3,9:tris=1M), at size² (default
-// 1024). --big adds, at 512², members 1..3 at 1 M triangles and member 1 at 10 M (slow: minutes on
-// lavapipe), reported apart. --detail: per member the pairs per depth, the leaf pairs and tests, and with
+// 1024). --big adds, at 512², members 1..12 at 1 M triangles and 1..4 at 10 M (slow: two minutes on
+// lavapipe with --frames 1), reported apart with their own worst and median (--members 0 --big: those alone). --detail: per member the pairs per depth, the leaf pairs and tests, and with
 // --profile-stages on the stages' times. Frames: the median of N after a warm-up frame.
 #include <algorithm>
 #include <cstdio>
@@ -62,7 +62,7 @@ int main(int argc, char** argv) {
     for (int i = 1; i < argc; ++i) {
       const std::string a = argv[i];
       auto next = [&] { return bench::optionValue(argc, argv, i); };
-      if (a == "--members") count = uint32_t(std::max(1, std::stoi(next())));
+      if (a == "--members") count = uint32_t(std::max(0, std::stoi(next())));
       else if (a == "--first") first = uint32_t(std::max(0, std::stoi(next())));
       else if (a == "--size") size = uint32_t(std::max(16, std::stoi(next())));
       else if (a == "--frames") frames = std::max(1, std::stoi(next()));
@@ -93,9 +93,10 @@ int main(int argc, char** argv) {
     } else {
       for (uint32_t s = first; s < first + count; ++s) members.push_back({"family:" + std::to_string(s), size, false});
     }
+    if (members.empty() && !big) throw UsageError("--members 0 leaves nothing to run (add --big, or a --members-list)");
     if (big) {
-      for (uint32_t s = 1; s <= 3; ++s) members.push_back({"family:" + std::to_string(s) + ":tris=1M", 512, true});
-      members.push_back({"family:1:tris=10M", 512, true});
+      for (uint32_t s = 1; s <= 12; ++s) members.push_back({"family:" + std::to_string(s) + ":tris=1M", 512, true});
+      for (uint32_t s = 1; s <= 4; ++s) members.push_back({"family:" + std::to_string(s) + ":tris=10M", 512, true});
     }
     std::printf("%-10s %5s %9s %8s %9s %9s %7s %9s %11s %5s %-8s %-6s %5s  %s\n", "member", "size", "triangles", "lit",
                 "embree ms", "cone ms", "x emb", "pairs/lit", "leaftst/lit", "leaf", "lanes", "order", "wrong", "parameters");
