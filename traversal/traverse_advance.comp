@@ -48,11 +48,16 @@ void add64v(uint at, uint64_t value) {
 // tests; one more depth costs n stepCost, then 4 survival n pairs with a quarter of the rays each. One
 // more depth when that is cheaper and its pairs, so estimated, fill at most 3/4 of the capacity (an
 // overflow redoes the frame on the host).
-bool leavesNow(uint c, uint treeDepth, uint n, float survival) {
+// (One more depth is cheaper at step c for a step of `stepCost` leaf tests.)
+bool deeperIsCheaper(uint c, uint treeDepth, float survival, float stepCost) {
   float rays = float(1u << (2u * (treeDepth - c + 1u)));
   float now = p.leafLaneCost + rays;
-  float deeper = p.stepCost + 4.0 * survival * (p.leafLaneCost + 0.25 * rays);
-  return !(deeper < now) || 4.0 * survival * float(n) > 0.75 * float(p.capacity);
+  float deeper = stepCost + 4.0 * survival * (p.leafLaneCost + 0.25 * rays);
+  return deeper < now;
+}
+
+bool leavesNow(uint c, uint treeDepth, uint n, float survival) {
+  return !deeperIsCheaper(c, treeDepth, survival, p.stepCost) || 4.0 * survival * float(n) > 0.75 * float(p.capacity);
 }
 
 // The leaf choice made while clusters still go down (docs/ARCHITECTURE.md, "Leaf pairs chosen per
@@ -67,10 +72,8 @@ bool leavesNow(uint c, uint treeDepth, uint n, float survival) {
 // deferred step's clusters, so estimated, would not fit their expansion (`limit` pairs).
 bool deferLeaves(uint c, uint ahead, uint depth, uint treeDepth, uint n, float survival, uint size, uint limit) {
   if (p.leafChoice == 0u || n == 0u || c + ahead < depth || depth >= treeDepth) return false;
-  float rays = float(1u << (2u * (treeDepth - depth + 1u)));
-  float now = p.leafLaneCost + rays;
-  float deeper = p.stepCost / float(size) + 4.0 * survival * (p.leafLaneCost + 0.25 * rays);
-  return deeper < now && 4.0 * survival * float(n) <= 0.75 * float(limit);
+  return deeperIsCheaper(depth, treeDepth, survival, p.stepCost / float(size)) &&
+         4.0 * survival * float(n) <= 0.75 * float(limit);
 }
 
 // deferLeaves said so: the leaves' step one depth down, for this batch's later steps too; the survival
