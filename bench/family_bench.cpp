@@ -75,6 +75,7 @@ int main(int argc, char** argv) {
         throw UsageError("unknown option '" + a + "' (usage: family_bench [--members N] [--first S] [--members-list "
                          "S[:k=v...],...] [--size 1024] [--frames N] [--big] [--detail] [--device D] [--CONE-SETTING VALUE ...])");
     }
+    if (count == 0 && list.empty() && !big) throw UsageError("--members 0 leaves nothing to run (add --big, or a --members-list)");
     std::string settingsText;
     const Settings settings = bench::settingsOf(cone, given, settingsText);
 
@@ -93,7 +94,6 @@ int main(int argc, char** argv) {
     } else {
       for (uint32_t s = first; s < first + count; ++s) members.push_back({"family:" + std::to_string(s), size, false});
     }
-    if (members.empty() && !big) throw UsageError("--members 0 leaves nothing to run (add --big, or a --members-list)");
     if (big) {
       for (uint32_t s = 1; s <= 12; ++s) members.push_back({"family:" + std::to_string(s) + ":tris=1M", 512, true});
       for (uint32_t s = 1; s <= 4; ++s) members.push_back({"family:" + std::to_string(s) + ":tris=10M", 512, true});
