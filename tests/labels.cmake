@@ -140,6 +140,7 @@ set(cs_slow_tests
   ConeExactness.BartMuseumKitchenAndRobotsFromTheirViewsAndLights
   ConeExactness.BuiltinSceneFromEveryViewAndTwoLights
   ConeExactness.GltfModelsOnAGroundPlaneFromTwoLightsOneCloseToASurface
+  ConeExactness.UnseenFamilyMembersEveryChoiceTheSameMask
   ConeFrame.OneSubmissionOneHostSyncNoAllocationAfterWarmUp
   ConeHardCases.CoplanarAndTouchingOccluders
   ConeHardCases.FarLightMaskIsBitIdenticalAtEveryArenaSize
