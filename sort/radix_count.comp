@@ -42,7 +42,8 @@ void main() {
   if (tile >= tiles) return;
   uint t = gl_LocalInvocationIndex;
   // No keys (a device count of 0: the cone path's sort on a frame that keeps screen order): an empty
-  // table, nothing to count or rank; the one tile launched only says so.
+  // table, nothing to count or rank. The sort launches no tile then (sort.cpp clears binding 5 before);
+  // a tile launched all the same (the look-back scheme's one) only says so.
   if (tile == 0u && t == 0u) {
     uint entries = n == 0u ? 0u : (pc.digitMask + 1u) * tiles;
     // The grid as vk::gridFor makes it, rows past 65535 workgroups (every device's least limit a side).

@@ -196,7 +196,13 @@ void Scan::recordLevel(vk::Commands& cmd, const vk::BufferRange& in, const vk::B
   }
   if (level + 1 == counts.size()) {  // fits one block: scan it, no offsets, and report the total
     if (total.valid()) push.flags |= FLAG_WRITE_TOTAL;
-    cmd.dispatch(block_, {in, out, dummy_, countBinding(count), wordBinding(total)}, push, 1);
+    // With the device's grid for the first level and no total to write, the device's grid launches it:
+    // none for a count of 0 (lavapipe hands every dispatch with a workgroup to its threads).
+    if (level == 0 && count.groupsBuffer != VK_NULL_HANDLE && count.onDevice() && !total.valid())
+      cmd.dispatchIndirect(block_, {in, out, dummy_, countBinding(count), wordBinding(total)}, &push, sizeof(push),
+                           count.groupsBuffer, count.groupsOffset);
+    else
+      cmd.dispatch(block_, {in, out, dummy_, countBinding(count), wordBinding(total)}, push, 1);
     return;
   }
   // Block sums -> scan them one level up -> scan each block from its offset.
@@ -414,8 +420,14 @@ void RadixSort::recordPasses(vk::Commands& cmd, const vk::BufferRange& keys, con
   const vk::BufferRange countBinding = bindWord(count.word, dummy_);
   const vk::Grid g = groups(ctx_, tiles);
   const bool indirect = count.onDevice();
-  if (indirect) {  // the tiles the device count fills, at least one (radix_count.comp: the table's rows)
-    groups_.record(cmd, count, shape_.tile(), args_, 0, 1);
+  if (indirect) {
+    // The tiles the device count fills. Reduce-then-scan: none for a count of 0, so nothing of the sort
+    // launches (the cone path's sort on a frame that keeps screen order): the table's size and its scan's
+    // grid (tableCount_, which a count pass writes) cleared first, so the scan launches none either.
+    // Look-back: at least one (radix_count.comp's table rows).
+    const bool rows = scheme_ == SortScheme::LookBack;
+    if (!rows) cmd.fill(tableCount_, 0);
+    groups_.record(cmd, count, shape_.tile(), args_, 0, rows ? 1 : 0);
     cmd.barrier();
   }
   const uint32_t flags = countFlags(count) | (hasValues ? FLAG_HAS_VALUES : 0u);

@@ -608,7 +608,12 @@ void Traversal::record(vk::Commands& cmd, const TraversalInput& in, std::vector<
     AdvancePush a{step, triangles, capacity, ctx_.maxWorkgroups(), supers ? 2u : clusters ? 1u : 0u, in.triangleCount,
                   sphereExpansion ? 1u : 0u, expansionLanes_, leafLevels(leafRays_), leafChoice_ ? 1u : 0u,
                   costs.step, costs.lane, expansionMinPairs_, leafCullTestsPerRay_};
-    cmd.dispatch(advance_, {shape, state_}, a, 1);
+    // Step 0 and the batch's end always run; a step c >= 1 only where step c - 1 had inputs (the advance
+    // before it says so in STATE_ADVANCE_ARGS).
+    if (step == 0 || step == ADVANCE_END_OF_BATCH)
+      cmd.dispatch(advance_, {shape, state_}, a, 1);
+    else
+      cmd.dispatchIndirect(advance_, {shape, state_}, &a, sizeof(a), state_, STATE_ADVANCE_ARGS * 4);
     cmd.barrier();
   };
   // The test of one step: inputs in `src`, survivors appended to `dst`.

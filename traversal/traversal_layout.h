@@ -62,7 +62,9 @@
 #define STATE_LEAF_DEFER 396   // the current batch: depths its leaves' step moved down while clusters went on (the leaf
                                //   choice made from the cluster pairs, traverse_advance.comp deferLeaves)
 #define STATE_DEFERRED 397     // the choices that so moved a batch's leaf step down, over the frame (a batch may make two)
-#define STATE_WORDS 400        // a multiple of four: traverse_test.comp reads the words as uvec4s
+#define STATE_ADVANCE_ARGS 400 // uvec4: the next step's advance dispatch (1, 1, 1) while the batch has a step to run,
+                               //   (0, 1, 1) once it has none: the steps past the batch's last launch nothing
+#define STATE_WORDS 404        // a multiple of four: traverse_test.comp reads the words as uvec4s
 #if STATE_WORDS % 4 != 0
 #error "STATE_WORDS must be a multiple of four"
 #endif
@@ -265,6 +267,8 @@ static_assert(sizeof(LeafHitsPush) == 16, "LeafHitsPush layout");
 static_assert(STATE_ACC + STATE_ACC_WORDS * STATE_MAX_STEPS <= STATE_LEAF_PAIRS && STATE_TEST_ARGS % 4 == 0 &&
                   STATE_LEAF_ARGS % 4 == 0 && STATE_LEAF_ARGS + 4 * LEAF_SLOTS <= STATE_CLUSTER_ARGS,
               "state words");
+static_assert(STATE_ADVANCE_ARGS % 4 == 0 && STATE_ADVANCE_ARGS >= STATE_DEFERRED + 1 && STATE_ADVANCE_ARGS + 4 <= STATE_WORDS,
+              "the advance's dispatch words");
 static_assert(STATE_COMMITTED >= STATE_EXPANDED + 2 && STATE_EXPANDED >= STATE_CLUSTER_ARGS + 4 && STATE_COMMITTED + STATE_COMMITTED_WORDS <= STATE_WORDS, "committed words");
 static_assert(sizeof(TraversePush) == 112 && offsetof(TraversePush, frameVertices) == 76 && offsetof(TraversePush, first) == 16 &&
                   offsetof(TraversePush, minLength) == 44 && offsetof(TraversePush, outLimit) == 48 &&

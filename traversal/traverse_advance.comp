@@ -279,6 +279,12 @@ void main() {
     state[STATE_INPUT_OFFSET] = c == 0u ? 0u : shape[SHAPE_OFFSETS + c - 1u];
     state[STATE_LEAF_SHIFT] = 2u * (treeDepth - c);  // the rays under a node of depth c (early accept)
   }
+  // The next step's advance runs only where this one left that step inputs: a step with none leaves the
+  // words as they are (its advance would only write them again), and lavapipe hands every dispatch with a
+  // workgroup to its worker threads, tens of microseconds each whatever the work.
+  state[STATE_ADVANCE_ARGS] = state[STATE_COUNT] != 0u ? 1u : 0u;
+  state[STATE_ADVANCE_ARGS + 1u] = 1u;
+  state[STATE_ADVANCE_ARGS + 2u] = 1u;
   state[STATE_LEAF_COUNT] = shape[SHAPE_LEAVES];
   state[STAT_MISSING] = 0u;
   state[STAT_TOTAL] = 0u;
