@@ -179,7 +179,8 @@ void ConeTree::record(vk::Commands& cmd, const vk::Buffer& positions, const vk::
 
 void ConeTree::recordDevice(vk::Commands& cmd, const vk::Buffer& positions, const vk::BufferRange& samples,
                             const vk::Buffer& countWords, uint32_t countIndex, uint32_t maxCount, glm::vec3 light,
-                            float minLength, const FrameChoice* frame, bool keepWhenZero, bool recordsGiven) {
+                            float minLength, const FrameChoice* frame, bool keepWhenZero, bool recordsGiven,
+                            VkBuffer gate, VkDeviceSize gateOffset) {
   CS_CHECK(maxCount >= 1 && maxCount <= kMaxLeaves, "cone tree bound of " << maxCount << " rays (1 .. " << kMaxLeaves << ")");
   CS_CHECK(samples.offset % 16 == 0, "cone tree: the samples start at byte " << samples.offset << ", not a multiple of 16");
   const FrameChoice fc = frame ? *frame : worldFrame(light);
@@ -187,7 +188,17 @@ void ConeTree::recordDevice(vk::Commands& cmd, const vk::Buffer& positions, cons
   maxDepth_ = treeDepth(maxCount);
   CS_CHECK(maxDepth_ <= SHAPE_MAX_DEPTH, "cone tree deeper than " << SHAPE_MAX_DEPTH);
   ShapePush sp{maxCount, countIndex, ctx_.maxWorkgroups(), keepWhenZero ? 1u : 0u};
-  cmd.dispatch(shapeKernel_, {vk::BufferRange(countWords, 0, (VkDeviceSize(countIndex) + 1) * 4), shapeWords_}, sp, 1);
+  if (gate != VK_NULL_HANDLE && keepWhenZero) {
+    // A gate (indirect arguments of 1 or 0 workgroups): closed, the shape kernel does not run and the tree
+    // there is stays, as a count of 0 would keep it -- its build's arguments cleared here, so no height
+    // of this build launches.
+    cmd.fill(shapeWords_, 0, SHAPE_BUILD_ARGS * 4, (SHAPE_MAX_DEPTH + 1) * 16);
+    cmd.barrier();
+    cmd.dispatchIndirect(shapeKernel_, {vk::BufferRange(countWords, 0, (VkDeviceSize(countIndex) + 1) * 4), shapeWords_},
+                         &sp, sizeof(sp), gate, gateOffset);
+  } else {
+    cmd.dispatch(shapeKernel_, {vk::BufferRange(countWords, 0, (VkDeviceSize(countIndex) + 1) * 4), shapeWords_}, sp, 1);
+  }
   cmd.barrier();
   // A dispatch a height below the top (the heights any count up to maxCount may need: topHeight only
   // grows with the count), then the top's one workgroup.

@@ -76,7 +76,7 @@ class ConeTree {
   void recordDevice(vk::Commands& cmd, const vk::Buffer& positions, const vk::BufferRange& samples,
                     const vk::Buffer& countWords, uint32_t countIndex, uint32_t maxCount, glm::vec3 light,
                     float minLength, const FrameChoice* frame = nullptr, bool keepWhenZero = false,
-                    bool recordsGiven = false);
+                    bool recordsGiven = false, VkBuffer gate = VK_NULL_HANDLE, VkDeviceSize gateOffset = 0);
   // After a device build: writes words firstWord + 2 d (uint64, even firstWord) of `words`, for each
   // depth d of the tree, the sum over its nodes of (1 - cos(half-angle)) / scale^2 in CONE_SPREAD_UNIT
   // fixed point, estimated from CONE_SPREAD_SAMPLES strided nodes on a larger depth (tree_spread.comp).

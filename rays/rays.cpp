@@ -239,7 +239,8 @@ void LitRays::recordBounds(vk::Commands& cmd, const DeviceGBuffer& g, const Keys
   // by the workgroups launched; the boxes do not depend on how many), none where nothing will be sorted.
   const bool indirect = sortCount && sortCount->onDevice();
   if (indirect)
-    groups_.record(cmd, sort::Count::device(sortCount->word, RAY_BOUNDS_GROUPS), 1, keyArgs_, kBoundsArgs);
+    groups_.record(cmd, sort::Count::device(sortCount->word, RAY_BOUNDS_GROUPS).withGate(sortCount->gateBuffer, sortCount->gateOffset),
+                   1, keyArgs_, kBoundsArgs);
   cmd.barrier();
   KeysPush push = keys;
   push.count = g.width * g.height;  // the subset is spread over the pixels
@@ -251,7 +252,10 @@ void LitRays::recordBounds(vk::Commands& cmd, const DeviceGBuffer& g, const Keys
   else
     cmd.dispatch(bounds, bindings, push, RAY_BOUNDS_GROUPS);
   cmd.barrier();
-  cmd.dispatch(rayGrids_, {bounds_, grids_}, push, 1);
+  if (indirect && sortCount->gateBuffer != VK_NULL_HANDLE)  // no grid where nothing will be keyed
+    cmd.dispatchIndirect(rayGrids_, {bounds_, grids_}, &push, sizeof(push), sortCount->gateBuffer, sortCount->gateOffset);
+  else
+    cmd.dispatch(rayGrids_, {bounds_, grids_}, push, 1);
   cmd.barrier();
 }
 

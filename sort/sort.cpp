@@ -268,7 +268,14 @@ void IndirectGroups::record(vk::Commands& cmd, const Count& count, uint32_t perG
   CS_CHECK(uint64_t(ceilDiv(count.max, perGroup)) <= uint64_t(maxPerDim) * maxPerDim,
            "indirect groups: " << count.max << " elements need more workgroups than a 2-D grid holds");
   GroupsPush push{count.max, count.word.index, perGroup, index, maxPerDim, minGroups, 0, 0};
-  cmd.dispatch(kernel_, {bindWord(count.word, args), args}, push, 1);
+  if (count.gateBuffer != VK_NULL_HANDLE) {  // 0 workgroups unless the gate opens and the kernel writes them
+    cmd.fill(args, 0, VkDeviceSize(index) * 4, 12);
+    cmd.barrier();
+    cmd.dispatchIndirect(kernel_, {bindWord(count.word, args), args}, &push, sizeof(push), count.gateBuffer,
+                         count.gateOffset);
+  } else {
+    cmd.dispatch(kernel_, {bindWord(count.word, args), args}, push, 1);
+  }
 }
 
 // ---- radix sort ---------------------------------------------------------------------------------

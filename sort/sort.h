@@ -70,10 +70,22 @@ struct Count {
   // scan bounded by a large capacity launches only the workgroups the device count needs.
   VkBuffer groupsBuffer = VK_NULL_HANDLE;
   VkDeviceSize groupsOffset = 0;
-  Count withGroups(VkBuffer args, VkDeviceSize offset) const {
+  Count withGroups(VkBuffer args, VkDeviceSize offset) const { return with(&Count::groupsBuffer, &Count::groupsOffset, args, offset); }
+  // A device count's gate: indirect dispatch arguments (1, 1, 1) or (0, 1, 1) at `offset` of `buffer`,
+  // written before the count's work is recorded, that say whether any of it runs. IndirectGroups launches
+  // through it (its arguments cleared first), so a count the gate closes launches nothing that sizes its
+  // work, and the work's own dispatches none: on lavapipe every dispatch with a workgroup is handed to its
+  // threads, tens of microseconds whatever it does (the cone path's keys and sort on a frame that keeps
+  // screen order).
+  VkBuffer gateBuffer = VK_NULL_HANDLE;
+  VkDeviceSize gateOffset = 0;
+  Count withGate(VkBuffer args, VkDeviceSize offset) const { return with(&Count::gateBuffer, &Count::gateOffset, args, offset); }
+
+ private:
+  Count with(VkBuffer Count::*buffer, VkDeviceSize Count::*at, VkBuffer args, VkDeviceSize offset) const {
     Count c = *this;
-    c.groupsBuffer = args;
-    c.groupsOffset = offset;
+    c.*buffer = args;
+    c.*at = offset;
     return c;
   }
 };
@@ -208,7 +220,8 @@ class Compact {
 class IndirectGroups {
  public:
   explicit IndirectGroups(vk::Context& ctx);
-  // minGroups: launch at least that many workgroups, even for a count of 0.
+  // minGroups: launch at least that many workgroups, even for a count of 0. With the count's gate closed,
+  // the arguments are 0 workgroups and no kernel runs (Count::withGate).
   void record(vk::Commands& cmd, const Count& count, uint32_t perGroup, const vk::Buffer& args, uint32_t index,
               uint32_t minGroups = 0);
 

@@ -109,7 +109,7 @@ ConeRecorder::ConeRecorder(vk::Context& ctx, const ConeOptions& options)
   sampleLight_ = vk::createKernel(ctx_, "sample light", spv_sample_light_comp, 5, sizeof(traversal::SampleLightPush));
   if (options_.sorted && options_.adaptiveOrder && !options_.twoPass) {
     orderChoice_ = vk::createKernel(ctx, "ray order choice", spv_order_choice_comp, 2, sizeof(OrderPush));
-    orderWords_ = vk::createBuffer(ctx, ORDER_WORDS * 4);
+    orderWords_ = vk::createBuffer(ctx, ORDER_WORDS * 4, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT);
   }
   if (options_.twoPass) unfinished_ = vk::createKernel(ctx, "unfinished rays", spv_unfinished_rays_comp, 3,
                                                        sizeof(traversal::TraversePush));
@@ -211,7 +211,8 @@ ConeRecorder::RecordedLight ConeRecorder::recordLight(vk::Commands& cmd, const D
     cmd.dispatch(orderChoice_, {tree_.shapeBuffer(), orderWords_}, op, 1);
     cmd.barrier();
     boundary("order");
-    sortCount = sort::Count::device(sort::GpuWord(orderWords_, ORDER_SORT_COUNT), maxRays);
+    sortCount = sort::Count::device(sort::GpuWord(orderWords_, ORDER_SORT_COUNT), maxRays)
+                    .withGate(orderWords_.buffer, ORDER_GATE_ARGS * 4);
   }
   bool recordsGiven = false;
   if (options_.sorted) {
@@ -227,7 +228,8 @@ ConeRecorder::RecordedLight ConeRecorder::recordLight(vk::Commands& cmd, const D
   }
   if (adaptive)
     tree_.recordDevice(cmd, g.position, rays_->samples(), orderWords_, ORDER_SORT_COUNT, maxRays, light,
-                       2.0f * in.eps, &frame_, /*keepWhenZero=*/true);
+                       2.0f * in.eps, &frame_, /*keepWhenZero=*/true, /*recordsGiven=*/false, orderWords_.buffer,
+                       ORDER_GATE_ARGS * 4);
   else
     tree_.recordDevice(cmd, g.position, rays_->samples(), rays_->countBuffer(), 0, maxRays, light,
                        2.0f * in.eps, &frame_, /*keepWhenZero=*/false, recordsGiven);

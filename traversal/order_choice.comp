@@ -43,4 +43,7 @@ void main() {
   words[ORDER_SORTED] = sorted ? 1u : 0u;
   words[ORDER_LOOSE] = loose ? 1u : 0u;
   words[ORDER_SORT_COUNT] = sorted ? shape[SHAPE_LEAVES] : 0u;
+  words[ORDER_GATE_ARGS] = sorted ? 1u : 0u;
+  words[ORDER_GATE_ARGS + 1u] = 1u;
+  words[ORDER_GATE_ARGS + 2u] = 1u;
 }

@@ -144,7 +144,9 @@
 // behind 8: docs/ARCHITECTURE.md, "The ray order, chosen per frame on the GPU").
 #define ORDER_SORT_PAYS 8.0
 #define ORDER_LOOSE 34       // 1: the screen-order tree was loose (sorted or not: the stats say which verdict)
-#define ORDER_WORDS 36
+#define ORDER_GATE_ARGS 36   // uvec4: (1, 1, 1) where the frame sorts, (0, 1, 1) where it keeps screen order: the
+                             //   indirect arguments the keys', sort's and rebuild's sizing kernels launch through
+#define ORDER_WORDS 40
 // order_choice.comp's push constant: the triangles the frame traverses.
 struct OrderPush {
   uint triangles;
