@@ -108,9 +108,10 @@ struct SpreadPush {
 
 // Push constants of conetree/build_level.comp: one dispatch builds one depth of the tree.
 struct BuildPush {
-  uint height;        // fromShape: levels above the leaves of the depth built (1: its children are the rays)
+  uint height;        // levels above the leaves of the depth built (1: its children are the rays)
   uint fromShape;     // 1: count .. fromLeaves below come from the shape buffer (binding 3) for `height`
-  uint pad0, pad1;
+  uint leaves;        // the rays under the tree (fromShape: read from the shape buffer instead): the boxes' offsets
+  uint pad1;
   uint count;         // nodes at this depth
   uint nodeOffset;    // levelOffset of this depth in the node array
   uint childCount;    // elements at depth + 1 (sorted rays when fromLeaves)
@@ -162,6 +163,17 @@ CS_FN uint topHeight(uint n) {
   return h;
 }
 
+// The sample boxes (build_level.comp, tree_top.comp): for each interior node, the world-coordinate bounds
+// of its rays' samples, two vec4s (lo, hi; w unused), node j of height h (h levels above the rays) at
+// boxOffset(n, h) + j: the heights bottom-up, so a box's place needs only the ray count and the node's
+// height, which both the test kernel (its children's leaf shift) and the leaves (theirs) know. The
+// plane cull reads them (traversal/precise_test.h, leafPlaneMissesBox).
+CS_FN uint boxOffset(uint n, uint height) {
+  uint offset = 0u;
+  for (uint k = 1u; k < height; k++) offset += countAtHeight(n, k);
+  return offset;
+}
+
 // Leaves under node j at depth d of a tree with `depth` levels over n leaves: [first, end).
 CS_FN uvec2 leafRange(uint j, uint n, uint depth, uint d) {
   uint shift = 2u * (depth - d);
@@ -175,6 +187,7 @@ using glsl::ShapePush;
 using glsl::SpreadPush;
 using glsl::ConeFrame;
 using glsl::ConeNode;
+using glsl::boxOffset;
 using glsl::childRange;
 using glsl::countAtHeight;
 using glsl::leafRange;

@@ -44,15 +44,16 @@ ConeTree::ConeTree(vk::Context& ctx)
       shapeWords_(vk::createBuffer(ctx, SHAPE_WORDS * 4, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT)) {
   for (uint32_t far = 0; far < 2; ++far)
     for (uint32_t leaves = 0; leaves < 3; ++leaves)
-      build_[far][leaves] = vk::createKernel(ctx, "cone tree build", spv_build_level_comp, 7, sizeof(BuildPush),
+      build_[far][leaves] = vk::createKernel(ctx, "cone tree build", spv_build_level_comp, 9, sizeof(BuildPush),
                                              {{0, far}, {1, leaves}});
   for (uint32_t far = 0; far < 2; ++far)
-    top_[far] = vk::createKernel(ctx, "cone tree top", spv_tree_top_comp, 3, sizeof(BuildPush), {{0, far}});
+    top_[far] = vk::createKernel(ctx, "cone tree top", spv_tree_top_comp, 4, sizeof(BuildPush), {{0, far}});
 }
 
 const vk::Kernel& ConeTree::buildKernel(const BuildPush& p, uint32_t leaves) const {
   return build_[p.frame.rowX.w != 0.0f ? 1 : 0][leaves];
 }
+
 
 FrameChoice worldFrame(glm::vec3 light) {
   FrameChoice f;
@@ -141,6 +142,11 @@ void ConeTree::ensureNodes(uint32_t count) {
     rays_.reset();
     rays_ = vk::createBuffer(ctx_, rayBytes);
   }
+  const uint64_t boxBytes = uint64_t(nodes) * 32;  // a box a node (boxCount), one storage binding as the nodes
+  if (boxes_.size < boxBytes) {
+    boxes_.reset();
+    boxes_ = vk::createBuffer(ctx_, boxBytes);
+  }
 }
 
 BuildPush ConeTree::basePush(glm::vec3 light, float minLength, const FrameChoice& fc) const {
@@ -162,6 +168,8 @@ void ConeTree::record(vk::Commands& cmd, const vk::Buffer& positions, const vk::
   ensureNodes(count);
   for (uint32_t d = shape_.depth; d-- > 0;) {
     BuildPush p = basePush(light, minLength, fc);
+    p.height = shape_.depth - d;
+    p.leaves = count;
     p.count = shape_.counts[d];
     p.nodeOffset = shape_.offsets[d];
     p.childCount = shape_.counts[d + 1];
@@ -171,7 +179,7 @@ void ConeTree::record(vk::Commands& cmd, const vk::Buffer& positions, const vk::
     cmd.dispatch(buildKernel(p, p.fromLeaves != 0 ? 1u : 0u),
                  {vk::texels(positions, VK_FORMAT_R32G32B32A32_SFLOAT), samples, nodes_,
                   vk::texels(shapeWords_, VK_FORMAT_R32G32B32A32_UINT), rays_, vk::texels(nodes_, VK_FORMAT_R32G32B32A32_SFLOAT),
-                  vk::texels(rays_, VK_FORMAT_R32G32B32A32_UINT)},
+                  vk::texels(rays_, VK_FORMAT_R32G32B32A32_UINT), boxes_, vk::texels(boxes_, VK_FORMAT_R32G32B32A32_SFLOAT)},
                  p, g.x, g.y);
     cmd.barrier();
   }
@@ -209,8 +217,8 @@ void ConeTree::recordDevice(vk::Commands& cmd, const vk::Buffer& positions, cons
     p.fromShape = 1;
     cmd.dispatchIndirect(buildKernel(p, h == 1 ? (recordsGiven ? 2u : 1u) : 0u),
                          {vk::texels(positions, VK_FORMAT_R32G32B32A32_SFLOAT), samples, nodes_,
-                          vk::texels(shapeWords_, VK_FORMAT_R32G32B32A32_UINT), rays_,
-                          vk::texels(nodes_, VK_FORMAT_R32G32B32A32_SFLOAT), vk::texels(rays_, VK_FORMAT_R32G32B32A32_UINT)},
+                          vk::texels(shapeWords_, VK_FORMAT_R32G32B32A32_UINT), rays_, vk::texels(nodes_, VK_FORMAT_R32G32B32A32_SFLOAT),
+                          vk::texels(rays_, VK_FORMAT_R32G32B32A32_UINT), boxes_, vk::texels(boxes_, VK_FORMAT_R32G32B32A32_SFLOAT)},
                          &p, sizeof(p), shapeWords_, (SHAPE_BUILD_ARGS + 4 * h) * 4);
     cmd.barrier();
   }
@@ -218,7 +226,7 @@ void ConeTree::recordDevice(vk::Commands& cmd, const vk::Buffer& positions, cons
     const BuildPush p = basePush(light, minLength, fc);
     cmd.dispatchIndirect(top_[p.frame.rowX.w != 0.0f ? 1 : 0],
                          {nodes_, vk::texels(shapeWords_, VK_FORMAT_R32G32B32A32_UINT),
-                          vk::texels(nodes_, VK_FORMAT_R32G32B32A32_SFLOAT)},
+                          vk::texels(nodes_, VK_FORMAT_R32G32B32A32_SFLOAT), boxes_},
                          &p, sizeof(p), shapeWords_, SHAPE_BUILD_ARGS * 4);
     cmd.barrier();
   }

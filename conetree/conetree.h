@@ -100,7 +100,9 @@ class ConeTree {
     ensureNodes(maxCount);
     return rays_;
   }
-  uint64_t bytesAllocated() const { return nodes_.size + rays_.size + shapeWords_.size; }
+  // The interior nodes' sample boxes (cone_layout.h, boxOffset), written by the same build.
+  const vk::Buffer& boxes() const { return boxes_; }
+  uint64_t bytesAllocated() const { return nodes_.size + rays_.size + boxes_.size + shapeWords_.size; }
 
  private:
   void ensureNodes(uint32_t count);  // and the rays' buffer
@@ -113,7 +115,7 @@ class ConeTree {
   vk::Kernel top_[2];  // tree_top.comp: [far frame]
   vk::Kernel shapeKernel_, spread_;
   const vk::Kernel& buildKernel(const BuildPush& p, uint32_t leaves) const;  // leaves: SPEC_LEAVES
-  vk::Buffer nodes_, rays_, shapeWords_;
+  vk::Buffer nodes_, rays_, boxes_, shapeWords_;
   TreeShape shape_;
   uint32_t maxDepth_ = 0;
 };

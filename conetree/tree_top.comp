@@ -9,13 +9,16 @@
 // (SHAPE_BUILD_ARGS + 0: one workgroup, or none when the tree is not that deep or a rebuild was kept).
 // bindings: 0 = nodes (ConeNode, the whole tree; the top heights written), 1 = shape words (uniform
 //           texel buffer, RGBA32UI), 2 = nodes again (uniform texel buffer, RGBA32F: two texels a
-//           ConeNode; the level below the top read)
+//           ConeNode; the level below the top read), 3 = boxes (cone_layout.h, boxOffset: the top's
+//           heights written, from the boxes of the height below; a level's writes made visible to the
+//           next by a barrier)
 #include "conetree/cone_math.h"
 
 layout(local_size_x = CONE_BUILD_THREADS) in;
 layout(std430, binding = 0) writeonly buffer Nodes { ConeNode nodes[]; };
 layout(binding = 1) uniform usamplerBuffer shapeTexels;
 layout(binding = 2) uniform samplerBuffer nodeTexels;
+layout(std430, binding = 3) coherent buffer Boxes { vec4 boxes[]; };
 uint shapeWord(uint w) { return texelWord(shapeTexels, w); }
 layout(push_constant) uniform Push { BuildPush p; };
 layout(constant_id = 0) const uint SPEC_FAR = 0u;  // 1: the far-light frame (= p.frame.rowX.w != 0)
@@ -25,7 +28,8 @@ shared vec4 levelAxisCos[CONE_TOP_NODES], levelSinLen[CONE_TOP_NODES];  // the l
 
 void main() {
   uint t = gl_LocalInvocationIndex;
-  uint depth = shapeWord(SHAPE_DEPTH), first = topHeight(shapeWord(SHAPE_LEAVES));
+  uint leaves = shapeWord(SHAPE_LEAVES);
+  uint depth = shapeWord(SHAPE_DEPTH), first = topHeight(leaves);
   for (uint h = first; h <= depth; ++h) {
     uint d = depth - h;
     uint count = shapeWord(SHAPE_COUNTS + d), nodeOffset = shapeWord(SHAPE_OFFSETS + d);
@@ -52,7 +56,18 @@ void main() {
       made[k] = SPEC_FAR != 0u ? coneParentFar(c[0], c[1], c[2], c[3], 4u, CONE_PAD * p.frame.centre.w)
                                : coneParent(c[0], c[1], c[2], c[3], 4u, CONE_PAD);
       nodes[nodeOffset + j] = made[k];
+      // build_level.comp's box of the children's boxes
+      uint below = boxOffset(leaves, h - 1u);
+      vec3 lo = vec3(3.0e38), hi = vec3(-3.0e38);
+      for (uint at = r.x; at < r.y; ++at) {
+        lo = min(lo, boxes[2u * (below + at)].xyz);
+        hi = max(hi, boxes[2u * (below + at) + 1u].xyz);
+      }
+      uint b = boxOffset(leaves, h) + j;
+      boxes[2u * b] = vec4(lo, 0.0f);
+      boxes[2u * b + 1u] = vec4(hi, 0.0f);
     }
+    memoryBarrierBuffer();  // this level's boxes, for the next level's invocations
     barrier();  // every child of this level read before the level overwrites them
     for (uint k = 0u; k < kPerThread; ++k) {
       uint j = t + k * CONE_BUILD_THREADS;

@@ -273,7 +273,7 @@ TEST(ConeTree, EveryLeafRayInsideEveryAncestorOnTheGpu) {
 // heights one workgroup's (tree_top.comp). Shape words equal treeShape() and the nodes are bit-identical
 // to the build from the host count (a dispatch a depth), for counts well below the bound (a shallower
 // tree than recorded for), at it, and zero (no tree); trees whose top starts at heights 2, 3 and 4, in
-// the world frame and in the far-light frame.
+// the world frame and in the far-light frame. Both builds' sample boxes hold exactly their nodes' samples.
 TEST(ConeTree, DeviceBuildFromTheGpuCountEqualsTheHostBuild) {
   auto& ctx = test::context();
   const glm::vec3 light(0.3f, -0.2f, 0.1f);
@@ -350,6 +350,18 @@ TEST(ConeTree, DeviceBuildFromTheGpuCountEqualsTheHostBuild) {
         ASSERT_EQ(rays[i], glm::uvec4(glm::floatBitsToUint(p.x), glm::floatBitsToUint(p.y), glm::floatBitsToUint(p.z), order[i]))
             << (tree == &hostTree ? "host" : "device") << "-count build, n=" << n << ", ray " << i;
       }
+      // And each interior node's sample box (cone_layout.h, boxOffset): the exact bounds of its rays'
+      // positions, at every height, the top's included.
+      const std::vector<glm::vec4> boxes = vk::download<glm::vec4>(ctx, tree->boxes(), 2 * s.nodes());
+      for (uint32_t h = 1; h <= s.depth; ++h)
+        for (uint32_t j = 0; j < cone::countAtHeight(n, h); ++j) {
+          glm::vec3 lo(INFINITY), hi(-INFINITY);
+          for (uint32_t i = j << (2 * h); i < std::min(n, (j + 1) << (2 * h)); ++i)
+            lo = glm::min(lo, glm::vec3(pos[order[i]])), hi = glm::max(hi, glm::vec3(pos[order[i]]));
+          const uint32_t b = 2 * (cone::boxOffset(n, h) + j);
+          ASSERT_TRUE(glm::vec3(boxes[b]) == lo && glm::vec3(boxes[b + 1]) == hi)
+              << (tree == &hostTree ? "host" : "device") << "-count build, n=" << n << ", height " << h << " node " << j;
+        }
     }
   }
 }

@@ -319,31 +319,6 @@ CS_FN float maxAbs3(vec3 a, vec3 b, vec3 c) {
 }
 
 // The leaf test of one sample against one triangle, from world coordinates: sample p, light, the leaf
-// ray = leafRay(p, light), triangle P0, P1, P2. The same geometry from whichever end of the ray the
-// triangle is nearer (in the max norm): relative to the light, the ray light -> p as above; relative to
-// the sample, the ray p -> light along -w = light - p (fl(light - p) = -fl(p - light) exactly: the same
-// line), hits at tau in (eps, L - eps) from the sample as the reference counts them.
-// Why both ends: the vertices' rounding is about an ulp of their distance from the origin of the frame,
-// and so is that of the hit distance. Relative to the light alone, a triangle next to a far light's
-// sample sits at tau ~ L, where ulp(L) can exceed eps (a light 10^5 scene diagonals away): the receiver
-// would shadow itself, or a blocker a hair above it be lost. Relative to the sample alone, a triangle a
-// hair from the light inherits ulp(L) the same way. From the nearer end, the error is an ulp of the
-// triangle's distance to that end, never more than relative to the light, so the traversal's margins
-// (relative to |P - light|) still cover every hit this test reports.
-CS_FN bool leafHit(vec3 p, vec3 light, vec4 ray, float eps, vec3 P0, vec3 P1, vec3 P2) {
-  CS_PRECISE vec3 a0 = P0 - light;
-  CS_PRECISE vec3 a1 = P1 - light;
-  CS_PRECISE vec3 a2 = P2 - light;
-  CS_PRECISE vec3 b0 = P0 - p;
-  CS_PRECISE vec3 b1 = P1 - p;
-  CS_PRECISE vec3 b2 = P2 - p;
-  // One call on the chosen end's values (selected, not branched: a GPU or lavapipe running both sides of
-  // a divergent branch would run the test twice).
-  bool fromSample = maxAbs3(b0, b1, b2) < maxAbs3(a0, a1, a2);
-  vec4 r = fromSample ? vec4(-vec3(ray), ray.w) : ray;
-  return leafRayHitsTriangle(r, eps, fromSample ? b0 : a0, fromSample ? b1 : a1, fromSample ? b2 : a2);
-}
-
 // The leaf test from the light (traversal.h, LeafTest::FromLight): the same question as leafHit, asked
 // so that all it needs of the triangle is computed once for the 4, 16 or 64 rays of a leaf pair,
 // which share their origin, the light. Used where the light is among the geometry (the world frame: a
@@ -399,14 +374,13 @@ CS_FN vec3 edgeNormalFromLight(vec3 Pa, vec3 Pb, vec3 va, vec3 vb) {
   return forward ? n : -n;
 }
 
-CS_FN LeafTriangle leafTriangle(vec3 P0, vec3 P1, vec3 P2, vec3 light) {
+// The plane's share of leafTriangle (N, P0, dl and the bounds; the edge normals zero): what the
+// crossing test and the box cull below need, and all the two-ends test needs of it.
+CS_FN LeafTriangle leafPlane(vec3 P0, vec3 P1, vec3 P2, vec3 light) {
   LeafTriangle t;
-  CS_PRECISE vec3 v0 = P0 - light;
-  CS_PRECISE vec3 v1 = P1 - light;
-  CS_PRECISE vec3 v2 = P2 - light;
-  t.n0 = edgeNormalFromLight(P1, P2, v1, v2);
-  t.n1 = edgeNormalFromLight(P2, P0, v2, v0);
-  t.n2 = edgeNormalFromLight(P0, P1, v0, v1);
+  t.n0 = vec3(0.0f);
+  t.n1 = vec3(0.0f);
+  t.n2 = vec3(0.0f);
   CS_PRECISE vec3 e1 = P1 - P0;
   CS_PRECISE vec3 e2 = P2 - P0;
   CS_PRECISE vec3 N = cross(e1, e2);
@@ -426,6 +400,58 @@ CS_FN LeafTriangle leafTriangle(vec3 P0, vec3 P1, vec3 P2, vec3 light) {
   return t;
 }
 
+CS_FN LeafTriangle leafTriangle(vec3 P0, vec3 P1, vec3 P2, vec3 light) {
+  LeafTriangle t = leafPlane(P0, P1, P2, light);
+  CS_PRECISE vec3 v0 = P0 - light;
+  CS_PRECISE vec3 v1 = P1 - light;
+  CS_PRECISE vec3 v2 = P2 - light;
+  t.n0 = edgeNormalFromLight(P1, P2, v1, v2);
+  t.n1 = edgeNormalFromLight(P2, P0, v2, v0);
+  t.n2 = edgeNormalFromLight(P0, P1, v0, v1);
+  return t;
+}
+
+// The ray from the light to sample p (length L) crosses the triangle's plane between its ends, at a
+// distance tau from the light with eps < tau < L - eps: dl = N.(light - P0) and ds = N.(p - P0) of
+// opposite signs, each clear of its bound on its rounding, tau = L |dl| / (|dl| + |ds|). Both leaf tests
+// ask it (leafHitFromLight as its "where", leafHit beside its sheared test), so a hit always has the
+// sample beyond the plane from the light: what the box cull (leafPlaneMissesBox) relies on.
+CS_FN bool leafCrosses(LeafTriangle t, vec3 p, float L, float eps) {
+  CS_PRECISE vec3 d = p - t.P0;
+  CS_PRECISE float ds = dot(t.N, d);
+  vec3 a = abs(d);
+  float errS = t.errS * (a.x + a.y + a.z);
+  float adl = abs(t.dl);
+  float ads = abs(ds);
+  float sum = adl + ads;  // |dl - ds| = |N.w| where the signs differ: tau = L adl / sum
+  return (t.dl > 0.0f) != (ds > 0.0f) && adl > t.errL && ads > errS && adl * L > eps * sum && ads * L > eps * sum;
+}
+
+// The box cull of a leaf pair: true only when no sample in the box [lo, hi] (world coordinates) can have
+// leafCrosses true, i.e. the pair's leaf tests would all miss. A crossing needs the sample beyond the
+// plane from the light by ds_far > errS(p) (computed), and tau from the sample, L ds_far / (|dl| + ds_far),
+// above eps, so ds_far L > eps |dl|. Over the box, ds_far is at most the far corner's, D (computed; the
+// true value within errS |q - P0|_1 of it, and a tiny normal component of the wrong sign costs errN times
+// the box's extent), so with A = max over the box of |p - P0|_1 (>= every such |d|_1), every sample's
+// computed ds_far is below D + 6 errS A: a box with (D + 6 errS A) Lb <= eps (|dl| - 2 errL), Lb an upper
+// bound on the rays' computed lengths, has no crossing (and none at all when D + 6 errS A <= 0: the
+// whole box on the light's side). It drops the receivers -- samples on the triangle's own plane, whose
+// rays' crossings are within eps of them -- and what lies between the light and the plane; it asks
+// nothing of the triangle's edges, so it is no pass test's duplicate. Empty boxes (lo > hi) are culled.
+CS_FN bool leafPlaneMissesBox(LeafTriangle t, vec3 lo, vec3 hi, vec3 light, float eps) {
+  if (lo.x > hi.x) return true;
+  vec3 m = t.dl > 0.0f ? -t.N : t.N;  // towards the far side
+  vec3 q = vec3(m.x > 0.0f ? hi.x : lo.x, m.y > 0.0f ? hi.y : lo.y, m.z > 0.0f ? hi.z : lo.z);
+  CS_PRECISE vec3 d = q - t.P0;
+  CS_PRECISE float D = dot(m, d);
+  vec3 a = max(abs(lo - t.P0), abs(hi - t.P0));
+  float f = D + 6.0f * t.errS * (a.x + a.y + a.z);
+  if (!(f > 0.0f)) return !(f != f);  // NaN keeps the pair
+  vec3 r = max(abs(lo - light), abs(hi - light));
+  float Lb = length(r) * (1.0f + 4.0f * CONE_TEST_MARGIN);
+  return f * Lb <= eps * (abs(t.dl) - 2.0f * t.errL) * (1.0f - 4.0f * CONE_TEST_MARGIN);
+}
+
 // ray = leafRay(p, light) for a sample p (as leafHit takes it); t = leafTriangle(P0, P1, P2, light).
 CS_FN bool leafHitFromLight(LeafTriangle t, vec3 p, vec4 ray, float eps) {
   vec3 w = vec3(ray);
@@ -434,20 +460,44 @@ CS_FN bool leafHitFromLight(LeafTriangle t, vec3 p, vec4 ray, float eps) {
   CS_PRECISE float V = w.x * t.n1.x + w.y * t.n1.y + w.z * t.n1.z;
   CS_PRECISE float W = w.x * t.n2.x + w.y * t.n2.y + w.z * t.n2.z;
   bool inside = !((U < 0.0f || V < 0.0f || W < 0.0f) && (U > 0.0f || V > 0.0f || W > 0.0f));
-  CS_PRECISE vec3 d = p - t.P0;
-  CS_PRECISE float ds = dot(t.N, d);
-  vec3 a = abs(d);
-  float errS = t.errS * (a.x + a.y + a.z);
-  float adl = abs(t.dl);
-  float ads = abs(ds);
-  float sum = adl + ads;  // |dl - ds| = |N.w| where the signs differ: tau = L adl / sum
-  return inside && (t.dl > 0.0f) != (ds > 0.0f) && adl > t.errL && ads > errS &&
-         adl * ray.w > eps * sum && ads * ray.w > eps * sum;
+  return inside && leafCrosses(t, p, ray.w, eps);
 }
 
 // The same from world coordinates, one call a ray (the host's brute force and property tests).
 CS_FN bool leafHitFromLight(vec3 p, vec3 light, vec4 ray, float eps, vec3 P0, vec3 P1, vec3 P2) {
   return leafHitFromLight(leafTriangle(P0, P1, P2, light), p, ray, eps);
+}
+
+// ray = leafRay(p, light), triangle P0, P1, P2. The same geometry from whichever end of the ray the
+// triangle is nearer (in the max norm): relative to the light, the ray light -> p as above; relative to
+// the sample, the ray p -> light along -w = light - p (fl(light - p) = -fl(p - light) exactly: the same
+// line), hits at tau in (eps, L - eps) from the sample as the reference counts them.
+// Why both ends: the vertices' rounding is about an ulp of their distance from the origin of the frame,
+// and so is that of the hit distance. Relative to the light alone, a triangle next to a far light's
+// sample sits at tau ~ L, where ulp(L) can exceed eps (a light 10^5 scene diagonals away): the receiver
+// would shadow itself, or a blocker a hair above it be lost. Relative to the sample alone, a triangle a
+// hair from the light inherits ulp(L) the same way. From the nearer end, the error is an ulp of the
+// triangle's distance to that end, never more than relative to the light, so the traversal's margins
+// (relative to |P - light|) still cover every hit this test reports.
+// The plane t (leafPlane(P0, P1, P2, light)) is computed once a pair; its crossing is asked beside the
+// sheared test (leafCrosses), so both tests agree on which side of the plane a hit's sample lies.
+CS_FN bool leafHit(LeafTriangle t, vec3 p, vec3 light, vec4 ray, float eps, vec3 P0, vec3 P1, vec3 P2) {
+  CS_PRECISE vec3 a0 = P0 - light;
+  CS_PRECISE vec3 a1 = P1 - light;
+  CS_PRECISE vec3 a2 = P2 - light;
+  CS_PRECISE vec3 b0 = P0 - p;
+  CS_PRECISE vec3 b1 = P1 - p;
+  CS_PRECISE vec3 b2 = P2 - p;
+  // One call on the chosen end's values (selected, not branched: a GPU or lavapipe running both sides of
+  // a divergent branch would run the test twice).
+  bool fromSample = maxAbs3(b0, b1, b2) < maxAbs3(a0, a1, a2);
+  vec4 r = fromSample ? vec4(-vec3(ray), ray.w) : ray;
+  return leafRayHitsTriangle(r, eps, fromSample ? b0 : a0, fromSample ? b1 : a1, fromSample ? b2 : a2) &&
+         leafCrosses(t, p, ray.w, eps);
+}
+
+CS_FN bool leafHit(vec3 p, vec3 light, vec4 ray, float eps, vec3 P0, vec3 P1, vec3 P2) {
+  return leafHit(leafPlane(P0, P1, P2, light), p, light, ray, eps, P0, P1, P2);
 }
 
 #ifdef __cplusplus
@@ -456,6 +506,9 @@ using glsl::leafHit;
 using glsl::leafHitFromLight;
 using glsl::lexLess;
 using glsl::leafTriangle;
+using glsl::leafPlane;
+using glsl::leafCrosses;
+using glsl::leafPlaneMissesBox;
 using glsl::LeafTriangle;
 using glsl::leafRayHitsTriangle;
 using glsl::preciseConeCovered;

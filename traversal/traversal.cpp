@@ -231,12 +231,12 @@ Traversal::Traversal(vk::Context& ctx, uint64_t memoryBytes)
 Traversal::Traversal(vk::Context& ctx, const ArenaPlan& plan) : ctx_(ctx), plan_(plan) {
   CS_CHECK(plan_.pairCapacity >= kMinPairs && plan_.chunkCapacity >= 1, "traversal arena plan too small");
   batchTriangles_ = plan_.chunkCapacity;
-  leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 6, sizeof(TraversePush), {{0, 0u}, {1, 0u}});
-  leavesFromLight_ = vk::createKernel(ctx, "traverse leaves (from the light)", spv_traverse_leaves_comp, 6,
+  leaves_ = vk::createKernel(ctx, "traverse leaves", spv_traverse_leaves_comp, 7, sizeof(TraversePush), {{0, 0u}, {1, 0u}});
+  leavesFromLight_ = vk::createKernel(ctx, "traverse leaves (from the light)", spv_traverse_leaves_comp, 7,
                                       sizeof(TraversePush), {{0, 1u}, {1, 0u}});
-  leavesCull_ = vk::createKernel(ctx, "traverse leaves (culled)", spv_traverse_leaves_comp, 6, sizeof(TraversePush),
+  leavesCull_ = vk::createKernel(ctx, "traverse leaves (culled)", spv_traverse_leaves_comp, 7, sizeof(TraversePush),
                                  {{0, 0u}, {1, 1u}});
-  leavesFromLightCull_ = vk::createKernel(ctx, "traverse leaves (from the light, culled)", spv_traverse_leaves_comp, 6,
+  leavesFromLightCull_ = vk::createKernel(ctx, "traverse leaves (from the light, culled)", spv_traverse_leaves_comp, 7,
                                           sizeof(TraversePush), {{0, 1u}, {1, 1u}});
   leafHits_ = vk::createKernel(ctx, "leaf hits", spv_leaf_hits_comp, 4, sizeof(LeafHitsPush));
   advance_ = vk::createKernel(ctx, "traverse advance", spv_traverse_advance_comp, 2, sizeof(AdvancePush));
@@ -263,7 +263,7 @@ const vk::Kernel& Traversal::testKernel(const TraversePush& p, bool clusters, bo
   if (!k)
     k = std::make_unique<vk::Kernel>(vk::createKernel(
         ctx_, clusters ? "traverse test (clusters)" : whole ? "traverse test (whole clusters)" : "traverse test",
-        spv_traverse_test_comp, 10, sizeof(TraversePush),
+        spv_traverse_test_comp, 12, sizeof(TraversePush),
         {{0, sphere && !clusters ? TRAVERSE_TEST_SPHERE : TRAVERSE_TEST_PRECISE}, {1, early ? 1u : 0u},
          {2, culling ? 1u : 0u}, {3, clusters ? 1u : 0u}, {4, whole ? 1u : 0u}, {5, scaled ? 1u : 0u}}));
   return *k;
@@ -328,10 +328,12 @@ bool Traversal::expandChunk(Frame& f, uint32_t child, bool fromTriangles, uint64
   if (early)
     cmd.dispatch(testKernel(p, false), {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), vk::texels(chunk_, kPairFormat), arena_,
                          stats_, f.in->tree->rays(), *f.in->visibility, flags_, stats_,
-                         vk::uniforms(state_, kStateBytes)}, p, g.x, g.y);
+                         vk::uniforms(state_, kStateBytes), vk::texels(*f.in->triangles, kTexelFormat),
+                         vk::texels(f.in->tree->boxes(), kTexelFormat)}, p, g.x, g.y);
   else  // bindings 5-8 unused: any valid buffer
     cmd.dispatch(testKernel(p, false), {vk::texels(tris, kTexelFormat), vk::texels(f.in->tree->nodes(), kTexelFormat), vk::texels(chunk_, kPairFormat), arena_,
-                         stats_, stats_, stats_, stats_, stats_, vk::uniforms(state_, kStateBytes)}, p, g.x, g.y);
+                         stats_, stats_, stats_, stats_, stats_, vk::uniforms(state_, kStateBytes), vk::texels(*f.in->triangles, kTexelFormat),
+                         vk::texels(f.in->tree->boxes(), kTexelFormat)}, p, g.x, g.y);
   cmd.barrier();
   cmd.mark("traversal");
   submit(f, cmd, f.stats.traversalMs);
@@ -395,7 +397,7 @@ void Traversal::leaves(Frame& f, uint32_t d) {
     f.shadowedCleared = true;
   }
   cmd.dispatch(leafKernel(f.in->leafTest, false), {vk::texels(*f.in->triangles, kTexelFormat), vk::texels(arena_, kPairFormat), vk::texels(f.in->tree->rays(), kRayFormat), stats_,
-                         vk::texels(stats_, kWordFormat), shadowed_}, p,
+                         vk::texels(stats_, kWordFormat), shadowed_, vk::texels(f.in->tree->boxes(), kTexelFormat)}, p,
                g.x, g.y);
   cmd.barrier();
   cmd.mark("leaves");
@@ -632,7 +634,8 @@ void Traversal::record(vk::Commands& cmd, const TraversalInput& in, std::vector<
         if (expansionLanes_ != EXPANSION_CHOSEN && whole != (expansionLanes_ == EXPANSION_PER_CLUSTER)) continue;
         cmd.dispatchIndirect(testKernel(ps, false, whole),
                              {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), vk::texels(src, kPairFormat), dst, state_,
-                              state_, state_, state_, spheres, vk::uniforms(state_, kStateBytes)},
+                              state_, state_, state_, spheres, vk::uniforms(state_, kStateBytes),
+                              vk::texels(*in.triangles, kTexelFormat), vk::texels(in.tree->boxes(), kTexelFormat)},
                              &ps, sizeof(ps), state_, (whole ? STATE_WHOLE_ARGS : STATE_SPHERE_ARGS) * 4);
       }
     }
@@ -642,12 +645,14 @@ void Traversal::record(vk::Commands& cmd, const TraversalInput& in, std::vector<
       if (early)
         cmd.dispatchIndirect(testKernel(p, clusterKernel),
                              {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), vk::texels(src, kPairFormat), dst, state_,
-                              in.tree->rays(), *in.visibility, flags_, spheres, vk::uniforms(state_, kStateBytes)},
+                              in.tree->rays(), *in.visibility, flags_, spheres, vk::uniforms(state_, kStateBytes),
+                              vk::texels(*in.triangles, kTexelFormat), vk::texels(in.tree->boxes(), kTexelFormat)},
                              &p, sizeof(p), state_, args * 4);
       else
         cmd.dispatchIndirect(testKernel(p, clusterKernel),
                              {vk::texels(tris, kTexelFormat), vk::texels(in.tree->nodes(), kTexelFormat), vk::texels(src, kPairFormat), dst, state_,
-                              state_, state_, state_, spheres, vk::uniforms(state_, kStateBytes)},
+                              state_, state_, state_, spheres, vk::uniforms(state_, kStateBytes),
+                              vk::texels(*in.triangles, kTexelFormat), vk::texels(in.tree->boxes(), kTexelFormat)},
                              &p, sizeof(p), state_, args * 4);
     }
     cmd.barrier();
@@ -681,7 +686,7 @@ void Traversal::record(vk::Commands& cmd, const TraversalInput& in, std::vector<
       p.countWord = STATE_LEAF_ARGS + 4 * k + 3;
       p.missingWord = STATE_LEAF_MISSING;
       cmd.dispatchIndirect(leafKernel(in.leafTest, cull), {vk::texels(*in.triangles, kTexelFormat), vk::texels(*buffers[k % 2], kPairFormat), vk::texels(in.tree->rays(), kRayFormat), state_,
-                                     vk::texels(state_, kWordFormat), shadowed_},
+                                     vk::texels(state_, kWordFormat), shadowed_, vk::texels(in.tree->boxes(), kTexelFormat)},
                            &p, sizeof(p), state_, (STATE_LEAF_ARGS + 4 * k) * 4);
     }
     cmd.barrier();

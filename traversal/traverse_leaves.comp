@@ -18,7 +18,7 @@
 //           bits and its pixel index, ConeTree::rays), 3 = stats (the device path: the state words, the
 //           pair count at p.countWord), 4 = the same words as a uniform texel buffer (RGBA32UI): the counts
 //           every invocation reads, fetched instead of loaded from storage, 5 = shadowed (a bit per sorted
-//           ray, and a word more)
+//           ray, and a word more), 6 = the tree's sample boxes (ConeTree::boxes)
 #include "traversal/precise_test.h"
 #include "traversal/sphere_test.h"
 #include "traversal/traverse.glsl"
@@ -40,6 +40,8 @@ layout(binding = 4) uniform usamplerBuffer statTexels;  // binding 3's words, fo
 // hint: a pair tests only the rays its words do not mark; a stale read costs tests, never a wrong mask
 // (a bit once set stays set). Cleared per traversal.
 layout(std430, binding = 5) buffer Shadowed { uint shadowed[]; };
+// The sample boxes of the nodes of heights 1 .. 3 (conetree/cone_layout.h, boxOffset; RGBA32F, lo and hi).
+layout(binding = 6) uniform samplerBuffer boxes;
 layout(push_constant) uniform Push { TraversePush p; };
 
 uint statWord(uint w) { return texelWord(statTexels, w); }
@@ -49,7 +51,7 @@ bool rayHits(uint leaf, LeafTriangle t, vec3 P0, vec3 P1, vec3 P2, vec3 light) {
   vec3 samplePos = uintBitsToFloat(texelFetch(rays, int(leaf)).xyz);
   vec4 ray = leafRay(samplePos, light);
   bool hit = SPEC_FROM_LIGHT != 0u ? leafHitFromLight(t, samplePos, ray, p.eps)
-                                   : leafHit(samplePos, light, ray, p.eps, P0, P1, P2);
+                                   : leafHit(t, samplePos, light, ray, p.eps, P0, P1, P2);
   return leafRayUsable(ray, p.minLength) && hit;
 }
 
@@ -103,9 +105,15 @@ void main() {
     live2 &= near2;
     if ((live | live2) == 0u) return;
   }
+  // The plane cull (precise_test.h, leafPlaneMissesBox): the pair's node's sample box (conetree's
+  // boxes, heights 1 .. 3: the 4, 16 or 64 rays of a leaf pair) wholly where the plane's crossings cannot
+  // count -- on the light's side of the triangle's plane, or beyond it by less than eps times the
+  // crossing's slope (the receivers: samples on the triangle's own plane). Every pair computes the plane
+  // anyway (both leaf tests ask leafCrosses); the box is two texels.
+  LeafTriangle t = SPEC_FROM_LIGHT != 0u ? leafTriangle(P0, P1, P2, light) : leafPlane(P0, P1, P2, light);
+  uint box = 2u * (boxOffset(leafCount, shift >> 1u) + pair.y);
+  if (leafPlaneMissesBox(t, texelFetch(boxes, int(box)).xyz, texelFetch(boxes, int(box + 1u)).xyz, light, p.eps)) return;
   uint hits = 0u, hits2 = 0u;
-  LeafTriangle t;
-  if (SPEC_FROM_LIGHT != 0u) t = leafTriangle(P0, P1, P2, light);
   // Four rays an iteration (the lowest four left of the pair's up to 64, over both words; the last again
   // when fewer are left, a ray tested twice being harmless): a loop iteration costs every lavapipe lane
   // about what the tests in it do, and one loop over the 64 runs as often as the busiest lane's rays

@@ -28,7 +28,9 @@
 //           (uint per pixel), 7 = flags (uint per interior node); 5-7 used with early accept only, 8 =
 //           cluster spheres (SUPER_SPHERES vec4s a super cluster: its own, then each cluster's own and its
 //           groups'; relative to the light as binding 0's vertices; device path), 9 = the state words
-//           (binding 4's, the device path's) as a uniform buffer
+//           (binding 4's, the device path's) as a uniform buffer, 10 = the triangles in world coordinates
+//           (binding 0's, or the world triangles where binding 0 holds the far frame's), 11 = the tree's
+//           sample boxes (conetree/cone_layout.h, boxOffset; RGBA32F, lo and hi)
 // Clusters (device path, STATE_MODE): a STEP_CLUSTERS step tests (cluster, node) pairs with the
 // cluster's sphere (sphere_test.h: false only when no ray of the cone meets the sphere, which holds all
 // the cluster's triangles) and writes (cluster, child) pairs; a STEP_EXPAND step's input i is triangle
@@ -70,6 +72,8 @@ layout(std430, binding = 8) readonly buffer Clusters { vec4 clusterSpheres[]; };
 // lavapipe loads a uniform buffer's word once for the SIMD lanes, where a texel fetch gathers a lane at a
 // time and a storage load loops over the lanes (docs/ARCHITECTURE.md, "Memory access").
 layout(std140, binding = 9) uniform StateWords { uvec4 stateWords[STATE_WORDS / 4]; };
+layout(binding = 10) uniform samplerBuffer worldTris;
+layout(binding = 11) uniform samplerBuffer boxes;
 layout(push_constant) uniform Push { TraversePush p; };
 // The switches of a frame, as specialisation constants (Traversal::testKernel): the kernel holds only the
 // code its switches run: on lavapipe, code a uniform branch never enters still costs every invocation
@@ -201,6 +205,19 @@ uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild, inout uin
     // plane slab, three edge planes) is then not computed (unless another lane of the subgroup needs it).
     vec4 sphere = boundingSphere(v0, v1, v2, scale);
     uint near = nearChildren(r, sphere, scale);
+    if (near != 0u) {
+      // The plane cull first (precise_test.h, leafPlaneMissesBox): a child whose samples' box lies where
+      // the triangle's plane crossings cannot count has no leaf hit under it. In world coordinates, as the
+      // leaves test; the children's boxes at their height (the leaf shift is twice it).
+      LeafTriangle lp = leafPlane(texelFetch(worldTris, int(3u * pair.x)).xyz, texelFetch(worldTris, int(3u * pair.x + 1u)).xyz,
+                                  texelFetch(worldTris, int(3u * pair.x + 2u)).xyz, light);
+      uint boxBase = 2u * (boxOffset(leafCount, leafShift >> 1u) + r.x);
+      for (uint todo = near; todo != 0u; todo &= todo - 1u) {
+        uint k = uint(findLSB(todo)), b = boxBase + 2u * k;
+        if (leafPlaneMissesBox(lp, texelFetch(boxes, int(b)).xyz, texelFetch(boxes, int(b + 1u)).xyz, light, p.eps))
+          near &= ~(1u << k);
+      }
+    }
     if (near != 0u) {
       PreciseTriangle t = preciseTriangle(v0, v1, v2, scale);  // once for the (up to) four children
       // Over the set bits of `near` only: lavapipe runs a loop as many times as its busiest lane needs
