@@ -13,9 +13,10 @@
 //           what the leaves read, one texel a ray, instead of the pixel index and then the G-buffer),
 //           5 = nodes again (uniform texel buffer, RGBA32F: two texels a ConeNode; the depth below read),
 //           6 = binding 4's rays again (uniform texel buffer, RGBA32UI), read where their records are given
-//           (SPEC_LEAVES 2: rays/run_expand.comp wrote them, positions read in pixel order), 7 = boxes
-//           (cone_layout.h, boxOffset: this height's written), 8 = binding 7 again (uniform texel
-//           buffer, RGBA32F: the height below's boxes read)
+//           (SPEC_LEAVES 2: rays/run_expand.comp wrote them, positions read in pixel order; and at
+//           height 2, the rays under each node, for its box), 7 = boxes (cone_layout.h, boxOffset: this
+//           height's written, from height 2 up), 8 = binding 7 again (uniform texel buffer, RGBA32F: the
+//           height below's boxes read, from height 3 up)
 #include "conetree/cone_math.h"
 
 layout(local_size_x = CONE_BUILD_THREADS) in;
@@ -39,11 +40,12 @@ layout(constant_id = 0) const uint SPEC_FAR = 0u;     // 1: the far-light frame 
 // 1: the children are the sorted rays (= fromLeaves), their positions gathered by `samples` and their
 // records stored; 2: the same rays, their records given (binding 6), nothing gathered or stored.
 layout(constant_id = 1) const uint SPEC_LEAVES = 0u;
+// The node's sample box (cone_layout.h, boxOffset): 0 none (height 1), 1 from its (up to) 16 rays'
+// positions (height 2), 2 from its children's boxes (height 3 and up).
+layout(constant_id = 2) const uint SPEC_BOXES = 0u;
 layout(std430, binding = 7) writeonly buffer Boxes { vec4 boxes[]; };
 layout(binding = 8) uniform samplerBuffer boxTexels;
-// The node's sample box, grown by child(): from the rays' positions at height 1, else from the
-// children's boxes.
-vec3 boxLo = vec3(3.0e38), boxHi = vec3(-3.0e38);
+vec3 boxLo = vec3(3.0e38), boxHi = vec3(-3.0e38);  // the node's sample box, grown by child() (SPEC_BOXES 2)
 uint leaves, childBoxes;  // the rays under the tree; the first box of the height below
 
 uint count, nodeOffset, childCount, childOffset;
@@ -57,8 +59,6 @@ ConeNode child(uint c, uint pixel) {
       position = texelFetch(positions, int(pixel)).xyz;
       rays[c] = uvec4(floatBitsToUint(position), pixel);
     }
-    boxLo = min(boxLo, position);
-    boxHi = max(boxHi, position);
     if (SPEC_FAR != 0u) {  // far frame: the ray in frame coordinates, its cone widened
       vec4 ray = leafRay(toConeFrame(position, p.frame), p.frame.lightFrame.xyz);
       return leafRayUsable(ray, p.minLength) ? rayConeWidened(ray, p.beta, p.sigma) : emptyCone();
@@ -66,8 +66,10 @@ ConeNode child(uint c, uint pixel) {
     vec4 ray = leafRay(position, p.frame.lightFrame.xyz);
     return leafRayUsable(ray, p.minLength) ? rayCone(ray) : emptyCone();
   }
-  boxLo = min(boxLo, texelFetch(boxTexels, int(2u * (childBoxes + c))).xyz);
-  boxHi = max(boxHi, texelFetch(boxTexels, int(2u * (childBoxes + c) + 1u)).xyz);
+  if (SPEC_BOXES == 2u) {
+    boxLo = min(boxLo, texelFetch(boxTexels, int(2u * (childBoxes + c))).xyz);
+    boxHi = max(boxHi, texelFetch(boxTexels, int(2u * (childBoxes + c) + 1u)).xyz);
+  }
   ConeNode n;
   n.axisCos = texelFetch(nodeTexels, int(2u * (childOffset + c)));
   n.sinLen = texelFetch(nodeTexels, int(2u * (childOffset + c) + 1u));
@@ -89,7 +91,7 @@ void main() {
     count = p.count, nodeOffset = p.nodeOffset, childCount = p.childCount, childOffset = p.childOffset;
     leaves = p.leaves;
   }
-  childBoxes = boxOffset(leaves, p.height - 1u);
+  childBoxes = SPEC_BOXES == 2u ? boxOffset(leaves, p.height - 1u) : 0u;
   if (j >= count) return;
   uvec2 r = childRange(j, childCount);
   uint n = r.y - r.x;
@@ -115,7 +117,17 @@ void main() {
   nodes[nodeOffset + j] = SPEC_FAR != 0u      ? coneParentFar(c0, c1, c2, c3, 4u, CONE_PAD * p.frame.centre.w)
                           : SPEC_LEAVES != 0u ? coneParentOfRays(c0, c1, c2, c3, 4u, CONE_PAD)
                                               : coneParent(c0, c1, c2, c3, 4u, CONE_PAD);
-  uint b = boxOffset(leaves, p.height) + j;
-  boxes[2u * b] = vec4(boxLo, 0.0f);
-  boxes[2u * b + 1u] = vec4(boxHi, 0.0f);
+  if (SPEC_BOXES == 1u) {  // height 2: the rays' positions, as the records the height below left them
+    uint end = min(16u * j + 16u, leaves);
+    for (uint k = 16u * j; k < end; ++k) {
+      vec3 position = uintBitsToFloat(texelFetch(rayTexels, int(k)).xyz);
+      boxLo = min(boxLo, position);
+      boxHi = max(boxHi, position);
+    }
+  }
+  if (SPEC_BOXES != 0u) {
+    uint b = boxOffset(leaves, p.height) + j;
+    boxes[2u * b] = vec4(boxLo, 0.0f);
+    boxes[2u * b + 1u] = vec4(boxHi, 0.0f);
+  }
 }

@@ -163,14 +163,16 @@ CS_FN uint topHeight(uint n) {
   return h;
 }
 
-// The sample boxes (build_level.comp, tree_top.comp): for each interior node, the world-coordinate bounds
-// of its rays' samples, two vec4s (lo, hi; w unused), node j of height h (h levels above the rays) at
-// boxOffset(n, h) + j: the heights bottom-up, so a box's place needs only the ray count and the node's
-// height, which both the test kernel (its children's leaf shift) and the leaves (theirs) know. The
-// plane cull reads them (traversal/precise_test.h, leafPlaneMissesBox).
+// The sample boxes (build_level.comp, tree_top.comp): for each interior node of height 2 or more (16 rays
+// and up; the 4-ray nodes of height 1 have none: a box a height-1 node cost the build more than their
+// culls saved), the world-coordinate bounds of its rays' samples, two vec4s (lo, hi; w unused), node j of
+// height h at boxOffset(n, h) + j: the heights bottom-up, so a box's place needs only the ray count and
+// the node's height, which both the test kernel (its children's leaf shift) and the leaves (theirs) know.
+// The plane cull reads them (traversal/precise_test.h, leafPlaneMissesBox).
+#define CONE_BOX_FIRST_HEIGHT 2u
 CS_FN uint boxOffset(uint n, uint height) {
   uint offset = 0u;
-  for (uint k = 1u; k < height; k++) offset += countAtHeight(n, k);
+  for (uint k = CONE_BOX_FIRST_HEIGHT; k < height; k++) offset += countAtHeight(n, k);
   return offset;
 }
 

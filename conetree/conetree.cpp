@@ -43,15 +43,15 @@ ConeTree::ConeTree(vk::Context& ctx)
       spread_(vk::createKernel(ctx, "cone tree spread", spv_tree_spread_comp, 3, sizeof(SpreadPush))),
       shapeWords_(vk::createBuffer(ctx, SHAPE_WORDS * 4, vk::Memory::Device, VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT)) {
   for (uint32_t far = 0; far < 2; ++far)
-    for (uint32_t leaves = 0; leaves < 3; ++leaves)
-      build_[far][leaves] = vk::createKernel(ctx, "cone tree build", spv_build_level_comp, 9, sizeof(BuildPush),
-                                             {{0, far}, {1, leaves}});
+    for (uint32_t kind = 0; kind < 4; ++kind)  // SPEC_LEAVES 0 (boxes from the children's), 1, 2; 0 at height 2
+      build_[far][kind] = vk::createKernel(ctx, "cone tree build", spv_build_level_comp, 9, sizeof(BuildPush),
+                                           {{0, far}, {1, kind == 3 ? 0u : kind}, {2, kind == 0 ? 2u : kind == 3 ? 1u : 0u}});
   for (uint32_t far = 0; far < 2; ++far)
-    top_[far] = vk::createKernel(ctx, "cone tree top", spv_tree_top_comp, 4, sizeof(BuildPush), {{0, far}});
+    top_[far] = vk::createKernel(ctx, "cone tree top", spv_tree_top_comp, 5, sizeof(BuildPush), {{0, far}});
 }
 
 const vk::Kernel& ConeTree::buildKernel(const BuildPush& p, uint32_t leaves) const {
-  return build_[p.frame.rowX.w != 0.0f ? 1 : 0][leaves];
+  return build_[p.frame.rowX.w != 0.0f ? 1 : 0][leaves == 0 && p.height == CONE_BOX_FIRST_HEIGHT ? 3 : leaves];
 }
 
 
@@ -142,7 +142,8 @@ void ConeTree::ensureNodes(uint32_t count) {
     rays_.reset();
     rays_ = vk::createBuffer(ctx_, rayBytes);
   }
-  const uint64_t boxBytes = uint64_t(nodes) * 32;  // a box a node (boxCount), one storage binding as the nodes
+  // A box a node of height 2 and up (boxOffset), one storage binding as the nodes; at least one.
+  const uint64_t boxBytes = std::max<uint64_t>(uint64_t(boxOffset(count, treeDepth(count) + 1)) * 32, 32);
   if (boxes_.size < boxBytes) {
     boxes_.reset();
     boxes_ = vk::createBuffer(ctx_, boxBytes);
@@ -226,7 +227,8 @@ void ConeTree::recordDevice(vk::Commands& cmd, const vk::Buffer& positions, cons
     const BuildPush p = basePush(light, minLength, fc);
     cmd.dispatchIndirect(top_[p.frame.rowX.w != 0.0f ? 1 : 0],
                          {nodes_, vk::texels(shapeWords_, VK_FORMAT_R32G32B32A32_UINT),
-                          vk::texels(nodes_, VK_FORMAT_R32G32B32A32_SFLOAT), boxes_},
+                          vk::texels(nodes_, VK_FORMAT_R32G32B32A32_SFLOAT), boxes_,
+                          vk::texels(rays_, VK_FORMAT_R32G32B32A32_UINT)},
                          &p, sizeof(p), shapeWords_, SHAPE_BUILD_ARGS * 4);
     cmd.barrier();
   }

@@ -100,7 +100,8 @@ class ConeTree {
     ensureNodes(maxCount);
     return rays_;
   }
-  // The interior nodes' sample boxes (cone_layout.h, boxOffset), written by the same build.
+  // The sample boxes of the interior nodes of height 2 and up (cone_layout.h, boxOffset), written by the
+  // same build.
   const vk::Buffer& boxes() const { return boxes_; }
   uint64_t bytesAllocated() const { return nodes_.size + rays_.size + boxes_.size + shapeWords_.size; }
 
@@ -109,9 +110,9 @@ class ConeTree {
   BuildPush basePush(glm::vec3 light, float minLength, const FrameChoice& fc) const;
 
   vk::Context& ctx_;
-  // build_level.comp specialised: [far frame][children: nodes, rays, rays whose records are given] (its
-  // SPEC_FAR, SPEC_LEAVES).
-  vk::Kernel build_[2][3];
+  // build_level.comp specialised: [far frame][children: nodes (their boxes), rays, rays whose records are
+  // given, nodes of height 2 (boxes from the rays)] (its SPEC_FAR, SPEC_LEAVES, SPEC_BOXES).
+  vk::Kernel build_[2][4];
   vk::Kernel top_[2];  // tree_top.comp: [far frame]
   vk::Kernel shapeKernel_, spread_;
   const vk::Kernel& buildKernel(const BuildPush& p, uint32_t leaves) const;  // leaves: SPEC_LEAVES

@@ -10,8 +10,9 @@
 // bindings: 0 = nodes (ConeNode, the whole tree; the top heights written), 1 = shape words (uniform
 //           texel buffer, RGBA32UI), 2 = nodes again (uniform texel buffer, RGBA32F: two texels a
 //           ConeNode; the level below the top read), 3 = boxes (cone_layout.h, boxOffset: the top's
-//           heights written, from the boxes of the height below; a level's writes made visible to the
-//           next by a barrier)
+//           heights written, from the boxes of the height below -- a level's writes made visible to the
+//           next by a barrier -- or at height 2 from the rays), 4 = the sorted rays' records (uniform
+//           texel buffer, RGBA32UI: the sample's position as float bits, ConeTree::rays)
 #include "conetree/cone_math.h"
 
 layout(local_size_x = CONE_BUILD_THREADS) in;
@@ -19,6 +20,7 @@ layout(std430, binding = 0) writeonly buffer Nodes { ConeNode nodes[]; };
 layout(binding = 1) uniform usamplerBuffer shapeTexels;
 layout(binding = 2) uniform samplerBuffer nodeTexels;
 layout(std430, binding = 3) coherent buffer Boxes { vec4 boxes[]; };
+layout(binding = 4) uniform usamplerBuffer rayTexels;
 uint shapeWord(uint w) { return texelWord(shapeTexels, w); }
 layout(push_constant) uniform Push { BuildPush p; };
 layout(constant_id = 0) const uint SPEC_FAR = 0u;  // 1: the far-light frame (= p.frame.rowX.w != 0)
@@ -56,12 +58,20 @@ void main() {
       made[k] = SPEC_FAR != 0u ? coneParentFar(c[0], c[1], c[2], c[3], 4u, CONE_PAD * p.frame.centre.w)
                                : coneParent(c[0], c[1], c[2], c[3], 4u, CONE_PAD);
       nodes[nodeOffset + j] = made[k];
-      // build_level.comp's box of the children's boxes
-      uint below = boxOffset(leaves, h - 1u);
+      // build_level.comp's box: of the children's boxes, or at height 2 of the node's rays
       vec3 lo = vec3(3.0e38), hi = vec3(-3.0e38);
-      for (uint at = r.x; at < r.y; ++at) {
-        lo = min(lo, boxes[2u * (below + at)].xyz);
-        hi = max(hi, boxes[2u * (below + at) + 1u].xyz);
+      if (h == 2u) {
+        for (uint at = 16u * j; at < min(16u * j + 16u, leaves); ++at) {
+          vec3 position = uintBitsToFloat(texelFetch(rayTexels, int(at)).xyz);
+          lo = min(lo, position);
+          hi = max(hi, position);
+        }
+      } else {
+        uint below = boxOffset(leaves, h - 1u);
+        for (uint at = r.x; at < r.y; ++at) {
+          lo = min(lo, boxes[2u * (below + at)].xyz);
+          hi = max(hi, boxes[2u * (below + at) + 1u].xyz);
+        }
       }
       uint b = boxOffset(leaves, h) + j;
       boxes[2u * b] = vec4(lo, 0.0f);

@@ -351,9 +351,10 @@ TEST(ConeTree, DeviceBuildFromTheGpuCountEqualsTheHostBuild) {
             << (tree == &hostTree ? "host" : "device") << "-count build, n=" << n << ", ray " << i;
       }
       // And each interior node's sample box (cone_layout.h, boxOffset): the exact bounds of its rays'
-      // positions, at every height, the top's included.
-      const std::vector<glm::vec4> boxes = vk::download<glm::vec4>(ctx, tree->boxes(), 2 * s.nodes());
-      for (uint32_t h = 1; h <= s.depth; ++h)
+      // positions, at every height from 2, the top's included.
+      const std::vector<glm::vec4> boxes =
+          vk::download<glm::vec4>(ctx, tree->boxes(), 2 * cone::boxOffset(n, s.depth + 1));
+      for (uint32_t h = CONE_BOX_FIRST_HEIGHT; h <= s.depth; ++h)
         for (uint32_t j = 0; j < cone::countAtHeight(n, h); ++j) {
           glm::vec3 lo(INFINITY), hi(-INFINITY);
           for (uint32_t i = j << (2 * h); i < std::min(n, (j + 1) << (2 * h)); ++i)

@@ -40,7 +40,7 @@ layout(binding = 4) uniform usamplerBuffer statTexels;  // binding 3's words, fo
 // hint: a pair tests only the rays its words do not mark; a stale read costs tests, never a wrong mask
 // (a bit once set stays set). Cleared per traversal.
 layout(std430, binding = 5) buffer Shadowed { uint shadowed[]; };
-// The sample boxes of the nodes of heights 1 .. 3 (conetree/cone_layout.h, boxOffset; RGBA32F, lo and hi).
+// The tree's sample boxes (conetree/cone_layout.h, boxOffset; RGBA32F, lo and hi).
 layout(binding = 6) uniform samplerBuffer boxes;
 layout(push_constant) uniform Push { TraversePush p; };
 
@@ -106,13 +106,15 @@ void main() {
     if ((live | live2) == 0u) return;
   }
   // The plane cull (precise_test.h, leafPlaneMissesBox): the pair's node's sample box (conetree's
-  // boxes, heights 1 .. 3: the 4, 16 or 64 rays of a leaf pair) wholly where the plane's crossings cannot
+  // boxes: the 16 or 64 rays of a leaf pair; 4 have none) wholly where the plane's crossings cannot
   // count -- on the light's side of the triangle's plane, or beyond it by less than eps times the
   // crossing's slope (the receivers: samples on the triangle's own plane). Every pair computes the plane
   // anyway (both leaf tests ask leafCrosses); the box is two texels.
   LeafTriangle t = SPEC_FROM_LIGHT != 0u ? leafTriangle(P0, P1, P2, light) : leafPlane(P0, P1, P2, light);
   uint box = 2u * (boxOffset(leafCount, shift >> 1u) + pair.y);
-  if (leafPlaneMissesBox(t, texelFetch(boxes, int(box)).xyz, texelFetch(boxes, int(box + 1u)).xyz, light, p.eps)) return;
+  if ((shift >> 1u) >= CONE_BOX_FIRST_HEIGHT &&
+      leafPlaneMissesBox(t, texelFetch(boxes, int(box)).xyz, texelFetch(boxes, int(box + 1u)).xyz, light, p.eps))
+    return;
   uint hits = 0u, hits2 = 0u;
   // Four rays an iteration (the lowest four left of the pair's up to 64, over both words; the last again
   // when fewer are left, a ray tested twice being harmless): a loop iteration costs every lavapipe lane

@@ -205,10 +205,11 @@ uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild, inout uin
     // plane slab, three edge planes) is then not computed (unless another lane of the subgroup needs it).
     vec4 sphere = boundingSphere(v0, v1, v2, scale);
     uint near = nearChildren(r, sphere, scale);
-    if (near != 0u) {
+    if (near != 0u && (leafShift >> 1u) >= CONE_BOX_FIRST_HEIGHT) {
       // The plane cull first (precise_test.h, leafPlaneMissesBox): a child whose samples' box lies where
       // the triangle's plane crossings cannot count has no leaf hit under it. In world coordinates, as the
-      // leaves test; the children's boxes at their height (the leaf shift is twice it).
+      // leaves test; the children's boxes at their height (the leaf shift is twice it; nodes of 4 rays
+      // have none).
       LeafTriangle lp = leafPlane(texelFetch(worldTris, int(3u * pair.x)).xyz, texelFetch(worldTris, int(3u * pair.x + 1u)).xyz,
                                   texelFetch(worldTris, int(3u * pair.x + 2u)).xyz, light);
       uint boxBase = 2u * (boxOffset(leafCount, leafShift >> 1u) + r.x);
