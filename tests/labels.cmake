@@ -17,7 +17,8 @@ set(cs_unit_tests
   Aff.* AffBart.* AnimatedScene.* AnimationSampler.* AsmTree.* AssimpModels/GltfBroken.* AutomaticCameraAndLight.*
   BuiltinMotion.* BuiltinScene.* ClusterOrder.* ClusterSphere.* ConeFrameChoice.* ConeMath.* EarlyAcceptCovered.*
   EmbreeDevice.* EmbreeReference.* EpsilonPolicy.* FrameOutput.* GeometryCheck.* GeometryRevision.*
-  GltfBrokenFolders.* GltfLoader.* Grid.* ImageIo.* LeafHitFromLight.* LeafRayHitsTriangle.* LeafSphere.* LeafStep.*
+  GltfBrokenFolders.* GltfLoader.* Grid.* ImageIo.* LeafHitFromLight.* LeafPlaneCull.* LeafRayHitsTriangle.* LeafSphere.*
+  LeafStep.*
   ChildProcess.* LoaderHostile.* Metrics.* ResultsTable.* Scene.* SceneFamily.* SceneLoader.* SphereConeTriangle.* ThreadPool.*
   ViewerScript.*
   TraversalArena.* Validation/TinyGltfBroken.* VariantSphereTest.* VkSpirv.*

@@ -162,11 +162,11 @@ TEST(VkSpirv, EveryBindingsDescriptorTypeIsReadFromItsDeclaration) {
   EXPECT_EQ(vk::spirvInterface(old.data(), old.size() * 4).bindings, kinds);
 
   // traversal::Traversal's test kernel: triangles, nodes and input pairs as texels, the state words as a
-  // uniform buffer, the rest storage buffers.
+  // uniform buffer, the world triangles and the tree's sample boxes as texels, the rest storage buffers.
   Types test;
-  for (uint32_t b = 0; b < 10; ++b)
-    test[b] = b < 3 ? VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER
-                    : b == 9 ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  for (uint32_t b = 0; b < 12; ++b)
+    test[b] = b < 3 || b >= 10 ? VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER
+                               : b == 9 ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
   EXPECT_EQ(vk::spirvInterface(spv_traverse_test_comp, sizeof(spv_traverse_test_comp)).bindings, test);
 }
 
