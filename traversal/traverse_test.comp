@@ -145,6 +145,11 @@ uint nearChildren(uvec2 r, vec4 sphere, float scale) {
   return m & ((1u << n) - 1u);
 }
 
+// The plane cull of the child whose sample box is box b (conetree/cone_layout.h, boxOffset).
+bool childPlaneMisses(LeafTriangle lp, uint b, vec3 light) {
+  return leafPlaneMissesBox(lp, texelFetch(boxes, int(2u * b)).xyz, texelFetch(boxes, int(2u * b + 1u)).xyz, light, p.eps);
+}
+
 uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild, inout uint missing) {
   firstChild = 0u;
   // One input fetch whatever the step (lavapipe runs every side of a branch, a fetch in each included):
@@ -210,14 +215,17 @@ uint testInput(uint i, uint mode, out uvec2 pair, out uint firstChild, inout uin
       // the triangle's plane crossings cannot count has no leaf hit under it. In world coordinates, as the
       // leaves test; the children's boxes at their height (the leaf shift is twice it; nodes of 4 rays
       // have none).
+      // Four tests written out, not a loop over the near ones (nearChildren's reason); a level's last node
+      // may have fewer children: the tests past them read its last child's box again, and their bits are
+      // not in `near`.
       LeafTriangle lp = leafPlane(texelFetch(worldTris, int(3u * pair.x)).xyz, texelFetch(worldTris, int(3u * pair.x + 1u)).xyz,
                                   texelFetch(worldTris, int(3u * pair.x + 2u)).xyz, light);
-      uint boxBase = 2u * (boxOffset(leafCount, leafShift >> 1u) + r.x);
-      for (uint todo = near; todo != 0u; todo &= todo - 1u) {
-        uint k = uint(findLSB(todo)), b = boxBase + 2u * k;
-        if (leafPlaneMissesBox(lp, texelFetch(boxes, int(b)).xyz, texelFetch(boxes, int(b + 1u)).xyz, light, p.eps))
-          near &= ~(1u << k);
-      }
+      uint box = boxOffset(leafCount, leafShift >> 1u) + r.x, last = r.y - r.x - 1u;
+      uint culled = (childPlaneMisses(lp, box, light) ? 1u : 0u) |
+                    (childPlaneMisses(lp, box + min(1u, last), light) ? 2u : 0u) |
+                    (childPlaneMisses(lp, box + min(2u, last), light) ? 4u : 0u) |
+                    (childPlaneMisses(lp, box + min(3u, last), light) ? 8u : 0u);
+      near &= ~culled;
     }
     if (near != 0u) {
       PreciseTriangle t = preciseTriangle(v0, v1, v2, scale);  // once for the (up to) four children
