@@ -7,6 +7,8 @@
 #include <cmath>
 #include <functional>
 #include <random>
+#include <string>
+#include <vector>
 
 #include <glm/glm.hpp>
 
@@ -296,6 +298,90 @@ ProbeRay probeRay(int k, dvec3 a, double alpha, double lmin, double lmax, Uni&& 
   p.ray = leafRayFn(p.w, vec3(0));
   if (p.ray.w < float(lmin)) p.ray = leafRayFn(p.w = vec3(p.r * p.L * (1 + 1e-6)), vec3(0));
   return p;
+}
+
+// ---- sample boxes against a triangle's plane (the plane cull, precise_test.h leafPlaneMissesBox) ------
+
+// Case i of the plane cull's property tests: a triangle over six decades of scale, a light 0.1 to 90
+// degrees over its plane (either side) 0.5 to 1e5 sizes away, and sixteen samples of kind i % 5 --
+// 0: anywhere around the triangle; 1: receivers, on an axis-aligned plane (a ground, a wall) a few ulp
+// off it either way, as a rasterised surface gives them; 2: on the light's side of such a plane; 3:
+// along rays through the triangle, past it (hits); 4: beyond an axis-aligned triangle along rays through
+// it, the crossing 0.2 to 3 eps from the sample (the interval's end). `points` holds the samples, their
+// box's corners and sixteen random points in the box: the cull's claim covers all of them.
+struct PlaneBox {
+  bool valid = false;  // false: a degenerate triangle, skip
+  int kind = 0;
+  vec3 P[3];
+  vec3 light;
+  float eps = 0;
+  vec3 lo, hi;                // the box of the sixteen samples
+  std::vector<vec3> points;
+  bool clear = false;         // clear of the cull's margins, so it should drop the box: kind 1 under a light
+                              // 5+ degrees over the plane within 100 sizes, every kind 2
+  std::string describe;
+};
+
+inline PlaneBox makePlaneBox(std::mt19937& rng, int i) {
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  PlaneBox c;
+  c.kind = i % 5;
+  const double scale = std::pow(10.0, 6.0 * u(rng) - 3.0);
+  const dvec3 centre = scale * (dvec3(u(rng), u(rng), u(rng)) - 0.5);
+  const double size = scale * std::pow(10.0, -2.0 * u(rng));
+  // Receivers, the light's side and the interval's end on an axis-aligned plane: every vertex's
+  // coordinate `axis` the same.
+  const int axis = c.kind == 1 || c.kind == 2 || c.kind == 4 ? i / 5 % 3 : -1;
+  for (vec3& x : c.P) {
+    x = vec3(centre + size * (dvec3(u(rng), u(rng), u(rng)) - 0.5));
+    if (axis >= 0) x[axis] = float(centre[axis]);
+  }
+  const dvec3 e1 = dvec3(c.P[1]) - dvec3(c.P[0]), e2 = dvec3(c.P[2]) - dvec3(c.P[0]);
+  const dvec3 n = glm::cross(e1, e2);
+  if (!(glm::length(n) > 1e-6 * size * size)) return c;
+  const dvec3 nh = glm::normalize(n);
+  const dvec3 ua = glm::normalize(glm::cross(nh, std::abs(nh.x) < 0.5 ? dvec3(1, 0, 0) : dvec3(0, 1, 0)));
+  const dvec3 va = glm::cross(nh, ua);
+  const double elevation = std::pow(10.0, std::log10(0.1) + u(rng) * std::log10(900.0)) * M_PI / 180.0;
+  const double az = 2.0 * M_PI * u(rng), away = size * std::pow(10.0, -0.3 + 5.3 * u(rng));
+  const double side = u(rng) < 0.5 ? 1.0 : -1.0;
+  const dvec3 toLight = std::cos(elevation) * (std::cos(az) * ua + std::sin(az) * va) + side * std::sin(elevation) * nh;
+  c.light = vec3(dvec3(c.P[0]) + away * toLight);
+  c.eps = float(1e-4 * scale);
+  const dvec3 lightSide = glm::dot(dvec3(c.light) - dvec3(c.P[0]), nh) > 0 ? nh : -nh;
+  for (int k = 0; k < 16; ++k) {
+    const dvec3 onPlane = dvec3(c.P[0]) + (3.0 * u(rng) - 1.0) * e1 + (3.0 * u(rng) - 1.0) * e2;
+    dvec3 x;
+    if (c.kind == 0) {
+      x = centre + 2.0 * size * (dvec3(u(rng), u(rng), u(rng)) - 0.5);
+    } else if (c.kind == 1) {
+      x = onPlane;
+    } else if (c.kind == 2) {
+      x = onPlane + size * (1e-3 + u(rng)) * lightSide;
+    } else if (c.kind == 3) {
+      x = dvec3(c.light) + (1.0 + u(rng)) * (dvec3(c.P[0]) + u(rng) * 0.5 * (e1 + e2) - dvec3(c.light));
+    } else {
+      const dvec3 X = dvec3(c.P[0]) + 0.5 * u(rng) * e1 + 0.5 * u(rng) * e2;
+      x = X + (0.2 + 2.8 * u(rng)) * double(c.eps) * glm::normalize(X - dvec3(c.light));
+    }
+    vec3 xf(x);
+    if (c.kind == 1) {  // on the plane, up to 4 ulp off it either way
+      xf[axis] = c.P[0][axis];
+      for (int m = int(u(rng) * 9.0) - 4; m != 0; m += m > 0 ? -1 : 1)
+        xf[axis] = std::nextafter(xf[axis], m > 0 ? INFINITY : -INFINITY);
+    }
+    c.points.push_back(xf);
+  }
+  c.lo = vec3(INFINITY), c.hi = vec3(-INFINITY);
+  for (const vec3& x : c.points) c.lo = glm::min(c.lo, x), c.hi = glm::max(c.hi, x);
+  for (int k = 0; k < 8; ++k)
+    c.points.push_back(vec3(k & 1 ? c.hi.x : c.lo.x, k & 2 ? c.hi.y : c.lo.y, k & 4 ? c.hi.z : c.lo.z));
+  for (int k = 0; k < 16; ++k) c.points.push_back(glm::mix(c.lo, c.hi, vec3(u(rng), u(rng), u(rng))));
+  c.clear = (c.kind == 1 && elevation > 5.0 * M_PI / 180.0 && away < 100.0 * size) || c.kind == 2;
+  c.describe = "scale " + std::to_string(scale) + ", elevation " + std::to_string(elevation * 180.0 / M_PI) +
+               " deg, light " + std::to_string(away / size) + " sizes away";
+  c.valid = true;
+  return c;
 }
 
 }  // namespace cs::test

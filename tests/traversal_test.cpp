@@ -691,82 +691,25 @@ TEST(LeafSphere, NeverCullsARayALeafTestHitsAndCullsTheFarOnes) {
 // samples on an oblique plane reaches across it: nothing a box can cull.)
 TEST(LeafPlaneCull, NeverDropsABoxWithAHitAndDropsReceiversAndTheLightsSide) {
   std::mt19937 rng(20261208);
-  std::uniform_real_distribution<double> u(0.0, 1.0);
   int culled[5] = {}, cases[5] = {}, clear[5] = {}, clearCulled[5] = {}, hits = 0;
   for (int i = 0; i < 25000; ++i) {
-    // 0: anywhere around it, 1: receivers, 2: the light's side, 3: along hit rays, 4: beyond the triangle
-    // along rays through it, the crossing 0.2 to 3 eps from the sample (the interval's end)
-    const int kind = i % 5;
-    const double scale = std::pow(10.0, 6.0 * u(rng) - 3.0);
-    const dvec3 centre = scale * (dvec3(u(rng), u(rng), u(rng)) - 0.5);
-    const double size = scale * std::pow(10.0, -2.0 * u(rng));
-    // Receivers and the light's side on an axis-aligned plane: every vertex's coordinate `axis` the same.
-    const int axis = kind == 1 || kind == 2 || kind == 4 ? i / 5 % 3 : -1;
-    vec3 P[3];
-    for (vec3& x : P) {
-      x = vec3(centre + size * (dvec3(u(rng), u(rng), u(rng)) - 0.5));
-      if (axis >= 0) x[axis] = float(centre[axis]);
-    }
-    const dvec3 e1 = dvec3(P[1]) - dvec3(P[0]), e2 = dvec3(P[2]) - dvec3(P[0]);
-    const dvec3 n = glm::cross(e1, e2);
-    if (!(glm::length(n) > 1e-6 * size * size)) continue;
-    const dvec3 nh = glm::normalize(n);
-    // The light at an elevation of 0.1 to 90 degrees over the plane (either side), 0.5 to 1e5 sizes away.
-    const double elevation = std::pow(10.0, std::log10(0.1) + u(rng) * std::log10(900.0)) * M_PI / 180.0;
-    vec3 ua, va;
-    orthonormalBasis(vec3(nh), ua, va);
-    const double az = 2.0 * M_PI * u(rng), away = size * std::pow(10.0, -0.3 + 5.3 * u(rng));
-    const double side = u(rng) < 0.5 ? 1.0 : -1.0;
-    const dvec3 toLight = std::cos(elevation) * (std::cos(az) * dvec3(ua) + std::sin(az) * dvec3(va)) +
-                          side * std::sin(elevation) * nh;
-    const vec3 light(dvec3(P[0]) + away * toLight);
-    const float eps = float(1e-4 * scale);
-    // Sixteen samples of the kind, their box, then the box's corners and random points in it too.
-    std::vector<vec3> samples;
-    for (int k = 0; k < 16; ++k) {
-      const double a = 3.0 * u(rng) - 1.0, b = 3.0 * u(rng) - 1.0;
-      const dvec3 onPlane = dvec3(P[0]) + a * e1 + b * e2;
-      const dvec3 lightSide = side * glm::dot(dvec3(light) - dvec3(P[0]), nh) > 0 ? side * nh : -side * nh;
-      dvec3 x;
-      if (kind == 0) x = centre + 2.0 * size * (dvec3(u(rng), u(rng), u(rng)) - 0.5);
-      else if (kind == 1) x = onPlane;
-      else if (kind == 2) x = onPlane + size * (1e-3 + u(rng)) * lightSide;
-      else if (kind == 3) x = dvec3(light) + (1.0 + u(rng)) * (dvec3(P[0]) + u(rng) * 0.5 * (e1 + e2) - dvec3(light));
-      else {
-        const dvec3 X = dvec3(P[0]) + 0.5 * u(rng) * e1 + 0.5 * u(rng) * e2;
-        x = X + (0.2 + 2.8 * u(rng)) * double(eps) * glm::normalize(X - dvec3(light));
-      }
-      vec3 xf(x);
-      if (kind == 1) {  // on the plane, up to 4 ulp off it either way
-        xf[axis] = P[0][axis];
-        for (int n = int(u(rng) * 9.0) - 4; n != 0; n += n > 0 ? -1 : 1)
-          xf[axis] = std::nextafter(xf[axis], n > 0 ? INFINITY : -INFINITY);
-      }
-      samples.push_back(xf);
-    }
-    vec3 lo(INFINITY), hi(-INFINITY);
-    for (const vec3& x : samples) lo = glm::min(lo, x), hi = glm::max(hi, x);
-    const bool cull = cone::leafPlaneMissesBox(cone::leafPlane(P[0], P[1], P[2], light), lo, hi, light, eps);
-    for (int k = 0; k < 8; ++k) samples.push_back(vec3(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z));
-    for (int k = 0; k < 16; ++k) samples.push_back(glm::mix(lo, hi, vec3(u(rng), u(rng), u(rng))));
+    const test::PlaneBox c = test::makePlaneBox(rng, i);
+    if (!c.valid) continue;
+    const bool cull = cone::leafPlaneMissesBox(cone::leafPlane(c.P[0], c.P[1], c.P[2], c.light), c.lo, c.hi, c.light, c.eps);
     bool anyHit = false;
-    for (const vec3& x : samples) {
-      const vec4 ray = cone::leafRay(x, light);
-      if (!cone::leafRayUsable(ray, 2.0f * eps)) continue;
-      anyHit = anyHit || cone::leafHit(x, light, ray, eps, P[0], P[1], P[2]) ||
-               cone::leafHitFromLight(x, light, ray, eps, P[0], P[1], P[2]);
+    for (const vec3& x : c.points) {
+      const vec4 ray = cone::leafRay(x, c.light);
+      if (!cone::leafRayUsable(ray, 2.0f * c.eps)) continue;
+      anyHit = anyHit || cone::leafHit(x, c.light, ray, c.eps, c.P[0], c.P[1], c.P[2]) ||
+               cone::leafHitFromLight(x, c.light, ray, c.eps, c.P[0], c.P[1], c.P[2]);
     }
     hits += anyHit;
-    ASSERT_FALSE(cull && anyHit) << "case " << i << " (kind " << kind << "): scale " << scale << ", elevation "
-                                 << elevation * 180.0 / M_PI << " deg, light " << away / size << " sizes away";
-    cases[kind]++;
-    culled[kind] += cull;
-    // Clear of the cull's margins: a light 5+ degrees over the plane and within 100 sizes (receivers; the
-    // bound on the plane's rounding grows with the box's reach and the triangle's thinness), any light (the
-    // light's side).
-    if ((kind == 1 && elevation > 5.0 * M_PI / 180.0 && away < 100.0 * size) || kind == 2) {
-      clear[kind]++;
-      clearCulled[kind] += cull;
+    ASSERT_FALSE(cull && anyHit) << "case " << i << " (kind " << c.kind << "): " << c.describe;
+    cases[c.kind]++;
+    culled[c.kind] += cull;
+    if (c.clear) {
+      clear[c.kind]++;
+      clearCulled[c.kind] += cull;
     }
   }
   std::printf("  culled: anywhere %d of %d, receivers %d of %d, light's side %d of %d, hit rays %d of %d, "

@@ -145,6 +145,32 @@ TEST_P(GpuArithmetic, TheLeavesCullNeverDropsARayTheLeafTestHits) {
   EXPECT_GT(hits, n / 8);
 }
 
+// The plane cull under the same arithmetic: no box it drops holds a point either leaf test hits
+// (tests/cone_property_support.h, makePlaneBox: receivers, the light's side, the interval's end).
+TEST_P(GpuArithmetic, ThePlaneCullNeverDropsABoxWithAHit) {
+  std::mt19937 rng(20261208);
+  const int n = pairsToRun(4000) * 2;
+  int hits = 0, culled = 0;
+  for (int i = 0; i < n; ++i) {
+    const test::PlaneBox c = test::makePlaneBox(rng, i);
+    if (!c.valid) continue;
+    const bool cull = gpuemu::leafPlaneMissesBox(c.P[0], c.P[1], c.P[2], c.light, c.lo, c.hi, c.eps);
+    bool anyHit = false;
+    for (const vec3& x : c.points) {
+      const vec4 ray = gpuemu::leafRay(x, c.light);
+      if (!(ray.w > 2.0f * c.eps && ray.w <= FLT_MAX)) continue;
+      anyHit = anyHit || gpuemu::leafHit(x, c.light, ray, c.eps, c.P[0], c.P[1], c.P[2]) ||
+               gpuemu::leafHitFromLight(x, c.light, ray, c.eps, c.P[0], c.P[1], c.P[2]);
+    }
+    hits += anyHit;
+    culled += cull;
+    ASSERT_FALSE(cull && anyHit) << GetParam().name << ": case " << i << " (kind " << c.kind << "), " << c.describe;
+  }
+  std::printf("  %s: %d boxes culled, %d with a hit\n", GetParam().name, culled, hits);
+  EXPECT_GT(culled, n / 8);
+  EXPECT_GT(hits, n / 8);
+}
+
 TEST_P(GpuArithmetic, FarFrameMarginsStayConservative) {
   test::FarPairGenerator gen(20261205);
   BruteForce brute = emulatedSearch();

@@ -114,6 +114,10 @@ bool leafHit(glm::vec3 p, glm::vec3 light, glm::vec4 ray, float eps, glm::vec3 v
 bool leafRayMissesSphere(glm::vec3 a0, glm::vec3 a1, glm::vec3 a2, glm::vec3 w) {
   return twin::leafRayMissesSphere(twin::leafSphere(a0, a1, a2), w);
 }
+bool leafPlaneMissesBox(glm::vec3 P0, glm::vec3 P1, glm::vec3 P2, glm::vec3 light, glm::vec3 lo, glm::vec3 hi,
+                        float eps) {
+  return twin::leafPlaneMissesBox(twin::leafPlane(P0, P1, P2, light), lo, hi, light, eps);
+}
 
 bool leafHitFromLight(glm::vec3 p, glm::vec3 light, glm::vec4 ray, float eps, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2) {
   return twin::leafHitFromLight(p, light, ray, eps, v0, v1, v2);

@@ -54,6 +54,9 @@ bool leafHitFromLight(glm::vec3 p, glm::vec3 light, glm::vec4 ray, float eps, gl
 glm::vec4 leafRay(glm::vec3 p, glm::vec3 light);
 // The leaves' cull (sphere_test.h): leafRayMissesSphere(leafSphere(a0, a1, a2), w), a_i = P_i - light.
 bool leafRayMissesSphere(glm::vec3 a0, glm::vec3 a1, glm::vec3 a2, glm::vec3 w);
+// The plane cull (precise_test.h): leafPlaneMissesBox(leafPlane(P0, P1, P2, light), lo, hi, light, eps).
+bool leafPlaneMissesBox(glm::vec3 P0, glm::vec3 P1, glm::vec3 P2, glm::vec3 light, glm::vec3 lo, glm::vec3 hi,
+                        float eps);
 Cone rayCone(glm::vec4 ray);
 Cone coneParent(const Cone* children, uint32_t n, float pad = 1.52587890625e-05f);
 Cone coneParentFar(const Cone* children, uint32_t n, float pad);  // the far frame's
