@@ -54,7 +54,6 @@ const vk::Kernel& ConeTree::buildKernel(const BuildPush& p, uint32_t leaves) con
   return build_[p.frame.rowX.w != 0.0f ? 1 : 0][leaves == 0 && p.height == CONE_BOX_FIRST_HEIGHT ? 3 : leaves];
 }
 
-
 FrameChoice worldFrame(glm::vec3 light) {
   FrameChoice f;
   f.frame.rowX = glm::vec4(1, 0, 0, 0);
