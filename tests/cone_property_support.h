@@ -156,12 +156,13 @@ struct BruteForce {
     return std::max(p.eps, EpsilonPolicy::kFloorUlps * FLT_EPSILON * m);
   }
   // The fp32 leaf test the search runs on the cone's rays: sample w (the apex at the origin), its leaf
-  // ray, eps, the triangle. By default the traversal's own, either of its two (cone::leafHit,
-  // cone::leafHitFromLight: traversal.h LeafTest), so the pass tests must keep what either hits; the
-  // GPU-arithmetic tests pass their emulated twins.
+  // ray, eps, the triangle. By default the traversal's own, any of its three (cone::leafHit,
+  // cone::leafHitFromLight, cone::leafHitFromSample: traversal.h LeafTest), so the pass tests must keep
+  // what any hits; the GPU-arithmetic tests pass their emulated twins.
   std::function<bool(vec3, vec4, float, const vec3*)> leaf = [](vec3 w, vec4 ray, float eps, const vec3* v) {
     return cone::leafHit(w, vec3(0), ray, eps, v[0], v[1], v[2]) ||
-           cone::leafHitFromLight(w, vec3(0), ray, eps, v[0], v[1], v[2]);
+           cone::leafHitFromLight(w, vec3(0), ray, eps, v[0], v[1], v[2]) ||
+           cone::leafHitFromSample(w, vec3(0), ray, eps, v[0], v[1], v[2]);
   };
   bool hit(const Pair& p, vec4* leafHit = nullptr) {
     dvec3 a = glm::normalize(dvec3(vec3(p.cone.axisCos)));

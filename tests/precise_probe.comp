@@ -4,7 +4,7 @@
 // property tests check the very code the traversal runs. Case i: cone = cones[i], triangle relative to the
 // apex = verts[3i..3i+2].xyz, eps = verts[3i].w (the leaf test's: verts[3i+1].w), leaf ray = rays[i]; result bit 0 = preciseConeTriangle,
 // bit 1 = leafHit (the leaf kernel's test; the apex at the origin, so the sample is at w), bit 2 = leafHitFromLight
-// (the leaf kernel's other test, traversal/traversal.h LeafTest).
+// (the leaf kernel's second test, traversal/traversal.h LeafTest), bit 3 = leafHitFromSample (its third).
 // bindings: 0 = cones (ConeNode), 1 = verts (vec4), 2 = rays (vec4: w, L), 3 = results (uint)
 #include "traversal/precise_test.h"
 #include "traversal/traverse.glsl"
@@ -26,5 +26,6 @@ void main() {
   uint r = preciseConeTriangle(cones[i], v0, v1, v2, eps) ? 1u : 0u;
   if (leafHit(rays[i].xyz, vec3(0.0f), rays[i], verts[3u * i + 1u].w, v0, v1, v2)) r |= 2u;  // the apex at the origin: sample = w
   if (leafHitFromLight(rays[i].xyz, vec3(0.0f), rays[i], verts[3u * i + 1u].w, v0, v1, v2)) r |= 4u;
+  if (leafHitFromSample(rays[i].xyz, vec3(0.0f), rays[i], verts[3u * i + 1u].w, v0, v1, v2)) r |= 8u;
   results[i] = r;
 }

@@ -392,7 +392,8 @@ TEST(PreciseConeTriangle, GpuKernelIsConservativeToo) {
       const float le = verts[3 * i + 1].w;
       leafAgree += bool(r[i] & 2u) == cone::leafHit(vec3(rays[i]), vec3(0), rays[i], le, v0, v1, v2) &&
                    bool(r[i] & 4u) == cone::leafHitFromLight(vec3(rays[i]), vec3(0), rays[i], le, v0, v1, v2) &&
-                   (r[i] & 6u) != 0;
+                   bool(r[i] & 8u) == cone::leafHitFromSample(vec3(rays[i]), vec3(0), rays[i], le, v0, v1, v2) &&
+                   (r[i] & 14u) != 0;
     }
   }
   EXPECT_GE(agree, n - n / 100) << "GPU and CPU twins should agree on almost every pair";
@@ -450,13 +451,17 @@ TEST(LeafRayHitsTriangle, IsWatertightAcrossSharedEdgesAndVertices) {
   EXPECT_EQ(rays, 5 * k);
 }
 
+// (And the test from the sample: the same cases, the same answers.)
 TEST(LeafHitFromLight, CountsHitsOnlyStrictlyBetweenEpsAndLMinusEps) {
+  for (bool fromSample : {false, true}) {
+  SCOPED_TRACE(fromSample ? "from the sample" : "from the light");
   // The same cases as leafRayHitsTriangle's above, from world coordinates with the light at (1, 2, 3).
   const vec3 o(1, 2, 3);
   const vec3 a = o + vec3(-1, -1, 5), b = o + vec3(1, -1, 5), c = o + vec3(0, 1, 5);
   const float eps = 0.01f;
   auto hit = [&](vec3 p, vec3 P0, vec3 P1, vec3 P2) {
-    return cone::leafHitFromLight(p, o, cone::leafRay(p, o), eps, P0, P1, P2);
+    return fromSample ? cone::leafHitFromSample(p, o, cone::leafRay(p, o), eps, P0, P1, P2)
+                      : cone::leafHitFromLight(p, o, cone::leafRay(p, o), eps, P0, P1, P2);
   };
   EXPECT_TRUE(hit(o + vec3(0, 0, 10), a, b, c));      // the triangle halfway
   EXPECT_TRUE(hit(o + vec3(0, 0, 5.02f), a, b, c));   // 0.02 beyond it: inside (eps, L - eps)
@@ -473,6 +478,7 @@ TEST(LeafHitFromLight, CountsHitsOnlyStrictlyBetweenEpsAndLMinusEps) {
   EXPECT_FALSE(hit(o + vec3(1, 0.5f, 10), o + vec3(-1, -1, 0), o + vec3(5, -1, 0), o + vec3(0, 1, 0)));
   EXPECT_FALSE(hit(o + vec3(0, 0, 10), a, a, c));
   EXPECT_FALSE(hit(o, a, b, c));
+  }
 }
 
 TEST(LeafHitFromLight, IsWatertightAcrossSharedEdgesAndVertices) {
@@ -488,13 +494,16 @@ TEST(LeafHitFromLight, IsWatertightAcrossSharedEdgesAndVertices) {
           vec3 target = centre + f * (rim[i] - centre);  // on the shared edge (centre, rim[i]); f = 0: the vertex
           const vec3 p = light + 2.0f * (target - light);
           vec4 ray = cone::leafRay(p, light);
-          bool any = false;
+          bool any = false, anySample = false;
           for (int j = 0; j < k; ++j) {
             const vec3 q = rim[j], r = rim[(j + 1) % k];
             any = any || (mixed && j % 2 ? cone::leafHitFromLight(p, light, ray, 1e-4f, centre, r, q)
                                          : cone::leafHitFromLight(p, light, ray, 1e-4f, centre, q, r));
+            anySample = anySample || (mixed && j % 2 ? cone::leafHitFromSample(p, light, ray, 1e-4f, centre, r, q)
+                                                     : cone::leafHitFromSample(p, light, ray, 1e-4f, centre, q, r));
           }
           EXPECT_TRUE(any) << "edge " << i << " at " << f << (mixed ? ", mixed windings" : "");
+          EXPECT_TRUE(anySample) << "from the sample: edge " << i << " at " << f << (mixed ? ", mixed windings" : "");
           rays++;
         }
       }
@@ -531,6 +540,7 @@ TEST(LeafHitFromLight, AgreesWithTheTwoEndsTestAndTheExactAnswerAwayFromEdgesAnd
     if (!cone::leafRayUsable(ray, 2.0f * eps)) continue;
     const bool fromLight = cone::leafHitFromLight(p, light, ray, eps, P[0], P[1], P[2]);
     const bool twoEnds = cone::leafHit(p, light, ray, eps, P[0], P[1], P[2]);
+    const bool fromSample = cone::leafHitFromSample(p, light, ray, eps, P[0], P[1], P[2]);
     // The exact ray light + t (p - light), t in (0, 1), against the triangle, in double.
     const dvec3 L0(light), d = dvec3(p) - dvec3(light), e1 = dvec3(P[1]) - dvec3(P[0]), e2 = dvec3(P[2]) - dvec3(P[0]);
     const dvec3 n = glm::cross(e1, e2);
@@ -555,6 +565,7 @@ TEST(LeafHitFromLight, AgreesWithTheTwoEndsTestAndTheExactAnswerAwayFromEdgesAnd
       EXPECT_FALSE(fromLight) << "case " << i << ": a receiver shadowed by its own triangle, " << len - tau
                               << " from the crossing";
       EXPECT_FALSE(twoEnds) << "case " << i;
+      EXPECT_FALSE(fromSample) << "case " << i;
       continue;
     }
     // The interval's ends as distances from the plane (the band's nudges are along the normal too).
@@ -565,8 +576,79 @@ TEST(LeafHitFromLight, AgreesWithTheTwoEndsTestAndTheExactAnswerAwayFromEdgesAnd
     hits += exactHit;
     ASSERT_EQ(fromLight, exactHit) << "case " << i << ": tau " << tau << " of " << len << ", outside by " << outside;
     ASSERT_EQ(twoEnds, exactHit) << "case " << i;
+    ASSERT_EQ(fromSample, exactHit) << "case " << i;
   }
   std::printf("  %d decided, %d of them hits; %d receivers\n", decided, hits, receivers);
+  EXPECT_GT(decided, 15000);
+  EXPECT_GT(hits, 2000);
+  EXPECT_GT(receivers, 5000);
+}
+
+// The far light's test (traversal.h, LeafTest::FromSample) answers as the two ends' test and the exact
+// ray do wherever rounding does not decide: samples and triangles in a unit box, lights 10 to 10^6
+// box sizes away in every direction, triangles anywhere or around a point of the ray within a box size
+// of its sample (the blockers a far light's samples have), receivers (the sample on the triangle), and
+// every (sample, triangle) whose exact ray passes the triangle's edges and both ends of (eps, L - eps)
+// by more than a margin gets the exact answer. Edge functions taken through the light instead (the
+// from-light test) round to an ulp of the light's distance: at 10^6 they miss hits well inside.
+TEST(LeafHitFromSample, AgreesWithTheTwoEndsTestAndTheExactAnswerForFarLights) {
+  std::mt19937 rng(20261209);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  auto point = [&]() { return vec3(u(rng), u(rng), u(rng)); };
+  const float eps = 1e-4f;
+  const double margin = 1e-5;  // of the unit box's size: the band's smallest nudge
+  int decided = 0, hits = 0, receivers = 0, fromLightWrong = 0;
+  for (int i = 0; i < 40000; ++i) {
+    const vec3 dir = glm::normalize(point() - 0.5f);
+    const float away = std::exp(std::log(10.0f) + u(rng) * std::log(1e5f));
+    const vec3 light = vec3(0.5f) + away * dir;
+    vec3 p = point();
+    const float size = std::exp(std::log(1e-3f) + u(rng) * std::log(1e3f));
+    const vec3 towards = glm::normalize(light - p);
+    const vec3 centre = i % 2 ? p + (0.001f + u(rng)) * towards : point();
+    vec3 P[3];
+    for (vec3& x : P) x = centre + size * (point() - 0.5f);
+    const bool receiver = i % 4 == 0;
+    if (receiver) p = P[0] + u(rng) * (P[1] - P[0]) + u(rng) * 0.5f * (P[2] - P[0]);
+    const vec4 ray = cone::leafRay(p, light);
+    if (!cone::leafRayUsable(ray, 2.0f * eps)) continue;
+    const bool fromSample = cone::leafHitFromSample(p, light, ray, eps, P[0], P[1], P[2]);
+    const bool twoEnds = cone::leafHit(p, light, ray, eps, P[0], P[1], P[2]);
+    const bool fromLight = cone::leafHitFromLight(p, light, ray, eps, P[0], P[1], P[2]);
+    const dvec3 L0(light), d = dvec3(p) - dvec3(light), e1 = dvec3(P[1]) - dvec3(P[0]), e2 = dvec3(P[2]) - dvec3(P[0]);
+    const dvec3 n = glm::cross(e1, e2);
+    const double len = glm::length(d), det = -glm::dot(d, n);
+    if (!(std::abs(det) > 1e-9 * len * glm::length(n))) continue;
+    const dvec3 s = L0 - dvec3(P[0]);
+    const double t = glm::dot(s, n) / det, b1 = -glm::dot(d, glm::cross(s, e2)) / det,
+                 b2 = -glm::dot(d, glm::cross(e1, s)) / det;
+    const dvec3 x = L0 + t * d;
+    auto edgeDistance = [&](dvec3 a, dvec3 b) {
+      const dvec3 e = b - a, m = glm::normalize(glm::cross(n, e));
+      return -glm::dot(x - a, m);
+    };
+    const dvec3 A(P[0]), B(P[1]), C(P[2]);
+    const double outside = std::max({edgeDistance(A, B), edgeDistance(B, C), edgeDistance(C, A)});
+    const double tau = t * len;
+    const bool exactHit = b1 >= 0 && b2 >= 0 && b1 + b2 <= 1 && tau > eps && tau < len - eps;
+    if (receiver && t > 0 && len - tau < 0.5 * eps) {
+      receivers++;
+      EXPECT_FALSE(fromSample) << "case " << i << ": a receiver shadowed by its own triangle";
+      EXPECT_FALSE(twoEnds) << "case " << i;
+      continue;
+    }
+    const double sinAngle = std::abs(det) / (len * glm::length(n));
+    const double slack = std::min({std::abs(outside), std::abs(tau - eps) * sinAngle, std::abs(len - eps - tau) * sinAngle});
+    if (!(slack > margin) || !std::isfinite(slack)) continue;
+    decided++;
+    hits += exactHit;
+    fromLightWrong += fromLight != exactHit;
+    ASSERT_EQ(fromSample, exactHit) << "case " << i << ": light " << away << " away, tau " << tau << " of " << len
+                                    << ", outside by " << outside;
+    ASSERT_EQ(twoEnds, exactHit) << "case " << i;
+  }
+  std::printf("  %d decided, %d of them hits; %d receivers; the from-light test wrong on %d\n", decided, hits,
+              receivers, fromLightWrong);
   EXPECT_GT(decided, 15000);
   EXPECT_GT(hits, 2000);
   EXPECT_GT(receivers, 5000);
@@ -588,6 +670,7 @@ TEST(LeafHitFromLight, FindsGrazingHitsOnSmallTrianglesFarFromTheLight) {
     const vec4 ray = cone::leafRay(p, light);
     EXPECT_TRUE(cone::leafHitFromLight(p, light, ray, eps, P0, P1, P2));
     EXPECT_TRUE(cone::leafHit(p, light, ray, eps, P0, P1, P2));
+    EXPECT_TRUE(cone::leafHitFromSample(p, light, ray, eps, P0, P1, P2));
   }
   // Random ones: a triangle of size 1e-3 .. 1e-2 around a point X of the ray light -> p (5 to 95 % of the
   // way), its plane at 0.1 to 2 degrees to the ray, lights 2 to 8 from the samples in a unit box; kept
@@ -634,6 +717,7 @@ TEST(LeafHitFromLight, FindsGrazingHitsOnSmallTrianglesFarFromTheLight) {
         << "case " << i << ": size " << size << ", " << angle / 0.017453292519943295 << " degrees, at " << t * len
         << " of " << len << ", " << sep << " rad inside its edges";
     ASSERT_TRUE(cone::leafHit(pf, lightf, ray, eps, P[0], P[1], P[2])) << "case " << i;
+    ASSERT_TRUE(cone::leafHitFromSample(pf, lightf, ray, eps, P[0], P[1], P[2])) << "case " << i;
   }
   std::printf("  %d grazing hits\n", cases);
   EXPECT_GT(cases, 15000);
@@ -668,7 +752,8 @@ TEST(LeafSphere, NeverCullsARayALeafTestHitsAndCullsTheFarOnes) {
     const vec3 a[3] = {P[0] - lightf, P[1] - lightf, P[2] - lightf};
     const bool misses = cone::leafRayMissesSphere(cone::leafSphere(a[0], a[1], a[2]), vec3(ray));
     const bool hit = cone::leafHit(pf, lightf, ray, eps, P[0], P[1], P[2]) ||
-                     cone::leafHitFromLight(pf, lightf, ray, eps, P[0], P[1], P[2]);
+                     cone::leafHitFromLight(pf, lightf, ray, eps, P[0], P[1], P[2]) ||
+                     cone::leafHitFromSample(pf, lightf, ray, eps, P[0], P[1], P[2]);
     hits += hit;
     ASSERT_FALSE(hit && misses) << "case " << i << ": scale " << scale << ", light " << away << " sizes away, triangle "
                                 << size;
@@ -701,7 +786,8 @@ TEST(LeafPlaneCull, NeverDropsABoxWithAHitAndDropsReceiversAndTheLightsSide) {
       const vec4 ray = cone::leafRay(x, c.light);
       if (!cone::leafRayUsable(ray, 2.0f * c.eps)) continue;
       anyHit = anyHit || cone::leafHit(x, c.light, ray, c.eps, c.P[0], c.P[1], c.P[2]) ||
-               cone::leafHitFromLight(x, c.light, ray, c.eps, c.P[0], c.P[1], c.P[2]);
+               cone::leafHitFromLight(x, c.light, ray, c.eps, c.P[0], c.P[1], c.P[2]) ||
+               cone::leafHitFromSample(x, c.light, ray, c.eps, c.P[0], c.P[1], c.P[2]);
     }
     hits += anyHit;
     ASSERT_FALSE(cull && anyHit) << "case " << i << " (kind " << c.kind << "): " << c.describe;
@@ -724,7 +810,8 @@ TEST(LeafPlaneCull, NeverDropsABoxWithAHitAndDropsReceiversAndTheLightsSide) {
   EXPECT_GT(hits, 5000);
 }
 
-// The choice (traversal.h leafTestFor): from the light where it is exact, the two ends' elsewhere.
+// The choice (traversal.h leafTestFor): from the light among the geometry, from the sample for a far
+// light, the two ends' where coordinates leave the range of either.
 TEST(LeafHitFromLight, RunsWhereTheLightIsAmongTheGeometry) {
   const vec3 lo(-1, 0, -2), hi(3, 2, 1);
   auto pick = [&](vec3 light, vec3 l = vec3(-1, 0, -2), vec3 h = vec3(3, 2, 1)) {
@@ -732,13 +819,16 @@ TEST(LeafHitFromLight, RunsWhereTheLightIsAmongTheGeometry) {
   };
   EXPECT_EQ(pick(vec3(1, 1, 0)), traversal::LeafTest::FromLight);    // inside
   EXPECT_EQ(pick(vec3(10, 10, 10)), traversal::LeafTest::FromLight); // ~3 half-diagonals out
-  EXPECT_EQ(pick(vec3(1e3f, 0, 0)), traversal::LeafTest::TwoEnds);   // the far frame's
+  EXPECT_EQ(pick(vec3(1e3f, 0, 0)), traversal::LeafTest::FromSample);  // the far frame's
+  EXPECT_EQ(pick(vec3(1e11f, 3e11f, 0)), traversal::LeafTest::FromSample);
+  EXPECT_EQ(pick(vec3(2e12f, 0, 0)), traversal::LeafTest::TwoEnds);   // a light past 2^40
   EXPECT_EQ(pick(vec3(1, 1, 0), lo * 1e-5f, hi * 1e-5f), traversal::LeafTest::TwoEnds);  // a tiny scene
   EXPECT_EQ(pick(vec3(1e12f + 1e11f, 0, 0), vec3(1e12f, 0, 0), vec3(1e12f + 3e11f, 1e11f, 1e11f)),
             traversal::LeafTest::TwoEnds);                           // coordinates past 2^40
   EXPECT_EQ(pick(vec3(1, 1, 0), vec3(1), vec3(0)), traversal::LeafTest::TwoEnds);  // no bounds
   EXPECT_STREQ(traversal::leafTestName(traversal::LeafTest::FromLight), "from_light");
   EXPECT_STREQ(traversal::leafTestName(traversal::LeafTest::TwoEnds), "two_ends");
+  EXPECT_STREQ(traversal::leafTestName(traversal::LeafTest::FromSample), "from_sample");
 }
 
 TEST(TraversalArena, PlanStaysWithinTheBudgetAndTheBinding) {
@@ -1770,8 +1860,8 @@ void expectMaskEqualsTheLeafTestOnEveryPair(const std::vector<BruteCase>& cases)
     for (uint32_t i : c.scene.indices) lo = glm::min(lo, c.scene.positions[i]), hi = glm::max(hi, c.scene.positions[i]);
     // The test the method picks for this light (leafTestFor), and the two ends' test it can be told to run.
     const traversal::LeafTest picked = traversal::leafTestFor(cone::chooseFrame(c.light, lo, hi).far, lo, hi, c.light);
-    for (bool fromLight : {true, false}) {
-      const traversal::LeafTest test = fromLight ? picked : traversal::LeafTest::TwoEnds;
+    for (bool automatic : {true, false}) {
+      const traversal::LeafTest test = automatic ? picked : traversal::LeafTest::TwoEnds;
       // Brute force: every lit sample against every triangle.
       std::vector<float> brute(host.size(), 1.0f);
       for (size_t i = 0; i < host.size(); ++i) {
@@ -1783,8 +1873,9 @@ void expectMaskEqualsTheLeafTestOnEveryPair(const std::vector<BruteCase>& cases)
           vec3 P0 = c.scene.positions[c.scene.indices[t]];
           vec3 P1 = c.scene.positions[c.scene.indices[t + 1]];
           vec3 P2 = c.scene.positions[c.scene.indices[t + 2]];
-          const bool hit = test == traversal::LeafTest::FromLight ? cone::leafHitFromLight(p, c.light, ray, eps, P0, P1, P2)
-                                                                   : cone::leafHit(p, c.light, ray, eps, P0, P1, P2);
+          const bool hit = test == traversal::LeafTest::FromLight    ? cone::leafHitFromLight(p, c.light, ray, eps, P0, P1, P2)
+                           : test == traversal::LeafTest::FromSample ? cone::leafHitFromSample(p, c.light, ray, eps, P0, P1, P2)
+                                                                     : cone::leafHit(p, c.light, ray, eps, P0, P1, P2);
           if (hit) brute[i] = 0.0f;
         }
       }
@@ -1798,7 +1889,7 @@ void expectMaskEqualsTheLeafTestOnEveryPair(const std::vector<BruteCase>& cases)
       for (bool sorted : {true, false}) {
         ConeOptions o;
         o.sorted = sorted;
-        o.leafTestFromLight = fromLight;
+        o.leafTestAuto = automatic;
         MethodOutput out = makeConeMethod(ctx, o)->run(frame);
         EXPECT_EQ(out.stats["leaf_test"], traversal::leafTestName(test));
         size_t differ = 0;

@@ -63,7 +63,7 @@ ConeOptions coneOptions(const Settings& s) {
                     : rays == "64" ? traversal::LeafRays::SixtyFour
                                    : traversal::LeafRays::Auto;
   }
-  if (s.has("leaf-test")) cone.leafTestFromLight = s.choice("leaf-test", {"auto", "two-ends"}, "auto") == "auto";
+  if (s.has("leaf-test")) cone.leafTestAuto = s.choice("leaf-test", {"auto", "two-ends"}, "auto") == "auto";
   if (s.has("test"))
     cone.test = s.choice("test", {"precise", "sphere"}, "precise") == "sphere" ? ConeTest::Sphere : ConeTest::Precise;
   cone.blockerSolidAngle = float(s.number("blocker-solid-angle", 0.0, 12.5664, cone.blockerSolidAngle));
@@ -127,10 +127,11 @@ MethodInfo coneMethodInfo() {
        "named without it takes 4, as the paper does (the same mask)",
        {"auto", "4", "16", "64"}},
       {"leaf-test", "T",
-       "the leaves' ray/triangle test: auto (default) tests from the light where that is exact (a light within 8 "
-       "half-diagonals of the scene), the triangle's edge planes through the light made once for a leaf pair's "
-       "rays; two-ends measures every ray from the end the triangle is nearer, right at any distance (exact "
-       "outside the ambiguity band either way)",
+       "the leaves' ray/triangle test: auto (default) tests from the light for a light within 8 half-diagonals "
+       "of the scene (the triangle's edge planes through the light made once for a leaf pair's rays) and from "
+       "the sample for a farther one (the edge planes through each ray's sample, no division), where "
+       "coordinates stay within 2^40; two-ends measures every ray from the end the triangle is nearer, with a "
+       "shear and divisions, right at any distance (exact outside the ambiguity band every way)",
        {"auto", "two-ends"}},
       {"profile-stages", "on|off",
        "one submission per stage (compact, keys, sort, build, traversal, leaves) to time each by wall clock, "

@@ -21,7 +21,7 @@ enum class ConeTest {
 };
 
 // The cone path's settings. Each says what it is; why, and what each costs, is in docs/ARCHITECTURE.md,
-// "The cone path's settings". Only frontFaceCulling and leafTestFromLight (inside the ambiguity band) can
+// "The cone path's settings". Only frontFaceCulling and leafTestAuto (inside the ambiguity band) can
 // change a mask; every other switch changes the work only.
 struct ConeOptions {
   // Bound on the traversal's pair arena + chunk scratch (002 §4.2; --traversal-memory); past it the
@@ -48,7 +48,7 @@ struct ConeOptions {
   traversal::LeafRays leafRays = traversal::LeafRays::Auto;  // --leaf-rays (auto: chosen per batch from its counts on a CPU device)
   std::optional<traversal::LeafChoiceCosts> leafChoiceCosts;  // tests: auto's leaf choice with these costs (traversal.h)
   std::optional<float> leafCullTestsPerRay;  // tests: the leaves' cull from this many leaf tests a ray (traversal.h)
-  bool leafTestFromLight = true;  // --leaf-test auto (true) or two-ends
+  bool leafTestAuto = true;  // --leaf-test auto (true: traversal.h leafTestFor, from the light or the sample) or two-ends
   // --memory-budget: device buffers and host working set together (0: none); the arena gets what the
   // rest leaves, and a budget that cannot hold the frame is refused with the bytes it needs.
   uint64_t memoryBudgetBytes = 0;

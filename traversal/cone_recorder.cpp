@@ -165,7 +165,7 @@ traversal::TraversalInput ConeRecorder::traversalInput(glm::vec3 light, float ep
   in.leafRays = options_.leafRays;
   in.leafChoiceCosts = options_.leafChoiceCosts;
   in.leafCullTestsPerRay = options_.leafCullTestsPerRay;
-  in.leafTest = options_.leafTestFromLight
+  in.leafTest = options_.leafTestAuto
                     ? traversal::leafTestFor(frame_.far, layout_.boundsLo(), layout_.boundsHi(), light)
                     : traversal::LeafTest::TwoEnds;
   in.superClusters = options_.superClusters;

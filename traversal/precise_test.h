@@ -463,6 +463,82 @@ CS_FN bool leafHitFromLight(LeafTriangle t, vec3 p, vec4 ray, float eps) {
   return inside && leafCrosses(t, p, ray.w, eps);
 }
 
+// The leaf test from the sample (traversal.h, LeafTest::FromSample): leafHitFromLight's question and
+// structure -- inside from the signs of three triple products, where from leafCrosses -- with each edge's
+// plane taken through whichever of the ray's ends is nearer the edge's first end: U = w.((A - p) x (B - A))
+// for the edge A -> B (A its lexicographically smaller end, negated when the edge runs the other way)
+// where |A - p| <= |A - light| (max norm), else w.((A - light) x (B - A)), leafHitFromLight's. The two
+// are one quantity in exact arithmetic (w = p - light lies along p - light); in fp32 each rounds to an
+// ulp of its base |A - p| or |A - light| times |B - A| |w|, so across the ray the error is an ulp of the
+// edge's distance from the nearer end: what leafHit's sheared test gets from its nearer end (and the
+// reference's own test from its origin), and never more than the test from the light, whose error the
+// pass tests' margins cover. A far light's rays take the sample's end for every edge (every triangle is
+// nearer its samples than the light); the choice only guards samples the caller put farther away. The
+// edges' ends, directions and bases through the light are the pair's (leafEdges); a ray adds three
+// differences, cross and dot products, no shear, division or choice of a whole triangle's end. Both
+// neighbours across an edge choose by the same end A and make the negated value from the same operands,
+// so a ray through a shared edge or vertex hits at least one of the triangles (0 counts as inside).
+struct LeafEdges {
+  vec3 a0, a1, a2;  // each edge's lexicographically smaller end (P1 -> P2, P2 -> P0, P0 -> P1)
+  vec3 d0, d1, d2;  // from it to the other end
+  vec3 l0, l1, l2;  // it relative to the light
+  vec3 reach;       // |a_k - light| in the max norm, per edge
+  vec3 sign;        // +1 where the edge runs from that end, -1 where it runs to it
+};
+
+CS_FN float maxAbs(vec3 v) {
+  vec3 m = abs(v);
+  return max(m.x, max(m.y, m.z));
+}
+
+CS_FN LeafEdges leafEdges(vec3 P0, vec3 P1, vec3 P2, vec3 light) {
+  LeafEdges e;
+  bool f0 = lexLess(P1, P2), f1 = lexLess(P2, P0), f2 = lexLess(P0, P1);
+  e.a0 = f0 ? P1 : P2;
+  e.a1 = f1 ? P2 : P0;
+  e.a2 = f2 ? P0 : P1;
+  CS_PRECISE vec3 d0 = (f0 ? P2 : P1) - e.a0;
+  CS_PRECISE vec3 d1 = (f1 ? P0 : P2) - e.a1;
+  CS_PRECISE vec3 d2 = (f2 ? P1 : P0) - e.a2;
+  e.d0 = d0;
+  e.d1 = d1;
+  e.d2 = d2;
+  CS_PRECISE vec3 l0 = e.a0 - light;
+  CS_PRECISE vec3 l1 = e.a1 - light;
+  CS_PRECISE vec3 l2 = e.a2 - light;
+  e.l0 = l0;
+  e.l1 = l1;
+  e.l2 = l2;
+  e.reach = vec3(maxAbs(l0), maxAbs(l1), maxAbs(l2));
+  e.sign = vec3(f0 ? 1.0f : -1.0f, f1 ? 1.0f : -1.0f, f2 ? 1.0f : -1.0f);
+  return e;
+}
+
+// w.(base x d), base = a - p where that is no farther than the light's end (reach), else l = a - light;
+// summed in one order, unfused (a neighbour gets the same value exactly).
+CS_FN float edgeFromNearerEnd(vec3 w, vec3 p, vec3 a, vec3 d, vec3 l, float reach) {
+  CS_PRECISE vec3 b = a - p;
+  vec3 base = maxAbs(b) <= reach ? b : l;
+  CS_PRECISE vec3 n = cross(base, d);
+  CS_PRECISE float v = w.x * n.x + w.y * n.y + w.z * n.z;
+  return v;
+}
+
+// ray = leafRay(p, light); t = leafPlane(P0, P1, P2, light) (or leafTriangle), e = leafEdges(P0, P1, P2, light).
+CS_FN bool leafHitFromSample(LeafTriangle t, LeafEdges e, vec3 p, vec4 ray, float eps) {
+  vec3 w = vec3(ray);
+  float U = e.sign.x * edgeFromNearerEnd(w, p, e.a0, e.d0, e.l0, e.reach.x);
+  float V = e.sign.y * edgeFromNearerEnd(w, p, e.a1, e.d1, e.l1, e.reach.y);
+  float W = e.sign.z * edgeFromNearerEnd(w, p, e.a2, e.d2, e.l2, e.reach.z);
+  bool inside = !((U < 0.0f || V < 0.0f || W < 0.0f) && (U > 0.0f || V > 0.0f || W > 0.0f));
+  return inside && leafCrosses(t, p, ray.w, eps);
+}
+
+// The same from world coordinates, one call a ray (the host's brute force and property tests).
+CS_FN bool leafHitFromSample(vec3 p, vec3 light, vec4 ray, float eps, vec3 P0, vec3 P1, vec3 P2) {
+  return leafHitFromSample(leafPlane(P0, P1, P2, light), leafEdges(P0, P1, P2, light), p, ray, eps);
+}
+
 // The same from world coordinates, one call a ray (the host's brute force and property tests).
 CS_FN bool leafHitFromLight(vec3 p, vec3 light, vec4 ray, float eps, vec3 P0, vec3 P1, vec3 P2) {
   return leafHitFromLight(leafTriangle(P0, P1, P2, light), p, ray, eps);
@@ -504,6 +580,9 @@ CS_FN bool leafHit(vec3 p, vec3 light, vec4 ray, float eps, vec3 P0, vec3 P1, ve
 }  // namespace glsl
 using glsl::leafHit;
 using glsl::leafHitFromLight;
+using glsl::leafHitFromSample;
+using glsl::leafEdges;
+using glsl::LeafEdges;
 using glsl::lexLess;
 using glsl::leafTriangle;
 using glsl::leafPlane;

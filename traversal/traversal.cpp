@@ -238,6 +238,10 @@ Traversal::Traversal(vk::Context& ctx, const ArenaPlan& plan) : ctx_(ctx), plan_
                                  {{0, 0u}, {1, 1u}});
   leavesFromLightCull_ = vk::createKernel(ctx, "traverse leaves (from the light, culled)", spv_traverse_leaves_comp, 7,
                                           sizeof(TraversePush), {{0, 1u}, {1, 1u}});
+  leavesFromSample_ = vk::createKernel(ctx, "traverse leaves (from the sample)", spv_traverse_leaves_comp, 7,
+                                       sizeof(TraversePush), {{0, 2u}, {1, 0u}});
+  leavesFromSampleCull_ = vk::createKernel(ctx, "traverse leaves (from the sample, culled)", spv_traverse_leaves_comp,
+                                           7, sizeof(TraversePush), {{0, 2u}, {1, 1u}});
   leafHits_ = vk::createKernel(ctx, "leaf hits", spv_leaf_hits_comp, 4, sizeof(LeafHitsPush));
   advance_ = vk::createKernel(ctx, "traverse advance", spv_traverse_advance_comp, 2, sizeof(AdvancePush));
   arena_ = vk::createBuffer(ctx, pairBufferBytes(plan_.pairCapacity));
@@ -746,14 +750,22 @@ LeafRays Traversal::resolveLeafRays(LeafRays wanted) const {
   return ctx_.properties.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? LeafRays::SixtyFour : LeafRays::Four;
 }
 
-const char* leafTestName(LeafTest test) { return test == LeafTest::FromLight ? "from_light" : "two_ends"; }
+const char* leafTestName(LeafTest test) {
+  switch (test) {
+    case LeafTest::TwoEnds: return "two_ends";
+    case LeafTest::FromLight: return "from_light";
+    case LeafTest::FromSample: return "from_sample";
+  }
+  return "?";
+}
 
 LeafTest leafTestFor(bool farFrame, glm::vec3 lo, glm::vec3 hi, glm::vec3 light) {
-  if (farFrame || !(lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z)) return LeafTest::TwoEnds;
+  if (!(lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z)) return LeafTest::TwoEnds;
   const float halfDiagonal = 0.5f * glm::length(hi - lo);
   const glm::vec3 m = glm::max(glm::max(glm::abs(lo), glm::abs(hi)), glm::abs(light));
   const bool inRange = halfDiagonal >= std::ldexp(1.0f, -12) && std::max(m.x, std::max(m.y, m.z)) <= std::ldexp(1.0f, 40);
-  return inRange ? LeafTest::FromLight : LeafTest::TwoEnds;
+  if (!inRange) return LeafTest::TwoEnds;
+  return farFrame ? LeafTest::FromSample : LeafTest::FromLight;
 }
 
 const char* expansionLanesName(ExpansionLanes lanes) {

@@ -88,20 +88,24 @@ glm::vec4 clusterSphereFar(glm::dvec3 rel, double radius, double lateralOperands
 uint64_t hilbertIndex3(uint32_t x, uint32_t y, uint32_t z, int bits);
 
 // Which leaf test the leaves run (precise_test.h): TwoEnds, leafHit -- each ray measured from the end of
-// it the triangle is nearer, right at any light distance -- or FromLight, leafHitFromLight: the
-// triangle's share of the test (its edge normals through the light, its plane) computed once for the
-// pair's rays, which share the light as their origin, and three dot products a ray. FromLight is for a
-// light among the geometry: its edge functions round to an ulp of the triangle's distance from the light,
-// which a light 10^3 diagonals away makes wider than the band. leafTestFor() says when it may run.
-// Both are exact outside the ambiguity band and watertight, but they round differently at the edges and
-// the ends of the interval, so the masks may differ within the band; every variant and every arena size
-// of one frame runs the same test and gives the same mask.
-enum class LeafTest { TwoEnds, FromLight };
+// it the triangle is nearer, right at any light distance and coordinate range -- or FromLight,
+// leafHitFromLight: the triangle's share of the test (its edge normals through the light, its plane)
+// computed once for the pair's rays, which share the light as their origin, and three dot products a
+// ray -- or FromSample, leafHitFromSample: the same with each edge's normal through the ray's sample
+// (three differences, cross and dot products a ray; no shear, division or choice of end). FromLight is
+// for a light among the geometry: its edge functions round to an ulp of the triangle's distance from the
+// light, which a light 10^3 diagonals away makes wider than the band. FromSample is for a far light:
+// its edge functions round to an ulp of the triangle's distance from the sample, as TwoEnds does from
+// the end it takes there. leafTestFor() says which may run.
+// All three are exact outside the ambiguity band and watertight, but they round differently at the edges
+// and the ends of the interval, so the masks may differ within the band; every variant and every arena
+// size of one frame runs the same test and gives the same mask.
+enum class LeafTest { TwoEnds, FromLight, FromSample };
 const char* leafTestName(LeafTest test);
-// FromLight where it is exact: the world frame (a light within kFarFrameRatio half-diagonals of the
-// centre of the triangles' bounds [lo, hi], so rays are at most ~4.5 diagonals long) and coordinates
-// whose cubes neither overflow nor go subnormal in the test's products (half-diagonal >= 2^-12, every
-// coordinate of the bounds and the light <= 2^40). TwoEnds otherwise.
+// Where the products of three coordinates neither overflow nor go subnormal (half-diagonal of the
+// triangles' bounds [lo, hi] >= 2^-12, every coordinate of the bounds and the light <= 2^40): FromLight
+// in the world frame (a light within kFarFrameRatio half-diagonals of the centre of the bounds, so rays
+// are at most ~4.5 diagonals long), FromSample in the far frame. TwoEnds otherwise.
 LeafTest leafTestFor(bool farFrame, glm::vec3 lo, glm::vec3 hi, glm::vec3 light);
 
 // ---- per-frame statistics -----------------------------------------------------------------------------
@@ -324,10 +328,13 @@ class Traversal {
   const vk::Kernel& testKernel(const TraversePush& p, bool clusters, bool whole = false);
   std::unique_ptr<vk::Kernel> tests_[22];  // the test kernels per switches, the cluster kernel, the whole-cluster ones;
                                            // each with the scale a constant 1 and from the push constants
-  vk::Kernel leaves_, leavesFromLight_, leavesCull_, leavesFromLightCull_, advance_, leafHits_;
+  vk::Kernel leaves_, leavesFromLight_, leavesCull_, leavesFromLightCull_, leavesFromSample_, leavesFromSampleCull_;
+  vk::Kernel advance_, leafHits_;
   // The leaves' kernel for the test, with the cull (SPEC_CULL) or without.
   const vk::Kernel& leafKernel(LeafTest test, bool cull) const {
-    return test == LeafTest::FromLight ? (cull ? leavesFromLightCull_ : leavesFromLight_) : (cull ? leavesCull_ : leaves_);
+    if (test == LeafTest::FromLight) return cull ? leavesFromLightCull_ : leavesFromLight_;
+    if (test == LeafTest::FromSample) return cull ? leavesFromSampleCull_ : leavesFromSample_;
+    return cull ? leavesCull_ : leaves_;
   }
   float leafCullTestsPerRay_ = 0;  // the last record()'s AdvancePush::leafCullTestsPerRay
   vk::Buffer arena_, chunk_, stats_, flags_, state_;

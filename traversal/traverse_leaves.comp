@@ -23,9 +23,10 @@
 #include "traversal/sphere_test.h"
 #include "traversal/traverse.glsl"
 
-// 1: leafHitFromLight, the triangle's share computed once for the pair's rays (traversal.h, LeafTest);
-// 0: leafHit, a ray at a time from the triangle's nearer end.
-layout(constant_id = 0) const uint SPEC_FROM_LIGHT = 0u;
+// The leaf test (traversal.h, LeafTest): 0 leafHit, a ray at a time from the triangle's nearer end;
+// 1 leafHitFromLight, the triangle's share computed once for the pair's rays; 2 leafHitFromSample, the
+// triangle's edges once for the pair's rays, each ray's edge planes through its sample.
+layout(constant_id = 0) const uint SPEC_LEAF_TEST = 0u;
 // 1: the pair's rays culled first against the triangle's sphere (leafRayMissesSphere, a few products a
 // ray), the exact test run only on the rays left; 0: every ray tested exactly.
 layout(constant_id = 1) const uint SPEC_CULL = 0u;
@@ -47,11 +48,12 @@ layout(push_constant) uniform Push { TraversePush p; };
 uint statWord(uint w) { return texelWord(statTexels, w); }
 
 // Whether sorted ray `leaf` meets the pair's triangle within (eps, L - eps).
-bool rayHits(uint leaf, LeafTriangle t, vec3 P0, vec3 P1, vec3 P2, vec3 light) {
+bool rayHits(uint leaf, LeafTriangle t, LeafEdges e, vec3 P0, vec3 P1, vec3 P2, vec3 light) {
   vec3 samplePos = uintBitsToFloat(texelFetch(rays, int(leaf)).xyz);
   vec4 ray = leafRay(samplePos, light);
-  bool hit = SPEC_FROM_LIGHT != 0u ? leafHitFromLight(t, samplePos, ray, p.eps)
-                                   : leafHit(t, samplePos, light, ray, p.eps, P0, P1, P2);
+  bool hit = SPEC_LEAF_TEST == 1u ? leafHitFromLight(t, samplePos, ray, p.eps)
+           : SPEC_LEAF_TEST == 2u ? leafHitFromSample(t, e, samplePos, ray, p.eps)
+                                  : leafHit(t, samplePos, light, ray, p.eps, P0, P1, P2);
   return leafRayUsable(ray, p.minLength) && hit;
 }
 
@@ -110,11 +112,13 @@ void main() {
   // count -- on the light's side of the triangle's plane, or beyond it by less than eps times the
   // crossing's slope (the receivers: samples on the triangle's own plane). Every pair computes the plane
   // anyway (both leaf tests ask leafCrosses); the box is two texels.
-  LeafTriangle t = SPEC_FROM_LIGHT != 0u ? leafTriangle(P0, P1, P2, light) : leafPlane(P0, P1, P2, light);
+  LeafTriangle t = SPEC_LEAF_TEST == 1u ? leafTriangle(P0, P1, P2, light) : leafPlane(P0, P1, P2, light);
   uint box = 2u * (boxOffset(leafCount, shift >> 1u) + pair.y);
   if ((shift >> 1u) >= CONE_BOX_FIRST_HEIGHT &&
       leafPlaneMissesBox(t, texelFetch(boxes, int(box)).xyz, texelFetch(boxes, int(box + 1u)).xyz, light, p.eps))
     return;
+  LeafEdges e;
+  if (SPEC_LEAF_TEST == 2u) e = leafEdges(P0, P1, P2, light);
   uint hits = 0u, hits2 = 0u;
   // Four rays an iteration (the lowest four left of the pair's up to 64, over both words; the last again
   // when fewer are left, a ray tested twice being harmless): a loop iteration costs every lavapipe lane
@@ -130,10 +134,10 @@ void main() {
     if (lo != 0u) lo &= lo - 1u; else hi &= hi - 1u;
     uint k3 = (lo | hi) == 0u ? k2 : uint(findLSB(lo != 0u ? lo : hi)) + (lo != 0u ? 0u : 32u);
     if (lo != 0u) lo &= lo - 1u; else hi &= hi - 1u;
-    bool h0 = rayHits(first + k0, t, P0, P1, P2, light);
-    bool h1 = rayHits(first + k1, t, P0, P1, P2, light);
-    bool h2 = rayHits(first + k2, t, P0, P1, P2, light);
-    bool h3 = rayHits(first + k3, t, P0, P1, P2, light);
+    bool h0 = rayHits(first + k0, t, e, P0, P1, P2, light);
+    bool h1 = rayHits(first + k1, t, e, P0, P1, P2, light);
+    bool h2 = rayHits(first + k2, t, e, P0, P1, P2, light);
+    bool h3 = rayHits(first + k3, t, e, P0, P1, P2, light);
     hits |= (h0 && k0 < 32u ? 1u << k0 : 0u) | (h1 && k1 < 32u ? 1u << k1 : 0u) |
             (h2 && k2 < 32u ? 1u << k2 : 0u) | (h3 && k3 < 32u ? 1u << k3 : 0u);
     hits2 |= (h0 && k0 >= 32u ? 1u << (k0 - 32u) : 0u) | (h1 && k1 >= 32u ? 1u << (k1 - 32u) : 0u) |

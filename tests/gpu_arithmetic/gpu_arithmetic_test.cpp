@@ -76,9 +76,10 @@ int pairsToRun(int byDefault) {
 // The brute-force search with the emulated leaf tests (what the GPU's leaf kernels would report).
 BruteForce emulatedSearch() {
   BruteForce brute;
-  brute.leaf = [](vec3 w, vec4 ray, float eps, const vec3* v) {  // either leaf test (traversal.h LeafTest)
+  brute.leaf = [](vec3 w, vec4 ray, float eps, const vec3* v) {  // any leaf test (traversal.h LeafTest)
     return gpuemu::leafHit(w, vec3(0), ray, eps, v[0], v[1], v[2]) ||
-           gpuemu::leafHitFromLight(w, vec3(0), ray, eps, v[0], v[1], v[2]);
+           gpuemu::leafHitFromLight(w, vec3(0), ray, eps, v[0], v[1], v[2]) ||
+           gpuemu::leafHitFromSample(w, vec3(0), ray, eps, v[0], v[1], v[2]);
   };
   return brute;
 }
@@ -136,7 +137,8 @@ TEST_P(GpuArithmetic, TheLeavesCullNeverDropsARayTheLeafTestHits) {
     const vec4 ray = gpuemu::leafRay(pf, lightf);
     if (!(ray.w > 2.0f * eps && ray.w <= FLT_MAX)) continue;
     const bool hit = gpuemu::leafHit(pf, lightf, ray, eps, P[0], P[1], P[2]) ||
-                     gpuemu::leafHitFromLight(pf, lightf, ray, eps, P[0], P[1], P[2]);
+                     gpuemu::leafHitFromLight(pf, lightf, ray, eps, P[0], P[1], P[2]) ||
+                     gpuemu::leafHitFromSample(pf, lightf, ray, eps, P[0], P[1], P[2]);
     hits += hit;
     ASSERT_FALSE(hit && gpuemu::leafRayMissesSphere(P[0] - lightf, P[1] - lightf, P[2] - lightf, vec3(ray)))
         << GetParam().name << ": case " << i << ", scale " << scale << ", light " << away << " sizes away";
@@ -160,7 +162,8 @@ TEST_P(GpuArithmetic, ThePlaneCullNeverDropsABoxWithAHit) {
       const vec4 ray = gpuemu::leafRay(x, c.light);
       if (!(ray.w > 2.0f * c.eps && ray.w <= FLT_MAX)) continue;
       anyHit = anyHit || gpuemu::leafHit(x, c.light, ray, c.eps, c.P[0], c.P[1], c.P[2]) ||
-               gpuemu::leafHitFromLight(x, c.light, ray, c.eps, c.P[0], c.P[1], c.P[2]);
+               gpuemu::leafHitFromLight(x, c.light, ray, c.eps, c.P[0], c.P[1], c.P[2]) ||
+               gpuemu::leafHitFromSample(x, c.light, ray, c.eps, c.P[0], c.P[1], c.P[2]);
     }
     hits += anyHit;
     culled += cull;

@@ -122,6 +122,9 @@ bool leafPlaneMissesBox(glm::vec3 P0, glm::vec3 P1, glm::vec3 P2, glm::vec3 ligh
 bool leafHitFromLight(glm::vec3 p, glm::vec3 light, glm::vec4 ray, float eps, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2) {
   return twin::leafHitFromLight(p, light, ray, eps, v0, v1, v2);
 }
+bool leafHitFromSample(glm::vec3 p, glm::vec3 light, glm::vec4 ray, float eps, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2) {
+  return twin::leafHitFromSample(p, light, ray, eps, v0, v1, v2);
+}
 glm::vec4 leafRay(glm::vec3 p, glm::vec3 light) { return twin::leafRay(p, light); }
 Cone rayCone(glm::vec4 ray) { return cone(twin::rayCone(ray)); }
 Cone coneParent(const Cone* c, uint32_t n, float pad) {

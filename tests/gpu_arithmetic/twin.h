@@ -51,6 +51,7 @@ bool preciseConeCovered(const Cone& cone, glm::vec3 v0, glm::vec3 v1, glm::vec3 
 bool sphereConeTriangle(const Cone& cone, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2, float eps, float scale = 1.0f);
 bool leafHit(glm::vec3 p, glm::vec3 light, glm::vec4 ray, float eps, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2);
 bool leafHitFromLight(glm::vec3 p, glm::vec3 light, glm::vec4 ray, float eps, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2);
+bool leafHitFromSample(glm::vec3 p, glm::vec3 light, glm::vec4 ray, float eps, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2);
 glm::vec4 leafRay(glm::vec3 p, glm::vec3 light);
 // The leaves' cull (sphere_test.h): leafRayMissesSphere(leafSphere(a0, a1, a2), w), a_i = P_i - light.
 bool leafRayMissesSphere(glm::vec3 a0, glm::vec3 a1, glm::vec3 a2, glm::vec3 w);
