@@ -385,4 +385,62 @@ inline PlaneBox makePlaneBox(std::mt19937& rng, int i) {
   return c;
 }
 
+// A leaf test's case under a far light (the far frame's leaves: LeafTest::FromSample), with the exact
+// answer where rounding does not decide it: samples and triangles in a unit box, lights 10 to 10^6 box
+// sizes away in every direction, triangles anywhere or around a point of the ray within a box size of
+// its sample, and every fourth case a receiver (the sample on the triangle). `decided`: the exact ray (in
+// double) passes the triangle's edges and both ends of (eps, L - eps) by more than `margin`; `receiver`:
+// a receiver whose plane the ray crosses within half eps of the sample (never a shadow).
+struct FarLeafCase {
+  bool usable = false, decided = false, receiver = false, exactHit = false;
+  vec3 light, p, P[3];
+  vec4 ray;
+  float eps = 1e-4f;
+  double away = 0, tau = 0, length = 0, outside = 0;
+};
+
+inline FarLeafCase makeFarLeafCase(std::mt19937& rng, int i, double margin = 1e-5) {
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  auto point = [&]() { return vec3(u(rng), u(rng), u(rng)); };
+  FarLeafCase c;
+  const vec3 dir = glm::normalize(point() - 0.5f);
+  const float away = std::exp(std::log(10.0f) + u(rng) * std::log(1e5f));
+  c.away = away;
+  c.light = vec3(0.5f) + away * dir;
+  c.p = point();
+  const float size = std::exp(std::log(1e-3f) + u(rng) * std::log(1e3f));
+  const vec3 towards = glm::normalize(c.light - c.p);
+  const vec3 centre = i % 2 ? c.p + (0.001f + u(rng)) * towards : point();
+  for (vec3& x : c.P) x = centre + size * (point() - 0.5f);
+  const bool receiverCase = i % 4 == 0;
+  if (receiverCase) c.p = c.P[0] + u(rng) * (c.P[1] - c.P[0]) + u(rng) * 0.5f * (c.P[2] - c.P[0]);
+  c.ray = cone::leafRay(c.p, c.light);
+  if (!cone::leafRayUsable(c.ray, 2.0f * c.eps)) return c;
+  const dvec3 L0(c.light), d = dvec3(c.p) - dvec3(c.light), e1 = dvec3(c.P[1]) - dvec3(c.P[0]),
+              e2 = dvec3(c.P[2]) - dvec3(c.P[0]);
+  const dvec3 n = glm::cross(e1, e2);
+  const double len = glm::length(d), det = -glm::dot(d, n);
+  if (!(std::abs(det) > 1e-9 * len * glm::length(n))) return c;  // (nearly) in the plane: undecided
+  c.usable = true;
+  const dvec3 s = L0 - dvec3(c.P[0]);
+  const double t = glm::dot(s, n) / det, b1 = -glm::dot(d, glm::cross(s, e2)) / det,
+               b2 = -glm::dot(d, glm::cross(e1, s)) / det;
+  const dvec3 x = L0 + t * d;
+  auto edgeDistance = [&](dvec3 a, dvec3 b) {  // negative inside
+    const dvec3 m = glm::normalize(glm::cross(n, b - a));
+    return -glm::dot(x - a, m);
+  };
+  const dvec3 A(c.P[0]), B(c.P[1]), C(c.P[2]);
+  c.outside = std::max({edgeDistance(A, B), edgeDistance(B, C), edgeDistance(C, A)});
+  c.tau = t * len;
+  c.length = len;
+  c.exactHit = b1 >= 0 && b2 >= 0 && b1 + b2 <= 1 && c.tau > c.eps && c.tau < len - c.eps;
+  c.receiver = receiverCase && t > 0 && len - c.tau < 0.5 * c.eps;
+  const double sinAngle = std::abs(det) / (len * glm::length(n));
+  const double slack = std::min({std::abs(c.outside), std::abs(c.tau - c.eps) * sinAngle,
+                                 std::abs(len - c.eps - c.tau) * sinAngle});
+  c.decided = !c.receiver && slack > margin && std::isfinite(slack);
+  return c;
+}
+
 }  // namespace cs::test

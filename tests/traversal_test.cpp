@@ -593,59 +593,26 @@ TEST(LeafHitFromLight, AgreesWithTheTwoEndsTestAndTheExactAnswerAwayFromEdgesAnd
 // from-light test) round to an ulp of the light's distance: at 10^6 they miss hits well inside.
 TEST(LeafHitFromSample, AgreesWithTheTwoEndsTestAndTheExactAnswerForFarLights) {
   std::mt19937 rng(20261209);
-  std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  auto point = [&]() { return vec3(u(rng), u(rng), u(rng)); };
-  const float eps = 1e-4f;
-  const double margin = 1e-5;  // of the unit box's size: the band's smallest nudge
   int decided = 0, hits = 0, receivers = 0, fromLightWrong = 0;
   for (int i = 0; i < 40000; ++i) {
-    const vec3 dir = glm::normalize(point() - 0.5f);
-    const float away = std::exp(std::log(10.0f) + u(rng) * std::log(1e5f));
-    const vec3 light = vec3(0.5f) + away * dir;
-    vec3 p = point();
-    const float size = std::exp(std::log(1e-3f) + u(rng) * std::log(1e3f));
-    const vec3 towards = glm::normalize(light - p);
-    const vec3 centre = i % 2 ? p + (0.001f + u(rng)) * towards : point();
-    vec3 P[3];
-    for (vec3& x : P) x = centre + size * (point() - 0.5f);
-    const bool receiver = i % 4 == 0;
-    if (receiver) p = P[0] + u(rng) * (P[1] - P[0]) + u(rng) * 0.5f * (P[2] - P[0]);
-    const vec4 ray = cone::leafRay(p, light);
-    if (!cone::leafRayUsable(ray, 2.0f * eps)) continue;
-    const bool fromSample = cone::leafHitFromSample(p, light, ray, eps, P[0], P[1], P[2]);
-    const bool twoEnds = cone::leafHit(p, light, ray, eps, P[0], P[1], P[2]);
-    const bool fromLight = cone::leafHitFromLight(p, light, ray, eps, P[0], P[1], P[2]);
-    const dvec3 L0(light), d = dvec3(p) - dvec3(light), e1 = dvec3(P[1]) - dvec3(P[0]), e2 = dvec3(P[2]) - dvec3(P[0]);
-    const dvec3 n = glm::cross(e1, e2);
-    const double len = glm::length(d), det = -glm::dot(d, n);
-    if (!(std::abs(det) > 1e-9 * len * glm::length(n))) continue;
-    const dvec3 s = L0 - dvec3(P[0]);
-    const double t = glm::dot(s, n) / det, b1 = -glm::dot(d, glm::cross(s, e2)) / det,
-                 b2 = -glm::dot(d, glm::cross(e1, s)) / det;
-    const dvec3 x = L0 + t * d;
-    auto edgeDistance = [&](dvec3 a, dvec3 b) {
-      const dvec3 e = b - a, m = glm::normalize(glm::cross(n, e));
-      return -glm::dot(x - a, m);
-    };
-    const dvec3 A(P[0]), B(P[1]), C(P[2]);
-    const double outside = std::max({edgeDistance(A, B), edgeDistance(B, C), edgeDistance(C, A)});
-    const double tau = t * len;
-    const bool exactHit = b1 >= 0 && b2 >= 0 && b1 + b2 <= 1 && tau > eps && tau < len - eps;
-    if (receiver && t > 0 && len - tau < 0.5 * eps) {
+    const test::FarLeafCase c = test::makeFarLeafCase(rng, i);
+    if (!c.usable) continue;
+    const bool fromSample = cone::leafHitFromSample(c.p, c.light, c.ray, c.eps, c.P[0], c.P[1], c.P[2]);
+    const bool twoEnds = cone::leafHit(c.p, c.light, c.ray, c.eps, c.P[0], c.P[1], c.P[2]);
+    const bool fromLight = cone::leafHitFromLight(c.p, c.light, c.ray, c.eps, c.P[0], c.P[1], c.P[2]);
+    if (c.receiver) {
       receivers++;
       EXPECT_FALSE(fromSample) << "case " << i << ": a receiver shadowed by its own triangle";
       EXPECT_FALSE(twoEnds) << "case " << i;
       continue;
     }
-    const double sinAngle = std::abs(det) / (len * glm::length(n));
-    const double slack = std::min({std::abs(outside), std::abs(tau - eps) * sinAngle, std::abs(len - eps - tau) * sinAngle});
-    if (!(slack > margin) || !std::isfinite(slack)) continue;
+    if (!c.decided) continue;
     decided++;
-    hits += exactHit;
-    fromLightWrong += fromLight != exactHit;
-    ASSERT_EQ(fromSample, exactHit) << "case " << i << ": light " << away << " away, tau " << tau << " of " << len
-                                    << ", outside by " << outside;
-    ASSERT_EQ(twoEnds, exactHit) << "case " << i;
+    hits += c.exactHit;
+    fromLightWrong += fromLight != c.exactHit;
+    ASSERT_EQ(fromSample, c.exactHit) << "case " << i << ": light " << c.away << " away, tau " << c.tau << " of "
+                                      << c.length << ", outside by " << c.outside;
+    ASSERT_EQ(twoEnds, c.exactHit) << "case " << i;
   }
   std::printf("  %d decided, %d of them hits; %d receivers; the from-light test wrong on %d\n", decided, hits,
               receivers, fromLightWrong);

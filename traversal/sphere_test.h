@@ -90,13 +90,13 @@ CS_FN bool facesLight(vec3 v0, vec3 v1, vec3 v2) {
 // have them), its radius widened by the sphere test's margin, CONE_TEST_MARGIN (|c| + r): leafSphere, once a
 // pair (xyz: the centre, w: the widened radius squared). leafRayMissesSphere(s, w), w = sample - light as
 // leafRay computes it: true only when the line through the light along w passes farther than that radius
-// from the centre, |c x w|^2 > R^2 |w|^2 (no square root a ray). Conservative for both leaf tests
+// from the centre, |c x w|^2 > R^2 |w|^2 (no square root a ray). Conservative for every leaf test
 // (precise_test.h): a hit they report lies on their ray's line within a few ulp of the triangle's
 // coordinates relative to the end they work from. The test from the light (and leafHit from the light's
 // end) runs on this very line; leafHit takes the sample's end only when the triangle is nearer the sample
-// in the max norm, so at least 0.37 L from the light, where that line's offset from this one (the
-// rounding of w, an ulp of L) is far inside the sphere's padding (2^-16 of the vertices' distance from
-// the light). The products here round to ~ulp |c| |w|, inside the margin's 2^-16 |c| |w|. NaN, overflow
+// in the max norm (leafHitFromSample, an edge's, only when its first end is), so at least 0.37 L from
+// the light, where that line's offset from this one (the rounding of w, an ulp of L) is far inside the
+// sphere's padding (2^-16 of the vertices' distance from the light). The products here round to ~ulp |c| |w|, inside the margin's 2^-16 |c| |w|. NaN, overflow
 // and a radius or ray too short for its square to stay a normal float keep the ray.
 CS_FN vec4 leafSphere(vec3 a0, vec3 a1, vec3 a2) {
   vec4 s = boundingSphere(a0, a1, a2, 1.0f);

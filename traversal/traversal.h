@@ -92,7 +92,8 @@ uint64_t hilbertIndex3(uint32_t x, uint32_t y, uint32_t z, int bits);
 // leafHitFromLight: the triangle's share of the test (its edge normals through the light, its plane)
 // computed once for the pair's rays, which share the light as their origin, and three dot products a
 // ray -- or FromSample, leafHitFromSample: the same with each edge's normal through the ray's sample
-// (three differences, cross and dot products a ray; no shear, division or choice of end). FromLight is
+// (through the light where that end is the nearer to the edge: three differences, cross and dot
+// products a ray; no shear or division). FromLight is
 // for a light among the geometry: its edge functions round to an ulp of the triangle's distance from the
 // light, which a light 10^3 diagonals away makes wider than the band. FromSample is for a far light:
 // its edge functions round to an ulp of the triangle's distance from the sample, as TwoEnds does from

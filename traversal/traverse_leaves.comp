@@ -25,7 +25,8 @@
 
 // The leaf test (traversal.h, LeafTest): 0 leafHit, a ray at a time from the triangle's nearer end;
 // 1 leafHitFromLight, the triangle's share computed once for the pair's rays; 2 leafHitFromSample, the
-// triangle's edges once for the pair's rays, each ray's edge planes through its sample.
+// triangle's edges once for the pair's rays, each ray's edge planes through its sample (or the light,
+// the nearer end to the edge).
 layout(constant_id = 0) const uint SPEC_LEAF_TEST = 0u;
 // 1: the pair's rays culled first against the triangle's sphere (leafRayMissesSphere, a few products a
 // ray), the exact test run only on the rays left; 0: every ray tested exactly.
@@ -111,7 +112,7 @@ void main() {
   // boxes: the 16 or 64 rays of a leaf pair; 4 have none) wholly where the plane's crossings cannot
   // count -- on the light's side of the triangle's plane, or beyond it by less than eps times the
   // crossing's slope (the receivers: samples on the triangle's own plane). Every pair computes the plane
-  // anyway (both leaf tests ask leafCrosses); the box is two texels.
+  // anyway (every leaf test asks leafCrosses); the box is two texels.
   LeafTriangle t = SPEC_LEAF_TEST == 1u ? leafTriangle(P0, P1, P2, light) : leafPlane(P0, P1, P2, light);
   uint box = 2u * (boxOffset(leafCount, shift >> 1u) + pair.y);
   if ((shift >> 1u) >= CONE_BOX_FIRST_HEIGHT &&

@@ -174,6 +174,35 @@ TEST_P(GpuArithmetic, ThePlaneCullNeverDropsABoxWithAHit) {
   EXPECT_GT(hits, n / 8);
 }
 
+// The far light's leaf test (traversal.h, LeafTest::FromSample) under the same arithmetic: the exact
+// answer on every case rounding does not decide, receivers never shadowed (tests/cone_property_support.h,
+// makeFarLeafCase: lights 10 to 10^6 box sizes away).
+TEST_P(GpuArithmetic, TheLeafTestFromTheSampleIsExactForFarLights) {
+  std::mt19937 rng(20261209);
+  const int n = pairsToRun(4000) * 5;
+  int decided = 0, hits = 0, receivers = 0;
+  for (int i = 0; i < n; ++i) {
+    const test::FarLeafCase c = test::makeFarLeafCase(rng, i);
+    if (!c.usable) continue;
+    const vec4 ray = gpuemu::leafRay(c.p, c.light);
+    const bool hit = gpuemu::leafHitFromSample(c.p, c.light, ray, c.eps, c.P[0], c.P[1], c.P[2]);
+    if (c.receiver) {
+      receivers++;
+      ASSERT_FALSE(hit) << GetParam().name << ": case " << i << ", a receiver shadowed by its own triangle";
+      continue;
+    }
+    if (!c.decided) continue;
+    decided++;
+    hits += c.exactHit;
+    ASSERT_EQ(hit, c.exactHit) << GetParam().name << ": case " << i << ", light " << c.away << " away, tau " << c.tau
+                               << " of " << c.length << ", outside by " << c.outside;
+  }
+  std::printf("  %s: %d decided, %d hits, %d receivers\n", GetParam().name, decided, hits, receivers);
+  EXPECT_GT(decided, n / 3);
+  EXPECT_GT(hits, n / 20);
+  EXPECT_GT(receivers, n / 8);
+}
+
 TEST_P(GpuArithmetic, FarFrameMarginsStayConservative) {
   test::FarPairGenerator gen(20261205);
   BruteForce brute = emulatedSearch();
