@@ -486,11 +486,6 @@ struct LeafEdges {
   vec3 sign;        // +1 where the edge runs from that end, -1 where it runs to it
 };
 
-CS_FN float maxAbs(vec3 v) {
-  vec3 m = abs(v);
-  return max(m.x, max(m.y, m.z));
-}
-
 CS_FN LeafEdges leafEdges(vec3 P0, vec3 P1, vec3 P2, vec3 light) {
   LeafEdges e;
   bool f0 = lexLess(P1, P2), f1 = lexLess(P2, P0), f2 = lexLess(P0, P1);
@@ -509,7 +504,7 @@ CS_FN LeafEdges leafEdges(vec3 P0, vec3 P1, vec3 P2, vec3 light) {
   e.l0 = l0;
   e.l1 = l1;
   e.l2 = l2;
-  e.reach = vec3(maxAbs(l0), maxAbs(l1), maxAbs(l2));
+  e.reach = vec3(maxAbs3(l0, l0, l0), maxAbs3(l1, l1, l1), maxAbs3(l2, l2, l2));
   e.sign = vec3(f0 ? 1.0f : -1.0f, f1 ? 1.0f : -1.0f, f2 ? 1.0f : -1.0f);
   return e;
 }
@@ -518,7 +513,7 @@ CS_FN LeafEdges leafEdges(vec3 P0, vec3 P1, vec3 P2, vec3 light) {
 // summed in one order, unfused (a neighbour gets the same value exactly).
 CS_FN float edgeFromNearerEnd(vec3 w, vec3 p, vec3 a, vec3 d, vec3 l, float reach) {
   CS_PRECISE vec3 b = a - p;
-  vec3 base = maxAbs(b) <= reach ? b : l;
+  vec3 base = maxAbs3(b, b, b) <= reach ? b : l;
   CS_PRECISE vec3 n = cross(base, d);
   CS_PRECISE float v = w.x * n.x + w.y * n.y + w.z * n.z;
   return v;
