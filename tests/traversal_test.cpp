@@ -621,6 +621,57 @@ TEST(LeafHitFromSample, AgreesWithTheTwoEndsTestAndTheExactAnswerForFarLights) {
   EXPECT_GT(receivers, 5000);
 }
 
+// The leaves drop the test from the sample's per-edge choice of end where the pair's sample box says
+// every sample takes the sample's end (leafSamplesNearer); the answer must then be the same bit for bit,
+// for every sample in the box. Boxes of 10^-4 to 1 around the far-light cases' samples, points at their
+// corners and inside, under far lights and lights among the geometry (where the guard says yes and no);
+// and it says no for samples around the light, an empty box, a NaN box.
+TEST(LeafHitFromSample, FromTheSampleEndAnswersAlikeInBoxesNearerTheSamples) {
+  std::mt19937 rng(20261210);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  int nearer = 0, compared = 0, hits = 0, nearLights = 0, farther = 0;
+  for (int i = 0; i < 20000; ++i) {
+    test::FarLeafCase c = test::makeFarLeafCase(rng, i);
+    // Every third case a light among the geometry (0.2 to 2 from the sample), where the guard varies.
+    if (i % 3 == 0) c.light = c.p + (0.2f + 1.8f * u(rng)) * glm::normalize(vec3(u(rng), u(rng), u(rng)) - 0.5f);
+    const float half = std::exp(std::log(1e-4f) + u(rng) * std::log(1e4f));
+    const vec3 lo = c.p - half, hi = c.p + half;
+    const cone::LeafEdges e = cone::leafEdges(c.P[0], c.P[1], c.P[2], c.light);
+    const cone::LeafTriangle t = cone::leafPlane(c.P[0], c.P[1], c.P[2], c.light);
+    if (!cone::leafSamplesNearer(e, lo, hi)) {
+      farther += i % 3 == 0;
+      continue;
+    }
+    nearer++;
+    nearLights += i % 3 == 0;
+    for (int k = 0; k < 12; ++k) {
+      const vec3 q = k < 8 ? vec3(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z)
+                           : lo + vec3(u(rng), u(rng), u(rng)) * (hi - lo);
+      const vec3 x = k == 11 ? c.p : glm::clamp(q, lo, hi);
+      const vec4 ray = cone::leafRay(x, c.light);
+      if (!cone::leafRayUsable(ray, 2.0f * c.eps)) continue;
+      const bool end = cone::leafHitFromSampleEnd(t, e, x, ray, c.eps);
+      compared++;
+      hits += end;
+      ASSERT_EQ(end, cone::leafHitFromSample(t, e, x, ray, c.eps)) << "case " << i << ", point " << k;
+    }
+  }
+  std::printf("  %d boxes nearer the samples (%d under a light among the geometry, where %d were not), %d "
+              "samples compared, %d hits\n", nearer, nearLights, farther, compared, hits);
+  EXPECT_GT(nearer, 12000);
+  EXPECT_GT(nearLights, 1000);
+  EXPECT_GT(farther, 500);
+  EXPECT_GT(hits, 2000);
+  // Samples around the light: some edge's end is nearer the light than some sample of the box.
+  const vec3 P0(0, 0, 0), P1(1, 0, 0), P2(0, 1, 0), light(0.2f, 0.2f, 3.0f);
+  const cone::LeafEdges e = cone::leafEdges(P0, P1, P2, light);
+  EXPECT_FALSE(cone::leafSamplesNearer(e, vec3(-1, -1, 2.5f), vec3(2, 2, 3.5f)));
+  EXPECT_TRUE(cone::leafSamplesNearer(e, vec3(0.1f, 0.1f, -0.01f), vec3(0.2f, 0.2f, 0.01f)));
+  EXPECT_TRUE(cone::leafSamplesNearer(e, vec3(-1, -1, -1), vec3(2, 2, 1)));
+  EXPECT_FALSE(cone::leafSamplesNearer(e, vec3(0.2f), vec3(0.1f)));  // empty
+  EXPECT_FALSE(cone::leafSamplesNearer(e, vec3(NAN), vec3(0.1f)));
+}
+
 // Small triangles far from the light, crossed at a grazing angle well inside: a hit for both tests. The
 // edge functions from the light round to an ulp of |P - light| |edge|, so |N.w| of a ray a degree off
 // the plane of a triangle a thousandth of its distance to the light is no larger than that rounding --

@@ -509,14 +509,33 @@ CS_FN LeafEdges leafEdges(vec3 P0, vec3 P1, vec3 P2, vec3 light) {
   return e;
 }
 
-// w.(base x d), base = a - p where that is no farther than the light's end (reach), else l = a - light;
-// summed in one order, unfused (a neighbour gets the same value exactly).
-CS_FN float edgeFromNearerEnd(vec3 w, vec3 p, vec3 a, vec3 d, vec3 l, float reach) {
-  CS_PRECISE vec3 b = a - p;
-  vec3 base = maxAbs3(b, b, b) <= reach ? b : l;
+// w.(base x d), summed in one order, unfused (a neighbour gets the same value exactly).
+CS_FN float edgeFunction(vec3 w, vec3 base, vec3 d) {
   CS_PRECISE vec3 n = cross(base, d);
   CS_PRECISE float v = w.x * n.x + w.y * n.y + w.z * n.z;
   return v;
+}
+
+// base = a - p where that is no farther than the light's end (reach), else l = a - light.
+CS_FN float edgeFromNearerEnd(vec3 w, vec3 p, vec3 a, vec3 d, vec3 l, float reach) {
+  CS_PRECISE vec3 b = a - p;
+  return edgeFunction(w, maxAbs3(b, b, b) <= reach ? b : l, d);
+}
+
+// Whether every sample p in the box [lo, hi] takes the sample's end for every edge of e: the computed
+// |a - p| (max norm) is at most the edge's reach. fl(a - p) is monotonic in p, so its magnitude over the
+// box is at most its larger one at the box's two ends, per component. Where true, leafHitFromSampleEnd
+// answers as leafHitFromSample for each of those samples, bit for bit, without the per-edge choice (an
+// empty or NaN box: false).
+CS_FN bool leafSamplesNearer(LeafEdges e, vec3 lo, vec3 hi) {
+  CS_PRECISE vec3 a0 = e.a0 - lo;
+  CS_PRECISE vec3 b0 = e.a0 - hi;
+  CS_PRECISE vec3 a1 = e.a1 - lo;
+  CS_PRECISE vec3 b1 = e.a1 - hi;
+  CS_PRECISE vec3 a2 = e.a2 - lo;
+  CS_PRECISE vec3 b2 = e.a2 - hi;
+  return lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z && maxAbs3(a0, b0, b0) <= e.reach.x &&
+         maxAbs3(a1, b1, b1) <= e.reach.y && maxAbs3(a2, b2, b2) <= e.reach.z;
 }
 
 // ray = leafRay(p, light); t = leafPlane(P0, P1, P2, light) (or leafTriangle), e = leafEdges(P0, P1, P2, light).
@@ -525,6 +544,20 @@ CS_FN bool leafHitFromSample(LeafTriangle t, LeafEdges e, vec3 p, vec4 ray, floa
   float U = e.sign.x * edgeFromNearerEnd(w, p, e.a0, e.d0, e.l0, e.reach.x);
   float V = e.sign.y * edgeFromNearerEnd(w, p, e.a1, e.d1, e.l1, e.reach.y);
   float W = e.sign.z * edgeFromNearerEnd(w, p, e.a2, e.d2, e.l2, e.reach.z);
+  bool inside = !((U < 0.0f || V < 0.0f || W < 0.0f) && (U > 0.0f || V > 0.0f || W > 0.0f));
+  return inside && leafCrosses(t, p, ray.w, eps);
+}
+
+// leafHitFromSample with every edge from the sample's end: for samples in a box leafSamplesNearer holds
+// for (the leaves take it where every pair of a subgroup's does: the choice's cost saved).
+CS_FN bool leafHitFromSampleEnd(LeafTriangle t, LeafEdges e, vec3 p, vec4 ray, float eps) {
+  vec3 w = vec3(ray);
+  CS_PRECISE vec3 b0 = e.a0 - p;
+  CS_PRECISE vec3 b1 = e.a1 - p;
+  CS_PRECISE vec3 b2 = e.a2 - p;
+  float U = e.sign.x * edgeFunction(w, b0, e.d0);
+  float V = e.sign.y * edgeFunction(w, b1, e.d1);
+  float W = e.sign.z * edgeFunction(w, b2, e.d2);
   bool inside = !((U < 0.0f || V < 0.0f || W < 0.0f) && (U > 0.0f || V > 0.0f || W > 0.0f));
   return inside && leafCrosses(t, p, ray.w, eps);
 }
@@ -576,6 +609,8 @@ CS_FN bool leafHit(vec3 p, vec3 light, vec4 ray, float eps, vec3 P0, vec3 P1, ve
 using glsl::leafHit;
 using glsl::leafHitFromLight;
 using glsl::leafHitFromSample;
+using glsl::leafHitFromSampleEnd;
+using glsl::leafSamplesNearer;
 using glsl::leafEdges;
 using glsl::LeafEdges;
 using glsl::lexLess;

@@ -1,5 +1,6 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_ballot : require
 // The leaves (002 §3.1 steps 3-4): for each (triangle, node) pair of the deepest interior level, the exact
 // ray/triangle test against each of the node's (up to) four rays; a hit shadows the sample -- or, with
 // 16 or 64 rays a leaf pair (traversal.h, LeafRays), for each pair of the depth one or two above it,
@@ -48,14 +49,44 @@ layout(push_constant) uniform Push { TraversePush p; };
 
 uint statWord(uint w) { return texelWord(statTexels, w); }
 
-// Whether sorted ray `leaf` meets the pair's triangle within (eps, L - eps).
-bool rayHits(uint leaf, LeafTriangle t, LeafEdges e, vec3 P0, vec3 P1, vec3 P2, vec3 light) {
+// Whether sorted ray `leaf` meets the pair's triangle within (eps, L - eps). sampleEnds: the test from
+// the sample takes every edge from the sample's end (leafSamplesNearer held for the pair's box).
+bool rayHits(uint leaf, LeafTriangle t, LeafEdges e, vec3 P0, vec3 P1, vec3 P2, vec3 light, bool sampleEnds) {
   vec3 samplePos = uintBitsToFloat(texelFetch(rays, int(leaf)).xyz);
   vec4 ray = leafRay(samplePos, light);
   bool hit = SPEC_LEAF_TEST == 1u ? leafHitFromLight(t, samplePos, ray, p.eps)
-           : SPEC_LEAF_TEST == 2u ? leafHitFromSample(t, e, samplePos, ray, p.eps)
+           : SPEC_LEAF_TEST == 2u ? (sampleEnds ? leafHitFromSampleEnd(t, e, samplePos, ray, p.eps)
+                                                : leafHitFromSample(t, e, samplePos, ray, p.eps))
                                   : leafHit(t, samplePos, light, ray, p.eps, P0, P1, P2);
   return leafRayUsable(ray, p.minLength) && hit;
+}
+
+// The pair's live rays' tests, their hits as bits (hits: rays first + 0..31, hits2: first + 32..63).
+void testRays(uint live, uint live2, uint first, LeafTriangle t, LeafEdges e, vec3 P0, vec3 P1, vec3 P2, vec3 light,
+              bool sampleEnds, inout uint hits, inout uint hits2) {
+  // Four rays an iteration (the lowest four left of the pair's up to 64, over both words; the last again
+  // when fewer are left, a ray tested twice being harmless): a loop iteration costs every lavapipe lane
+  // about what the tests in it do, and one loop over the 64 runs as often as the busiest lane's rays
+  // need, where a loop per word ran as often as each word's busiest. Four beat two and eight, and written
+  // out beat helper functions (docs/ARCHITECTURE.md, "The leaves' hits as bits, a hint to the leaves too").
+  for (uint lo = live, hi = live2; (lo | hi) != 0u;) {
+    uint k0 = uint(findLSB(lo != 0u ? lo : hi)) + (lo != 0u ? 0u : 32u);
+    if (lo != 0u) lo &= lo - 1u; else hi &= hi - 1u;
+    uint k1 = (lo | hi) == 0u ? k0 : uint(findLSB(lo != 0u ? lo : hi)) + (lo != 0u ? 0u : 32u);
+    if (lo != 0u) lo &= lo - 1u; else hi &= hi - 1u;
+    uint k2 = (lo | hi) == 0u ? k1 : uint(findLSB(lo != 0u ? lo : hi)) + (lo != 0u ? 0u : 32u);
+    if (lo != 0u) lo &= lo - 1u; else hi &= hi - 1u;
+    uint k3 = (lo | hi) == 0u ? k2 : uint(findLSB(lo != 0u ? lo : hi)) + (lo != 0u ? 0u : 32u);
+    if (lo != 0u) lo &= lo - 1u; else hi &= hi - 1u;
+    bool h0 = rayHits(first + k0, t, e, P0, P1, P2, light, sampleEnds);
+    bool h1 = rayHits(first + k1, t, e, P0, P1, P2, light, sampleEnds);
+    bool h2 = rayHits(first + k2, t, e, P0, P1, P2, light, sampleEnds);
+    bool h3 = rayHits(first + k3, t, e, P0, P1, P2, light, sampleEnds);
+    hits |= (h0 && k0 < 32u ? 1u << k0 : 0u) | (h1 && k1 < 32u ? 1u << k1 : 0u) |
+            (h2 && k2 < 32u ? 1u << k2 : 0u) | (h3 && k3 < 32u ? 1u << k3 : 0u);
+    hits2 |= (h0 && k0 >= 32u ? 1u << (k0 - 32u) : 0u) | (h1 && k1 >= 32u ? 1u << (k1 - 32u) : 0u) |
+             (h2 && k2 >= 32u ? 1u << (k2 - 32u) : 0u) | (h3 && k3 >= 32u ? 1u << (k3 - 32u) : 0u);
+  }
 }
 
 void main() {
@@ -115,35 +146,22 @@ void main() {
   // anyway (every leaf test asks leafCrosses); the box is two texels.
   LeafTriangle t = SPEC_LEAF_TEST == 1u ? leafTriangle(P0, P1, P2, light) : leafPlane(P0, P1, P2, light);
   uint box = 2u * (boxOffset(leafCount, shift >> 1u) + pair.y);
-  if ((shift >> 1u) >= CONE_BOX_FIRST_HEIGHT &&
-      leafPlaneMissesBox(t, texelFetch(boxes, int(box)).xyz, texelFetch(boxes, int(box + 1u)).xyz, light, p.eps))
-    return;
+  bool hasBox = (shift >> 1u) >= CONE_BOX_FIRST_HEIGHT;
+  vec3 boxLo = vec3(1.0f), boxHi = vec3(0.0f);  // none: empty
+  if (hasBox) {
+    boxLo = texelFetch(boxes, int(box)).xyz;
+    boxHi = texelFetch(boxes, int(box + 1u)).xyz;
+  }
+  if (hasBox && leafPlaneMissesBox(t, boxLo, boxHi, light, p.eps)) return;
   LeafEdges e;
   if (SPEC_LEAF_TEST == 2u) e = leafEdges(P0, P1, P2, light);
   uint hits = 0u, hits2 = 0u;
-  // Four rays an iteration (the lowest four left of the pair's up to 64, over both words; the last again
-  // when fewer are left, a ray tested twice being harmless): a loop iteration costs every lavapipe lane
-  // about what the tests in it do, and one loop over the 64 runs as often as the busiest lane's rays
-  // need, where a loop per word ran as often as each word's busiest. Four beat two and eight, and written
-  // out beat helper functions (docs/ARCHITECTURE.md, "The leaves' hits as bits, a hint to the leaves too").
-  for (uint lo = live, hi = live2; (lo | hi) != 0u;) {
-    uint k0 = uint(findLSB(lo != 0u ? lo : hi)) + (lo != 0u ? 0u : 32u);
-    if (lo != 0u) lo &= lo - 1u; else hi &= hi - 1u;
-    uint k1 = (lo | hi) == 0u ? k0 : uint(findLSB(lo != 0u ? lo : hi)) + (lo != 0u ? 0u : 32u);
-    if (lo != 0u) lo &= lo - 1u; else hi &= hi - 1u;
-    uint k2 = (lo | hi) == 0u ? k1 : uint(findLSB(lo != 0u ? lo : hi)) + (lo != 0u ? 0u : 32u);
-    if (lo != 0u) lo &= lo - 1u; else hi &= hi - 1u;
-    uint k3 = (lo | hi) == 0u ? k2 : uint(findLSB(lo != 0u ? lo : hi)) + (lo != 0u ? 0u : 32u);
-    if (lo != 0u) lo &= lo - 1u; else hi &= hi - 1u;
-    bool h0 = rayHits(first + k0, t, e, P0, P1, P2, light);
-    bool h1 = rayHits(first + k1, t, e, P0, P1, P2, light);
-    bool h2 = rayHits(first + k2, t, e, P0, P1, P2, light);
-    bool h3 = rayHits(first + k3, t, e, P0, P1, P2, light);
-    hits |= (h0 && k0 < 32u ? 1u << k0 : 0u) | (h1 && k1 < 32u ? 1u << k1 : 0u) |
-            (h2 && k2 < 32u ? 1u << k2 : 0u) | (h3 && k3 < 32u ? 1u << k3 : 0u);
-    hits2 |= (h0 && k0 >= 32u ? 1u << (k0 - 32u) : 0u) | (h1 && k1 >= 32u ? 1u << (k1 - 32u) : 0u) |
-             (h2 && k2 >= 32u ? 1u << (k2 - 32u) : 0u) | (h3 && k3 >= 32u ? 1u << (k3 - 32u) : 0u);
-  }
+  // The test from the sample without its per-edge choice of end where the pair's sample box says every
+  // ray takes the sample's end (leafSamplesNearer: a far light's pairs always), as a branch all the
+  // subgroup's pairs take (lavapipe then runs only that loop; a branch its lanes split on runs both).
+  bool sampleEnds = SPEC_LEAF_TEST == 2u && leafSamplesNearer(e, boxLo, boxHi);
+  if (subgroupBallot(!sampleEnds) == uvec4(0u)) testRays(live, live2, first, t, e, P0, P1, P2, light, true, hits, hits2);
+  else testRays(live, live2, first, t, e, P0, P1, P2, light, false, hits, hits2);
   if (hits != 0u) atomicOr(shadowed[w], hits << sh);
   if (hits2 != 0u) atomicOr(shadowed[w + 1u], hits2);
 }
