@@ -159,8 +159,9 @@ void main() {
   // The test from the sample without its per-edge choice of end where the pair's sample box says every
   // ray takes the sample's end (leafSamplesNearer: a far light's pairs always), as a branch all the
   // subgroup's pairs take (lavapipe then runs only that loop; a branch its lanes split on runs both).
+  // (The other tests' kernels fold the condition away, and the loop's second copy with it.)
   bool sampleEnds = SPEC_LEAF_TEST == 2u && leafSamplesNearer(e, boxLo, boxHi);
-  if (subgroupBallot(!sampleEnds) == uvec4(0u)) testRays(live, live2, first, t, e, P0, P1, P2, light, true, hits, hits2);
+  if (SPEC_LEAF_TEST == 2u && subgroupBallot(!sampleEnds) == uvec4(0u)) testRays(live, live2, first, t, e, P0, P1, P2, light, true, hits, hits2);
   else testRays(live, live2, first, t, e, P0, P1, P2, light, false, hits, hits2);
   if (hits != 0u) atomicOr(shadowed[w], hits << sh);
   if (hits2 != 0u) atomicOr(shadowed[w + 1u], hits2);
